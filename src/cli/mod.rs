@@ -1,0 +1,46 @@
+//! The `gregvox` command line. Each subcommand lives in its own file and returns `Result<()>`;
+//! [`main`] prints an error as one line on stderr and maps it to a non-zero exit code.
+use clap::{Parser, Subcommand};
+use std::process::ExitCode;
+
+pub mod info;
+pub mod mesh;
+
+/// gregvox: Gregory surfaces and solid voxels on Vulkan.
+#[derive(Debug, Parser)]
+#[command(name = "gregvox", version, about, long_about = None)]
+pub struct Cli {
+    #[command(subcommand)]
+    pub command: Command,
+}
+
+/// The subcommands.
+#[derive(Debug, Subcommand)]
+pub enum Command {
+    /// Print the chosen Vulkan device, its limits and the validation layer's presence.
+    Info(info::InfoArgs),
+    /// Print a topology report of a mesh (OBJ).
+    Mesh(mesh::MeshArgs),
+    /// Catmull–Clark subdivide a mesh and write the result as OBJ.
+    Subdivide(mesh::SubdivideArgs),
+}
+
+/// Runs the command line and returns the process exit code.
+pub fn main() -> ExitCode {
+    let _ = env_logger::Builder::from_env(env_logger::Env::default().default_filter_or("warn"))
+        .format_timestamp(None)
+        .try_init();
+    let cli = Cli::parse();
+    let result = match cli.command {
+        Command::Info(a) => info::run(&a),
+        Command::Mesh(a) => mesh::run_mesh(&a),
+        Command::Subdivide(a) => mesh::run_subdivide(&a),
+    };
+    match result {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("gregvox: error: {e:#}");
+            ExitCode::FAILURE
+        }
+    }
+}

@@ -1,0 +1,1 @@
+//! OBJ loading and mesh connectivity as sparse matrices (`MeshMatrix`): topology, normals, subdivision.

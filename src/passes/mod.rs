@@ -1,0 +1,3 @@
+//! One GPU pass per file. Each owns its pipelines and layouts and exposes `new`, `record`, `destroy`;
+//! buffers are passed in, never owned by two passes.
+pub mod fill_test;

@@ -1,0 +1,1 @@
+//! The voxel grid contract, the CPU voxelizer and exporters.
