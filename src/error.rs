@@ -8,22 +8,33 @@ use std::path::PathBuf;
 pub enum Error {
     /// A Vulkan call returned an error code.
     #[error("Vulkan call {call} failed: {result}")]
-    Vulkan { call: &'static str, result: vk::Result },
+    Vulkan {
+        call: &'static str,
+        result: vk::Result,
+    },
     /// The Vulkan loader or a driver could not be found or opened.
-    #[error("no Vulkan driver could be loaded: {0}")]
+    #[error("{0}")]
     NoDriver(String),
     /// No physical device fits the requirements.
     #[error("no suitable Vulkan device: {0}")]
     NoDevice(String),
     /// A GPU memory allocation failed (out of device memory, or over the configured budget).
     #[error("GPU memory allocation of {bytes} bytes for '{name}' failed: {reason}")]
-    Alloc { name: String, bytes: u64, reason: String },
+    Alloc {
+        name: String,
+        bytes: u64,
+        reason: String,
+    },
     /// A request goes past what the device can do.
     #[error("{what} exceeds the device limit: {detail}")]
     Limit { what: String, detail: String },
     /// A file could not be read or written.
     #[error("{}: {source}", path.display())]
-    Io { path: PathBuf, #[source] source: std::io::Error },
+    Io {
+        path: PathBuf,
+        #[source]
+        source: std::io::Error,
+    },
     /// An input file is malformed.
     #[error("{}: {msg}", path.display())]
     Parse { path: PathBuf, msg: String },
@@ -38,11 +49,17 @@ pub type Result<T, E = Error> = std::result::Result<T, E>;
 impl Error {
     /// An I/O error on `path`.
     pub fn io(path: impl Into<PathBuf>, source: std::io::Error) -> Self {
-        Error::Io { path: path.into(), source }
+        Error::Io {
+            path: path.into(),
+            source,
+        }
     }
     /// A malformed input file.
     pub fn parse(path: impl Into<PathBuf>, msg: impl Into<String>) -> Self {
-        Error::Parse { path: path.into(), msg: msg.into() }
+        Error::Parse {
+            path: path.into(),
+            msg: msg.into(),
+        }
     }
 }
 

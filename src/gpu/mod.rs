@@ -1,6 +1,20 @@
 //! The Vulkan foundation: context, validation sink, resources, frames, pipeline builders, generated shader
 //! statics, profiler, present targets. Knows no geometry.
+pub mod context;
+pub mod debug;
+pub mod frames;
+pub mod pipeline;
+pub mod present;
+pub mod profiler;
+pub mod resources;
+
+pub use context::{Context, ContextDesc, DeviceInfo, Validation};
+pub use frames::Frames;
+pub use present::{OffscreenTarget, PresentTarget, SwapchainTarget, TargetImage};
+pub use profiler::Profiler;
+pub use resources::{Buffer, Image, ImageDesc, MemoryLocation};
+
 pub mod shaders {
-    //! SPIR-V of every shader in `glsl/`, compiled by `build.rs`.
+    //! SPIR-V of every shader in `glsl/`, compiled by `build.rs` (one u32 array per file).
     include!(concat!(env!("OUT_DIR"), "/shaders.rs"));
 }

@@ -1,3 +1,4 @@
 //! One GPU pass per file. Each owns its pipelines and layouts and exposes `new`, `record`, `destroy`;
 //! buffers are passed in, never owned by two passes.
-pub mod fill_test;
+pub mod iota;
+pub mod triangles;

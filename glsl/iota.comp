@@ -1,5 +1,6 @@
 #version 460
-// Smoke test of the compute path: data[i] = i * scale + offset, over a 2D-split dispatch.
+// data[i] = i * scale + offset for i < count: the smoke test of compute dispatch, including dispatches
+// split into 2D grids past maxComputeWorkGroupCount.x.
 #include "dispatch.glsl"
 layout(local_size_x = 64) in;
 layout(std430, set = 0, binding = 0) writeonly buffer Data { uint data[]; };

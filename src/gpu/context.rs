@@ -1,0 +1,874 @@
+//! `Context`: the Vulkan entry, instance, debug messenger, physical and logical device, the one queue, the
+//! memory allocator and a one-shot command pool.
+//!
+//! Invariants:
+//! - Everything else in gregvox borrows `&Context`; nothing else owns a Vulkan instance or device.
+//! - Destruction order is spelled out once, in `Drop`: wait idle → one-shot pool → allocator (it frees its
+//!   memory blocks through the device) → device → debug messenger → instance. Resources created from the
+//!   context must be destroyed before it; tests check the allocator report is empty first.
+//! - The engine uses synchronization2 and dynamic rendering through [`Context::cmd_pipeline_barrier2`],
+//!   [`Context::cmd_begin_rendering`] and [`Context::cmd_end_rendering`], which call the core (1.3) entry
+//!   points or the KHR extension ones (1.2 devices) as the device requires.
+use super::debug::{messenger_callback, ValidationSink};
+use crate::error::{Error, Result, VkContext};
+use ash::vk;
+use gpu_allocator::vulkan::{Allocator, AllocatorCreateDesc};
+use std::ffi::{c_char, CStr, CString};
+use std::mem::ManuallyDrop;
+use std::sync::atomic::{AtomicU64, Ordering};
+use std::sync::{Arc, Mutex};
+
+/// The name of the Khronos validation layer.
+pub const VALIDATION_LAYER: &CStr = c"VK_LAYER_KHRONOS_validation";
+
+/// Whether the validation layer is enabled.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Validation {
+    /// On in debug builds when the layer is installed, or when `GREGVOX_VALIDATION=1`; off with
+    /// `GREGVOX_VALIDATION=0`.
+    Auto,
+    /// Always on; context creation fails if the layer is missing (tests).
+    Required,
+    /// Never on.
+    Off,
+}
+
+/// How to build a [`Context`].
+#[derive(Clone, Debug)]
+pub struct ContextDesc {
+    /// Validation layer policy.
+    pub validation: Validation,
+    /// Substring (case-insensitive) of the device name to pick; `None` reads `GREGVOX_DEVICE`.
+    pub device_filter: Option<String>,
+    /// Instance extensions a window surface needs (from `ash_window::enumerate_required_extensions`).
+    /// Non-empty also enables `VK_KHR_swapchain` on the device.
+    pub surface_extensions: Vec<&'static CStr>,
+    /// Refuse allocations beyond this many bytes in total (`None`: the device's own limit).
+    pub memory_budget: Option<u64>,
+    /// Enable the validation layer's synchronization validation as well (slower; tests use it).
+    pub sync_validation: bool,
+}
+
+impl Default for ContextDesc {
+    fn default() -> Self {
+        ContextDesc {
+            validation: Validation::Auto,
+            device_filter: None,
+            surface_extensions: Vec::new(),
+            memory_budget: None,
+            sync_validation: false,
+        }
+    }
+}
+
+/// Optional device features gregvox uses when present.
+#[derive(Clone, Copy, Debug, Default, serde::Serialize)]
+pub struct OptionalFeatures {
+    pub fill_mode_non_solid: bool,
+    pub tessellation_shader: bool,
+    pub geometry_shader: bool,
+    pub fragment_stores_and_atomics: bool,
+    pub vertex_pipeline_stores_and_atomics: bool,
+    pub shader_int64: bool,
+    pub shader_float64: bool,
+    pub pipeline_statistics_query: bool,
+    pub wide_lines: bool,
+}
+
+/// What `gregvox info` reports, gathered once at context creation.
+#[derive(Clone, Debug, serde::Serialize)]
+pub struct DeviceInfo {
+    pub name: String,
+    pub device_type: String,
+    pub vendor_id: u32,
+    pub device_id: u32,
+    pub driver_name: String,
+    pub driver_info: String,
+    pub api_version: String,
+    pub driver_version: u32,
+    pub max_storage_buffer_range: u32,
+    pub max_compute_work_group_count: [u32; 3],
+    pub max_compute_work_group_size: [u32; 3],
+    pub max_compute_work_group_invocations: u32,
+    pub max_compute_shared_memory_size: u32,
+    pub max_image_dimension_2d: u32,
+    pub max_image_array_layers: u32,
+    pub max_push_constants_size: u32,
+    pub max_memory_allocation_count: u32,
+    pub min_storage_buffer_offset_alignment: u64,
+    pub timestamps_supported: bool,
+    pub timestamp_period_ns: f32,
+    pub timestamp_valid_bits: u32,
+    pub subgroup_size: u32,
+    pub device_local_heap_bytes: u64,
+    pub memory_types: usize,
+    pub validation_layer_present: bool,
+    pub validation_enabled: bool,
+    pub features: OptionalFeatures,
+}
+
+/// The Vulkan context. See the module invariants.
+pub struct Context {
+    pub entry: ash::Entry,
+    pub instance: ash::Instance,
+    debug_utils: Option<(ash::ext::debug_utils::Instance, vk::DebugUtilsMessengerEXT)>,
+    debug_utils_device: Option<ash::ext::debug_utils::Device>,
+    pub physical_device: vk::PhysicalDevice,
+    pub device: ash::Device,
+    pub queue: vk::Queue,
+    pub queue_family: u32,
+    pub limits: vk::PhysicalDeviceLimits,
+    pub info: DeviceInfo,
+    pub validation: Arc<ValidationSink>,
+    allocator: ManuallyDrop<Mutex<Allocator>>,
+    allocated_bytes: AtomicU64,
+    memory_budget: Option<u64>,
+    one_shot_pool: Mutex<vk::CommandPool>,
+    push_descriptor: ash::khr::push_descriptor::Device,
+    sync2_ext: Option<ash::khr::synchronization2::Device>,
+    dynamic_rendering_ext: Option<ash::khr::dynamic_rendering::Device>,
+    pub surface_instance: Option<ash::khr::surface::Instance>,
+    pub swapchain_device: Option<ash::khr::swapchain::Device>,
+}
+
+fn vk_version_string(v: u32) -> String {
+    format!(
+        "{}.{}.{}",
+        vk::api_version_major(v),
+        vk::api_version_minor(v),
+        vk::api_version_patch(v)
+    )
+}
+
+fn cstr_array(raw: &[c_char]) -> String {
+    // SAFETY: Vulkan fixed-size name arrays are NUL-terminated.
+    unsafe { CStr::from_ptr(raw.as_ptr()) }
+        .to_string_lossy()
+        .into_owned()
+}
+
+fn type_rank(t: vk::PhysicalDeviceType) -> u32 {
+    match t {
+        vk::PhysicalDeviceType::DISCRETE_GPU => 0,
+        vk::PhysicalDeviceType::INTEGRATED_GPU => 1,
+        vk::PhysicalDeviceType::VIRTUAL_GPU => 2,
+        vk::PhysicalDeviceType::CPU => 3,
+        _ => 4,
+    }
+}
+
+fn type_name(t: vk::PhysicalDeviceType) -> &'static str {
+    match t {
+        vk::PhysicalDeviceType::DISCRETE_GPU => "discrete GPU",
+        vk::PhysicalDeviceType::INTEGRATED_GPU => "integrated GPU",
+        vk::PhysicalDeviceType::VIRTUAL_GPU => "virtual GPU",
+        vk::PhysicalDeviceType::CPU => "CPU",
+        _ => "other",
+    }
+}
+
+/// Whether the validation layer is installed (needs only the loader).
+pub fn validation_layer_present(entry: &ash::Entry) -> bool {
+    // SAFETY: plain enumeration call on a loaded entry.
+    unsafe { entry.enumerate_instance_layer_properties() }
+        .map(|layers| {
+            layers
+                .iter()
+                .any(|l| cstr_array(&l.layer_name) == VALIDATION_LAYER.to_str().unwrap())
+        })
+        .unwrap_or(false)
+}
+
+struct Candidate {
+    pd: vk::PhysicalDevice,
+    props: vk::PhysicalDeviceProperties,
+    family: u32,
+    name: String,
+}
+
+impl Context {
+    /// Creates a context for compute and offscreen rendering with the default policy.
+    pub fn new() -> Result<Context> {
+        Context::with_desc(&ContextDesc::default())
+    }
+
+    /// Creates a context as `desc` says.
+    pub fn with_desc(desc: &ContextDesc) -> Result<Context> {
+        // SAFETY: loading the system Vulkan loader; failure is reported, not a panic.
+        let entry = unsafe { ash::Entry::load() }.map_err(|e| {
+            Error::NoDriver(format!(
+                "cannot load the Vulkan loader (libvulkan.so.1): {e}"
+            ))
+        })?;
+        let layer_present = validation_layer_present(&entry);
+        let want_validation = match desc.validation {
+            Validation::Off => false,
+            Validation::Required => true,
+            Validation::Auto => match std::env::var("GREGVOX_VALIDATION").ok().as_deref() {
+                Some("0") => false,
+                Some("1") => true,
+                _ => cfg!(debug_assertions) && layer_present,
+            },
+        };
+        if want_validation && !layer_present {
+            return Err(Error::NoDriver(
+                "the Vulkan validation layer VK_LAYER_KHRONOS_validation is required but not installed \
+                 (apt-get install vulkan-validationlayers)"
+                    .into(),
+            ));
+        }
+
+        // SAFETY: loader call.
+        let instance_version = unsafe { entry.try_enumerate_instance_version() }
+            .vk("vkEnumerateInstanceVersion")?
+            .unwrap_or(vk::API_VERSION_1_0);
+        if instance_version < vk::API_VERSION_1_2 {
+            return Err(Error::NoDriver(format!(
+                "the Vulkan loader supports only API {}; gregvox needs 1.2",
+                vk_version_string(instance_version)
+            )));
+        }
+        let api = vk::API_VERSION_1_3.min(instance_version);
+
+        let validation = Arc::new(ValidationSink::default());
+        let app_name = c"gregvox";
+        let app_info = vk::ApplicationInfo::default()
+            .application_name(app_name)
+            .application_version(1)
+            .engine_name(app_name)
+            .engine_version(1)
+            .api_version(api);
+        let mut layers: Vec<*const c_char> = Vec::new();
+        let mut extensions: Vec<*const c_char> =
+            desc.surface_extensions.iter().map(|e| e.as_ptr()).collect();
+        // SAFETY: loader call.
+        let available_ext =
+            unsafe { entry.enumerate_instance_extension_properties(None) }.unwrap_or_default();
+        let has_ext = |name: &CStr| {
+            available_ext
+                .iter()
+                .any(|e| cstr_array(&e.extension_name) == name.to_str().unwrap())
+        };
+        let debug_utils_available = has_ext(ash::ext::debug_utils::NAME) || want_validation;
+        if want_validation {
+            layers.push(VALIDATION_LAYER.as_ptr());
+        }
+        if debug_utils_available {
+            extensions.push(ash::ext::debug_utils::NAME.as_ptr());
+        }
+        let severity = vk::DebugUtilsMessageSeverityFlagsEXT::ERROR
+            | vk::DebugUtilsMessageSeverityFlagsEXT::WARNING
+            | vk::DebugUtilsMessageSeverityFlagsEXT::INFO;
+        let kinds = vk::DebugUtilsMessageTypeFlagsEXT::GENERAL
+            | vk::DebugUtilsMessageTypeFlagsEXT::VALIDATION
+            | vk::DebugUtilsMessageTypeFlagsEXT::PERFORMANCE;
+        let sink_ptr = Arc::as_ptr(&validation) as *mut std::ffi::c_void;
+        let mut messenger_info = vk::DebugUtilsMessengerCreateInfoEXT::default()
+            .message_severity(severity)
+            .message_type(kinds)
+            .pfn_user_callback(Some(messenger_callback))
+            .user_data(sink_ptr);
+        let enabled_features = [vk::ValidationFeatureEnableEXT::SYNCHRONIZATION_VALIDATION];
+        let mut validation_features =
+            vk::ValidationFeaturesEXT::default().enabled_validation_features(&enabled_features);
+        let mut create_info = vk::InstanceCreateInfo::default()
+            .application_info(&app_info)
+            .enabled_layer_names(&layers)
+            .enabled_extension_names(&extensions);
+        if debug_utils_available {
+            // Chained so that messages of instance creation and destruction reach the sink too.
+            create_info = create_info.push_next(&mut messenger_info);
+        }
+        if want_validation && desc.sync_validation {
+            create_info = create_info.push_next(&mut validation_features);
+        }
+        // SAFETY: create_info and everything it points to live until the call returns.
+        let instance =
+            unsafe { entry.create_instance(&create_info, None) }.map_err(|e| {
+                match e {
+            vk::Result::ERROR_INCOMPATIBLE_DRIVER => Error::NoDriver(
+                "no Vulkan driver found (vkCreateInstance: ERROR_INCOMPATIBLE_DRIVER); install \
+                 mesa-vulkan-drivers for the lavapipe CPU driver, or a GPU driver"
+                    .into(),
+            ),
+            vk::Result::ERROR_LAYER_NOT_PRESENT => {
+                Error::NoDriver("the Vulkan validation layer could not be loaded".into())
+            }
+            result => Error::Vulkan { call: "vkCreateInstance", result },
+        }
+            })?;
+
+        // From here on, a failure must destroy what exists: `Partial` does that on drop.
+        let mut partial = Partial {
+            entry: &entry,
+            instance: Some(instance.clone()),
+            messenger: None,
+        };
+        let debug_utils = if debug_utils_available {
+            let loader = ash::ext::debug_utils::Instance::new(&entry, &instance);
+            let messenger_info = vk::DebugUtilsMessengerCreateInfoEXT::default()
+                .message_severity(severity)
+                .message_type(kinds)
+                .pfn_user_callback(Some(messenger_callback))
+                .user_data(sink_ptr);
+            // SAFETY: valid instance and create info.
+            let messenger = unsafe { loader.create_debug_utils_messenger(&messenger_info, None) }
+                .vk("vkCreateDebugUtilsMessengerEXT")?;
+            partial.messenger = Some((loader.clone(), messenger));
+            Some((loader, messenger))
+        } else {
+            None
+        };
+
+        let filter = desc.device_filter.clone().or_else(|| {
+            std::env::var("GREGVOX_DEVICE")
+                .ok()
+                .filter(|s| !s.is_empty())
+        });
+        let surface_wanted = !desc.surface_extensions.is_empty();
+        let chosen = pick_device(&instance, filter.as_deref(), surface_wanted)?;
+        let pd = chosen.pd;
+        let props = chosen.props;
+        let device_api = props.api_version;
+        let core13 = device_api >= vk::API_VERSION_1_3;
+
+        // Optional core features.
+        // SAFETY: valid physical device.
+        let supported = unsafe { instance.get_physical_device_features(pd) };
+        let opt = OptionalFeatures {
+            fill_mode_non_solid: supported.fill_mode_non_solid == vk::TRUE,
+            tessellation_shader: supported.tessellation_shader == vk::TRUE,
+            geometry_shader: supported.geometry_shader == vk::TRUE,
+            fragment_stores_and_atomics: supported.fragment_stores_and_atomics == vk::TRUE,
+            vertex_pipeline_stores_and_atomics: supported.vertex_pipeline_stores_and_atomics
+                == vk::TRUE,
+            shader_int64: supported.shader_int64 == vk::TRUE,
+            shader_float64: supported.shader_float64 == vk::TRUE,
+            pipeline_statistics_query: supported.pipeline_statistics_query == vk::TRUE,
+            wide_lines: supported.wide_lines == vk::TRUE,
+        };
+        let b = |x: bool| if x { vk::TRUE } else { vk::FALSE };
+        let core_features = vk::PhysicalDeviceFeatures {
+            fill_mode_non_solid: b(opt.fill_mode_non_solid),
+            tessellation_shader: b(opt.tessellation_shader),
+            geometry_shader: b(opt.geometry_shader),
+            fragment_stores_and_atomics: b(opt.fragment_stores_and_atomics),
+            vertex_pipeline_stores_and_atomics: b(opt.vertex_pipeline_stores_and_atomics),
+            shader_int64: b(opt.shader_int64),
+            shader_float64: b(opt.shader_float64),
+            pipeline_statistics_query: b(opt.pipeline_statistics_query),
+            wide_lines: b(opt.wide_lines),
+            ..Default::default()
+        };
+        let mut f12 = vk::PhysicalDeviceVulkan12Features::default()
+            .timeline_semaphore(true)
+            .host_query_reset(true)
+            .scalar_block_layout(true);
+        let mut f13 = vk::PhysicalDeviceVulkan13Features::default()
+            .synchronization2(true)
+            .dynamic_rendering(true);
+        let mut sync2_khr =
+            vk::PhysicalDeviceSynchronization2Features::default().synchronization2(true);
+        let mut dynr_khr =
+            vk::PhysicalDeviceDynamicRenderingFeatures::default().dynamic_rendering(true);
+        // Push descriptors keep passes free of descriptor pools and of sets rewritten while in flight.
+        let mut device_ext: Vec<*const c_char> = vec![ash::khr::push_descriptor::NAME.as_ptr()];
+        if surface_wanted {
+            device_ext.push(ash::khr::swapchain::NAME.as_ptr());
+        }
+        if !core13 {
+            device_ext.push(ash::khr::synchronization2::NAME.as_ptr());
+            device_ext.push(ash::khr::dynamic_rendering::NAME.as_ptr());
+        }
+        let priorities = [1.0f32];
+        let queue_info = [vk::DeviceQueueCreateInfo::default()
+            .queue_family_index(chosen.family)
+            .queue_priorities(&priorities)];
+        let mut device_info = vk::DeviceCreateInfo::default()
+            .queue_create_infos(&queue_info)
+            .enabled_extension_names(&device_ext)
+            .enabled_features(&core_features)
+            .push_next(&mut f12);
+        device_info = if core13 {
+            device_info.push_next(&mut f13)
+        } else {
+            device_info
+                .push_next(&mut sync2_khr)
+                .push_next(&mut dynr_khr)
+        };
+        // SAFETY: valid physical device and create info.
+        let device =
+            unsafe { instance.create_device(pd, &device_info, None) }.vk("vkCreateDevice")?;
+        // SAFETY: family and index 0 were requested above.
+        let queue = unsafe { device.get_device_queue(chosen.family, 0) };
+
+        let allocator = Allocator::new(&AllocatorCreateDesc {
+            instance: instance.clone(),
+            device: device.clone(),
+            physical_device: pd,
+            debug_settings: Default::default(),
+            buffer_device_address: false,
+            allocation_sizes: Default::default(),
+        });
+        let allocator = match allocator {
+            Ok(a) => a,
+            Err(e) => {
+                // SAFETY: nothing has been created from the device yet.
+                unsafe { device.destroy_device(None) };
+                return Err(Error::Alloc {
+                    name: "allocator".into(),
+                    bytes: 0,
+                    reason: e.to_string(),
+                });
+            }
+        };
+        let pool_info = vk::CommandPoolCreateInfo::default()
+            .queue_family_index(chosen.family)
+            .flags(
+                vk::CommandPoolCreateFlags::TRANSIENT
+                    | vk::CommandPoolCreateFlags::RESET_COMMAND_BUFFER,
+            );
+        // SAFETY: valid device.
+        let one_shot_pool = match unsafe { device.create_command_pool(&pool_info, None) } {
+            Ok(p) => p,
+            Err(result) => {
+                drop(allocator);
+                // SAFETY: the allocator is gone; nothing else was created.
+                unsafe { device.destroy_device(None) };
+                return Err(Error::Vulkan {
+                    call: "vkCreateCommandPool",
+                    result,
+                });
+            }
+        };
+
+        // Gather the report.
+        let mut driver_props = vk::PhysicalDeviceDriverProperties::default();
+        let mut subgroup = vk::PhysicalDeviceSubgroupProperties::default();
+        let mut props2 = vk::PhysicalDeviceProperties2::default()
+            .push_next(&mut driver_props)
+            .push_next(&mut subgroup);
+        // SAFETY: valid physical device; Vulkan 1.2 guarantees the query.
+        unsafe { instance.get_physical_device_properties2(pd, &mut props2) };
+        // SAFETY: valid physical device.
+        let families = unsafe { instance.get_physical_device_queue_family_properties(pd) };
+        // SAFETY: valid physical device.
+        let mem = unsafe { instance.get_physical_device_memory_properties(pd) };
+        let device_local_heap_bytes = mem.memory_heaps[..mem.memory_heap_count as usize]
+            .iter()
+            .filter(|h| h.flags.contains(vk::MemoryHeapFlags::DEVICE_LOCAL))
+            .map(|h| h.size)
+            .max()
+            .unwrap_or(0);
+        let l = props.limits;
+        let ts_bits = families[chosen.family as usize].timestamp_valid_bits;
+        let info = DeviceInfo {
+            name: chosen.name.clone(),
+            device_type: type_name(props.device_type).into(),
+            vendor_id: props.vendor_id,
+            device_id: props.device_id,
+            driver_name: cstr_array(&driver_props.driver_name),
+            driver_info: cstr_array(&driver_props.driver_info),
+            api_version: vk_version_string(device_api),
+            driver_version: props.driver_version,
+            max_storage_buffer_range: l.max_storage_buffer_range,
+            max_compute_work_group_count: l.max_compute_work_group_count,
+            max_compute_work_group_size: l.max_compute_work_group_size,
+            max_compute_work_group_invocations: l.max_compute_work_group_invocations,
+            max_compute_shared_memory_size: l.max_compute_shared_memory_size,
+            max_image_dimension_2d: l.max_image_dimension2_d,
+            max_image_array_layers: l.max_image_array_layers,
+            max_push_constants_size: l.max_push_constants_size,
+            max_memory_allocation_count: l.max_memory_allocation_count,
+            min_storage_buffer_offset_alignment: l.min_storage_buffer_offset_alignment,
+            timestamps_supported: ts_bits > 0 && l.timestamp_period > 0.0,
+            timestamp_period_ns: l.timestamp_period,
+            timestamp_valid_bits: ts_bits,
+            subgroup_size: subgroup.subgroup_size,
+            device_local_heap_bytes,
+            memory_types: mem.memory_type_count as usize,
+            validation_layer_present: layer_present,
+            validation_enabled: want_validation,
+            features: opt,
+        };
+        let debug_utils_device = debug_utils
+            .as_ref()
+            .map(|_| ash::ext::debug_utils::Device::new(&instance, &device));
+        let (sync2_ext, dynamic_rendering_ext) = if core13 {
+            (None, None)
+        } else {
+            (
+                Some(ash::khr::synchronization2::Device::new(&instance, &device)),
+                Some(ash::khr::dynamic_rendering::Device::new(&instance, &device)),
+            )
+        };
+        let surface_instance =
+            surface_wanted.then(|| ash::khr::surface::Instance::new(&entry, &instance));
+        let swapchain_device =
+            surface_wanted.then(|| ash::khr::swapchain::Device::new(&instance, &device));
+        let push_descriptor = ash::khr::push_descriptor::Device::new(&instance, &device);
+        std::mem::forget(partial);
+        let ctx = Context {
+            entry,
+            instance,
+            debug_utils,
+            debug_utils_device,
+            physical_device: pd,
+            device,
+            queue,
+            queue_family: chosen.family,
+            limits: l,
+            info,
+            validation,
+            allocator: ManuallyDrop::new(Mutex::new(allocator)),
+            allocated_bytes: AtomicU64::new(0),
+            memory_budget: desc.memory_budget,
+            one_shot_pool: Mutex::new(one_shot_pool),
+            push_descriptor,
+            sync2_ext,
+            dynamic_rendering_ext,
+            surface_instance,
+            swapchain_device,
+        };
+        ctx.set_name(ctx.queue, "main queue");
+        Ok(ctx)
+    }
+
+    /// Gives a Vulkan object a debug-utils name (shown in validation messages and tools).
+    pub fn set_name<H: vk::Handle>(&self, handle: H, name: &str) {
+        if let Some(du) = &self.debug_utils_device {
+            if let Ok(cname) = CString::new(name.replace('\0', " ")) {
+                let info = vk::DebugUtilsObjectNameInfoEXT::default()
+                    .object_handle(handle)
+                    .object_name(&cname);
+                // SAFETY: handle belongs to this device; naming failures are harmless.
+                let _ = unsafe { du.set_debug_utils_object_name(&info) };
+            }
+        }
+    }
+
+    /// Locks the allocator.
+    pub(crate) fn allocator(&self) -> std::sync::MutexGuard<'_, Allocator> {
+        self.allocator.lock().unwrap_or_else(|p| p.into_inner())
+    }
+
+    /// Reserves `bytes` against the memory budget; fails with a clear error past it.
+    pub(crate) fn reserve_bytes(&self, name: &str, bytes: u64) -> Result<()> {
+        let before = self.allocated_bytes.fetch_add(bytes, Ordering::SeqCst);
+        if let Some(budget) = self.memory_budget {
+            if before + bytes > budget {
+                self.allocated_bytes.fetch_sub(bytes, Ordering::SeqCst);
+                return Err(Error::Alloc {
+                    name: name.into(),
+                    bytes,
+                    reason: format!("over the memory budget of {budget} bytes ({before} in use)"),
+                });
+            }
+        }
+        Ok(())
+    }
+
+    /// Returns `bytes` to the memory budget.
+    pub(crate) fn release_bytes(&self, bytes: u64) {
+        self.allocated_bytes.fetch_sub(bytes, Ordering::SeqCst);
+    }
+
+    /// Names of the GPU allocations still alive (empty when everything was destroyed).
+    pub fn live_allocations(&self) -> Vec<String> {
+        self.allocator()
+            .generate_report()
+            .allocations
+            .into_iter()
+            .map(|a| a.name)
+            .collect()
+    }
+
+    /// Bytes currently allocated through this context.
+    pub fn allocated_bytes(&self) -> u64 {
+        self.allocated_bytes.load(Ordering::SeqCst)
+    }
+
+    /// Records `f` into a fresh command buffer, submits it, waits for it and returns `f`'s value.
+    pub fn one_shot<T>(&self, f: impl FnOnce(vk::CommandBuffer) -> Result<T>) -> Result<T> {
+        let pool = self.one_shot_pool.lock().unwrap_or_else(|p| p.into_inner());
+        let alloc = vk::CommandBufferAllocateInfo::default()
+            .command_pool(*pool)
+            .level(vk::CommandBufferLevel::PRIMARY)
+            .command_buffer_count(1);
+        // SAFETY: the pool is externally synchronised by the mutex held for the whole call.
+        let cmd = unsafe { self.device.allocate_command_buffers(&alloc) }
+            .vk("vkAllocateCommandBuffers")?[0];
+        let fence = match unsafe {
+            self.device
+                .create_fence(&vk::FenceCreateInfo::default(), None)
+        } {
+            Ok(f) => f,
+            Err(result) => {
+                // SAFETY: cmd was never submitted.
+                unsafe { self.device.free_command_buffers(*pool, &[cmd]) };
+                return Err(Error::Vulkan {
+                    call: "vkCreateFence",
+                    result,
+                });
+            }
+        };
+        let result = (|| {
+            let begin = vk::CommandBufferBeginInfo::default()
+                .flags(vk::CommandBufferUsageFlags::ONE_TIME_SUBMIT);
+            // SAFETY: cmd is a fresh primary command buffer.
+            unsafe { self.device.begin_command_buffer(cmd, &begin) }.vk("vkBeginCommandBuffer")?;
+            let value = f(cmd)?;
+            // SAFETY: recording state.
+            unsafe { self.device.end_command_buffer(cmd) }.vk("vkEndCommandBuffer")?;
+            let cmds = [cmd];
+            let submit = vk::SubmitInfo::default().command_buffers(&cmds);
+            // SAFETY: the queue is used from one thread at a time by the engine's design (one queue).
+            unsafe { self.device.queue_submit(self.queue, &[submit], fence) }
+                .vk("vkQueueSubmit")?;
+            // SAFETY: the fence belongs to this device.
+            unsafe { self.device.wait_for_fences(&[fence], true, u64::MAX) }
+                .vk("vkWaitForFences")?;
+            Ok(value)
+        })();
+        if result.is_err() {
+            // A failed submission may leave work in flight; make sure nothing uses cmd before freeing it.
+            // SAFETY: valid device.
+            let _ = unsafe { self.device.device_wait_idle() };
+        }
+        // SAFETY: the work is complete (waited on) or never submitted.
+        unsafe {
+            self.device.destroy_fence(fence, None);
+            self.device.free_command_buffers(*pool, &[cmd]);
+        }
+        result
+    }
+
+    /// `vkCmdPipelineBarrier2` (core 1.3 or `VK_KHR_synchronization2`).
+    pub fn cmd_pipeline_barrier2(&self, cmd: vk::CommandBuffer, dep: &vk::DependencyInfo<'_>) {
+        // SAFETY: caller passes a command buffer in the recording state.
+        unsafe {
+            match &self.sync2_ext {
+                Some(ext) => ext.cmd_pipeline_barrier2(cmd, dep),
+                None => self.device.cmd_pipeline_barrier2(cmd, dep),
+            }
+        }
+    }
+
+    /// `vkCmdBeginRendering` (core 1.3 or `VK_KHR_dynamic_rendering`).
+    pub fn cmd_begin_rendering(&self, cmd: vk::CommandBuffer, info: &vk::RenderingInfo<'_>) {
+        // SAFETY: caller passes a command buffer in the recording state.
+        unsafe {
+            match &self.dynamic_rendering_ext {
+                Some(ext) => ext.cmd_begin_rendering(cmd, info),
+                None => self.device.cmd_begin_rendering(cmd, info),
+            }
+        }
+    }
+
+    /// `vkCmdEndRendering` (core 1.3 or `VK_KHR_dynamic_rendering`).
+    pub fn cmd_end_rendering(&self, cmd: vk::CommandBuffer) {
+        // SAFETY: caller passes a command buffer inside a dynamic render pass.
+        unsafe {
+            match &self.dynamic_rendering_ext {
+                Some(ext) => ext.cmd_end_rendering(cmd),
+                None => self.device.cmd_end_rendering(cmd),
+            }
+        }
+    }
+
+    /// `vkCmdPushDescriptorSetKHR` for set `set` of `layout`.
+    pub fn cmd_push_descriptors(
+        &self,
+        cmd: vk::CommandBuffer,
+        bind_point: vk::PipelineBindPoint,
+        layout: vk::PipelineLayout,
+        set: u32,
+        bindings: &[(u32, super::pipeline::Binding)],
+    ) {
+        let buffer_infos: Vec<[vk::DescriptorBufferInfo; 1]> = bindings
+            .iter()
+            .map(|(_, b)| match *b {
+                super::pipeline::Binding::Storage(buffer)
+                | super::pipeline::Binding::Uniform(buffer) => [vk::DescriptorBufferInfo {
+                    buffer,
+                    offset: 0,
+                    range: vk::WHOLE_SIZE,
+                }],
+                _ => [vk::DescriptorBufferInfo::default()],
+            })
+            .collect();
+        let image_infos: Vec<[vk::DescriptorImageInfo; 1]> = bindings
+            .iter()
+            .map(|(_, b)| match *b {
+                super::pipeline::Binding::Sampled {
+                    view,
+                    sampler,
+                    layout,
+                } => [vk::DescriptorImageInfo {
+                    sampler,
+                    image_view: view,
+                    image_layout: layout,
+                }],
+                super::pipeline::Binding::StorageImage { view, layout } => {
+                    [vk::DescriptorImageInfo {
+                        sampler: vk::Sampler::null(),
+                        image_view: view,
+                        image_layout: layout,
+                    }]
+                }
+                _ => [vk::DescriptorImageInfo::default()],
+            })
+            .collect();
+        let writes: Vec<vk::WriteDescriptorSet> = bindings
+            .iter()
+            .enumerate()
+            .map(|(i, (binding, b))| {
+                let w = vk::WriteDescriptorSet::default()
+                    .dst_binding(*binding)
+                    .descriptor_type(b.descriptor_type());
+                match b {
+                    super::pipeline::Binding::Storage(_) | super::pipeline::Binding::Uniform(_) => {
+                        w.buffer_info(&buffer_infos[i])
+                    }
+                    _ => w.image_info(&image_infos[i]),
+                }
+            })
+            .collect();
+        // SAFETY: recording command buffer; the layout's set `set` was created with PUSH_DESCRIPTOR_KHR.
+        unsafe {
+            self.push_descriptor
+                .cmd_push_descriptor_set(cmd, bind_point, layout, set, &writes)
+        };
+    }
+
+    /// Waits until the device is idle.
+    pub fn wait_idle(&self) -> Result<()> {
+        // SAFETY: valid device.
+        unsafe { self.device.device_wait_idle() }.vk("vkDeviceWaitIdle")
+    }
+}
+
+/// Destroys what a half-built context created, if `Context::with_desc` fails part-way.
+struct Partial<'a> {
+    #[allow(dead_code)]
+    entry: &'a ash::Entry,
+    instance: Option<ash::Instance>,
+    messenger: Option<(ash::ext::debug_utils::Instance, vk::DebugUtilsMessengerEXT)>,
+}
+
+impl Drop for Partial<'_> {
+    fn drop(&mut self) {
+        // SAFETY: only reached on the error path, before any device object exists.
+        unsafe {
+            if let Some((loader, m)) = self.messenger.take() {
+                loader.destroy_debug_utils_messenger(m, None);
+            }
+            if let Some(i) = self.instance.take() {
+                i.destroy_instance(None);
+            }
+        }
+    }
+}
+
+fn pick_device(
+    instance: &ash::Instance,
+    filter: Option<&str>,
+    surface_wanted: bool,
+) -> Result<Candidate> {
+    // SAFETY: valid instance.
+    let pds = unsafe { instance.enumerate_physical_devices() }.vk("vkEnumeratePhysicalDevices")?;
+    if pds.is_empty() {
+        return Err(Error::NoDevice(
+            "the Vulkan loader reports no physical device".into(),
+        ));
+    }
+    let mut all_names = Vec::new();
+    let mut candidates = Vec::new();
+    for pd in pds {
+        // SAFETY: pd comes from the instance.
+        let props = unsafe { instance.get_physical_device_properties(pd) };
+        let name = cstr_array(&props.device_name);
+        all_names.push(format!(
+            "{name} (Vulkan {})",
+            vk_version_string(props.api_version)
+        ));
+        if let Some(f) = filter {
+            if !name.to_lowercase().contains(&f.to_lowercase()) {
+                continue;
+            }
+        }
+        if props.api_version < vk::API_VERSION_1_2 {
+            continue;
+        }
+        // SAFETY: pd comes from the instance.
+        let exts =
+            unsafe { instance.enumerate_device_extension_properties(pd) }.unwrap_or_default();
+        let has = |n: &CStr| {
+            exts.iter()
+                .any(|e| cstr_array(&e.extension_name) == n.to_str().unwrap())
+        };
+        if !has(ash::khr::push_descriptor::NAME) {
+            continue;
+        }
+        if props.api_version < vk::API_VERSION_1_3
+            && (!has(ash::khr::synchronization2::NAME) || !has(ash::khr::dynamic_rendering::NAME))
+        {
+            continue;
+        }
+        // SAFETY: pd comes from the instance.
+        let families = unsafe { instance.get_physical_device_queue_family_properties(pd) };
+        let want = vk::QueueFlags::GRAPHICS | vk::QueueFlags::COMPUTE;
+        let Some(family) = families.iter().position(|f| f.queue_flags.contains(want)) else {
+            continue;
+        };
+        if surface_wanted && !has(ash::khr::swapchain::NAME) {
+            continue;
+        }
+        candidates.push(Candidate {
+            pd,
+            props,
+            family: family as u32,
+            name,
+        });
+    }
+    candidates.sort_by_key(|c| type_rank(c.props.device_type));
+    candidates.into_iter().next().ok_or_else(|| {
+        let what = match filter {
+            Some(f) => format!("no device name contains \"{f}\" (GREGVOX_DEVICE) with Vulkan 1.2, synchronization2, dynamic rendering and push descriptors"),
+            None => "no device has Vulkan 1.2 with synchronization2, dynamic rendering, push descriptors and a graphics+compute queue".into(),
+        };
+        Error::NoDevice(format!("{what}; devices: {}", all_names.join(", ")))
+    })
+}
+
+impl Drop for Context {
+    fn drop(&mut self) {
+        // SAFETY: the destruction order of the module invariants; every handle below was created by this
+        // context and nothing else owns it.
+        unsafe {
+            let _ = self.device.device_wait_idle();
+            let pool = *self
+                .one_shot_pool
+                .get_mut()
+                .unwrap_or_else(|p| p.into_inner());
+            self.device.destroy_command_pool(pool, None);
+            {
+                let report = self.allocator().generate_report();
+                for a in &report.allocations {
+                    log::error!(
+                        "GPU allocation still alive at context destruction: {} ({} bytes)",
+                        a.name,
+                        a.size
+                    );
+                }
+            }
+            // The allocator frees its memory blocks through the device: it goes before the device.
+            ManuallyDrop::drop(&mut self.allocator);
+            self.device.destroy_device(None);
+            if let Some((loader, messenger)) = self.debug_utils.take() {
+                loader.destroy_debug_utils_messenger(messenger, None);
+            }
+            self.instance.destroy_instance(None);
+        }
+    }
+}

@@ -1,0 +1,624 @@
+//! Present targets: an offscreen image ring with PNG readback, and a window swapchain, behind one trait.
+//!
+//! Invariants:
+//! - A frame renders into [`TargetImage::view`], which [`PresentTarget::acquire`] hands out in layout
+//!   `UNDEFINED` (contents discarded) and which the renderer leaves in `COLOR_ATTACHMENT_OPTIMAL`;
+//!   [`PresentTarget::record_finish`] then records what the target needs (offscreen: copy into the slot's
+//!   readback buffer; swapchain: transition to `PRESENT_SRC_KHR`).
+//! - The offscreen ring has one image per frame slot, so a slot's pixels are complete once that slot's
+//!   fence has signalled; [`OffscreenTarget::read_rgba`] is only valid then.
+//! - The swapchain uses one acquire semaphore per frame slot and one render-finished semaphore per
+//!   swapchain image (a present may still wait on it when the slot comes round again). Out-of-date and
+//!   suboptimal results and resizes recreate the swapchain; a zero-sized (minimised) window skips frames.
+use super::context::Context;
+use super::resources::{image_barrier, Buffer, Image, ImageDesc, MemoryLocation};
+use crate::error::{Error, Result, VkContext};
+use ash::vk;
+use std::path::Path;
+
+/// The image a frame renders into.
+#[derive(Clone, Copy, Debug)]
+pub struct TargetImage {
+    pub index: u32,
+    pub slot: usize,
+    pub image: vk::Image,
+    pub view: vk::ImageView,
+    pub extent: vk::Extent2D,
+    pub format: vk::Format,
+    /// Wait on this before writing the image (swapchain only).
+    pub acquired: Option<vk::Semaphore>,
+    /// Signal this when rendering is done (swapchain only).
+    pub rendered: Option<vk::Semaphore>,
+}
+
+/// Where frames go. See the module invariants.
+pub trait PresentTarget {
+    /// The color format frames must render in.
+    fn format(&self) -> vk::Format;
+    /// The current size.
+    fn extent(&self) -> vk::Extent2D;
+    /// The image for frame slot `slot`, or `None` when this frame must be skipped (minimised window, or a
+    /// swapchain that was just recreated).
+    fn acquire(&mut self, ctx: &Context, slot: usize) -> Result<Option<TargetImage>>;
+    /// Records the work that follows rendering (readback copy or transition for presentation).
+    fn record_finish(&mut self, ctx: &Context, cmd: vk::CommandBuffer, img: &TargetImage);
+    /// Hands the frame to the presentation engine (after the frame's submit).
+    fn present(&mut self, ctx: &Context, img: &TargetImage) -> Result<()>;
+    /// Asks for a new size (window resized); applied at the next acquire.
+    fn resize(&mut self, extent: vk::Extent2D);
+    /// Destroys the target's resources (the device must be idle).
+    fn destroy(self: Box<Self>, ctx: &Context);
+}
+
+/// Transitions for the renderer: from `UNDEFINED` to color attachment.
+pub fn begin_color_target(ctx: &Context, cmd: vk::CommandBuffer, image: vk::Image) {
+    image_barrier(
+        ctx,
+        cmd,
+        image,
+        color_range(),
+        vk::ImageLayout::UNDEFINED,
+        vk::ImageLayout::COLOR_ATTACHMENT_OPTIMAL,
+        (
+            vk::PipelineStageFlags2::COLOR_ATTACHMENT_OUTPUT,
+            vk::AccessFlags2::NONE,
+        ),
+        (
+            vk::PipelineStageFlags2::COLOR_ATTACHMENT_OUTPUT,
+            vk::AccessFlags2::COLOR_ATTACHMENT_WRITE,
+        ),
+    );
+}
+
+fn color_range() -> vk::ImageSubresourceRange {
+    vk::ImageSubresourceRange {
+        aspect_mask: vk::ImageAspectFlags::COLOR,
+        base_mip_level: 0,
+        level_count: 1,
+        base_array_layer: 0,
+        layer_count: 1,
+    }
+}
+
+/// An offscreen ring of color images with host readback.
+pub struct OffscreenTarget {
+    images: Vec<Image>,
+    readback: Vec<Buffer>,
+    rendered: Vec<bool>,
+    extent: vk::Extent2D,
+    format: vk::Format,
+    pending_extent: Option<vk::Extent2D>,
+}
+
+impl OffscreenTarget {
+    /// A ring of `slots` images of `width`×`height` in `B8G8R8A8_UNORM` (the usual swapchain format, so the
+    /// same pipelines serve both targets).
+    pub fn new(ctx: &Context, width: u32, height: u32, slots: usize) -> Result<Self> {
+        let mut t = OffscreenTarget {
+            images: Vec::new(),
+            readback: Vec::new(),
+            rendered: Vec::new(),
+            extent: vk::Extent2D { width, height },
+            format: vk::Format::B8G8R8A8_UNORM,
+            pending_extent: None,
+        };
+        if let Err(e) = t.build(ctx, slots.max(1)) {
+            t.release(ctx);
+            return Err(e);
+        }
+        Ok(t)
+    }
+
+    fn build(&mut self, ctx: &Context, slots: usize) -> Result<()> {
+        let vk::Extent2D { width, height } = self.extent;
+        for i in 0..slots {
+            let desc = ImageDesc::d2(
+                width,
+                height,
+                self.format,
+                vk::ImageUsageFlags::COLOR_ATTACHMENT | vk::ImageUsageFlags::TRANSFER_SRC,
+            );
+            self.images
+                .push(ctx.create_image(&format!("offscreen color {i}"), &desc)?);
+            self.readback.push(ctx.create_buffer(
+                &format!("offscreen readback {i}"),
+                width as u64 * height as u64 * 4,
+                vk::BufferUsageFlags::TRANSFER_DST,
+                MemoryLocation::GpuToCpu,
+            )?);
+            self.rendered.push(false);
+        }
+        Ok(())
+    }
+
+    fn release(&mut self, ctx: &Context) {
+        for i in self.images.drain(..) {
+            i.destroy(ctx);
+        }
+        for b in self.readback.drain(..) {
+            b.destroy(ctx);
+        }
+        self.rendered.clear();
+    }
+
+    /// Whether slot `slot` holds a finished frame (after its fence).
+    pub fn has_frame(&self, slot: usize) -> bool {
+        self.rendered.get(slot).copied().unwrap_or(false)
+    }
+
+    /// RGBA8 pixels (rows top to bottom) of the frame last rendered in `slot`. Call after its fence.
+    pub fn read_rgba(&self, slot: usize) -> Result<Vec<u8>> {
+        let mut px = self.readback[slot].mapped()?.to_vec();
+        if self.format == vk::Format::B8G8R8A8_UNORM {
+            for p in px.chunks_exact_mut(4) {
+                p.swap(0, 2);
+            }
+        }
+        Ok(px)
+    }
+
+    /// Writes the frame of `slot` as a PNG file, atomically (temporary file, then rename).
+    pub fn write_png(&self, slot: usize, path: &Path) -> Result<()> {
+        let rgba = self.read_rgba(slot)?;
+        write_png_rgba(path, self.extent.width, self.extent.height, &rgba)
+    }
+}
+
+/// Writes RGBA8 pixels as a PNG file via a temporary file and a rename.
+pub fn write_png_rgba(path: &Path, width: u32, height: u32, rgba: &[u8]) -> Result<()> {
+    let tmp = path.with_extension("png.tmp");
+    let result = (|| -> Result<()> {
+        let file = std::fs::File::create(&tmp).map_err(|e| Error::io(&tmp, e))?;
+        let mut enc = png::Encoder::new(std::io::BufWriter::new(file), width, height);
+        enc.set_color(png::ColorType::Rgba);
+        enc.set_depth(png::BitDepth::Eight);
+        let io = |e: png::EncodingError| Error::io(path, std::io::Error::other(e.to_string()));
+        let mut w = enc.write_header().map_err(io)?;
+        w.write_image_data(rgba).map_err(io)?;
+        w.finish().map_err(io)?;
+        std::fs::rename(&tmp, path).map_err(|e| Error::io(path, e))
+    })();
+    if result.is_err() {
+        let _ = std::fs::remove_file(&tmp);
+    }
+    result
+}
+
+impl PresentTarget for OffscreenTarget {
+    fn format(&self) -> vk::Format {
+        self.format
+    }
+
+    fn extent(&self) -> vk::Extent2D {
+        self.extent
+    }
+
+    fn acquire(&mut self, ctx: &Context, slot: usize) -> Result<Option<TargetImage>> {
+        if let Some(e) = self.pending_extent.take() {
+            // Resizing recreates every slot: wait for the GPU to release them.
+            ctx.wait_idle()?;
+            let n = self.images.len();
+            self.release(ctx);
+            self.extent = e;
+            if e.width == 0 || e.height == 0 {
+                return Ok(None);
+            }
+            self.build(ctx, n)?;
+        }
+        let Some(img) = self.images.get(slot) else {
+            return Err(Error::Invalid(format!(
+                "offscreen target has no slot {slot}"
+            )));
+        };
+        self.rendered[slot] = false;
+        Ok(Some(TargetImage {
+            index: slot as u32,
+            slot,
+            image: img.raw,
+            view: img.view,
+            extent: self.extent,
+            format: self.format,
+            acquired: None,
+            rendered: None,
+        }))
+    }
+
+    fn record_finish(&mut self, ctx: &Context, cmd: vk::CommandBuffer, img: &TargetImage) {
+        image_barrier(
+            ctx,
+            cmd,
+            img.image,
+            color_range(),
+            vk::ImageLayout::COLOR_ATTACHMENT_OPTIMAL,
+            vk::ImageLayout::TRANSFER_SRC_OPTIMAL,
+            (
+                vk::PipelineStageFlags2::COLOR_ATTACHMENT_OUTPUT,
+                vk::AccessFlags2::COLOR_ATTACHMENT_WRITE,
+            ),
+            (
+                vk::PipelineStageFlags2::COPY,
+                vk::AccessFlags2::TRANSFER_READ,
+            ),
+        );
+        let region = vk::BufferImageCopy {
+            buffer_offset: 0,
+            buffer_row_length: 0,
+            buffer_image_height: 0,
+            image_subresource: vk::ImageSubresourceLayers {
+                aspect_mask: vk::ImageAspectFlags::COLOR,
+                mip_level: 0,
+                base_array_layer: 0,
+                layer_count: 1,
+            },
+            image_offset: vk::Offset3D::default(),
+            image_extent: vk::Extent3D {
+                width: img.extent.width,
+                height: img.extent.height,
+                depth: 1,
+            },
+        };
+        // SAFETY: recording command buffer; image in TRANSFER_SRC layout; buffer sized for the image.
+        unsafe {
+            ctx.device.cmd_copy_image_to_buffer(
+                cmd,
+                img.image,
+                vk::ImageLayout::TRANSFER_SRC_OPTIMAL,
+                self.readback[img.slot].raw,
+                &[region],
+            )
+        };
+        let host = [vk::MemoryBarrier2::default()
+            .src_stage_mask(vk::PipelineStageFlags2::COPY)
+            .src_access_mask(vk::AccessFlags2::TRANSFER_WRITE)
+            .dst_stage_mask(vk::PipelineStageFlags2::HOST)
+            .dst_access_mask(vk::AccessFlags2::HOST_READ)];
+        ctx.cmd_pipeline_barrier2(cmd, &vk::DependencyInfo::default().memory_barriers(&host));
+    }
+
+    fn present(&mut self, _ctx: &Context, img: &TargetImage) -> Result<()> {
+        self.rendered[img.slot] = true;
+        Ok(())
+    }
+
+    fn resize(&mut self, extent: vk::Extent2D) {
+        if extent != self.extent {
+            self.pending_extent = Some(extent);
+        }
+    }
+
+    fn destroy(mut self: Box<Self>, ctx: &Context) {
+        self.release(ctx);
+    }
+}
+
+/// A window swapchain (winit + ash-window).
+pub struct SwapchainTarget {
+    surface: vk::SurfaceKHR,
+    swapchain: vk::SwapchainKHR,
+    images: Vec<vk::Image>,
+    views: Vec<vk::ImageView>,
+    rendered: Vec<vk::Semaphore>,
+    acquired: Vec<vk::Semaphore>,
+    format: vk::SurfaceFormatKHR,
+    extent: vk::Extent2D,
+    wanted: vk::Extent2D,
+    needs_rebuild: bool,
+    present_mode: vk::PresentModeKHR,
+}
+
+impl SwapchainTarget {
+    /// Creates the surface for `window` and a swapchain of `width`×`height` (the window's inner size) with
+    /// one acquire semaphore per frame slot. The context must have been created with the window's
+    /// surface extensions.
+    pub fn new(
+        ctx: &Context,
+        display: raw_window_handle::RawDisplayHandle,
+        window: raw_window_handle::RawWindowHandle,
+        width: u32,
+        height: u32,
+        slots: usize,
+        vsync: bool,
+    ) -> Result<Self> {
+        let surface_fn = ctx.surface_instance.as_ref().ok_or_else(|| {
+            Error::Invalid("the context was created without surface extensions".into())
+        })?;
+        // SAFETY: the handles come from a live window that outlives the target (caller's contract).
+        let surface =
+            unsafe { ash_window::create_surface(&ctx.entry, &ctx.instance, display, window, None) }
+                .vk("vkCreate*SurfaceKHR")?;
+        // SAFETY: valid physical device and surface.
+        let supported = unsafe {
+            surface_fn.get_physical_device_surface_support(
+                ctx.physical_device,
+                ctx.queue_family,
+                surface,
+            )
+        }
+        .unwrap_or(false);
+        if !supported {
+            // SAFETY: unused surface.
+            unsafe { surface_fn.destroy_surface(surface, None) };
+            return Err(Error::NoDevice(
+                "the chosen queue cannot present to this window".into(),
+            ));
+        }
+        // SAFETY: valid physical device and surface.
+        let formats =
+            unsafe { surface_fn.get_physical_device_surface_formats(ctx.physical_device, surface) }
+                .vk("vkGetPhysicalDeviceSurfaceFormatsKHR")?;
+        let format = formats
+            .iter()
+            .copied()
+            .find(|f| f.format == vk::Format::B8G8R8A8_UNORM)
+            .or_else(|| {
+                formats
+                    .iter()
+                    .copied()
+                    .find(|f| f.format == vk::Format::R8G8B8A8_UNORM)
+            })
+            .or_else(|| formats.first().copied())
+            .ok_or_else(|| Error::NoDevice("the surface offers no format".into()))?;
+        // SAFETY: valid physical device and surface.
+        let modes = unsafe {
+            surface_fn.get_physical_device_surface_present_modes(ctx.physical_device, surface)
+        }
+        .unwrap_or_default();
+        let present_mode = if !vsync && modes.contains(&vk::PresentModeKHR::MAILBOX) {
+            vk::PresentModeKHR::MAILBOX
+        } else if !vsync && modes.contains(&vk::PresentModeKHR::IMMEDIATE) {
+            vk::PresentModeKHR::IMMEDIATE
+        } else {
+            vk::PresentModeKHR::FIFO
+        };
+        let mut t = SwapchainTarget {
+            surface,
+            swapchain: vk::SwapchainKHR::null(),
+            images: Vec::new(),
+            views: Vec::new(),
+            rendered: Vec::new(),
+            acquired: Vec::new(),
+            format,
+            extent: vk::Extent2D { width, height },
+            wanted: vk::Extent2D { width, height },
+            needs_rebuild: true,
+            present_mode,
+        };
+        for i in 0..slots.max(1) {
+            // SAFETY: valid device.
+            match unsafe {
+                ctx.device
+                    .create_semaphore(&vk::SemaphoreCreateInfo::default(), None)
+            } {
+                Ok(s) => {
+                    ctx.set_name(s, &format!("swapchain acquired {i}"));
+                    t.acquired.push(s)
+                }
+                Err(result) => {
+                    Box::new(t).destroy(ctx);
+                    return Err(Error::Vulkan {
+                        call: "vkCreateSemaphore",
+                        result,
+                    });
+                }
+            }
+        }
+        if let Err(e) = t.rebuild(ctx) {
+            Box::new(t).destroy(ctx);
+            return Err(e);
+        }
+        Ok(t)
+    }
+
+    fn release_images(&mut self, ctx: &Context) {
+        for v in self.views.drain(..) {
+            // SAFETY: the device is idle when the swapchain is rebuilt or destroyed.
+            unsafe { ctx.device.destroy_image_view(v, None) };
+        }
+        for s in self.rendered.drain(..) {
+            // SAFETY: idle device.
+            unsafe { ctx.device.destroy_semaphore(s, None) };
+        }
+        self.images.clear();
+    }
+
+    /// (Re)creates the swapchain at the wanted size. Returns false if the window is minimised.
+    fn rebuild(&mut self, ctx: &Context) -> Result<bool> {
+        let surface_fn = ctx.surface_instance.as_ref().expect("checked in new");
+        let swapchain_fn = ctx.swapchain_device.as_ref().expect("swapchain device");
+        // SAFETY: valid physical device and surface.
+        let caps = unsafe {
+            surface_fn.get_physical_device_surface_capabilities(ctx.physical_device, self.surface)
+        }
+        .vk("vkGetPhysicalDeviceSurfaceCapabilitiesKHR")?;
+        let extent = if caps.current_extent.width != u32::MAX {
+            caps.current_extent
+        } else {
+            vk::Extent2D {
+                width: self
+                    .wanted
+                    .width
+                    .clamp(caps.min_image_extent.width, caps.max_image_extent.width),
+                height: self
+                    .wanted
+                    .height
+                    .clamp(caps.min_image_extent.height, caps.max_image_extent.height),
+            }
+        };
+        if extent.width == 0 || extent.height == 0 {
+            return Ok(false);
+        }
+        ctx.wait_idle()?;
+        self.release_images(ctx);
+        let mut count = caps.min_image_count + 1;
+        if caps.max_image_count > 0 {
+            count = count.min(caps.max_image_count);
+        }
+        let old = self.swapchain;
+        let info = vk::SwapchainCreateInfoKHR::default()
+            .surface(self.surface)
+            .min_image_count(count)
+            .image_format(self.format.format)
+            .image_color_space(self.format.color_space)
+            .image_extent(extent)
+            .image_array_layers(1)
+            .image_usage(vk::ImageUsageFlags::COLOR_ATTACHMENT | vk::ImageUsageFlags::TRANSFER_SRC)
+            .image_sharing_mode(vk::SharingMode::EXCLUSIVE)
+            .pre_transform(caps.current_transform)
+            .composite_alpha(vk::CompositeAlphaFlagsKHR::OPAQUE)
+            .present_mode(self.present_mode)
+            .clipped(true)
+            .old_swapchain(old);
+        // SAFETY: valid create info; the old swapchain is retired by this call.
+        let swapchain =
+            unsafe { swapchain_fn.create_swapchain(&info, None) }.vk("vkCreateSwapchainKHR")?;
+        if old != vk::SwapchainKHR::null() {
+            // SAFETY: idle device; the old swapchain has no acquired images in use.
+            unsafe { swapchain_fn.destroy_swapchain(old, None) };
+        }
+        self.swapchain = swapchain;
+        // SAFETY: valid swapchain.
+        self.images = unsafe { swapchain_fn.get_swapchain_images(swapchain) }
+            .vk("vkGetSwapchainImagesKHR")?;
+        for (i, &image) in self.images.iter().enumerate() {
+            let vi = vk::ImageViewCreateInfo::default()
+                .image(image)
+                .view_type(vk::ImageViewType::TYPE_2D)
+                .format(self.format.format)
+                .subresource_range(color_range());
+            // SAFETY: valid swapchain image.
+            let view =
+                unsafe { ctx.device.create_image_view(&vi, None) }.vk("vkCreateImageView")?;
+            self.views.push(view);
+            // SAFETY: valid device.
+            let sem = unsafe {
+                ctx.device
+                    .create_semaphore(&vk::SemaphoreCreateInfo::default(), None)
+            }
+            .vk("vkCreateSemaphore")?;
+            ctx.set_name(sem, &format!("swapchain rendered {i}"));
+            self.rendered.push(sem);
+        }
+        self.extent = extent;
+        self.needs_rebuild = false;
+        Ok(true)
+    }
+}
+
+impl PresentTarget for SwapchainTarget {
+    fn format(&self) -> vk::Format {
+        self.format.format
+    }
+
+    fn extent(&self) -> vk::Extent2D {
+        self.extent
+    }
+
+    fn acquire(&mut self, ctx: &Context, slot: usize) -> Result<Option<TargetImage>> {
+        if self.wanted.width == 0 || self.wanted.height == 0 {
+            return Ok(None); // minimised
+        }
+        if self.needs_rebuild && !self.rebuild(ctx)? {
+            return Ok(None);
+        }
+        let swapchain_fn = ctx.swapchain_device.as_ref().expect("swapchain device");
+        let sem = self.acquired[slot];
+        // SAFETY: valid swapchain; the slot's semaphore is unsignalled (its previous wait has completed
+        // because the caller waited for the slot's fence).
+        match unsafe {
+            swapchain_fn.acquire_next_image(self.swapchain, u64::MAX, sem, vk::Fence::null())
+        } {
+            Ok((index, suboptimal)) => {
+                if suboptimal {
+                    // Render this one; rebuild before the next.
+                    self.needs_rebuild = true;
+                }
+                let i = index as usize;
+                Ok(Some(TargetImage {
+                    index,
+                    slot,
+                    image: self.images[i],
+                    view: self.views[i],
+                    extent: self.extent,
+                    format: self.format.format,
+                    acquired: Some(sem),
+                    rendered: Some(self.rendered[i]),
+                }))
+            }
+            Err(vk::Result::ERROR_OUT_OF_DATE_KHR) => {
+                self.needs_rebuild = true;
+                Ok(None)
+            }
+            Err(result) => Err(Error::Vulkan {
+                call: "vkAcquireNextImageKHR",
+                result,
+            }),
+        }
+    }
+
+    fn record_finish(&mut self, ctx: &Context, cmd: vk::CommandBuffer, img: &TargetImage) {
+        image_barrier(
+            ctx,
+            cmd,
+            img.image,
+            color_range(),
+            vk::ImageLayout::COLOR_ATTACHMENT_OPTIMAL,
+            vk::ImageLayout::PRESENT_SRC_KHR,
+            (
+                vk::PipelineStageFlags2::COLOR_ATTACHMENT_OUTPUT,
+                vk::AccessFlags2::COLOR_ATTACHMENT_WRITE,
+            ),
+            (vk::PipelineStageFlags2::NONE, vk::AccessFlags2::NONE),
+        );
+    }
+
+    fn present(&mut self, ctx: &Context, img: &TargetImage) -> Result<()> {
+        let swapchain_fn = ctx.swapchain_device.as_ref().expect("swapchain device");
+        let waits = [self.rendered[img.index as usize]];
+        let swapchains = [self.swapchain];
+        let indices = [img.index];
+        let info = vk::PresentInfoKHR::default()
+            .wait_semaphores(&waits)
+            .swapchains(&swapchains)
+            .image_indices(&indices);
+        // SAFETY: valid queue and swapchain; the image was acquired and rendered.
+        match unsafe { swapchain_fn.queue_present(ctx.queue, &info) } {
+            Ok(false) => Ok(()),
+            Ok(true) | Err(vk::Result::ERROR_OUT_OF_DATE_KHR) => {
+                self.needs_rebuild = true;
+                Ok(())
+            }
+            Err(result) => Err(Error::Vulkan {
+                call: "vkQueuePresentKHR",
+                result,
+            }),
+        }
+    }
+
+    fn resize(&mut self, extent: vk::Extent2D) {
+        if extent != self.wanted {
+            self.wanted = extent;
+            self.needs_rebuild = true;
+        }
+    }
+
+    fn destroy(mut self: Box<Self>, ctx: &Context) {
+        let _ = ctx.wait_idle();
+        self.release_images(ctx);
+        for s in self.acquired.drain(..) {
+            // SAFETY: idle device.
+            unsafe { ctx.device.destroy_semaphore(s, None) };
+        }
+        // SAFETY: idle device; nothing else references the swapchain or surface.
+        unsafe {
+            if self.swapchain != vk::SwapchainKHR::null() {
+                ctx.swapchain_device
+                    .as_ref()
+                    .expect("swapchain device")
+                    .destroy_swapchain(self.swapchain, None);
+            }
+            if let Some(s) = &ctx.surface_instance {
+                s.destroy_surface(self.surface, None);
+            }
+        }
+    }
+}

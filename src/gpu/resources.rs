@@ -1,0 +1,605 @@
+//! Named buffers and images, staging upload and readback, deferred destruction.
+//!
+//! Invariants:
+//! - A `Buffer`/`Image` is a plain struct (`raw`, allocation, name); it is destroyed explicitly with
+//!   `destroy(ctx)` or handed to a [`DeferredDestroy`] list; dropping one undestroyed leaks it and the
+//!   context's leak check reports it by name.
+//! - Host access only through `MemoryLocation::CpuToGpu`/`GpuToCpu` allocations. Mapping a `GpuOnly`
+//!   allocation is refused with an error even where it would work (lavapipe has a single host-visible memory
+//!   type, which hides that bug until the code meets a discrete GPU). Device-local data goes through
+//!   staging buffers and `vkCmdCopyBuffer`.
+use super::context::Context;
+use crate::error::{Error, Result, VkContext};
+use ash::vk;
+use gpu_allocator::vulkan::{Allocation, AllocationCreateDesc, AllocationScheme};
+pub use gpu_allocator::MemoryLocation;
+
+/// A buffer and its memory.
+#[derive(Debug)]
+pub struct Buffer {
+    pub raw: vk::Buffer,
+    pub allocation: Option<Allocation>,
+    pub size: u64,
+    pub usage: vk::BufferUsageFlags,
+    pub location: MemoryLocation,
+    pub name: String,
+}
+
+/// Describes an image to create.
+#[derive(Clone, Debug)]
+pub struct ImageDesc {
+    pub extent: vk::Extent3D,
+    pub format: vk::Format,
+    pub usage: vk::ImageUsageFlags,
+    pub layers: u32,
+    pub image_type: vk::ImageType,
+    pub view_type: vk::ImageViewType,
+    pub aspect: vk::ImageAspectFlags,
+}
+
+impl ImageDesc {
+    /// A 2D image with one layer and one mip level.
+    pub fn d2(width: u32, height: u32, format: vk::Format, usage: vk::ImageUsageFlags) -> Self {
+        let aspect = if is_depth_format(format) {
+            vk::ImageAspectFlags::DEPTH
+        } else {
+            vk::ImageAspectFlags::COLOR
+        };
+        ImageDesc {
+            extent: vk::Extent3D {
+                width,
+                height,
+                depth: 1,
+            },
+            format,
+            usage,
+            layers: 1,
+            image_type: vk::ImageType::TYPE_2D,
+            view_type: vk::ImageViewType::TYPE_2D,
+            aspect,
+        }
+    }
+
+    /// A 2D array image with `layers` layers.
+    pub fn d2_array(
+        width: u32,
+        height: u32,
+        layers: u32,
+        format: vk::Format,
+        usage: vk::ImageUsageFlags,
+    ) -> Self {
+        let mut d = Self::d2(width, height, format, usage);
+        d.layers = layers;
+        d.view_type = vk::ImageViewType::TYPE_2D_ARRAY;
+        d
+    }
+}
+
+/// Whether `format` is a depth (or depth-stencil) format.
+pub fn is_depth_format(format: vk::Format) -> bool {
+    matches!(
+        format,
+        vk::Format::D16_UNORM
+            | vk::Format::D32_SFLOAT
+            | vk::Format::X8_D24_UNORM_PACK32
+            | vk::Format::D16_UNORM_S8_UINT
+            | vk::Format::D24_UNORM_S8_UINT
+            | vk::Format::D32_SFLOAT_S8_UINT
+    )
+}
+
+/// An image, its default view and its memory.
+#[derive(Debug)]
+pub struct Image {
+    pub raw: vk::Image,
+    pub view: vk::ImageView,
+    pub allocation: Option<Allocation>,
+    pub desc: ImageDesc,
+    pub name: String,
+}
+
+impl Image {
+    /// The full subresource range of the image.
+    pub fn range(&self) -> vk::ImageSubresourceRange {
+        vk::ImageSubresourceRange {
+            aspect_mask: self.desc.aspect,
+            base_mip_level: 0,
+            level_count: 1,
+            base_array_layer: 0,
+            layer_count: self.desc.layers,
+        }
+    }
+
+    /// Width and height.
+    pub fn extent2d(&self) -> vk::Extent2D {
+        vk::Extent2D {
+            width: self.desc.extent.width,
+            height: self.desc.extent.height,
+        }
+    }
+
+    /// Destroys the view, the image and frees its memory.
+    pub fn destroy(mut self, ctx: &Context) {
+        // SAFETY: the caller guarantees the GPU no longer uses the image.
+        unsafe {
+            ctx.device.destroy_image_view(self.view, None);
+            ctx.device.destroy_image(self.raw, None);
+        }
+        if let Some(a) = self.allocation.take() {
+            ctx.release_bytes(a.size());
+            let _ = ctx.allocator().free(a);
+        }
+    }
+}
+
+impl Buffer {
+    /// Host-visible bytes of the buffer, or an error for `GpuOnly` memory.
+    pub fn mapped(&self) -> Result<&[u8]> {
+        self.assert_host_location()?;
+        self.allocation
+            .as_ref()
+            .and_then(|a| a.mapped_slice())
+            .map(|s| &s[..self.size as usize])
+            .ok_or_else(|| Error::Invalid(format!("buffer '{}' is not mapped", self.name)))
+    }
+
+    /// Mutable host-visible bytes of the buffer, or an error for `GpuOnly` memory.
+    pub fn mapped_mut(&mut self) -> Result<&mut [u8]> {
+        self.assert_host_location()?;
+        let size = self.size as usize;
+        let name = self.name.clone();
+        self.allocation
+            .as_mut()
+            .and_then(|a| a.mapped_slice_mut())
+            .map(|s| &mut s[..size])
+            .ok_or_else(|| Error::Invalid(format!("buffer '{name}' is not mapped")))
+    }
+
+    fn assert_host_location(&self) -> Result<()> {
+        if self.location == MemoryLocation::GpuOnly {
+            return Err(Error::Invalid(format!(
+                "buffer '{}' lives in GpuOnly memory and must not be mapped; use a staging copy",
+                self.name
+            )));
+        }
+        Ok(())
+    }
+
+    /// A descriptor for the whole buffer.
+    pub fn descriptor(&self) -> vk::DescriptorBufferInfo {
+        vk::DescriptorBufferInfo {
+            buffer: self.raw,
+            offset: 0,
+            range: vk::WHOLE_SIZE,
+        }
+    }
+
+    /// Destroys the buffer and frees its memory.
+    pub fn destroy(mut self, ctx: &Context) {
+        // SAFETY: the caller guarantees the GPU no longer uses the buffer.
+        unsafe { ctx.device.destroy_buffer(self.raw, None) };
+        if let Some(a) = self.allocation.take() {
+            ctx.release_bytes(a.size());
+            let _ = ctx.allocator().free(a);
+        }
+    }
+}
+
+impl Context {
+    /// Creates a named buffer of `size` bytes in `location`.
+    pub fn create_buffer(
+        &self,
+        name: &str,
+        size: u64,
+        usage: vk::BufferUsageFlags,
+        location: MemoryLocation,
+    ) -> Result<Buffer> {
+        if size == 0 {
+            return Err(Error::Invalid(format!(
+                "buffer '{name}' would be empty (0 bytes)"
+            )));
+        }
+        let info = vk::BufferCreateInfo::default()
+            .size(size)
+            .usage(usage)
+            .sharing_mode(vk::SharingMode::EXCLUSIVE);
+        // SAFETY: valid create info.
+        let raw = unsafe { self.device.create_buffer(&info, None) }.vk("vkCreateBuffer")?;
+        // SAFETY: raw is a valid buffer.
+        let requirements = unsafe { self.device.get_buffer_memory_requirements(raw) };
+        let destroy = |e: Error| {
+            // SAFETY: raw has no memory bound and is unused.
+            unsafe { self.device.destroy_buffer(raw, None) };
+            e
+        };
+        self.reserve_bytes(name, requirements.size)
+            .map_err(destroy)?;
+        let allocation = self
+            .allocator()
+            .allocate(&AllocationCreateDesc {
+                name,
+                requirements,
+                location,
+                linear: true,
+                allocation_scheme: AllocationScheme::GpuAllocatorManaged,
+            })
+            .map_err(|e| {
+                self.release_bytes(requirements.size);
+                destroy(Error::Alloc {
+                    name: name.into(),
+                    bytes: size,
+                    reason: e.to_string(),
+                })
+            })?;
+        // SAFETY: memory and offset come from an allocation that satisfies the requirements.
+        if let Err(result) = unsafe {
+            self.device
+                .bind_buffer_memory(raw, allocation.memory(), allocation.offset())
+        } {
+            self.release_bytes(requirements.size);
+            let _ = self.allocator().free(allocation);
+            return Err(destroy(Error::Vulkan {
+                call: "vkBindBufferMemory",
+                result,
+            }));
+        }
+        self.set_name(raw, name);
+        Ok(Buffer {
+            raw,
+            allocation: Some(allocation),
+            size,
+            usage,
+            location,
+            name: name.into(),
+        })
+    }
+
+    /// Creates a device-local buffer holding `data`, uploaded through a staging buffer.
+    pub fn upload_buffer(
+        &self,
+        name: &str,
+        data: &[u8],
+        usage: vk::BufferUsageFlags,
+    ) -> Result<Buffer> {
+        let buf = self.create_buffer(
+            name,
+            data.len() as u64,
+            usage | vk::BufferUsageFlags::TRANSFER_DST,
+            MemoryLocation::GpuOnly,
+        )?;
+        match self.write_buffer(&buf, 0, data) {
+            Ok(()) => Ok(buf),
+            Err(e) => {
+                buf.destroy(self);
+                Err(e)
+            }
+        }
+    }
+
+    /// Writes `data` at `offset` into `buf`: directly when it is host-visible, else through staging.
+    pub fn write_buffer(&self, buf: &Buffer, offset: u64, data: &[u8]) -> Result<()> {
+        if data.is_empty() {
+            return Ok(());
+        }
+        if offset + data.len() as u64 > buf.size {
+            return Err(Error::Invalid(format!(
+                "write of {} bytes at {offset} overflows buffer '{}' ({} bytes)",
+                data.len(),
+                buf.name,
+                buf.size
+            )));
+        }
+        if buf.location != MemoryLocation::GpuOnly {
+            let ptr = buf
+                .allocation
+                .as_ref()
+                .and_then(|a| a.mapped_ptr())
+                .ok_or_else(|| Error::Invalid(format!("buffer '{}' is not mapped", buf.name)))?;
+            // SAFETY: the range was checked above; the memory is host-visible and coherent or flushed by the
+            // allocator; the GPU is not using this range (caller's contract).
+            unsafe {
+                std::ptr::copy_nonoverlapping(
+                    data.as_ptr(),
+                    (ptr.as_ptr() as *mut u8).add(offset as usize),
+                    data.len(),
+                )
+            };
+            return Ok(());
+        }
+        let mut staging = self.create_buffer(
+            &format!("{} (staging)", buf.name),
+            data.len() as u64,
+            vk::BufferUsageFlags::TRANSFER_SRC,
+            MemoryLocation::CpuToGpu,
+        )?;
+        let result = staging
+            .mapped_mut()
+            .map(|m| m.copy_from_slice(data))
+            .and_then(|()| {
+                self.one_shot(|cmd| {
+                    let region = vk::BufferCopy {
+                        src_offset: 0,
+                        dst_offset: offset,
+                        size: data.len() as u64,
+                    };
+                    // SAFETY: both buffers are valid; the region is in range.
+                    unsafe {
+                        self.device
+                            .cmd_copy_buffer(cmd, staging.raw, buf.raw, &[region])
+                    };
+                    Ok(())
+                })
+            });
+        staging.destroy(self);
+        result
+    }
+
+    /// Reads the whole of `buf` back to the host (through a staging copy unless it is host-visible).
+    pub fn read_buffer(&self, buf: &Buffer) -> Result<Vec<u8>> {
+        self.read_buffer_range(buf, 0, buf.size)
+    }
+
+    /// Reads `size` bytes at `offset` of `buf` back to the host.
+    pub fn read_buffer_range(&self, buf: &Buffer, offset: u64, size: u64) -> Result<Vec<u8>> {
+        if offset + size > buf.size {
+            return Err(Error::Invalid(format!(
+                "read past the end of buffer '{}'",
+                buf.name
+            )));
+        }
+        if size == 0 {
+            return Ok(Vec::new());
+        }
+        if buf.location == MemoryLocation::GpuToCpu {
+            return Ok(buf.mapped()?[offset as usize..(offset + size) as usize].to_vec());
+        }
+        if !buf.usage.contains(vk::BufferUsageFlags::TRANSFER_SRC) {
+            return Err(Error::Invalid(format!(
+                "buffer '{}' was not created with TRANSFER_SRC",
+                buf.name
+            )));
+        }
+        let staging = self.create_buffer(
+            &format!("{} (readback)", buf.name),
+            size,
+            vk::BufferUsageFlags::TRANSFER_DST,
+            MemoryLocation::GpuToCpu,
+        )?;
+        let result = self
+            .one_shot(|cmd| {
+                // Make earlier shader writes visible to the copy.
+                let barrier = [vk::MemoryBarrier2::default()
+                    .src_stage_mask(vk::PipelineStageFlags2::ALL_COMMANDS)
+                    .src_access_mask(vk::AccessFlags2::MEMORY_WRITE)
+                    .dst_stage_mask(vk::PipelineStageFlags2::COPY)
+                    .dst_access_mask(vk::AccessFlags2::TRANSFER_READ)];
+                self.cmd_pipeline_barrier2(
+                    cmd,
+                    &vk::DependencyInfo::default().memory_barriers(&barrier),
+                );
+                let region = vk::BufferCopy {
+                    src_offset: offset,
+                    dst_offset: 0,
+                    size,
+                };
+                // SAFETY: both buffers valid, region in range.
+                unsafe {
+                    self.device
+                        .cmd_copy_buffer(cmd, buf.raw, staging.raw, &[region])
+                };
+                let host = [vk::MemoryBarrier2::default()
+                    .src_stage_mask(vk::PipelineStageFlags2::COPY)
+                    .src_access_mask(vk::AccessFlags2::TRANSFER_WRITE)
+                    .dst_stage_mask(vk::PipelineStageFlags2::HOST)
+                    .dst_access_mask(vk::AccessFlags2::HOST_READ)];
+                self.cmd_pipeline_barrier2(
+                    cmd,
+                    &vk::DependencyInfo::default().memory_barriers(&host),
+                );
+                Ok(())
+            })
+            .and_then(|()| staging.mapped().map(|m| m.to_vec()));
+        staging.destroy(self);
+        result
+    }
+
+    /// Creates a named device-local image with a default view.
+    pub fn create_image(&self, name: &str, desc: &ImageDesc) -> Result<Image> {
+        let max2d = self.limits.max_image_dimension2_d;
+        if desc.extent.width == 0 || desc.extent.height == 0 || desc.layers == 0 {
+            return Err(Error::Invalid(format!("image '{name}' would be empty")));
+        }
+        if desc.extent.width > max2d || desc.extent.height > max2d {
+            return Err(Error::Limit {
+                what: format!(
+                    "image '{name}' of {}×{}",
+                    desc.extent.width, desc.extent.height
+                ),
+                detail: format!("maxImageDimension2D is {max2d}"),
+            });
+        }
+        if desc.layers > self.limits.max_image_array_layers {
+            return Err(Error::Limit {
+                what: format!("image '{name}' with {} layers", desc.layers),
+                detail: format!(
+                    "maxImageArrayLayers is {}",
+                    self.limits.max_image_array_layers
+                ),
+            });
+        }
+        let info = vk::ImageCreateInfo::default()
+            .image_type(desc.image_type)
+            .format(desc.format)
+            .extent(desc.extent)
+            .mip_levels(1)
+            .array_layers(desc.layers)
+            .samples(vk::SampleCountFlags::TYPE_1)
+            .tiling(vk::ImageTiling::OPTIMAL)
+            .usage(desc.usage)
+            .sharing_mode(vk::SharingMode::EXCLUSIVE)
+            .initial_layout(vk::ImageLayout::UNDEFINED);
+        // SAFETY: valid create info.
+        let raw = unsafe { self.device.create_image(&info, None) }.vk("vkCreateImage")?;
+        // SAFETY: valid image.
+        let requirements = unsafe { self.device.get_image_memory_requirements(raw) };
+        let destroy = |e: Error| {
+            // SAFETY: unused image.
+            unsafe { self.device.destroy_image(raw, None) };
+            e
+        };
+        self.reserve_bytes(name, requirements.size)
+            .map_err(destroy)?;
+        let allocation = self
+            .allocator()
+            .allocate(&AllocationCreateDesc {
+                name,
+                requirements,
+                location: MemoryLocation::GpuOnly,
+                linear: false,
+                allocation_scheme: AllocationScheme::GpuAllocatorManaged,
+            })
+            .map_err(|e| {
+                self.release_bytes(requirements.size);
+                destroy(Error::Alloc {
+                    name: name.into(),
+                    bytes: requirements.size,
+                    reason: e.to_string(),
+                })
+            })?;
+        let free = |e: Error, allocation: Allocation| {
+            self.release_bytes(requirements.size);
+            let _ = self.allocator().free(allocation);
+            destroy(e)
+        };
+        // SAFETY: allocation satisfies the requirements.
+        if let Err(result) = unsafe {
+            self.device
+                .bind_image_memory(raw, allocation.memory(), allocation.offset())
+        } {
+            return Err(free(
+                Error::Vulkan {
+                    call: "vkBindImageMemory",
+                    result,
+                },
+                allocation,
+            ));
+        }
+        let view_info = vk::ImageViewCreateInfo::default()
+            .image(raw)
+            .view_type(desc.view_type)
+            .format(desc.format)
+            .subresource_range(vk::ImageSubresourceRange {
+                aspect_mask: desc.aspect,
+                base_mip_level: 0,
+                level_count: 1,
+                base_array_layer: 0,
+                layer_count: desc.layers,
+            });
+        // SAFETY: valid image with bound memory.
+        let view = match unsafe { self.device.create_image_view(&view_info, None) } {
+            Ok(v) => v,
+            Err(result) => {
+                return Err(free(
+                    Error::Vulkan {
+                        call: "vkCreateImageView",
+                        result,
+                    },
+                    allocation,
+                ))
+            }
+        };
+        self.set_name(raw, name);
+        self.set_name(view, &format!("{name} (view)"));
+        Ok(Image {
+            raw,
+            view,
+            allocation: Some(allocation),
+            desc: desc.clone(),
+            name: name.into(),
+        })
+    }
+}
+
+/// Records an image layout transition with a synchronization2 barrier.
+#[allow(clippy::too_many_arguments)]
+pub fn image_barrier(
+    ctx: &Context,
+    cmd: vk::CommandBuffer,
+    image: vk::Image,
+    range: vk::ImageSubresourceRange,
+    old: vk::ImageLayout,
+    new: vk::ImageLayout,
+    src: (vk::PipelineStageFlags2, vk::AccessFlags2),
+    dst: (vk::PipelineStageFlags2, vk::AccessFlags2),
+) {
+    let b = [vk::ImageMemoryBarrier2::default()
+        .src_stage_mask(src.0)
+        .src_access_mask(src.1)
+        .dst_stage_mask(dst.0)
+        .dst_access_mask(dst.1)
+        .old_layout(old)
+        .new_layout(new)
+        .src_queue_family_index(vk::QUEUE_FAMILY_IGNORED)
+        .dst_queue_family_index(vk::QUEUE_FAMILY_IGNORED)
+        .image(image)
+        .subresource_range(range)];
+    ctx.cmd_pipeline_barrier2(
+        cmd,
+        &vk::DependencyInfo::default().image_memory_barriers(&b),
+    );
+}
+
+/// Records a global memory barrier.
+pub fn memory_barrier(
+    ctx: &Context,
+    cmd: vk::CommandBuffer,
+    src: (vk::PipelineStageFlags2, vk::AccessFlags2),
+    dst: (vk::PipelineStageFlags2, vk::AccessFlags2),
+) {
+    let b = [vk::MemoryBarrier2::default()
+        .src_stage_mask(src.0)
+        .src_access_mask(src.1)
+        .dst_stage_mask(dst.0)
+        .dst_access_mask(dst.1)];
+    ctx.cmd_pipeline_barrier2(cmd, &vk::DependencyInfo::default().memory_barriers(&b));
+}
+
+/// A resource whose destruction waits for the GPU to finish a frame.
+#[derive(Debug)]
+pub enum Deferred {
+    Buffer(Buffer),
+    Image(Image),
+}
+
+/// A per-frame list of resources to destroy once that frame's fence has signalled.
+#[derive(Debug, Default)]
+pub struct DeferredDestroy {
+    items: Vec<Deferred>,
+}
+
+impl DeferredDestroy {
+    /// Queues a resource for destruction.
+    pub fn push(&mut self, item: Deferred) {
+        self.items.push(item);
+    }
+
+    /// Number of queued resources.
+    pub fn len(&self) -> usize {
+        self.items.len()
+    }
+
+    /// Whether nothing is queued.
+    pub fn is_empty(&self) -> bool {
+        self.items.is_empty()
+    }
+
+    /// Destroys everything queued. Call only after the frame's fence has signalled.
+    pub fn flush(&mut self, ctx: &Context) {
+        for item in self.items.drain(..) {
+            match item {
+                Deferred::Buffer(b) => b.destroy(ctx),
+                Deferred::Image(i) => i.destroy(ctx),
+            }
+        }
+    }
+}

@@ -1,0 +1,71 @@
+//! `IotaPass`: writes `data[i] = i·scale + offset` into a storage buffer (glsl/iota.comp). The smallest
+//! complete compute pass: pipeline, push descriptors, 2D-split dispatch for any count.
+//!
+//! Invariants: the pass owns its pipeline and layouts; the buffer is the caller's; `record` may be called
+//! any number of times in one command buffer. On exit
+//! of `record` the buffer's writes are made visible to transfers and later shader reads.
+use crate::error::Result;
+use crate::gpu::pipeline::{Binding, ComputePipeline, DescriptorSetLayoutBuilder};
+use crate::gpu::resources::memory_barrier;
+use crate::gpu::{shaders, Buffer, Context};
+use ash::vk;
+
+/// The iota compute pass.
+pub struct IotaPass {
+    pipeline: ComputePipeline,
+}
+
+impl IotaPass {
+    /// Builds the pipeline.
+    pub fn new(ctx: &Context) -> Result<Self> {
+        let layout = DescriptorSetLayoutBuilder::new()
+            .storage_buffer(0, vk::ShaderStageFlags::COMPUTE)
+            .build(ctx, "iota set")?;
+        let pipeline = ComputePipeline::new(ctx, "iota", shaders::IOTA_COMP, vec![layout], 12, 64)?;
+        Ok(IotaPass { pipeline })
+    }
+
+    /// Records the fill of the first `count` u32 of `buffer`.
+    pub fn record(
+        &self,
+        ctx: &Context,
+        cmd: vk::CommandBuffer,
+        buffer: &Buffer,
+        count: u32,
+        scale: u32,
+        offset: u32,
+    ) -> Result<()> {
+        if count as u64 * 4 > buffer.size {
+            return Err(crate::Error::Invalid(format!(
+                "iota of {count} values does not fit buffer '{}' ({} bytes)",
+                buffer.name, buffer.size
+            )));
+        }
+        let push: [u32; 3] = [count, scale, offset];
+        self.pipeline.bind(
+            ctx,
+            cmd,
+            &[(0, Binding::Storage(buffer.raw))],
+            bytemuck::cast_slice(&push),
+        );
+        self.pipeline.dispatch_linear(ctx, cmd, count as u64)?;
+        memory_barrier(
+            ctx,
+            cmd,
+            (
+                vk::PipelineStageFlags2::COMPUTE_SHADER,
+                vk::AccessFlags2::SHADER_STORAGE_WRITE,
+            ),
+            (
+                vk::PipelineStageFlags2::COMPUTE_SHADER | vk::PipelineStageFlags2::COPY,
+                vk::AccessFlags2::SHADER_STORAGE_READ | vk::AccessFlags2::TRANSFER_READ,
+            ),
+        );
+        Ok(())
+    }
+
+    /// Destroys the pipeline.
+    pub fn destroy(self, ctx: &Context) {
+        self.pipeline.destroy(ctx);
+    }
+}
