@@ -385,3 +385,67 @@ fn device_filter_that_matches_nothing_lists_the_devices() {
         "{err}"
     );
 }
+
+#[test]
+fn offscreen_target_applies_a_resize_at_the_next_acquire() {
+    with_gpu(|ctx| {
+        let mut target = OffscreenTarget::new(ctx, 32, 16, 2).unwrap();
+        target.resize(vk::Extent2D {
+            width: 40,
+            height: 24,
+        });
+        let img = target.acquire(ctx, 1).unwrap().unwrap();
+        assert_eq!((img.extent.width, img.extent.height), (40, 24));
+        let pass = TrianglesPass::new(ctx, target.format()).unwrap();
+        // A full-screen triangle: every pixel of the resized image must be painted.
+        let clip: [[f32; 4]; 3] = [
+            [-1.0, -1.0, 0.5, 1.0],
+            [3.0, -1.0, 0.5, 1.0],
+            [-1.0, 3.0, 0.5, 1.0],
+        ];
+        let vbuf = ctx
+            .upload_buffer(
+                "full screen",
+                bytemuck::cast_slice(&clip),
+                vk::BufferUsageFlags::STORAGE_BUFFER,
+            )
+            .unwrap();
+        ctx.one_shot(|cmd| {
+            begin_color_target(ctx, cmd, img.image);
+            pass.record(
+                ctx,
+                cmd,
+                img.view,
+                img.extent,
+                [0.0; 4],
+                &vbuf,
+                3,
+                Some([0.0, 1.0, 0.0]),
+            );
+            target.record_finish(ctx, cmd, &img);
+            Ok(())
+        })
+        .unwrap();
+        target.present(ctx, &img).unwrap();
+        let rgba = target.read_rgba(1).unwrap();
+        assert_eq!(rgba.len(), 40 * 24 * 4);
+        assert!(rgba.chunks_exact(4).all(|p| p == [0, 255, 0, 255]));
+        // A zero-sized target (minimised window) skips frames instead of failing.
+        target.resize(vk::Extent2D {
+            width: 0,
+            height: 0,
+        });
+        assert!(target.acquire(ctx, 0).unwrap().is_none());
+        assert!(target.acquire(ctx, 1).unwrap().is_none());
+        // Restored: both slots exist again.
+        target.resize(vk::Extent2D {
+            width: 8,
+            height: 8,
+        });
+        assert_eq!(target.acquire(ctx, 0).unwrap().unwrap().extent.width, 8);
+        assert_eq!(target.acquire(ctx, 1).unwrap().unwrap().extent.height, 8);
+        vbuf.destroy(ctx);
+        pass.destroy(ctx);
+        Box::new(target).destroy(ctx);
+    });
+}

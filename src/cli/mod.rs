@@ -5,6 +5,7 @@ use std::process::ExitCode;
 
 pub mod info;
 pub mod mesh;
+pub mod profile;
 
 /// gregvox: Gregory surfaces and solid voxels on Vulkan.
 #[derive(Debug, Parser)]
@@ -23,6 +24,8 @@ pub enum Command {
     Mesh(mesh::MeshArgs),
     /// Catmull–Clark subdivide a mesh and write the result as OBJ.
     Subdivide(mesh::SubdivideArgs),
+    /// Run the live demo in a window, or offscreen writing PNG frames.
+    Demo(crate::demo::DemoArgs),
 }
 
 /// Writes `text` to stdout; a closed pipe (`gregvox info | head`) is not an error.
@@ -45,6 +48,7 @@ pub fn main() -> ExitCode {
         Command::Info(a) => info::run(&a),
         Command::Mesh(a) => mesh::run_mesh(&a),
         Command::Subdivide(a) => mesh::run_subdivide(&a),
+        Command::Demo(a) => crate::demo::run(&a),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

@@ -88,6 +88,7 @@ pub struct OffscreenTarget {
     extent: vk::Extent2D,
     format: vk::Format,
     pending_extent: Option<vk::Extent2D>,
+    slots: usize,
 }
 
 impl OffscreenTarget {
@@ -101,17 +102,18 @@ impl OffscreenTarget {
             extent: vk::Extent2D { width, height },
             format: vk::Format::B8G8R8A8_UNORM,
             pending_extent: None,
+            slots: slots.max(1),
         };
-        if let Err(e) = t.build(ctx, slots.max(1)) {
+        if let Err(e) = t.build(ctx) {
             t.release(ctx);
             return Err(e);
         }
         Ok(t)
     }
 
-    fn build(&mut self, ctx: &Context, slots: usize) -> Result<()> {
+    fn build(&mut self, ctx: &Context) -> Result<()> {
         let vk::Extent2D { width, height } = self.extent;
-        for i in 0..slots {
+        for i in 0..self.slots {
             let desc = ImageDesc::d2(
                 width,
                 height,
@@ -197,13 +199,14 @@ impl PresentTarget for OffscreenTarget {
         if let Some(e) = self.pending_extent.take() {
             // Resizing recreates every slot: wait for the GPU to release them.
             ctx.wait_idle()?;
-            let n = self.images.len();
             self.release(ctx);
             self.extent = e;
-            if e.width == 0 || e.height == 0 {
-                return Ok(None);
+            if e.width > 0 && e.height > 0 {
+                self.build(ctx)?;
             }
-            self.build(ctx, n)?;
+        }
+        if self.extent.width == 0 || self.extent.height == 0 {
+            return Ok(None); // minimised
         }
         let Some(img) = self.images.get(slot) else {
             return Err(Error::Invalid(format!(

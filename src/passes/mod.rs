@@ -1,4 +1,5 @@
 //! One GPU pass per file. Each owns its pipelines and layouts and exposes `new`, `record`, `destroy`;
 //! buffers are passed in, never owned by two passes.
 pub mod iota;
+pub mod spinner;
 pub mod triangles;

@@ -1,0 +1,49 @@
+//! The profiling flags shared by every command that runs GPU passes.
+use crate::gpu::Profiler;
+use clap::Args;
+use std::path::PathBuf;
+
+/// `--profile`, `--profile-json FILE`, `--trace FILE`.
+#[derive(Debug, Args, Clone, Default)]
+pub struct ProfileArgs {
+    /// Print the per-pass GPU time table (timestamp queries) at exit.
+    #[arg(long)]
+    pub profile: bool,
+    /// Write the per-pass profile as JSON: {"device", "passes": [{"name", "calls", "gpu_ms": {min, median, max}}]}.
+    #[arg(long, value_name = "FILE")]
+    pub profile_json: Option<PathBuf>,
+    /// Write every timed pass as a chrome://tracing trace file.
+    #[arg(long, value_name = "FILE")]
+    pub trace: Option<PathBuf>,
+}
+
+impl ProfileArgs {
+    /// Prints and writes what was asked for.
+    pub fn emit(&self, profiler: &Profiler) -> anyhow::Result<()> {
+        if self.profile {
+            eprint!("{}", profiler.table());
+        }
+        if let Some(path) = &self.profile_json {
+            write_json_atomically(path, &profiler.json())?;
+        }
+        if let Some(path) = &self.trace {
+            write_json_atomically(path, &profiler.chrome_trace())?;
+        }
+        Ok(())
+    }
+}
+
+/// Writes pretty JSON to `path` through a temporary file and a rename.
+pub fn write_json_atomically(
+    path: &std::path::Path,
+    value: &serde_json::Value,
+) -> anyhow::Result<()> {
+    let tmp = path.with_extension("json.tmp");
+    let text = serde_json::to_string_pretty(value)?;
+    std::fs::write(&tmp, text)
+        .and_then(|()| std::fs::rename(&tmp, path))
+        .map_err(|e| {
+            let _ = std::fs::remove_file(&tmp);
+            anyhow::anyhow!("{}: {e}", path.display())
+        })
+}
