@@ -215,17 +215,14 @@ fn run_offscreen(args: &DemoArgs) -> anyhow::Result<()> {
         }
     };
     let result = offscreen_loop(&ctx, &mut renderer, &mut target, frames, args.every, &out);
-    let report = renderer
-        .finish(&ctx)
-        .and(result)
-        .and_then(|written| {
-            args.profile.emit(&renderer.profiler)?;
-            eprintln!(
-                "gregvox demo: {frames} frames rendered offscreen, {written} PNG file(s) in {}",
-                out.display()
-            );
-            Ok(())
-        });
+    let report = renderer.finish(&ctx).and(result).and_then(|written| {
+        args.profile.emit(&renderer.profiler)?;
+        eprintln!(
+            "gregvox demo: {frames} frames rendered offscreen, {written} PNG file(s) in {}",
+            out.display()
+        );
+        Ok(())
+    });
     renderer.destroy(&ctx);
     Box::new(target).destroy(&ctx);
     report
