@@ -1,10 +1,11 @@
 //! gregvox: a Vulkan-native engine (on `ash`) for smooth Gregory surfaces and solid voxels.
 //!
 //! Layering (nothing below imports from a row above it):
-//! `cli` → `demo` → `passes` → `surface`, `voxel` → `mesh` → `geom`; `gpu` is the Vulkan foundation and knows no
+//! `cli` → `demo` → `engine` → `passes` → `surface`, `voxel` → `mesh` → `geom`; `gpu` is the Vulkan foundation and knows no
 //! geometry; `error` is shared by all.
 pub mod cli;
 pub mod demo;
+pub mod engine;
 pub mod error;
 pub mod geom;
 pub mod gpu;

@@ -1,1 +1,6 @@
-//! The voxel grid contract, the CPU voxelizer and exporters.
+//! Solid voxelization: the grid contract, the CPU reference voxelizer, the GPU depth-peeling driver, hygiene
+//! of the input triangles and the exporters.
+pub mod cpu;
+pub mod export;
+pub mod grid;
+pub mod mesh;

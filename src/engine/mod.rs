@@ -1,0 +1,3 @@
+//! Multi-pass GPU workflows composed from the passes: voxelization (and, later, the Gregory surface
+//! pipeline). Each workflow owns its passes and the transient resources of one run.
+pub mod voxelize;

@@ -1,0 +1,572 @@
+//! GPU solid voxelization by depth peeling: count pre-pass → L peeling passes → fill, per axis; the 2-of-3
+//! vote over three axes for open meshes.
+//!
+//! Invariants:
+//! - Every resource created here is destroyed before returning, on success and on error.
+//! - Image layouts: the two D32 depth images alternate between `DEPTH_ATTACHMENT_OPTIMAL` (current pass) and
+//!   `DEPTH_READ_ONLY_OPTIMAL` (read by the next pass); the "previous" image of pass 0 is cleared to 0.0 so one
+//!   pipeline serves every pass. The layer array is a color attachment during peeling and
+//!   `SHADER_READ_ONLY_OPTIMAL` for the fill.
+//! - No storage binding exceeds `maxStorageBufferRange`: the output is filled and read back in slabs of
+//!   columns.
+use crate::error::{Error, Result};
+use crate::gpu::resources::{image_barrier, memory_barrier};
+use crate::gpu::{Buffer, Context, Image, ImageDesc, MemoryLocation, Profiler};
+use crate::passes::peel::{PeelGeometry, PeelPass, PeelPush};
+use crate::passes::voxel_fill::{FillJob, VoxelFillPass};
+use crate::voxel::cpu::FillRule;
+use crate::voxel::grid::{Axis, GridFrame, VoxelGrid};
+use crate::voxel::mesh::TriMesh;
+use ash::vk;
+
+/// Per-axis figures of a GPU voxelization.
+#[derive(Clone, Debug, serde::Serialize)]
+pub struct AxisStats {
+    pub axis: Axis,
+    /// Peeling passes run (the deepest column's crossing count from the count pre-pass).
+    pub layers: u32,
+    pub solid: u64,
+}
+
+/// Upper bound on peeling passes unless the caller raises it.
+pub const DEFAULT_MAX_LAYERS: u32 = 256;
+
+/// A mesh uploaded for peeling (positions as 3×f32, u32 indices).
+pub struct GpuTriangles {
+    pub vertices: Buffer,
+    pub indices: Buffer,
+    pub index_count: u32,
+}
+
+impl GpuTriangles {
+    /// Uploads `mesh` to device-local buffers.
+    pub fn upload(ctx: &Context, mesh: &TriMesh) -> Result<Self> {
+        if mesh.triangles.is_empty() {
+            return Err(Error::Invalid(
+                "the mesh has no triangles to voxelize".into(),
+            ));
+        }
+        let vertices = ctx.upload_buffer(
+            "voxelize vertices",
+            bytemuck::cast_slice(&mesh.positions),
+            vk::BufferUsageFlags::VERTEX_BUFFER | vk::BufferUsageFlags::STORAGE_BUFFER,
+        )?;
+        let indices = match ctx.upload_buffer(
+            "voxelize indices",
+            bytemuck::cast_slice(&mesh.triangles),
+            vk::BufferUsageFlags::INDEX_BUFFER | vk::BufferUsageFlags::STORAGE_BUFFER,
+        ) {
+            Ok(b) => b,
+            Err(e) => {
+                vertices.destroy(ctx);
+                return Err(e);
+            }
+        };
+        Ok(GpuTriangles {
+            vertices,
+            indices,
+            index_count: mesh.triangles.len() as u32 * 3,
+        })
+    }
+
+    /// The geometry view the peel pass draws.
+    pub fn geometry(&self) -> PeelGeometry<'_> {
+        PeelGeometry {
+            vertices: &self.vertices,
+            indices: &self.indices,
+            index_count: self.index_count,
+        }
+    }
+
+    /// Destroys the buffers.
+    pub fn destroy(self, ctx: &Context) {
+        self.vertices.destroy(ctx);
+        self.indices.destroy(ctx);
+    }
+}
+
+/// The depth-peeling voxelizer: its passes, built once and reused across grids.
+pub struct PeelVoxelizer {
+    peel: PeelPass,
+    fill: VoxelFillPass,
+    /// Refuse meshes needing more peeling passes than this.
+    pub max_layers: u32,
+    /// Largest output slab in bytes (default and upper bound: `maxStorageBufferRange`); tests lower it to
+    /// exercise the slab path.
+    pub slab_limit: Option<u64>,
+}
+
+/// Resources of one axis run, destroyed together.
+struct AxisResources {
+    counts: Option<Buffer>,
+    depth: Vec<Image>,
+    layers: Option<Image>,
+    layer_views: Vec<vk::ImageView>,
+    out: Option<Buffer>,
+}
+
+impl AxisResources {
+    fn destroy(mut self, ctx: &Context) {
+        for v in self.layer_views.drain(..) {
+            // SAFETY: the device is idle (one_shot waited) when resources are released.
+            unsafe { ctx.device.destroy_image_view(v, None) };
+        }
+        if let Some(b) = self.counts.take() {
+            b.destroy(ctx);
+        }
+        for d in self.depth.drain(..) {
+            d.destroy(ctx);
+        }
+        if let Some(l) = self.layers.take() {
+            l.destroy(ctx);
+        }
+        if let Some(o) = self.out.take() {
+            o.destroy(ctx);
+        }
+    }
+}
+
+/// Bytes of device memory one axis of a voxelization needs at most: layers, two depth images, counts, one
+/// output slab.
+pub fn memory_estimate(ctx: &Context, res: u32, layers: u32) -> u64 {
+    let r2 = res as u64 * res as u64;
+    let out = VoxelGrid::bytes_for(&GridFrame {
+        res,
+        origin: [0.0; 3],
+        side: 1.0,
+    });
+    r2 * 4 * layers as u64
+        + 2 * r2 * 4
+        + (r2 + 1) * 4
+        + out.min(ctx.limits.max_storage_buffer_range as u64)
+}
+
+impl PeelVoxelizer {
+    /// Builds the passes (vertices of `stride` bytes, positions first).
+    pub fn new(ctx: &Context, stride: u32) -> Result<Self> {
+        if !ctx.info.features.fragment_stores_and_atomics {
+            return Err(Error::Limit {
+                what: "depth-peeling voxelization".into(),
+                detail:
+                    "the device lacks fragmentStoresAndAtomics (needed by the layer-count pre-pass)"
+                        .into(),
+            });
+        }
+        let peel = PeelPass::new(ctx, stride)?;
+        let fill = match VoxelFillPass::new(ctx) {
+            Ok(f) => f,
+            Err(e) => {
+                peel.destroy(ctx);
+                return Err(e);
+            }
+        };
+        Ok(PeelVoxelizer {
+            peel,
+            fill,
+            max_layers: DEFAULT_MAX_LAYERS,
+            slab_limit: None,
+        })
+    }
+
+    /// Voxelizes `geom` in `frame` with columns along `axis`.
+    pub fn voxelize_axis(
+        &self,
+        ctx: &Context,
+        geom: &PeelGeometry,
+        frame: &GridFrame,
+        axis: Axis,
+        rule: FillRule,
+        mut profiler: Option<&mut Profiler>,
+    ) -> Result<(VoxelGrid, AxisStats)> {
+        let res = frame.res;
+        let max2d = ctx.limits.max_image_dimension2_d;
+        if res > max2d {
+            return Err(Error::Limit {
+                what: format!("resolution {res}"),
+                detail: format!("the peel framebuffer is R×R and maxImageDimension2D is {max2d}"),
+            });
+        }
+        let mut res_ = AxisResources {
+            counts: None,
+            depth: Vec::new(),
+            layers: None,
+            layer_views: Vec::new(),
+            out: None,
+        };
+        let result = self.run_axis(ctx, geom, frame, axis, rule, &mut res_, &mut profiler);
+        res_.destroy(ctx);
+        result
+    }
+
+    #[allow(clippy::too_many_arguments)]
+    fn run_axis(
+        &self,
+        ctx: &Context,
+        geom: &PeelGeometry,
+        frame: &GridFrame,
+        axis: Axis,
+        rule: FillRule,
+        r: &mut AxisResources,
+        profiler: &mut Option<&mut Profiler>,
+    ) -> Result<(VoxelGrid, AxisStats)> {
+        let res = frame.res;
+        let (ua, va) = axis.uv();
+        let inv_pitch = (1.0 / frame.pitch()) as f32;
+        let push = PeelPush {
+            origin_inv_pitch: [
+                frame.origin[0] as f32,
+                frame.origin[1] as f32,
+                frame.origin[2] as f32,
+                inv_pitch,
+            ],
+            axes_res: [ua as u32, va as u32, axis.index() as u32, res],
+        };
+        let r2 = res as u64 * res as u64;
+
+        // 1. Count pre-pass: the exact number of layers.
+        let counts = ctx.create_buffer(
+            "peel counts",
+            (r2 + 1) * 4,
+            vk::BufferUsageFlags::STORAGE_BUFFER
+                | vk::BufferUsageFlags::TRANSFER_DST
+                | vk::BufferUsageFlags::TRANSFER_SRC,
+            MemoryLocation::GpuOnly,
+        )?;
+        let counts = r.counts.insert(counts);
+        ctx.one_shot(|cmd| {
+            // SAFETY: recording; whole-buffer fill.
+            unsafe {
+                ctx.device
+                    .cmd_fill_buffer(cmd, counts.raw, 0, vk::WHOLE_SIZE, 0)
+            };
+            memory_barrier(
+                ctx,
+                cmd,
+                (
+                    vk::PipelineStageFlags2::ALL_TRANSFER,
+                    vk::AccessFlags2::TRANSFER_WRITE,
+                ),
+                (
+                    vk::PipelineStageFlags2::FRAGMENT_SHADER,
+                    vk::AccessFlags2::SHADER_STORAGE_READ | vk::AccessFlags2::SHADER_STORAGE_WRITE,
+                ),
+            );
+            let s = profiler
+                .as_deref_mut()
+                .map(|p| p.begin(ctx, cmd, 0, "peel count pre-pass"));
+            self.peel.record_count(ctx, cmd, geom, &push, counts);
+            if let (Some(p), Some(s)) = (profiler.as_deref_mut(), s) {
+                p.end(ctx, cmd, s);
+            }
+            Ok(())
+        })?;
+        if let Some(p) = profiler.as_deref_mut() {
+            p.collect(ctx, 0)?;
+        }
+        let max_bytes = ctx.read_buffer_range(counts, 0, 4)?;
+        let layers = u32::from_le_bytes(max_bytes[..4].try_into().unwrap());
+        let mut grid = VoxelGrid::empty(*frame, axis);
+        if layers == 0 {
+            return Ok((
+                grid,
+                AxisStats {
+                    axis,
+                    layers,
+                    solid: 0,
+                },
+            ));
+        }
+        if layers > self.max_layers || layers > ctx.limits.max_image_array_layers {
+            return Err(Error::Limit {
+                what: format!("{layers} depth layers along {}", axis.name()),
+                detail: format!(
+                    "at most {} peeling passes are allowed (maxImageArrayLayers {})",
+                    self.max_layers, ctx.limits.max_image_array_layers
+                ),
+            });
+        }
+
+        // 2. Peel every layer.
+        for i in 0..2 {
+            let d = ImageDesc::d2(
+                res,
+                res,
+                vk::Format::D32_SFLOAT,
+                vk::ImageUsageFlags::DEPTH_STENCIL_ATTACHMENT | vk::ImageUsageFlags::SAMPLED,
+            );
+            r.depth
+                .push(ctx.create_image(&format!("peel depth {i}"), &d)?);
+        }
+        let ldesc = ImageDesc::d2_array(
+            res,
+            res,
+            layers,
+            vk::Format::R32_SFLOAT,
+            vk::ImageUsageFlags::COLOR_ATTACHMENT | vk::ImageUsageFlags::SAMPLED,
+        );
+        let layer_image = r.layers.insert(ctx.create_image("peel layers", &ldesc)?);
+        for l in 0..layers {
+            let info = vk::ImageViewCreateInfo::default()
+                .image(layer_image.raw)
+                .view_type(vk::ImageViewType::TYPE_2D)
+                .format(vk::Format::R32_SFLOAT)
+                .subresource_range(vk::ImageSubresourceRange {
+                    aspect_mask: vk::ImageAspectFlags::COLOR,
+                    base_mip_level: 0,
+                    level_count: 1,
+                    base_array_layer: l,
+                    layer_count: 1,
+                });
+            // SAFETY: valid image and create info.
+            let view = unsafe { ctx.device.create_image_view(&info, None) }.map_err(|result| {
+                Error::Vulkan {
+                    call: "vkCreateImageView",
+                    result,
+                }
+            })?;
+            r.layer_views.push(view);
+        }
+        let words = frame.words_per_column() as u64;
+        let max_range =
+            (ctx.limits.max_storage_buffer_range as u64).min(self.slab_limit.unwrap_or(u64::MAX));
+        let slab_columns = (max_range / (words * 4)).min(r2).max(1);
+        let slab_bytes = slab_columns * words * 4;
+        let out = r.out.insert(ctx.create_buffer(
+            "voxel slab",
+            slab_bytes,
+            vk::BufferUsageFlags::STORAGE_BUFFER | vk::BufferUsageFlags::TRANSFER_SRC,
+            MemoryLocation::GpuOnly,
+        )?);
+        let depth = &r.depth;
+        let views = &r.layer_views;
+        let mut first = 0u64;
+        while first < r2 {
+            let count = slab_columns.min(r2 - first);
+            ctx.one_shot(|cmd| {
+                if first == 0 {
+                    self.record_peeling(
+                        ctx,
+                        cmd,
+                        geom,
+                        &push,
+                        depth,
+                        layer_image,
+                        views,
+                        layers,
+                        profiler,
+                    )?;
+                }
+                let s = profiler
+                    .as_deref_mut()
+                    .map(|p| p.begin(ctx, cmd, 0, "voxel fill"));
+                self.fill.record(
+                    ctx,
+                    cmd,
+                    layer_image.view,
+                    self.peel.sampler(),
+                    out,
+                    &FillJob {
+                        res,
+                        layer_count: layers,
+                        rule,
+                        first_column: first as u32,
+                        column_count: count as u32,
+                    },
+                )?;
+                if let (Some(p), Some(s)) = (profiler.as_deref_mut(), s) {
+                    p.end(ctx, cmd, s);
+                }
+                Ok(())
+            })?;
+            if let Some(p) = profiler.as_deref_mut() {
+                p.collect(ctx, 0)?;
+            }
+            let bytes = ctx.read_buffer_range(out, 0, count * words * 4)?;
+            let start = (first * words) as usize;
+            grid.words[start..start + (count * words) as usize]
+                .copy_from_slice(bytemuck::cast_slice(&bytes));
+            first += count;
+        }
+        let solid = grid.count();
+        Ok((
+            grid,
+            AxisStats {
+                axis,
+                layers,
+                solid,
+            },
+        ))
+    }
+
+    #[allow(clippy::too_many_arguments)]
+    fn record_peeling(
+        &self,
+        ctx: &Context,
+        cmd: vk::CommandBuffer,
+        geom: &PeelGeometry,
+        push: &PeelPush,
+        depth: &[Image],
+        layer_image: &Image,
+        views: &[vk::ImageView],
+        layers: u32,
+        profiler: &mut Option<&mut Profiler>,
+    ) -> Result<()> {
+        let depth_range = depth[0].range();
+        let frag_read = (
+            vk::PipelineStageFlags2::FRAGMENT_SHADER,
+            vk::AccessFlags2::SHADER_SAMPLED_READ,
+        );
+        let depth_write = (
+            vk::PipelineStageFlags2::EARLY_FRAGMENT_TESTS
+                | vk::PipelineStageFlags2::LATE_FRAGMENT_TESTS,
+            vk::AccessFlags2::DEPTH_STENCIL_ATTACHMENT_READ
+                | vk::AccessFlags2::DEPTH_STENCIL_ATTACHMENT_WRITE,
+        );
+        // depth[1] plays "previous" for pass 0: cleared to 0.0 so every fragment is behind it.
+        for (i, img) in depth.iter().enumerate() {
+            image_barrier(
+                ctx,
+                cmd,
+                img.raw,
+                depth_range,
+                vk::ImageLayout::UNDEFINED,
+                vk::ImageLayout::DEPTH_ATTACHMENT_OPTIMAL,
+                (vk::PipelineStageFlags2::NONE, vk::AccessFlags2::NONE),
+                depth_write,
+            );
+            if i == 1 {
+                let att = vk::RenderingAttachmentInfo::default()
+                    .image_view(img.view)
+                    .image_layout(vk::ImageLayout::DEPTH_ATTACHMENT_OPTIMAL)
+                    .load_op(vk::AttachmentLoadOp::CLEAR)
+                    .store_op(vk::AttachmentStoreOp::STORE)
+                    .clear_value(vk::ClearValue {
+                        depth_stencil: vk::ClearDepthStencilValue {
+                            depth: 0.0,
+                            stencil: 0,
+                        },
+                    });
+                let extent = img.extent2d();
+                let info = vk::RenderingInfo::default()
+                    .render_area(vk::Rect2D {
+                        offset: vk::Offset2D::default(),
+                        extent,
+                    })
+                    .layer_count(1)
+                    .depth_attachment(&att);
+                ctx.cmd_begin_rendering(cmd, &info);
+                ctx.cmd_end_rendering(cmd);
+                image_barrier(
+                    ctx,
+                    cmd,
+                    img.raw,
+                    depth_range,
+                    vk::ImageLayout::DEPTH_ATTACHMENT_OPTIMAL,
+                    vk::ImageLayout::DEPTH_READ_ONLY_OPTIMAL,
+                    depth_write,
+                    frag_read,
+                );
+            }
+        }
+        image_barrier(
+            ctx,
+            cmd,
+            layer_image.raw,
+            layer_image.range(),
+            vk::ImageLayout::UNDEFINED,
+            vk::ImageLayout::COLOR_ATTACHMENT_OPTIMAL,
+            (vk::PipelineStageFlags2::NONE, vk::AccessFlags2::NONE),
+            (
+                vk::PipelineStageFlags2::COLOR_ATTACHMENT_OUTPUT,
+                vk::AccessFlags2::COLOR_ATTACHMENT_WRITE,
+            ),
+        );
+        for l in 0..layers as usize {
+            let (cur, prev) = (&depth[l % 2], &depth[(l + 1) % 2]);
+            if l > 0 {
+                // The previous pass's target becomes this pass's "previous"; this pass's target was read by the
+                // previous pass and is now overwritten.
+                image_barrier(
+                    ctx,
+                    cmd,
+                    prev.raw,
+                    depth_range,
+                    vk::ImageLayout::DEPTH_ATTACHMENT_OPTIMAL,
+                    vk::ImageLayout::DEPTH_READ_ONLY_OPTIMAL,
+                    depth_write,
+                    frag_read,
+                );
+                image_barrier(
+                    ctx,
+                    cmd,
+                    cur.raw,
+                    depth_range,
+                    vk::ImageLayout::DEPTH_READ_ONLY_OPTIMAL,
+                    vk::ImageLayout::DEPTH_ATTACHMENT_OPTIMAL,
+                    frag_read,
+                    depth_write,
+                );
+            }
+            let s = profiler
+                .as_deref_mut()
+                .map(|p| p.begin(ctx, cmd, 0, "peel layer"));
+            self.peel
+                .record_layer(ctx, cmd, geom, push, prev, cur, views[l]);
+            if let (Some(p), Some(s)) = (profiler.as_deref_mut(), s) {
+                p.end(ctx, cmd, s);
+            }
+        }
+        image_barrier(
+            ctx,
+            cmd,
+            layer_image.raw,
+            layer_image.range(),
+            vk::ImageLayout::COLOR_ATTACHMENT_OPTIMAL,
+            vk::ImageLayout::SHADER_READ_ONLY_OPTIMAL,
+            (
+                vk::PipelineStageFlags2::COLOR_ATTACHMENT_OUTPUT,
+                vk::AccessFlags2::COLOR_ATTACHMENT_WRITE,
+            ),
+            (
+                vk::PipelineStageFlags2::COMPUTE_SHADER,
+                vk::AccessFlags2::SHADER_SAMPLED_READ,
+            ),
+        );
+        Ok(())
+    }
+
+    /// Voxelizes along each of `axes` and, for three axes, takes the 2-of-3 vote.
+    pub fn voxelize(
+        &self,
+        ctx: &Context,
+        geom: &PeelGeometry,
+        frame: &GridFrame,
+        axes: &[Axis],
+        rule: FillRule,
+        mut profiler: Option<&mut Profiler>,
+    ) -> Result<(VoxelGrid, Vec<AxisStats>)> {
+        let mut grids = Vec::new();
+        let mut stats = Vec::new();
+        for &a in axes {
+            let (g, s) = self.voxelize_axis(ctx, geom, frame, a, rule, profiler.as_deref_mut())?;
+            grids.push(g);
+            stats.push(s);
+        }
+        let grid = match grids.len() {
+            1 => grids.pop().unwrap(),
+            3 => VoxelGrid::majority([&grids[0], &grids[1], &grids[2]]),
+            n => {
+                return Err(Error::Invalid(format!(
+                    "voxelize along 1 or 3 axes, not {n}"
+                )))
+            }
+        };
+        Ok((grid, stats))
+    }
+
+    /// Destroys the passes.
+    pub fn destroy(self, ctx: &Context) {
+        self.peel.destroy(ctx);
+        self.fill.destroy(ctx);
+    }
+}

@@ -1,0 +1,109 @@
+//! `VoxelFillPass`: peeled layers → bit-packed solid columns (glsl/voxel_fill.comp).
+//!
+//! Invariants: the pass owns its pipeline; the layer image (R32_SFLOAT array in `SHADER_READ_ONLY_OPTIMAL`)
+//! and the output buffer are the caller's. One invocation per column writes all `ceil(R/32)` words of its
+//! column (zeros included), so the output needs no clearing; a slab of columns `[first, first + count)` is
+//! written from word 0 of `out`, which keeps every binding under `maxStorageBufferRange`. On exit the writes
+//! are visible to transfers.
+use crate::error::Result;
+use crate::gpu::pipeline::{Binding, ComputePipeline, DescriptorSetLayoutBuilder};
+use crate::gpu::resources::memory_barrier;
+use crate::gpu::{shaders, Buffer, Context};
+use crate::voxel::cpu::FillRule;
+use ash::vk;
+
+/// The fill compute pass.
+pub struct VoxelFillPass {
+    pipeline: ComputePipeline,
+}
+
+/// What to fill.
+#[derive(Clone, Copy, Debug)]
+pub struct FillJob {
+    pub res: u32,
+    pub layer_count: u32,
+    pub rule: FillRule,
+    pub first_column: u32,
+    pub column_count: u32,
+}
+
+impl VoxelFillPass {
+    /// Builds the pipeline.
+    pub fn new(ctx: &Context) -> Result<Self> {
+        let layout = DescriptorSetLayoutBuilder::new()
+            .sampled_image(0, vk::ShaderStageFlags::COMPUTE)
+            .storage_buffer(1, vk::ShaderStageFlags::COMPUTE)
+            .build(ctx, "voxel fill set")?;
+        Ok(VoxelFillPass {
+            pipeline: ComputePipeline::new(
+                ctx,
+                "voxel fill",
+                shaders::VOXEL_FILL_COMP,
+                vec![layout],
+                24,
+                64,
+            )?,
+        })
+    }
+
+    /// Records the fill of `job`'s columns from `layers` into `out`.
+    pub fn record(
+        &self,
+        ctx: &Context,
+        cmd: vk::CommandBuffer,
+        layers: vk::ImageView,
+        sampler: vk::Sampler,
+        out: &Buffer,
+        job: &FillJob,
+    ) -> Result<()> {
+        let words = job.res.div_ceil(32);
+        if job.column_count as u64 * words as u64 * 4 > out.size {
+            return Err(crate::Error::Invalid(format!(
+                "voxel slab does not fit buffer '{}'",
+                out.name
+            )));
+        }
+        let push: [u32; 6] = [
+            job.res,
+            job.layer_count,
+            words,
+            match job.rule {
+                FillRule::Winding => 0,
+                FillRule::Parity => 1,
+            },
+            job.first_column,
+            job.column_count,
+        ];
+        let image = Binding::Sampled {
+            view: layers,
+            sampler,
+            layout: vk::ImageLayout::SHADER_READ_ONLY_OPTIMAL,
+        };
+        self.pipeline.bind(
+            ctx,
+            cmd,
+            &[(0, image), (1, Binding::Storage(out.raw))],
+            bytemuck::cast_slice(&push),
+        );
+        self.pipeline
+            .dispatch_linear(ctx, cmd, job.column_count as u64)?;
+        memory_barrier(
+            ctx,
+            cmd,
+            (
+                vk::PipelineStageFlags2::COMPUTE_SHADER,
+                vk::AccessFlags2::SHADER_STORAGE_WRITE,
+            ),
+            (
+                vk::PipelineStageFlags2::COPY,
+                vk::AccessFlags2::TRANSFER_READ,
+            ),
+        );
+        Ok(())
+    }
+
+    /// Destroys the pipeline.
+    pub fn destroy(self, ctx: &Context) {
+        self.pipeline.destroy(ctx);
+    }
+}

@@ -1,0 +1,259 @@
+//! Voxel grid exporters, chosen by file extension: `.binvox`, `.npy` (packed bits + shape), `.nrrd`
+//! (uint8), `.raw` (packed bits) with a `.json` sidecar. Every header or sidecar records origin and pitch.
+//!
+//! Invariants: files are written to `NAME.tmp` and renamed, so an interrupted run never leaves a truncated
+//! output; index conventions are those of each format (binvox: x slowest, then z, y fastest).
+use super::grid::{Axis, VoxelGrid};
+use crate::error::{Error, Result};
+use std::io::Write;
+use std::path::Path;
+
+/// Writes `bytes` to `path` through a temporary file and a rename.
+pub fn write_atomically(
+    path: &Path,
+    write: impl FnOnce(&mut dyn Write) -> std::io::Result<()>,
+) -> Result<()> {
+    let mut tmp = path.as_os_str().to_owned();
+    tmp.push(".tmp");
+    let tmp = std::path::PathBuf::from(tmp);
+    let result = (|| {
+        let file = std::fs::File::create(&tmp)?;
+        let mut w = std::io::BufWriter::new(file);
+        write(&mut w)?;
+        w.flush()?;
+        w.into_inner().map_err(|e| e.into_error())?.sync_all()?;
+        std::fs::rename(&tmp, path)
+    })();
+    result.map_err(|e| {
+        let _ = std::fs::remove_file(&tmp);
+        Error::io(path, e)
+    })
+}
+
+/// The binvox bytes of `grid` (header + run-length data, values 0/1, runs of at most 255 crossing rows).
+///
+/// ```
+/// use gregvox::voxel::{export::binvox_bytes, grid::{Axis, GridFrame, VoxelGrid}};
+/// let frame = GridFrame { res: 2, origin: [0.0; 3], side: 1.0 };
+/// let mut g = VoxelGrid::empty(frame, Axis::Z);
+/// g.set(1, 0, 0, true); // x = 1, y = 0, z = 0: binvox index 1·4 + 0·2 + 0 = 4
+/// let b = binvox_bytes(&g);
+/// assert!(b.starts_with(b"#binvox 1\ndim 2 2 2\n"));
+/// assert!(b.ends_with(b"data\n\x00\x04\x01\x01\x00\x03"));
+/// ```
+pub fn binvox_bytes(grid: &VoxelGrid) -> Vec<u8> {
+    let f = &grid.frame;
+    let r = f.res;
+    let mut out = format!(
+        "#binvox 1\ndim {r} {r} {r}\ntranslate {} {} {}\nscale {}\ndata\n",
+        f.origin[0], f.origin[1], f.origin[2], f.side
+    )
+    .into_bytes();
+    // binvox runs y fastest: lay the bits along y so each (x, z) column streams in order.
+    let g = grid.to_axis(Axis::Y);
+    let w = f.words_per_column() as usize;
+    let mut value = 0u8;
+    let mut count = 0u32;
+    let mut push = |bit: u8, out: &mut Vec<u8>| {
+        if bit == value && count < 255 {
+            count += 1;
+        } else {
+            if count > 0 {
+                out.extend_from_slice(&[value, count as u8]);
+            }
+            value = bit;
+            count = 1;
+        }
+    };
+    // For bit axis Y the columns are (u, v) = (z, x): word (x·R + z)·W.
+    for x in 0..r as usize {
+        for z in 0..r as usize {
+            let col = &g.words[(x * r as usize + z) * w..][..w];
+            for y in 0..r as usize {
+                push((col[y / 32] >> (y % 32) & 1) as u8, &mut out);
+            }
+        }
+    }
+    if count > 0 {
+        out.extend_from_slice(&[value, count as u8]);
+    }
+    out
+}
+
+/// Parses binvox bytes back into a grid (bits along Z).
+pub fn parse_binvox(bytes: &[u8]) -> Result<VoxelGrid> {
+    let bad = |m: &str| Error::Invalid(format!("not a binvox file: {m}"));
+    let mut pos = 0;
+    let mut line = || -> Result<String> {
+        let end = bytes[pos..]
+            .iter()
+            .position(|&b| b == b'\n')
+            .ok_or_else(|| bad("header ends early"))?;
+        let l = String::from_utf8_lossy(&bytes[pos..pos + end])
+            .trim()
+            .to_owned();
+        pos += end + 1;
+        Ok(l)
+    };
+    if !line()?.starts_with("#binvox") {
+        return Err(bad("no #binvox line"));
+    }
+    let (mut res, mut origin, mut side) = (0u32, [0.0; 3], 1.0);
+    loop {
+        let l = line()?;
+        let parts: Vec<&str> = l.split_whitespace().collect();
+        match parts.first().copied() {
+            Some("dim") if parts.len() == 4 => {
+                res = parts[1].parse().map_err(|_| bad("dim"))?;
+                if parts[2] != parts[1] || parts[3] != parts[1] {
+                    return Err(bad("non-cubic dim"));
+                }
+            }
+            Some("translate") if parts.len() == 4 => {
+                for a in 0..3 {
+                    origin[a] = parts[a + 1].parse().map_err(|_| bad("translate"))?;
+                }
+            }
+            Some("scale") if parts.len() == 2 => {
+                side = parts[1].parse().map_err(|_| bad("scale"))?
+            }
+            Some("data") => break,
+            _ => return Err(bad(&format!("unexpected header line '{l}'"))),
+        }
+    }
+    if res == 0 {
+        return Err(bad("no dim"));
+    }
+    let frame = super::grid::GridFrame { res, origin, side };
+    let mut g = VoxelGrid::empty(frame, Axis::Z);
+    let total = (res as u64).pow(3);
+    let mut idx = 0u64;
+    for pair in bytes[pos..].chunks(2) {
+        if pair.len() != 2 {
+            return Err(bad("odd data length"));
+        }
+        let (v, n) = (pair[0], pair[1] as u64);
+        if idx + n > total {
+            return Err(bad("runs exceed dim³"));
+        }
+        if v != 0 {
+            for i in idx..idx + n {
+                let r = res as u64;
+                let (x, z, y) = (i / (r * r), i / r % r, i % r);
+                g.set(x as u32, y as u32, z as u32, true);
+            }
+        }
+        idx += n;
+    }
+    if idx != total {
+        return Err(bad("runs do not cover dim³"));
+    }
+    Ok(g)
+}
+
+/// Writes `grid` to `path` in the format its extension names.
+pub fn write_grid(grid: &VoxelGrid, path: &Path) -> Result<()> {
+    let ext = path
+        .extension()
+        .and_then(|e| e.to_str())
+        .unwrap_or("")
+        .to_ascii_lowercase();
+    match ext.as_str() {
+        "binvox" => write_atomically(path, |w| w.write_all(&binvox_bytes(grid))),
+        "npy" => {
+            write_atomically(path, |w| w.write_all(&npy_bytes(grid)))?;
+            write_sidecar(
+                grid,
+                path,
+                "uint8 (x, y, ceil(R/8)): bits of z, little bit order",
+            )
+        }
+        "nrrd" => write_atomically(path, |w| w.write_all(&nrrd_bytes(grid))),
+        "raw" => {
+            let g = grid.to_axis(Axis::Z);
+            let bytes: Vec<u8> = bytemuck::cast_slice(&g.words).to_vec();
+            write_atomically(path, |w| w.write_all(&bytes))?;
+            write_sidecar(
+                grid,
+                path,
+                "little-endian u32; word ((y*R + x) * ceil(R/32) + z/32), bit z%32",
+            )
+        }
+        _ => Err(Error::Invalid(format!(
+            "{}: unknown voxel format '.{ext}' (use .binvox, .npy, .nrrd or .raw)",
+            path.display()
+        ))),
+    }
+}
+
+/// Writes `PATH.json` beside a `.raw`/`.npy` output: dims, origin, pitch and the bit layout.
+fn write_sidecar(grid: &VoxelGrid, path: &Path, layout: &str) -> Result<()> {
+    let f = &grid.frame;
+    let sidecar = serde_json::json!({
+        "format": "gregvox solid voxels",
+        "dims": [f.res, f.res, f.res],
+        "origin": f.origin,
+        "pitch": f.pitch(),
+        "side": f.side,
+        "voxel_centre": "origin + (index + 0.5) * pitch",
+        "layout": layout,
+        "solid_voxels": grid.count(),
+    });
+    let text = serde_json::to_string_pretty(&sidecar).map_err(|e| Error::Invalid(e.to_string()))?;
+    write_atomically(&path.with_extension("json"), |w| {
+        w.write_all(text.as_bytes())
+    })
+}
+
+/// NPY (version 1.0): uint8 array of shape (R, R, ceil(R/8)) in C order, the packed bits of z for each (x, y)
+/// (`np.unpackbits(a, axis=2, bitorder='little')[:, :, :R]` gives the (x, y, z) occupancy).
+pub fn npy_bytes(grid: &VoxelGrid) -> Vec<u8> {
+    let f = &grid.frame;
+    let r = f.res as usize;
+    let zb = r.div_ceil(8);
+    // numpy rejects extra header keys: origin and pitch go to the JSON sidecar.
+    let dict = format!("{{'descr': '|u1', 'fortran_order': False, 'shape': ({r}, {r}, {zb}), }}");
+    let mut h = dict.into_bytes();
+    while (10 + h.len() + 1) % 64 != 0 {
+        h.push(b' ');
+    }
+    h.push(b'\n');
+    let mut out = b"\x93NUMPY\x01\x00".to_vec();
+    out.extend_from_slice(&(h.len() as u16).to_le_bytes());
+    out.extend_from_slice(&h);
+    let g = grid.to_axis(Axis::Z);
+    let w = f.words_per_column() as usize;
+    for x in 0..r {
+        for y in 0..r {
+            let col: &[u32] = &g.words[(y * r + x) * w..][..w];
+            let bytes: &[u8] = bytemuck::cast_slice(col);
+            out.extend_from_slice(&bytes[..zb]);
+        }
+    }
+    out
+}
+
+/// NRRD: uint8 (0/1), sizes X Y Z with x fastest, raw encoding, origin and pitch in the header.
+pub fn nrrd_bytes(grid: &VoxelGrid) -> Vec<u8> {
+    let f = &grid.frame;
+    let r = f.res;
+    let p = f.pitch();
+    let mut out = format!(
+        "NRRD0004\ntype: uint8\ndimension: 3\nsizes: {r} {r} {r}\nencoding: raw\nspace dimension: 3\n\
+         space directions: ({p},0,0) (0,{p},0) (0,0,{p})\nspace origin: ({},{},{})\n\n",
+        f.origin[0] + 0.5 * p,
+        f.origin[1] + 0.5 * p,
+        f.origin[2] + 0.5 * p
+    )
+    .into_bytes();
+    let g = grid.to_axis(Axis::X);
+    let w = f.words_per_column() as usize;
+    // Bit axis X: columns (u, v) = (y, z), word (z·R + y)·W: x runs fastest inside each column.
+    for z in 0..r as usize {
+        for y in 0..r as usize {
+            let col = &g.words[(z * r as usize + y) * w..][..w];
+            out.extend((0..r as usize).map(|x| (col[x / 32] >> (x % 32) & 1) as u8));
+        }
+    }
+    out
+}
