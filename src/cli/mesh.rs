@@ -1,5 +1,7 @@
-//! `gregvox mesh` and `gregvox subdivide`.
-use clap::Args;
+//! `gregvox mesh` (topology report, human-readable or `--json`) and `gregvox subdivide` (Catmull–Clark or
+//! Loop, written as OBJ through a temporary file that is renamed into place).
+use crate::mesh::{self, LoopBeta, MeshMatrix, TopologyReport};
+use clap::{Args, ValueEnum};
 use std::path::PathBuf;
 
 /// Arguments of `gregvox mesh`.
@@ -10,6 +12,20 @@ pub struct MeshArgs {
     /// Print the report as JSON.
     #[arg(long)]
     pub json: bool,
+    /// Weld vertices closer than this (per-axis distance) before the analysis.
+    #[arg(long, value_name = "TOL")]
+    pub weld: Option<f64>,
+}
+
+/// Subdivision schemes of `gregvox subdivide`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
+pub enum Scheme {
+    /// Catmull–Clark (any polygon mesh; boundaries with the edge-only rule).
+    CatmullClark,
+    /// Loop with Warren's β (triangles only; = libigl `igl::loop`).
+    LoopWarren,
+    /// Loop with Loop's original β (triangles only; = trimesh `subdivide_loop`).
+    Loop,
 }
 
 /// Arguments of `gregvox subdivide`.
@@ -17,20 +33,141 @@ pub struct MeshArgs {
 pub struct SubdivideArgs {
     /// The OBJ file to subdivide.
     pub input: PathBuf,
-    /// Number of Catmull–Clark levels.
+    /// Number of subdivision levels.
     #[arg(long, default_value_t = 1)]
     pub levels: u32,
     /// Where to write the subdivided OBJ.
     #[arg(long)]
     pub out: PathBuf,
+    /// Subdivision scheme.
+    #[arg(long, value_enum, default_value_t = Scheme::CatmullClark)]
+    pub scheme: Scheme,
 }
 
 /// Runs `gregvox mesh`.
-pub fn run_mesh(_args: &MeshArgs) -> anyhow::Result<()> {
-    anyhow::bail!("gregvox mesh is not built yet")
+pub fn run_mesh(args: &MeshArgs) -> anyhow::Result<()> {
+    let mut m = mesh::load_obj(&args.input)?;
+    if let Some(tol) = args.weld {
+        if !(tol.is_finite() && tol >= 0.0) {
+            anyhow::bail!("--weld {tol}: the tolerance must be a finite number ≥ 0");
+        }
+        m = mesh::weld(&m, tol).0;
+        if m.n_faces() == 0 {
+            anyhow::bail!(
+                "{}: no face survives welding with tolerance {tol}",
+                args.input.display()
+            );
+        }
+    }
+    let mm = MeshMatrix::from_mesh(&m);
+    let report = mm.report();
+    if args.json {
+        println!("{}", serde_json::to_string_pretty(&report)?);
+    } else {
+        print!(
+            "{}",
+            human_report(&args.input.display().to_string(), &report)
+        );
+    }
+    Ok(())
+}
+
+/// The human-readable report.
+fn human_report(name: &str, r: &TopologyReport) -> String {
+    use std::fmt::Write;
+    let mut s = String::new();
+    let yes = |b: bool| if b { "yes" } else { "no" };
+    let _ = writeln!(s, "mesh: {name}");
+    let _ = writeln!(
+        s,
+        "  vertices         {} ({} referenced, {} unreferenced)",
+        r.vertices, r.referenced_vertices, r.unreferenced_vertices
+    );
+    let mut orders: Vec<(u32, usize)> = r
+        .face_order_histogram
+        .iter()
+        .map(|(k, v)| (k.parse().unwrap_or(0), *v))
+        .collect();
+    orders.sort_unstable();
+    let orders: Vec<String> = orders
+        .iter()
+        .map(|(k, v)| format!("{v} × {k}-gon"))
+        .collect();
+    let _ = writeln!(s, "  faces            {} ({})", r.faces, orders.join(", "));
+    let _ = writeln!(s, "  edges            {}", r.edges);
+    let _ = writeln!(
+        s,
+        "  boundary edges   {} in {} loop(s) {:?}",
+        r.boundary_edges, r.boundary_loops, r.boundary_loop_sizes
+    );
+    let _ = writeln!(
+        s,
+        "  non-manifold     {} edge(s), {} pinched vertex(es)",
+        r.non_manifold_edges, r.non_manifold_vertices
+    );
+    let _ = writeln!(
+        s,
+        "  inconsistent     {} edge(s) (second writes in E: {})",
+        r.inconsistent_edges, r.second_writes
+    );
+    let _ = writeln!(s, "  closed           {}", yes(r.closed));
+    let _ = writeln!(s, "  oriented         {}", yes(r.consistently_oriented));
+    let _ = writeln!(
+        s,
+        "  components       {} by vertices, {} by edges",
+        r.components, r.face_components
+    );
+    let _ = writeln!(s, "  euler χ          {}", r.euler_characteristic);
+    match r.genus {
+        Some(g) => {
+            let _ = writeln!(s, "  genus            {g}");
+        }
+        None => {
+            let _ = writeln!(
+                s,
+                "  genus            undefined (not a manifold oriented surface)"
+            );
+        }
+    }
+    let mut val: Vec<(u32, usize)> = r
+        .valence_histogram
+        .iter()
+        .map(|(k, v)| (k.parse().unwrap_or(0), *v))
+        .collect();
+    val.sort_unstable();
+    let val: Vec<String> = val.iter().map(|(k, v)| format!("{k}:{v}")).collect();
+    let _ = writeln!(s, "  valence          {}", val.join(" "));
+    s
 }
 
 /// Runs `gregvox subdivide`.
-pub fn run_subdivide(_args: &SubdivideArgs) -> anyhow::Result<()> {
-    anyhow::bail!("gregvox subdivide is not built yet")
+pub fn run_subdivide(args: &SubdivideArgs) -> anyhow::Result<()> {
+    let m = mesh::load_obj(&args.input)?;
+    // Each level after the first multiplies the corner count by 4; refuse before running out of u32.
+    let mut corners = m.indices.len() as u128;
+    for _ in 0..args.levels {
+        corners = corners.saturating_mul(4);
+    }
+    if corners >= u32::MAX as u128 {
+        anyhow::bail!(
+            "--levels {}: the result would have about {} corners, more than u32 indices allow",
+            args.levels,
+            corners
+        );
+    }
+    let out = match args.scheme {
+        Scheme::CatmullClark => mesh::catmull_clark(&m, args.levels),
+        Scheme::LoopWarren => mesh::loop_subdivide(&m, args.levels, LoopBeta::Warren)
+            .map_err(|e| anyhow::anyhow!("{}: {e}", args.input.display()))?,
+        Scheme::Loop => mesh::loop_subdivide(&m, args.levels, LoopBeta::Loop)
+            .map_err(|e| anyhow::anyhow!("{}: {e}", args.input.display()))?,
+    };
+    mesh::write_obj(&args.out, &out)?;
+    eprintln!(
+        "wrote {} ({} vertices, {} faces)",
+        args.out.display(),
+        out.positions.len(),
+        out.n_faces()
+    );
+    Ok(())
 }

@@ -1,1 +1,36 @@
 //! OBJ loading and mesh connectivity as sparse matrices (`MeshMatrix`): topology, normals, subdivision.
+//!
+//! Ownership: [`Mesh`] (positions + polygon faces as read) is the input; [`MeshMatrix`] owns the
+//! connectivity (M, Mᵀ, E) and answers every topology question; positions stay outside it as
+//! `&[DVec3]` so one connectivity serves a deforming cage. Free functions (libigl style) and methods on
+//! `MeshMatrix` compute the same things. Everything is deterministic (stable counting sorts, gathers
+//! summed in row order), `u32`-indexed and ready to upload to the GPU as-is.
+//!
+//! ```
+//! use gregvox::mesh::{parse_obj, MeshMatrix, NormalWeighting};
+//! let mesh = parse_obj("v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 0 1\nf 1 3 2\nf 1 2 4\nf 2 3 4\nf 1 4 3\n", "tet.obj").unwrap();
+//! let m = MeshMatrix::from_mesh(&mesh);
+//! let report = m.report();
+//! assert!(report.closed);
+//! assert_eq!(report.euler_characteristic, 2);
+//! let n = m.vertex_normals(&mesh.positions, NormalWeighting::Area);
+//! assert!(n.iter().all(|v| (v.length() - 1.0).abs() < 1e-12));
+//! ```
+mod matrix;
+mod normals;
+mod obj;
+mod sparse;
+mod subdivision;
+mod topology;
+
+pub use matrix::{ActionMap, FaceLayout, HalfEdgeFace, MeshMatrix, VertexCorners, NONE};
+pub use normals::{
+    face_centroids, face_normals, face_normals_unnormalized, vertex_normals, NormalWeighting,
+};
+pub use obj::{load_obj, parse_obj, weld, write_obj, Mesh};
+pub use sparse::SparseMatrix;
+pub use subdivision::{
+    catmull_clark, catmull_clark_matrix, loop_matrix, loop_subdivide, rows_sum_to_one, LoopBeta,
+    Subdivision, SubdivisionStack,
+};
+pub use topology::{EdgeUse, TopologyReport};

@@ -1,0 +1,412 @@
+//! Catmull–Clark and Loop subdivision as a sparse matrix S built once from topology: `P' = S·P`.
+//!
+//! Invariants: S is a [`SparseMatrix<f64>`] with one row per new vertex (sorted, merged columns, weights of
+//! each row summing to 1); the refined connectivity is returned beside it as a [`MeshMatrix`]. Repeated
+//! refinement of a deforming cage = build the [`SubdivisionStack`] once, then one SpMV per level per frame.
+//!
+//! Catmull–Clark new-vertex order: `[vertex points (|V|) | face points (|F|) | edge points (|E|, edge ids
+//! of the input MeshMatrix)]`. New face `c` (one per corner `c` of face `f`, so |F'| = nnz(M)) is the quad
+//! `[v_c, e(c → next c), f, e(prev c → c)]`: same orientation as the input, stride 4.
+//! Boundary rule "edge only": an edge with one face (or more than two: non-manifold edges are treated as
+//! creases too) gets its midpoint; a vertex on exactly two such edges gets `(6P + Pa + Pb)/8`; a vertex
+//! on one or more than two keeps its position (a corner); unreferenced vertices keep their position.
+//! Smooth vertices: `P' = Q/n + ΣP_j/n² + (n−2)/n·P` with n = number of edges at the vertex and Q the
+//! average of the incident face points.
+//!
+//! Loop (triangles only): new-vertex order `[even (|V|) | odd (|E|)]`; new faces of triangle `[a,b,c]` are
+//! `4f..4f+4`: `[a, ab, ca]`, `[b, bc, ab]`, `[c, ca, bc]`, `[ab, bc, ca]`. Even smooth vertex
+//! `(1 − nβ)P + βΣP_j` with the β of [`LoopBeta`]; boundary rules as for Catmull–Clark; odd interior
+//! `3/8 (P_i + P_j) + 1/8 (P_k + P_l)`.
+use super::matrix::MeshMatrix;
+use super::obj::Mesh;
+use super::sparse::SparseMatrix;
+use crate::error::{Error, Result};
+use glam::DVec3;
+
+/// One refinement level: the subdivision matrix and the refined topology.
+#[derive(Debug, Clone)]
+pub struct Subdivision {
+    /// `|V'| × |V|` weights: new positions = `s.spmv(old positions)`.
+    pub s: SparseMatrix<f64>,
+    /// The refined connectivity.
+    pub topology: MeshMatrix,
+}
+
+/// Which β the Loop scheme uses for smooth even vertices of valence n.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum LoopBeta {
+    /// Warren: 3/16 for n = 3, 3/(8n) otherwise (libigl `igl::loop`).
+    #[default]
+    Warren,
+    /// Loop's original β = (40 − (3 + 2cos(2π/n))²)/(64n) (`trimesh.remesh.subdivide_loop`).
+    Loop,
+}
+
+impl LoopBeta {
+    /// β for valence `n`.
+    ///
+    /// ```
+    /// use gregvox::mesh::LoopBeta;
+    /// assert_eq!(LoopBeta::Warren.beta(3), 3.0 / 16.0);
+    /// assert!((LoopBeta::Loop.beta(6) - 1.0 / 16.0).abs() < 1e-15);
+    /// ```
+    pub fn beta(self, n: usize) -> f64 {
+        let nf = n as f64;
+        match self {
+            LoopBeta::Warren => {
+                if n == 3 {
+                    3.0 / 16.0
+                } else {
+                    3.0 / (8.0 * nf)
+                }
+            }
+            LoopBeta::Loop => {
+                let c = 3.0 + 2.0 * (2.0 * std::f64::consts::PI / nf).cos();
+                (40.0 - c * c) / (64.0 * nf)
+            }
+        }
+    }
+}
+
+/// Collects one row: pushes (col, w), then sorts by column and merges duplicates.
+struct RowBuilder {
+    row_ptr: Vec<u32>,
+    col: Vec<u32>,
+    val: Vec<f64>,
+    buf: Vec<(u32, f64)>,
+}
+
+impl RowBuilder {
+    fn new(rows: usize, nnz_hint: usize) -> Self {
+        let mut row_ptr = Vec::with_capacity(rows + 1);
+        row_ptr.push(0);
+        RowBuilder {
+            row_ptr,
+            col: Vec::with_capacity(nnz_hint),
+            val: Vec::with_capacity(nnz_hint),
+            buf: Vec::new(),
+        }
+    }
+    fn add(&mut self, c: u32, w: f64) {
+        self.buf.push((c, w));
+    }
+    fn finish_row(&mut self) {
+        // Stable sort: duplicates are summed in push order, so the weights are reproducible.
+        self.buf.sort_by_key(|e| e.0);
+        let start = self.col.len();
+        for &(c, w) in &self.buf {
+            if self.col.len() > start && *self.col.last().unwrap() == c {
+                *self.val.last_mut().unwrap() += w;
+            } else {
+                self.col.push(c);
+                self.val.push(w);
+            }
+        }
+        self.buf.clear();
+        self.row_ptr.push(self.col.len() as u32);
+    }
+    fn build(self, n_cols: usize) -> SparseMatrix<f64> {
+        SparseMatrix {
+            n_rows: (self.row_ptr.len() - 1) as u32,
+            n_cols: n_cols as u32,
+            row_ptr: self.row_ptr,
+            col: self.col,
+            val: self.val,
+        }
+    }
+}
+
+/// Per vertex: the neighbours across crease edges (boundary or non-manifold), at most 3 recorded.
+fn crease_neighbours(m: &MeshMatrix) -> (Vec<u32>, Vec<[u32; 2]>) {
+    let uses = m.edge_uses();
+    let mut count = vec![0u32; m.n_verts()];
+    let mut nb = vec![[0u32; 2]; m.n_verts()];
+    for (e, u) in uses.iter().enumerate() {
+        if u.faces() != 2 {
+            let [a, b] = m.edge_vertices(e);
+            for (x, y) in [(a, b), (b, a)] {
+                let k = count[x as usize];
+                if k < 2 {
+                    nb[x as usize][k as usize] = y;
+                }
+                count[x as usize] += 1;
+            }
+        }
+    }
+    (count, nb)
+}
+
+/// Vertex rows shared by both schemes when the vertex is on a crease; returns true if handled.
+fn crease_vertex_row(rb: &mut RowBuilder, v: u32, count: u32, nb: [u32; 2]) -> bool {
+    match count {
+        0 => false,
+        2 => {
+            rb.add(v, 0.75);
+            rb.add(nb[0], 0.125);
+            rb.add(nb[1], 0.125);
+            true
+        }
+        _ => {
+            rb.add(v, 1.0);
+            true
+        }
+    }
+}
+
+/// The Catmull–Clark subdivision matrix and refined topology of one level (any polygon mesh).
+///
+/// ```
+/// use gregvox::mesh::{MeshMatrix, catmull_clark_matrix};
+/// use glam::DVec3;
+/// // one quad: 4 vertex points, 1 face point, 4 edge points; 4 quads
+/// let m = MeshMatrix::new(4, &[0, 4], vec![0, 1, 2, 3]).unwrap();
+/// let sub = catmull_clark_matrix(&m);
+/// assert_eq!((sub.s.n_rows, sub.topology.n_faces()), (9, 4));
+/// let p = [DVec3::ZERO, DVec3::X, DVec3::new(1.0, 1.0, 0.0), DVec3::Y];
+/// assert_eq!(sub.s.spmv(&p)[4], DVec3::new(0.5, 0.5, 0.0)); // the face point
+/// ```
+pub fn catmull_clark_matrix(m: &MeshMatrix) -> Subdivision {
+    let (nv, nf, ne) = (m.n_verts(), m.n_faces(), m.n_edges());
+    let vc = m.vertex_corners();
+    let cf = m.corner_face();
+    let cv = m.corner_vertex();
+    let uses = m.edge_uses();
+    let (ccount, cnb) = crease_neighbours(m);
+    let mut rb = RowBuilder::new(nv + nf + ne, 16 * m.n_corners());
+    // Vertex points.
+    for v in 0..nv {
+        let vu = v as u32;
+        if !m.is_referenced(v) {
+            rb.add(vu, 1.0);
+        } else if !crease_vertex_row(&mut rb, vu, ccount[v], cnb[v]) {
+            let nbrs = m.neighbours(v);
+            let n = nbrs.len() as f64;
+            let n_faces = (vc.ptr[v + 1] - vc.ptr[v]) as f64;
+            rb.add(vu, (n - 2.0) / n);
+            for &j in &nbrs {
+                rb.add(j, 1.0 / (n * n));
+            }
+            for k in vc.ptr[v]..vc.ptr[v + 1] {
+                let f = cf[vc.corner[k as usize] as usize] as usize;
+                let face = m.face(f);
+                let w = 1.0 / (n * n_faces * face.len() as f64);
+                for &u in face {
+                    rb.add(u, w);
+                }
+            }
+        }
+        rb.finish_row();
+    }
+    // Face points.
+    for f in 0..nf {
+        let face = m.face(f);
+        let w = 1.0 / face.len() as f64;
+        for &u in face {
+            rb.add(u, w);
+        }
+        rb.finish_row();
+    }
+    // Edge points.
+    let edge_faces = m.edge_faces();
+    for (e, u) in uses.iter().enumerate() {
+        let [a, b] = m.edge_vertices(e);
+        if u.faces() == 2 {
+            rb.add(a, 0.25);
+            rb.add(b, 0.25);
+            for &f in edge_faces.row(e).0 {
+                let face = m.face(f as usize);
+                let w = 0.25 / face.len() as f64;
+                for &x in face {
+                    rb.add(x, w);
+                }
+            }
+        } else {
+            rb.add(a, 0.5);
+            rb.add(b, 0.5);
+        }
+        rb.finish_row();
+    }
+    let s = rb.build(nv);
+    // Topology: one quad per corner.
+    let entry = m.corner_entries();
+    let he_edge = m.half_edge_edge();
+    let (fo, eo) = (nv as u32, (nv + nf) as u32);
+    let mut idx = Vec::with_capacity(4 * m.n_corners());
+    for c in 0..m.n_corners() as u32 {
+        let f = cf[c as usize];
+        let e_next = he_edge[entry[c as usize] as usize];
+        let e_prev = he_edge[entry[m.prev(c) as usize] as usize];
+        idx.extend_from_slice(&[cv[c as usize], eo + e_next, fo + f, eo + e_prev]);
+    }
+    let face_ptr: Vec<u32> = (0..=m.n_corners() as u32).map(|c| 4 * c).collect();
+    let topology = MeshMatrix::from_parts_unchecked((nv + nf + ne) as u32, &face_ptr, idx);
+    Subdivision { s, topology }
+}
+
+/// The Loop subdivision matrix and refined topology of one level; the mesh must be all triangles.
+///
+/// ```
+/// use gregvox::mesh::{MeshMatrix, loop_matrix, LoopBeta};
+/// let m = MeshMatrix::new(3, &[0, 3], vec![0, 1, 2]).unwrap();
+/// let sub = loop_matrix(&m, LoopBeta::Warren).unwrap();
+/// assert_eq!((sub.s.n_rows, sub.topology.n_faces()), (6, 4));
+/// assert!(loop_matrix(&MeshMatrix::new(4, &[0, 4], vec![0, 1, 2, 3]).unwrap(), LoopBeta::Loop).is_err());
+/// ```
+pub fn loop_matrix(m: &MeshMatrix, beta: LoopBeta) -> Result<Subdivision> {
+    if (0..m.n_faces()).any(|f| m.face_len(f) != 3) {
+        return Err(Error::Invalid(
+            "Loop subdivision needs a triangle mesh (use Catmull–Clark for polygons)".into(),
+        ));
+    }
+    let (nv, ne) = (m.n_verts(), m.n_edges());
+    let uses = m.edge_uses();
+    let (ccount, cnb) = crease_neighbours(m);
+    let mut rb = RowBuilder::new(nv + ne, 7 * nv + 4 * ne);
+    for v in 0..nv {
+        let vu = v as u32;
+        if !m.is_referenced(v) {
+            rb.add(vu, 1.0);
+        } else if !crease_vertex_row(&mut rb, vu, ccount[v], cnb[v]) {
+            let nbrs = m.neighbours(v);
+            let b = beta.beta(nbrs.len());
+            rb.add(vu, 1.0 - nbrs.len() as f64 * b);
+            for &j in &nbrs {
+                rb.add(j, b);
+            }
+        }
+        rb.finish_row();
+    }
+    let edge_faces = m.edge_faces();
+    for (e, u) in uses.iter().enumerate() {
+        let [a, b] = m.edge_vertices(e);
+        if u.faces() == 2 {
+            rb.add(a, 0.375);
+            rb.add(b, 0.375);
+            for &f in edge_faces.row(e).0 {
+                let opp = m
+                    .face(f as usize)
+                    .iter()
+                    .copied()
+                    .find(|&x| x != a && x != b)
+                    .expect("a triangle has a third vertex");
+                rb.add(opp, 0.125);
+            }
+        } else {
+            rb.add(a, 0.5);
+            rb.add(b, 0.5);
+        }
+        rb.finish_row();
+    }
+    let s = rb.build(nv);
+    let entry = m.corner_entries();
+    let he_edge = m.half_edge_edge();
+    let cv = m.corner_vertex();
+    let mut idx = Vec::with_capacity(12 * m.n_faces());
+    for f in 0..m.n_faces() as u32 {
+        let c0 = 3 * f;
+        let (a, b, c) = (cv[c0 as usize], cv[c0 as usize + 1], cv[c0 as usize + 2]);
+        let e = |corner: u32| nv as u32 + he_edge[entry[corner as usize] as usize];
+        let (ab, bc, ca) = (e(c0), e(c0 + 1), e(c0 + 2));
+        idx.extend_from_slice(&[a, ab, ca, b, bc, ab, c, ca, bc, ab, bc, ca]);
+    }
+    let face_ptr: Vec<u32> = (0..=4 * m.n_faces() as u32).map(|f| 3 * f).collect();
+    let topology = MeshMatrix::from_parts_unchecked((nv + ne) as u32, &face_ptr, idx);
+    Ok(Subdivision { s, topology })
+}
+
+/// Several levels of one scheme, built once: per frame, refine a deforming cage with one SpMV per level.
+#[derive(Debug, Clone)]
+pub struct SubdivisionStack {
+    /// The levels, coarse to fine.
+    pub levels: Vec<Subdivision>,
+}
+
+impl SubdivisionStack {
+    /// `levels` Catmull–Clark levels of `m`.
+    ///
+    /// ```
+    /// use gregvox::mesh::{MeshMatrix, SubdivisionStack};
+    /// use glam::DVec3;
+    /// let m = MeshMatrix::new(4, &[0, 4], vec![0, 1, 2, 3]).unwrap();
+    /// let stack = SubdivisionStack::catmull_clark(&m, 2);
+    /// let p = [DVec3::ZERO, DVec3::X, DVec3::new(1.0, 1.0, 0.0), DVec3::Y];
+    /// assert_eq!(stack.apply(&p).len(), stack.finest().n_verts());
+    /// assert_eq!(stack.finest().n_faces(), 16);
+    /// ```
+    pub fn catmull_clark(m: &MeshMatrix, levels: u32) -> Self {
+        let mut out: Vec<Subdivision> = Vec::new();
+        for _ in 0..levels {
+            let sub = catmull_clark_matrix(out.last().map(|l| &l.topology).unwrap_or(m));
+            out.push(sub);
+        }
+        SubdivisionStack { levels: out }
+    }
+
+    /// New positions after all levels: one SpMV per level.
+    pub fn apply(&self, cage: &[DVec3]) -> Vec<DVec3> {
+        let mut p = cage.to_vec();
+        for l in &self.levels {
+            p = l.s.spmv(&p);
+        }
+        p
+    }
+
+    /// The finest topology (panics if the stack has no level).
+    pub fn finest(&self) -> &MeshMatrix {
+        &self
+            .levels
+            .last()
+            .expect("a stack with at least one level")
+            .topology
+    }
+}
+
+/// Catmull–Clark subdivision of a mesh, `levels` times (0 levels returns a copy).
+///
+/// ```
+/// use gregvox::mesh::{Mesh, catmull_clark};
+/// use glam::DVec3;
+/// let p = vec![DVec3::ZERO, DVec3::X, DVec3::new(1.0, 1.0, 0.0), DVec3::Y];
+/// let m = Mesh::from_polygons(p, &[vec![0, 1, 2, 3]]).unwrap();
+/// assert_eq!(catmull_clark(&m, 2).n_faces(), 16);
+/// ```
+pub fn catmull_clark(mesh: &Mesh, levels: u32) -> Mesh {
+    let mut m = MeshMatrix::from_mesh(mesh);
+    let mut p = mesh.positions.clone();
+    for _ in 0..levels {
+        let sub = catmull_clark_matrix(&m);
+        p = sub.s.spmv(&p);
+        m = sub.topology;
+    }
+    m.to_mesh(p)
+}
+
+/// Loop subdivision of a triangle mesh, `levels` times.
+///
+/// ```
+/// use gregvox::mesh::{Mesh, loop_subdivide, LoopBeta};
+/// use glam::DVec3;
+/// let m = Mesh::from_polygons(vec![DVec3::ZERO, DVec3::X, DVec3::Y], &[vec![0, 1, 2]]).unwrap();
+/// assert_eq!(loop_subdivide(&m, 1, LoopBeta::Warren).unwrap().n_faces(), 4);
+/// ```
+pub fn loop_subdivide(mesh: &Mesh, levels: u32, beta: LoopBeta) -> Result<Mesh> {
+    let mut m = MeshMatrix::from_mesh(mesh);
+    let mut p = mesh.positions.clone();
+    for _ in 0..levels {
+        let sub = loop_matrix(&m, beta)?;
+        p = sub.s.spmv(&p);
+        m = sub.topology;
+    }
+    Ok(m.to_mesh(p))
+}
+
+/// Distance-free check used by tests: the weights of every row of S sum to one (affine invariance).
+///
+/// ```
+/// use gregvox::mesh::{MeshMatrix, catmull_clark_matrix, rows_sum_to_one};
+/// let m = MeshMatrix::new(4, &[0, 4], vec![0, 1, 2, 3]).unwrap();
+/// assert!(rows_sum_to_one(&catmull_clark_matrix(&m).s, 1e-14));
+/// ```
+pub fn rows_sum_to_one(s: &SparseMatrix<f64>, tol: f64) -> bool {
+    (0..s.n_rows as usize).all(|r| (s.row(r).1.iter().sum::<f64>() - 1.0).abs() <= tol)
+}
