@@ -6,6 +6,7 @@ use std::process::ExitCode;
 pub mod info;
 pub mod mesh;
 pub mod profile;
+pub mod voxelize;
 
 /// gregvox: Gregory surfaces and solid voxels on Vulkan.
 #[derive(Debug, Parser)]
@@ -24,6 +25,8 @@ pub enum Command {
     Mesh(mesh::MeshArgs),
     /// Catmull–Clark subdivide a mesh and write the result as OBJ.
     Subdivide(mesh::SubdivideArgs),
+    /// Voxelize a mesh into a solid bit grid (depth peeling on the GPU, or the CPU scanline).
+    Voxelize(voxelize::VoxelizeArgs),
     /// Run the live demo in a window, or offscreen writing PNG frames.
     Demo(crate::demo::DemoArgs),
 }
@@ -49,6 +52,7 @@ pub fn main() -> ExitCode {
         Command::Mesh(a) => mesh::run_mesh(&a),
         Command::Subdivide(a) => mesh::run_subdivide(&a),
         Command::Demo(a) => crate::demo::run(&a),
+        Command::Voxelize(a) => voxelize::run(&a),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

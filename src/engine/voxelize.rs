@@ -126,6 +126,19 @@ impl AxisResources {
     }
 }
 
+fn peel_push(frame: &GridFrame, axis: Axis) -> PeelPush {
+    let (ua, va) = axis.uv();
+    PeelPush {
+        origin_inv_pitch: [
+            frame.origin[0] as f32,
+            frame.origin[1] as f32,
+            frame.origin[2] as f32,
+            (1.0 / frame.pitch()) as f32,
+        ],
+        axes_res: [ua as u32, va as u32, axis.index() as u32, frame.res],
+    }
+}
+
 /// Bytes of device memory one axis of a voxelization needs at most: layers, two depth images, counts, one
 /// output slab.
 pub fn memory_estimate(ctx: &Context, res: u32, layers: u32) -> u64 {
@@ -166,6 +179,88 @@ impl PeelVoxelizer {
             max_layers: DEFAULT_MAX_LAYERS,
             slab_limit: None,
         })
+    }
+
+    /// Runs only the count pre-pass along `axis`: (layers needed, columns covered).
+    pub fn count_layers(
+        &self,
+        ctx: &Context,
+        geom: &PeelGeometry,
+        frame: &GridFrame,
+        axis: Axis,
+    ) -> Result<(u32, u64)> {
+        let push = peel_push(frame, axis);
+        let r2 = frame.res as u64 * frame.res as u64;
+        let counts = ctx.create_buffer(
+            "peel counts",
+            (r2 + 1) * 4,
+            vk::BufferUsageFlags::STORAGE_BUFFER
+                | vk::BufferUsageFlags::TRANSFER_DST
+                | vk::BufferUsageFlags::TRANSFER_SRC,
+            MemoryLocation::GpuOnly,
+        )?;
+        let result = ctx
+            .one_shot(|cmd| {
+                self.record_count(ctx, cmd, geom, &push, &counts, &mut None);
+                Ok(())
+            })
+            .and_then(|()| ctx.read_buffer(&counts));
+        counts.destroy(ctx);
+        let words: Vec<u32> = result?
+            .chunks_exact(4)
+            .map(|b| u32::from_le_bytes([b[0], b[1], b[2], b[3]]))
+            .collect();
+        Ok((
+            words[0],
+            words[1..].iter().filter(|&&c| c > 0).count() as u64,
+        ))
+    }
+
+    fn record_count(
+        &self,
+        ctx: &Context,
+        cmd: vk::CommandBuffer,
+        geom: &PeelGeometry,
+        push: &PeelPush,
+        counts: &Buffer,
+        profiler: &mut Option<&mut Profiler>,
+    ) {
+        // SAFETY: recording; whole-buffer fill.
+        unsafe {
+            ctx.device
+                .cmd_fill_buffer(cmd, counts.raw, 0, vk::WHOLE_SIZE, 0)
+        };
+        memory_barrier(
+            ctx,
+            cmd,
+            (
+                vk::PipelineStageFlags2::ALL_TRANSFER,
+                vk::AccessFlags2::TRANSFER_WRITE,
+            ),
+            (
+                vk::PipelineStageFlags2::FRAGMENT_SHADER,
+                vk::AccessFlags2::SHADER_STORAGE_READ | vk::AccessFlags2::SHADER_STORAGE_WRITE,
+            ),
+        );
+        let s = profiler
+            .as_deref_mut()
+            .map(|p| p.begin(ctx, cmd, 0, "peel count pre-pass"));
+        self.peel.record_count(ctx, cmd, geom, push, counts);
+        if let (Some(p), Some(s)) = (profiler.as_deref_mut(), s) {
+            p.end(ctx, cmd, s);
+        }
+        memory_barrier(
+            ctx,
+            cmd,
+            (
+                vk::PipelineStageFlags2::FRAGMENT_SHADER,
+                vk::AccessFlags2::SHADER_STORAGE_WRITE,
+            ),
+            (
+                vk::PipelineStageFlags2::ALL_TRANSFER,
+                vk::AccessFlags2::TRANSFER_READ,
+            ),
+        );
     }
 
     /// Voxelizes `geom` in `frame` with columns along `axis`.

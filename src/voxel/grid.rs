@@ -10,7 +10,9 @@
 use crate::error::{Error, Result};
 
 /// A coordinate axis.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, clap::ValueEnum, serde::Serialize)]
+#[derive(
+    Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash, clap::ValueEnum, serde::Serialize,
+)]
 pub enum Axis {
     X = 0,
     Y = 1,

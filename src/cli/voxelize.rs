@@ -1,0 +1,288 @@
+//! `gregvox voxelize IN.obj --res R [--out OUT.binvox] …`: solid voxels by depth peeling (GPU) or the CPU
+//! scanline, with hygiene, open-mesh detection, axis choice, a memory estimate and per-pass times.
+use super::profile::ProfileArgs;
+use crate::engine::voxelize::{memory_estimate, GpuTriangles, PeelVoxelizer};
+use crate::gpu::{Context, ContextDesc, Profiler};
+use crate::mesh::{load_obj, Mesh, MeshMatrix};
+use crate::voxel::cpu::{voxelize_cpu, FillRule};
+use crate::voxel::export::write_grid;
+use crate::voxel::grid::{Axis, GridFrame, VoxelGrid};
+use crate::voxel::mesh::TriMesh;
+use anyhow::{bail, Context as _};
+use clap::{Args, ValueEnum};
+use std::path::PathBuf;
+use std::time::Instant;
+
+/// Largest resolution accepted (2048³ bits = 1 GiB).
+pub const MAX_RES: u32 = 2048;
+
+/// The voxelization method.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum Method {
+    /// Raster depth peeling + compute fill on the GPU.
+    Peel,
+    /// The same-sampling CPU column scanline (all cores).
+    Cpu,
+}
+
+/// Arguments of `gregvox voxelize`.
+#[derive(Debug, Args)]
+pub struct VoxelizeArgs {
+    /// The OBJ file to voxelize.
+    pub input: PathBuf,
+    /// Voxels per side of the cubic grid (1–2048).
+    #[arg(long)]
+    pub res: u32,
+    /// Output file: .binvox, .npy, .nrrd or .raw (+ .json sidecar).
+    #[arg(long)]
+    pub out: Option<PathBuf>,
+    /// Peel along 1 axis, or 3 with a 2-of-3 vote (default: 3 for open meshes, else 1).
+    #[arg(long, value_parser = clap::builder::PossibleValuesParser::new(["1", "3"]))]
+    pub axes: Option<String>,
+    /// The single peel axis (default: the smallest layers × covered area).
+    #[arg(long, value_enum)]
+    pub axis: Option<Axis>,
+    /// Inside rule.
+    #[arg(long, value_enum, default_value = "winding")]
+    pub rule: FillRule,
+    /// Method.
+    #[arg(long, value_enum, default_value = "peel")]
+    pub method: Method,
+    /// Refuse meshes needing more peeling passes than this.
+    #[arg(long, default_value_t = 256)]
+    pub max_layers: u32,
+    /// Print the summary as JSON.
+    #[arg(long)]
+    pub json: bool,
+    #[command(flatten)]
+    pub profile: ProfileArgs,
+}
+
+/// Fan-triangulates a polygon mesh for the voxelizers.
+pub fn triangles_of(mesh: &Mesh) -> TriMesh {
+    let positions = mesh
+        .positions
+        .iter()
+        .map(|p| [p.x as f32, p.y as f32, p.z as f32])
+        .collect();
+    let mut triangles = Vec::new();
+    for f in 0..mesh.n_faces() {
+        let face = mesh.face(f);
+        for k in 1..face.len() - 1 {
+            triangles.push([face[0], face[k], face[k + 1]]);
+        }
+    }
+    TriMesh {
+        positions,
+        triangles,
+    }
+}
+
+/// Runs `gregvox voxelize`.
+pub fn run(args: &VoxelizeArgs) -> anyhow::Result<()> {
+    if args.res == 0 || args.res > MAX_RES {
+        bail!(
+            "--res {} is out of range: the resolution must be between 1 and {MAX_RES}",
+            args.res
+        );
+    }
+    if let Some(out) = &args.out {
+        let ext = out
+            .extension()
+            .and_then(|e| e.to_str())
+            .unwrap_or("")
+            .to_ascii_lowercase();
+        if !["binvox", "npy", "nrrd", "raw"].contains(&ext.as_str()) {
+            bail!(
+                "{}: unknown voxel format '.{ext}' (use .binvox, .npy, .nrrd or .raw)",
+                out.display()
+            );
+        }
+    }
+    let mesh = load_obj(&args.input)?;
+    let topo = MeshMatrix::from_mesh(&mesh).report();
+    let (tri, clean) = triangles_of(&mesh).clean();
+    if tri.triangles.is_empty() {
+        bail!(
+            "{}: no triangle with a non-zero area to voxelize",
+            args.input.display()
+        );
+    }
+    let frame = GridFrame::from_points(&tri.positions, args.res)
+        .with_context(|| args.input.display().to_string())?;
+    let mut notes = Vec::new();
+    if clean.duplicates + clean.cancelled + clean.zero_area > 0 {
+        notes.push(format!(
+            "removed {} duplicate, {} cancelling and {} zero-area triangles",
+            clean.duplicates, clean.cancelled, clean.zero_area
+        ));
+    }
+    let open = !topo.closed;
+    let three = match args.axes.as_deref() {
+        Some("3") => true,
+        Some(_) => false,
+        None => open && args.axis.is_none(),
+    };
+    if open {
+        notes.push(format!(
+            "open mesh ({} boundary and {} non-manifold edges){}",
+            topo.boundary_edges,
+            topo.non_manifold_edges,
+            if three {
+                ": peeling along x, y and z with a 2-of-3 vote"
+            } else {
+                ""
+            }
+        ));
+    }
+    for n in &notes {
+        eprintln!("gregvox voxelize: {n}");
+    }
+
+    let start = Instant::now();
+    let (grid, layers, profiler_json, table) = match args.method {
+        Method::Cpu => {
+            let axes: Vec<Axis> = if three {
+                Axis::ALL.to_vec()
+            } else {
+                vec![args.axis.unwrap_or(Axis::Z)]
+            };
+            let grids: Vec<VoxelGrid> = axes
+                .iter()
+                .map(|&a| voxelize_cpu(&tri, &frame, a, args.rule))
+                .collect();
+            let grid = if three {
+                VoxelGrid::majority([&grids[0], &grids[1], &grids[2]])
+            } else {
+                grids.into_iter().next().unwrap()
+            };
+            (grid, Vec::new(), None, None)
+        }
+        Method::Peel => run_peel(args, &tri, &frame, three)?,
+    };
+    let seconds = start.elapsed().as_secs_f64();
+    if let Some(out) = &args.out {
+        write_grid(&grid, out)?;
+    }
+    let summary = serde_json::json!({
+        "input": args.input.display().to_string(),
+        "res": args.res,
+        "method": format!("{:?}", args.method).to_lowercase(),
+        "rule": format!("{:?}", args.rule).to_lowercase(),
+        "triangles": tri.triangles.len(),
+        "removed": clean,
+        "closed": topo.closed,
+        "layers": layers.iter().map(|(a, l): &(Axis, u32)| (a.name().to_string(), *l)).collect::<std::collections::BTreeMap<_, _>>(),
+        "solid_voxels": grid.count(),
+        "origin": frame.origin,
+        "pitch": frame.pitch(),
+        "seconds": seconds,
+        "profile": profiler_json,
+    });
+    if args.json {
+        super::print_out(&format!("{}\n", serde_json::to_string_pretty(&summary)?))?;
+    } else {
+        let l: Vec<String> = layers
+            .iter()
+            .map(|(a, l)| format!("{} {l}", a.name()))
+            .collect();
+        let mut text = format!(
+            "{}: {} triangles, {}³ grid, pitch {:.6}\n",
+            args.input.display(),
+            tri.triangles.len(),
+            args.res,
+            frame.pitch()
+        );
+        if !l.is_empty() {
+            text.push_str(&format!("layers per axis: {}\n", l.join(", ")));
+        }
+        text.push_str(&format!(
+            "solid voxels: {}\ntotal time: {:.1} ms\n",
+            grid.count(),
+            seconds * 1e3
+        ));
+        if let Some(t) = table {
+            text.push_str(&t);
+        }
+        super::print_out(&text)?;
+    }
+    Ok(())
+}
+
+type PeelResult = (
+    VoxelGrid,
+    Vec<(Axis, u32)>,
+    Option<serde_json::Value>,
+    Option<String>,
+);
+
+fn run_peel(
+    args: &VoxelizeArgs,
+    tri: &TriMesh,
+    frame: &GridFrame,
+    three: bool,
+) -> anyhow::Result<PeelResult> {
+    let ctx = Context::with_desc(&ContextDesc::default())?;
+    let mut profiler = Profiler::new(&ctx, 1, 4096)?;
+    let result = (|| -> anyhow::Result<PeelResult> {
+        let mut v = PeelVoxelizer::new(&ctx, 12)?;
+        v.max_layers = args.max_layers;
+        let gpu = match GpuTriangles::upload(&ctx, tri) {
+            Ok(g) => g,
+            Err(e) => {
+                v.destroy(&ctx);
+                return Err(e.into());
+            }
+        };
+        let out = (|| -> anyhow::Result<PeelResult> {
+            let geom = gpu.geometry();
+            let need = memory_estimate(&ctx, frame.res, 16);
+            let heap = ctx.info.device_local_heap_bytes;
+            if heap > 0 && need > heap {
+                bail!(
+                    "--res {} needs about {} MiB of device memory; the device has {} MiB",
+                    frame.res,
+                    need >> 20,
+                    heap >> 20
+                );
+            }
+            let axes: Vec<Axis> = if three {
+                Axis::ALL.to_vec()
+            } else if let Some(a) = args.axis {
+                vec![a]
+            } else {
+                // The cheapest axis: fewest layers × columns covered, from the count pre-pass.
+                let mut best = (u128::MAX, Axis::Z);
+                for a in Axis::ALL {
+                    let (l, area) = v.count_layers(&ctx, &geom, frame, a)?;
+                    best = best.min(((l as u128) * (area as u128), a));
+                }
+                vec![best.1]
+            };
+            let (grid, stats) =
+                v.voxelize(&ctx, &geom, frame, &axes, args.rule, Some(&mut profiler))?;
+            let layers = stats.iter().map(|s| (s.axis, s.layers)).collect();
+            args.profile.emit(&profiler)?;
+            let per_pass: String = profiler
+                .stats()
+                .iter()
+                .map(|p| {
+                    format!(
+                        "{}: {} call(s), {:.2} ms total\n",
+                        p.name, p.calls, p.total_ms
+                    )
+                })
+                .collect();
+            Ok((grid, layers, Some(profiler.json()), Some(per_pass)))
+        })();
+        gpu.destroy(&ctx);
+        v.destroy(&ctx);
+        out
+    })();
+    profiler.destroy(&ctx);
+    let leaks = ctx.live_allocations();
+    if !leaks.is_empty() {
+        bail!("internal error: GPU allocations still alive: {leaks:?}");
+    }
+    result
+}

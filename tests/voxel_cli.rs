@@ -1,0 +1,169 @@
+//! Specification of `gregvox voxelize`: outputs that parse back, open-mesh handling, and one clear error for
+//! every bad input (validation layer forced on).
+use std::process::{Command, Output};
+
+fn gregvox(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_gregvox"))
+        .args(args)
+        .env("GREGVOX_VALIDATION", "1")
+        .output()
+        .unwrap()
+}
+
+fn model(name: &str) -> String {
+    format!("{}/../shared/models/{name}", env!("CARGO_MANIFEST_DIR"))
+}
+
+fn tmp(name: &str) -> std::path::PathBuf {
+    let d = std::env::temp_dir().join(format!("gregvox-voxel-cli-{}", std::process::id()));
+    std::fs::create_dir_all(&d).unwrap();
+    d.join(name)
+}
+
+fn one_line_error(out: &Output, needle: &str) {
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success(), "expected failure");
+    // Informational notes may precede it; the error itself is one line.
+    let errors: Vec<&str> = err
+        .lines()
+        .filter(|l| !l.starts_with("gregvox voxelize: "))
+        .collect();
+    assert_eq!(errors.len(), 1, "one error line expected:\n{err}");
+    assert!(
+        errors[0].starts_with("gregvox: error: ") && errors[0].contains(needle),
+        "'{needle}' not in: {err}"
+    );
+    assert!(!err.contains("panicked") && !err.contains("vulkan validation"));
+}
+
+#[test]
+fn peel_and_cpu_agree_on_spot_and_the_binvox_parses_back() {
+    let out_peel = tmp("spot_peel.binvox");
+    let out_cpu = tmp("spot_cpu.binvox");
+    let a = gregvox(&[
+        "voxelize",
+        &model("spot.obj"),
+        "--res",
+        "64",
+        "--axis",
+        "z",
+        "--out",
+        out_peel.to_str().unwrap(),
+        "--json",
+    ]);
+    assert!(a.status.success(), "{}", String::from_utf8_lossy(&a.stderr));
+    let b = gregvox(&[
+        "voxelize",
+        &model("spot.obj"),
+        "--res",
+        "64",
+        "--axis",
+        "z",
+        "--method",
+        "cpu",
+        "--out",
+        out_cpu.to_str().unwrap(),
+        "--json",
+    ]);
+    assert!(b.status.success());
+    let ja: serde_json::Value = serde_json::from_slice(&a.stdout).unwrap();
+    let jb: serde_json::Value = serde_json::from_slice(&b.stdout).unwrap();
+    assert_eq!(
+        ja["layers"]["z"].as_u64().unwrap() % 2,
+        0,
+        "a closed mesh has an even layer count"
+    );
+    let ga = gregvox::voxel::export::parse_binvox(&std::fs::read(&out_peel).unwrap()).unwrap();
+    let gb = gregvox::voxel::export::parse_binvox(&std::fs::read(&out_cpu).unwrap()).unwrap();
+    let solid = jb["solid_voxels"].as_u64().unwrap();
+    assert_eq!(gb.count(), solid);
+    assert_eq!(ga.count(), ja["solid_voxels"].as_u64().unwrap());
+    let diff = ga.count_differences(&gb);
+    eprintln!(
+        "spot 64³: peel {} vs cpu {solid} solid, {diff} differ",
+        ga.count()
+    );
+    assert!(diff <= 4.max(solid / 100_000), "{diff}");
+    assert!(!out_peel.with_extension("binvox.tmp").exists());
+}
+
+#[test]
+fn open_meshes_are_reported_and_peeled_along_three_axes() {
+    let out = gregvox(&["voxelize", &model("suzanne.obj"), "--res", "32", "--json"]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(err.contains("open mesh (42 boundary"), "{err}");
+    let j: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert_eq!(j["layers"].as_object().unwrap().len(), 3);
+    assert_eq!(
+        j["removed"]["cancelled"], 2,
+        "suzanne's duplicate face pair"
+    );
+}
+
+#[test]
+fn bad_inputs_end_with_one_clear_line() {
+    one_line_error(
+        &gregvox(&["voxelize", "/nonexistent/x.obj", "--res", "8"]),
+        "/nonexistent/x.obj",
+    );
+    one_line_error(
+        &gregvox(&["voxelize", &model("spot.obj"), "--res", "0"]),
+        "--res 0",
+    );
+    one_line_error(
+        &gregvox(&["voxelize", &model("spot.obj"), "--res", "5000"]),
+        "between 1 and 2048",
+    );
+    one_line_error(
+        &gregvox(&[
+            "voxelize",
+            &model("spot.obj"),
+            "--res",
+            "8",
+            "--out",
+            "x.stl",
+        ]),
+        "unknown voxel format",
+    );
+    let empty = tmp("empty.obj");
+    std::fs::write(&empty, "# nothing\n").unwrap();
+    one_line_error(
+        &gregvox(&["voxelize", empty.to_str().unwrap(), "--res", "8"]),
+        "empty.obj",
+    );
+    let flat = tmp("flat.obj");
+    std::fs::write(&flat, "v 0 0 0\nv 1 0 0\nv 2 0 0\nf 1 2 3\n").unwrap();
+    one_line_error(
+        &gregvox(&["voxelize", flat.to_str().unwrap(), "--res", "8"]),
+        "no triangle with a non-zero area",
+    );
+    one_line_error(
+        &gregvox(&[
+            "voxelize",
+            &model("spot.obj"),
+            "--res",
+            "8",
+            "--out",
+            "/proc/gregvox/x.binvox",
+        ]),
+        "/proc/gregvox/x.binvox",
+    );
+    one_line_error(
+        &gregvox(&[
+            "voxelize",
+            &model("stanford-bunny.obj"),
+            "--res",
+            "16",
+            "--axis",
+            "x",
+            "--max-layers",
+            "4",
+        ]),
+        "depth layers along x",
+    );
+}
