@@ -211,6 +211,20 @@ fn degenerate_normals_fall_back() {
         let n32 = g.to_gpu().normal(u as f32, 1.0);
         assert!((n32.as_dvec3() - n).length() < 1e-5);
     }
+    // the flat triangle: S_u on the collapsed edge is rounding noise (~1e-17), whose direction must not be
+    // trusted (an angle-only test would return −Z here); the fallback gives +Z to rounding
+    let flat: [[DVec3; 4]; 4] = std::array::from_fn(|j| {
+        std::array::from_fn(|i| {
+            let (x, y) = (i as f64 / 3.0, j as f64 / 3.0);
+            DVec3::new(0.5 + (x - 0.5) * (1.0 - y), y, 0.0)
+        })
+    });
+    let g = PatchF64::from_bezier(&flat);
+    for k in 0..=8 {
+        let u = k as f64 / 8.0;
+        assert!((g.normal(u, 1.0) - DVec3::Z).length() < 1e-12, "u = {u}: {}", g.normal(u, 1.0));
+        assert!((g.to_gpu().normal(u as f32, 1.0) - Vec3::Z).length() < 1e-6);
+    }
     // everything collapsed: +Z by convention, never NaN
     let z = PatchF64 { cv: [DVec3::ONE; 20] };
     assert_eq!(z.normal(0.3, 0.3), DVec3::Z);

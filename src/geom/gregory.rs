@@ -171,15 +171,17 @@ pub fn bezier_net_generic<S: Real, P: Point<S>>(cv: &[P; 20], u: S, v: S) -> [[P
 macro_rules! normal_impl {
     ($s:ty, $v:ty) => {
         /// Unit normal with the degenerate fallback (notes §1.5):
-        /// 1. N = S_u × S_v if |N| > 1e-5·|S_u|·|S_v| (the sine of the angle between S_u and S_v exceeds
-        ///    1e-5: a scale-free form of OpenSubdiv's test);
+        /// 1. N = S_u × S_v if |N| > 1e-5·(|S_u| + |S_v|)² (a scale-free form of OpenSubdiv's test: it
+        ///    also catches a derivative that is only rounding noise on a collapsed edge, where a pure angle
+        ///    test would accept the noise's direction);
         /// 2. else the cross product of the diagonals of the de Casteljau 2×2 bilinear hull at (u, v),
         ///    (c11 − c00) × (c01 − c10) (OpenSubdiv `OsdEvalPatchBezier`);
         /// 3. else the same with the four corner points; 4. else +Z. Never NaN for finite points.
         pub(super) fn normal_from(net: &[[$v; 4]; 4], su: $v, sv: $v, u: $s, v: $s) -> $v {
             let n = su.cross(sv);
             let ln = n.length();
-            if ln > 1e-5 * su.length() * sv.length() && ln.is_finite() && ln > 0.0 {
+            let scale = su.length() + sv.length();
+            if ln > 1e-5 * scale * scale && ln.is_finite() {
                 return n / ln;
             }
             let (u, v) = (clamp01(u), clamp01(v));
@@ -428,7 +430,7 @@ impl Patch {
     }
 
     /// f32 unit normal with the degenerate fallback:
-    /// 1. S_u × S_v when |S_u × S_v| > 1e-5·|S_u|·|S_v|;
+    /// 1. S_u × S_v when |S_u × S_v| > 1e-5·(|S_u| + |S_v|)²;
     /// 2. else (c11 − c00) × (c01 − c10) over the de Casteljau bilinear hull of the frozen net at (u, v);
     /// 3. else the corner quad's diagonals; 4. else +Z.
     ///
