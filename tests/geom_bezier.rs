@@ -15,19 +15,37 @@ fn fixture(name: &str) -> Value {
 }
 
 fn f64s(v: &Value) -> Vec<f64> {
-    v.as_array().unwrap().iter().map(|x| x.as_f64().unwrap()).collect()
+    v.as_array()
+        .unwrap()
+        .iter()
+        .map(|x| x.as_f64().unwrap())
+        .collect()
 }
 
 fn vec2s(v: &Value) -> Vec<DVec2> {
-    v.as_array().unwrap().iter().map(|p| DVec2::from_slice(&f64s(p))).collect()
+    v.as_array()
+        .unwrap()
+        .iter()
+        .map(|p| DVec2::from_slice(&f64s(p)))
+        .collect()
 }
 
 fn vec3s(v: &Value) -> Vec<DVec3> {
-    v.as_array().unwrap().iter().map(|p| DVec3::from_slice(&f64s(p))).collect()
+    v.as_array()
+        .unwrap()
+        .iter()
+        .map(|p| DVec3::from_slice(&f64s(p)))
+        .collect()
 }
 
 fn notes_cubic() -> Bezier<f64, DVec2> {
-    Bezier::new(vec![DVec2::new(0., 0.), DVec2::new(1., 2.), DVec2::new(3., 2.), DVec2::new(4., 0.)]).unwrap()
+    Bezier::new(vec![
+        DVec2::new(0., 0.),
+        DVec2::new(1., 2.),
+        DVec2::new(3., 2.),
+        DVec2::new(4., 0.),
+    ])
+    .unwrap()
 }
 
 #[test]
@@ -40,7 +58,10 @@ fn notes_cubic_at_one_half() {
     assert_eq!(d[2], DVec2::new(0.0, -12.0));
     let k = plane_curvature(d[1], d[2]).unwrap();
     assert!((k - (-0.592593)).abs() < 1e-6, "κ = {k}");
-    assert!((k - (-16.0 / 27.0)).abs() < 1e-15, "κ = −12·4.5/4.5³ = −16/27 exactly");
+    assert!(
+        (k - (-16.0 / 27.0)).abs() < 1e-15,
+        "κ = −12·4.5/4.5³ = −16/27 exactly"
+    );
     let (centre, radius) = circle_of_curvature(d[0], d[1], d[2]).unwrap();
     assert!((centre - DVec2::new(2.0, -0.1875)).length() < 1e-15);
     assert!((radius - 1.6875).abs() < 1e-15);
@@ -57,13 +78,21 @@ fn bezier_curves_match_numpy_bernstein_sums() {
         let lo = ctrl.iter().fold(DVec2::INFINITY, |a, &b| a.min(b));
         let hi = ctrl.iter().fold(DVec2::NEG_INFINITY, |a, &b| a.max(b));
         let diag = (hi - lo).length();
-        let (pts, d1, d2) = (vec2s(&case["points"]), vec2s(&case["d1"]), vec2s(&case["d2"]));
+        let (pts, d1, d2) = (
+            vec2s(&case["points"]),
+            vec2s(&case["d1"]),
+            vec2s(&case["d2"]),
+        );
         let kappa = f64s(&case["signed_curvature"]);
         for (i, &t) in f64s(&case["params"]).iter().enumerate() {
             let d = c.derivs(t, 2);
             let scale = 1f64.max(d1[i].length()).max(d2[i].length());
-            mp = mp.max((d[0] - pts[i]).length()).max((c.eval_bernstein(t) - pts[i]).length());
-            md = md.max((d[1] - d1[i]).length() / scale).max((d[2] - d2[i]).length() / scale);
+            mp = mp
+                .max((d[0] - pts[i]).length())
+                .max((c.eval_bernstein(t) - pts[i]).length());
+            md = md
+                .max((d[1] - d1[i]).length() / scale)
+                .max((d[2] - d2[i]).length() / scale);
             let k = plane_curvature(d[1], d[2]).unwrap();
             mk = mk.max((k - kappa[i]).abs() / kappa[i].abs().max(1.0));
             m32 = m32.max((c32.eval(t as f32).as_dvec2() - pts[i]).length() / diag);
@@ -75,12 +104,38 @@ fn bezier_curves_match_numpy_bernstein_sums() {
 
 #[test]
 fn degree_elevation_matches_notes_and_geomdl() {
-    let q = Bezier::new(vec![DVec2::new(0., 0.), DVec2::new(1., 2.), DVec2::new(2., 0.)]).unwrap().elevate();
-    let want = [DVec2::new(0., 0.), DVec2::new(2. / 3., 4. / 3.), DVec2::new(4. / 3., 4. / 3.), DVec2::new(2., 0.)];
-    assert!(q.ctrl().iter().zip(want).all(|(a, b)| (*a - b).length() < 1e-15));
-    let c = Bezier::new(vec![DVec2::new(0., 0.), DVec2::new(1., 3.), DVec2::new(3., 3.), DVec2::new(4., 0.)]).unwrap().elevate();
+    let q = Bezier::new(vec![
+        DVec2::new(0., 0.),
+        DVec2::new(1., 2.),
+        DVec2::new(2., 0.),
+    ])
+    .unwrap()
+    .elevate();
+    let want = [
+        DVec2::new(0., 0.),
+        DVec2::new(2. / 3., 4. / 3.),
+        DVec2::new(4. / 3., 4. / 3.),
+        DVec2::new(2., 0.),
+    ];
+    assert!(q
+        .ctrl()
+        .iter()
+        .zip(want)
+        .all(|(a, b)| (*a - b).length() < 1e-15));
+    let c = Bezier::new(vec![
+        DVec2::new(0., 0.),
+        DVec2::new(1., 3.),
+        DVec2::new(3., 3.),
+        DVec2::new(4., 0.),
+    ])
+    .unwrap()
+    .elevate();
     let want = [[0., 0.], [0.75, 2.25], [2., 3.], [3.25, 2.25], [4., 0.]].map(DVec2::from);
-    assert!(c.ctrl().iter().zip(want).all(|(a, b)| (*a - b).length() < 1e-15));
+    assert!(c
+        .ctrl()
+        .iter()
+        .zip(want)
+        .all(|(a, b)| (*a - b).length() < 1e-15));
     let fx = fixture("ops.json");
     let mut max = 0.0f64;
     for e in fx["elevation"].as_array().unwrap() {
@@ -123,7 +178,9 @@ fn split_matches_geomdl_bezier_split() {
         }
         n += 1;
     }
-    eprintln!("de Casteljau split vs geomdl split_curve ({n} Bézier curves, degrees 1–5): max {max:.2e}");
+    eprintln!(
+        "de Casteljau split vs geomdl split_curve ({n} Bézier curves, degrees 1–5): max {max:.2e}"
+    );
     assert_eq!(n, 5);
     assert!(max <= 1e-12);
     // the halves reproduce the curve: C(t·s) on the left piece
@@ -139,12 +196,21 @@ fn split_matches_geomdl_bezier_split() {
 #[test]
 fn space_curve_curvature_of_the_twisted_cubic() {
     // (t, t², t³) in Bézier form; κ = |r′×r″|/|r′|³ with r′ = (1, 2t, 3t²), r″ = (0, 2, 6t)
-    let c = Bezier::new(vec![DVec3::ZERO, DVec3::new(1. / 3., 0., 0.), DVec3::new(2. / 3., 1. / 3., 0.), DVec3::ONE]).unwrap();
+    let c = Bezier::new(vec![
+        DVec3::ZERO,
+        DVec3::new(1. / 3., 0., 0.),
+        DVec3::new(2. / 3., 1. / 3., 0.),
+        DVec3::ONE,
+    ])
+    .unwrap();
     let mut max = 0.0f64;
     for k in 0..=50 {
         let t = k as f64 / 50.0;
         let d = c.derivs(t, 2);
-        let (r1, r2) = (DVec3::new(1., 2. * t, 3. * t * t), DVec3::new(0., 2., 6. * t));
+        let (r1, r2) = (
+            DVec3::new(1., 2. * t, 3. * t * t),
+            DVec3::new(0., 2., 6. * t),
+        );
         let want = r1.cross(r2).length() / r1.length().powi(3);
         max = max.max((space_curvature(d[1], d[2]).unwrap() - want).abs());
     }

@@ -16,16 +16,26 @@ fn fixture(name: &str) -> Value {
 }
 
 fn f64s(v: &Value) -> Vec<f64> {
-    v.as_array().unwrap().iter().map(|x| x.as_f64().unwrap()).collect()
+    v.as_array()
+        .unwrap()
+        .iter()
+        .map(|x| x.as_f64().unwrap())
+        .collect()
 }
 
 fn vec3s(v: &Value) -> Vec<DVec3> {
-    v.as_array().unwrap().iter().map(|p| DVec3::from_slice(&f64s(p))).collect()
+    v.as_array()
+        .unwrap()
+        .iter()
+        .map(|p| DVec3::from_slice(&f64s(p)))
+        .collect()
 }
 
 fn bbox_diag(p: &[DVec3]) -> f64 {
     let lo = p.iter().fold(DVec3::splat(f64::INFINITY), |a, &b| a.min(b));
-    let hi = p.iter().fold(DVec3::splat(f64::NEG_INFINITY), |a, &b| a.max(b));
+    let hi = p
+        .iter()
+        .fold(DVec3::splat(f64::NEG_INFINITY), |a, &b| a.max(b));
     (hi - lo).length()
 }
 
@@ -54,11 +64,15 @@ fn curves_match_geomdl_f64_and_f32() {
         let curve = if kind == "bspline" {
             Curve64::B(BSplineCurve::new(p, knots.clone(), ctrl.clone()).unwrap())
         } else {
-            Curve64::N(NurbsCurve::new(p, knots.clone(), ctrl.clone(), f64s(&c["weights"])).unwrap())
+            Curve64::N(
+                NurbsCurve::new(p, knots.clone(), ctrl.clone(), f64s(&c["weights"])).unwrap(),
+            )
         };
         let ctrl32: Vec<Vec3> = ctrl.iter().map(|p| p.as_vec3()).collect();
         let knots32: Vec<f32> = knots.iter().map(|&k| k as f32).collect();
-        let w32: Option<Vec<f32>> = c["weights"].as_array().map(|w| w.iter().map(|x| x.as_f64().unwrap() as f32).collect());
+        let w32: Option<Vec<f32>> = c["weights"]
+            .as_array()
+            .map(|w| w.iter().map(|x| x.as_f64().unwrap() as f32).collect());
         // rational Bézier: the same fixture through the Bézier-specific type
         let rb = (c["knots_kind"] == "bezier" && kind == "nurbs")
             .then(|| RationalBezier::new(&ctrl, &f64s(&c["weights"])).unwrap());
@@ -71,16 +85,28 @@ fn curves_match_geomdl_f64_and_f32() {
             let ep = (d[0] - pts[k]).length();
             let e1 = (d[1] - d1[k]).length() / scale;
             let e2 = (d[2] - d2[k]).length() / scale;
-            assert!(ep <= 1e-12, "case {ci} ({kind}, p={p}) u={u}: |ΔC| = {ep:e}");
-            assert!(e1 <= 1e-12 && e2 <= 1e-12, "case {ci} ({kind}, p={p}) u={u}: ΔC' {e1:e} ΔC'' {e2:e}");
+            assert!(
+                ep <= 1e-12,
+                "case {ci} ({kind}, p={p}) u={u}: |ΔC| = {ep:e}"
+            );
+            assert!(
+                e1 <= 1e-12 && e2 <= 1e-12,
+                "case {ci} ({kind}, p={p}) u={u}: ΔC' {e1:e} ΔC'' {e2:e}"
+            );
             (max_p, max_d1, max_d2) = (max_p.max(ep), max_d1.max(e1), max_d2.max(e2));
             if let Some(rb) = &rb {
                 let r = rb.derivs2(u);
-                assert!((r[0] - pts[k]).length() <= 1e-12 && (r[1] - d1[k]).length() / scale <= 1e-12);
+                assert!(
+                    (r[0] - pts[k]).length() <= 1e-12 && (r[1] - d1[k]).length() / scale <= 1e-12
+                );
             }
             let p32 = match &w32 {
-                None => BSplineCurve::new(p, knots32.clone(), ctrl32.clone()).unwrap().eval(u as f32),
-                Some(w) => NurbsCurve::new(p, knots32.clone(), ctrl32.clone(), w.clone()).unwrap().eval(u as f32),
+                None => BSplineCurve::new(p, knots32.clone(), ctrl32.clone())
+                    .unwrap()
+                    .eval(u as f32),
+                Some(w) => NurbsCurve::new(p, knots32.clone(), ctrl32.clone(), w.clone())
+                    .unwrap()
+                    .eval(u as f32),
             };
             let e32 = (p32.as_dvec3() - pts[k]).length() / diag;
             assert!(e32 <= 1e-5, "case {ci} f32 u={u}: {e32:e} × diag");
@@ -96,20 +122,45 @@ fn curves_match_geomdl_f64_and_f32() {
 
 #[test]
 fn notes_vectors_bspline_and_nurbs_at_0_3() {
-    let pts: Vec<DVec3> =
-        [[0., 0., 0.], [1., 2., 0.], [3., 3., 1.], [4., 1., 2.], [6., 0., 1.], [7., 2., 0.], [9., 3., 1.]].map(DVec3::from).to_vec();
+    let pts: Vec<DVec3> = [
+        [0., 0., 0.],
+        [1., 2., 0.],
+        [3., 3., 1.],
+        [4., 1., 2.],
+        [6., 0., 1.],
+        [7., 2., 0.],
+        [9., 3., 1.],
+    ]
+    .map(DVec3::from)
+    .to_vec();
     let knots = vec![0., 0., 0., 0., 0.25, 0.5, 0.75, 1., 1., 1., 1.];
     let b = BSplineCurve::new(3, knots.clone(), pts.clone()).unwrap();
     // the notes print 10 significant digits
-    assert!((b.eval(0.3) - DVec3::new(3.030666667, 2.302666667, 1.154666667)).abs().max_element() < 5e-10);
+    assert!(
+        (b.eval(0.3) - DVec3::new(3.030666667, 2.302666667, 1.154666667))
+            .abs()
+            .max_element()
+            < 5e-10
+    );
     let n = NurbsCurve::new(3, knots, pts, vec![1., 0.5, 2., 1., 3., 0.7, 1.]).unwrap();
-    assert!((n.eval(0.3) - DVec3::new(3.109170306, 2.579912664, 1.143231441)).abs().max_element() < 5e-10);
+    assert!(
+        (n.eval(0.3) - DVec3::new(3.109170306, 2.579912664, 1.143231441))
+            .abs()
+            .max_element()
+            < 5e-10
+    );
 }
 
 #[test]
 fn quarter_circle_has_unit_radius() {
     let w = std::f64::consts::FRAC_1_SQRT_2;
-    let q = NurbsCurve::new(2, vec![0., 0., 0., 1., 1., 1.], vec![DVec2::X, DVec2::ONE, DVec2::Y], vec![1., w, 1.]).unwrap();
+    let q = NurbsCurve::new(
+        2,
+        vec![0., 0., 0., 1., 1., 1.],
+        vec![DVec2::X, DVec2::ONE, DVec2::Y],
+        vec![1., w, 1.],
+    )
+    .unwrap();
     let mut max = 0.0f64;
     for i in 0..=1000 {
         let u = i as f64 / 1000.0;
@@ -126,20 +177,36 @@ fn knot_insertion_matches_geomdl() {
     let mut max = 0.0f64;
     for (ci, c) in fx["insert"].as_array().unwrap().iter().enumerate() {
         let p = c["degree"].as_u64().unwrap() as usize;
-        let (u, r) = (c["u"].as_f64().unwrap(), c["times"].as_u64().unwrap() as usize);
+        let (u, r) = (
+            c["u"].as_f64().unwrap(),
+            c["times"].as_u64().unwrap() as usize,
+        );
         let (knots, ctrl) = (f64s(&c["knots"]), vec3s(&c["ctrl"]));
         let want_k = f64s(&c["new_knots"]);
         let want_p = vec3s(&c["new_ctrl"]);
         let (got_k, got_p, got_w) = if c["kind"] == "bspline" {
-            let d = BSplineCurve::new(p, knots, ctrl).unwrap().insert_knot(u, r).unwrap();
+            let d = BSplineCurve::new(p, knots, ctrl)
+                .unwrap()
+                .insert_knot(u, r)
+                .unwrap();
             (d.knots().to_vec(), d.ctrl().to_vec(), None)
         } else {
-            let d = NurbsCurve::new(p, knots, ctrl, f64s(&c["weights"])).unwrap().insert_knot(u, r).unwrap();
-            (d.knots().to_vec(), d.ctrl().to_vec(), Some(d.weights().to_vec()))
+            let d = NurbsCurve::new(p, knots, ctrl, f64s(&c["weights"]))
+                .unwrap()
+                .insert_knot(u, r)
+                .unwrap();
+            (
+                d.knots().to_vec(),
+                d.ctrl().to_vec(),
+                Some(d.weights().to_vec()),
+            )
         };
         assert_eq!(got_k.len(), want_k.len(), "case {ci}");
         for (a, b) in got_k.iter().zip(&want_k) {
-            assert!((a - b).abs() <= 1e-14, "case {ci} knots {got_k:?} vs {want_k:?}");
+            assert!(
+                (a - b).abs() <= 1e-14,
+                "case {ci} knots {got_k:?} vs {want_k:?}"
+            );
         }
         assert_eq!(got_p.len(), want_p.len());
         for (a, b) in got_p.iter().zip(&want_p) {
@@ -174,7 +241,10 @@ fn split_matches_geomdl() {
             // geomdl reparameterises each piece to [0, 1]; compare after the same affine map
             let (lo, hi) = piece.domain();
             for (x, y) in piece.knots().iter().zip(&want_k) {
-                assert!(((x - lo) / (hi - lo) - y).abs() <= 1e-12, "case {ci} {side} knots");
+                assert!(
+                    ((x - lo) / (hi - lo) - y).abs() <= 1e-12,
+                    "case {ci} {side} knots"
+                );
             }
         }
     }

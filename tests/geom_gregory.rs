@@ -29,7 +29,9 @@ impl Rng {
 /// A bumpy bicubic Bézier grid over [x0, x0+1] × [y0, y0+1].
 fn bumpy_grid(rng: &mut Rng, x0: f64, y0: f64) -> [[DVec3; 4]; 4] {
     std::array::from_fn(|j| {
-        std::array::from_fn(|i| DVec3::new(x0 + i as f64 / 3.0, y0 + j as f64 / 3.0, 0.0) + rng.vec(0.25))
+        std::array::from_fn(|i| {
+            DVec3::new(x0 + i as f64 / 3.0, y0 + j as f64 / 3.0, 0.0) + rng.vec(0.25)
+        })
     })
 }
 
@@ -54,7 +56,9 @@ fn exact_derivatives_match_central_differences() {
     let mut rng = Rng(0x9E3779B97F4A7C15);
     let h = 1e-5;
     let (mut max1, mut max2) = (0.0f64, 0.0f64);
-    let mut params: Vec<(f64, f64)> = (1..20).flat_map(|i| (1..20).map(move |j| (i as f64 / 20.0, j as f64 / 20.0))).collect();
+    let mut params: Vec<(f64, f64)> = (1..20)
+        .flat_map(|i| (1..20).map(move |j| (i as f64 / 20.0, j as f64 / 20.0)))
+        .collect();
     params.extend([(0.01, 0.5), (0.5, 0.99), (0.99, 0.02), (0.3, 0.005)]);
     for _ in 0..10 {
         let g = random_gregory(&mut rng);
@@ -74,7 +78,10 @@ fn exact_derivatives_match_central_differences() {
             let fd_vu = (d(u + h, v).2 - d(u - h, v).2) / (2.0 * h);
             let fd_vv = (d(u, v + h).2 - d(u, v - h).2) / (2.0 * h);
             let s2 = suu.length().max(suv.length()).max(svv.length());
-            let e2 = rel(suu, fd_uu, s2).max(rel(suv, fd_uv, s2)).max(rel(suv, fd_vu, s2)).max(rel(svv, fd_vv, s2));
+            let e2 = rel(suu, fd_uu, s2)
+                .max(rel(suv, fd_uv, s2))
+                .max(rel(suv, fd_vu, s2))
+                .max(rel(svv, fd_vv, s2));
             assert!(e2 <= 1e-6, "second derivatives at ({u}, {v}): {e2:e}");
             max1 = max1.max(e1);
             max2 = max2.max(e2);
@@ -96,9 +103,14 @@ fn approximate_derivatives_are_exact_on_edges_only() {
         }
     }
     let inside = (g.eval(0.4, 0.6).1 - g.approx_derivatives(0.4, 0.6).1).length();
-    eprintln!("approximate vs exact derivatives: edges {max_edge:.2e}, inside (0.4, 0.6) {inside:.2e}");
+    eprintln!(
+        "approximate vs exact derivatives: edges {max_edge:.2e}, inside (0.4, 0.6) {inside:.2e}"
+    );
     assert!(max_edge <= 1e-13);
-    assert!(inside > 1e-3, "a genuine Gregory patch must show the frozen-Q error inside");
+    assert!(
+        inside > 1e-3,
+        "a genuine Gregory patch must show the frozen-Q error inside"
+    );
 }
 
 #[test]
@@ -118,7 +130,14 @@ fn equal_pairs_give_the_bezier_patch() {
                 let d = s.derivs(u, v);
                 let (p, su, sv) = g.eval(u, v);
                 let [suu, suv, svv] = g.second_derivatives(u, v);
-                for (x, y) in [(p, d.p), (su, d.su), (sv, d.sv), (suu, d.suu), (suv, d.suv), (svv, d.svv)] {
+                for (x, y) in [
+                    (p, d.p),
+                    (su, d.su),
+                    (sv, d.sv),
+                    (suu, d.suu),
+                    (suv, d.suv),
+                    (svv, d.svv),
+                ] {
                     max = max.max((x - y).length());
                 }
             }
@@ -161,9 +180,16 @@ fn corners_never_produce_nan_or_inf() {
             }
         }
         // extreme f32 inputs: far below the guard, and out of range / NaN (clamped)
-        for (u, v) in [(1e-30f32, 1e-30f32), (1e-20, 0.0), (-1.0, 2.0), (f32::NAN, 0.5)] {
+        for (u, v) in [
+            (1e-30f32, 1e-30f32),
+            (1e-20, 0.0),
+            (-1.0, 2.0),
+            (f32::NAN, 0.5),
+        ] {
             let (p, su, sv) = g32.eval(u, v);
-            assert!(p.is_finite() && su.is_finite() && sv.is_finite() && g32.normal(u, v).is_finite());
+            assert!(
+                p.is_finite() && su.is_finite() && sv.is_finite() && g32.normal(u, v).is_finite()
+            );
         }
     }
     eprintln!("corner samples: all finite; |S(near corner) − S(corner)| ≤ {max_jump:.2e}");
@@ -207,7 +233,10 @@ fn degenerate_normals_fall_back() {
         assert!(su.length() < 1e-14, "S_u vanishes on the collapsed edge");
         let n = g.normal(u, 1.0);
         assert!(n.is_finite() && (n.length() - 1.0).abs() < 1e-12);
-        assert!(n.z > 0.9, "fallback normal {n} must face +z like the rest of the patch");
+        assert!(
+            n.z > 0.9,
+            "fallback normal {n} must face +z like the rest of the patch"
+        );
         let n32 = g.to_gpu().normal(u as f32, 1.0);
         assert!((n32.as_dvec3() - n).length() < 1e-5);
     }
@@ -222,18 +251,30 @@ fn degenerate_normals_fall_back() {
     let g = PatchF64::from_bezier(&flat);
     for k in 0..=8 {
         let u = k as f64 / 8.0;
-        assert!((g.normal(u, 1.0) - DVec3::Z).length() < 1e-12, "u = {u}: {}", g.normal(u, 1.0));
+        assert!(
+            (g.normal(u, 1.0) - DVec3::Z).length() < 1e-12,
+            "u = {u}: {}",
+            g.normal(u, 1.0)
+        );
         assert!((g.to_gpu().normal(u as f32, 1.0) - Vec3::Z).length() < 1e-6);
     }
     // everything collapsed: +Z by convention, never NaN
-    let z = PatchF64 { cv: [DVec3::ONE; 20] };
+    let z = PatchF64 {
+        cv: [DVec3::ONE; 20],
+    };
     assert_eq!(z.normal(0.3, 0.3), DVec3::Z);
     assert_eq!(z.to_gpu().normal(0.0, 0.0), Vec3::Z);
 }
 
 /// Two patches sharing A's edge `ea` and B's edge `eb`, corners made G1 with the given (k, h), the rest
 /// random: returns (A, B, reversed).
-fn shared_pair(rng: &mut Rng, ea: Edge, eb: Edge, reversed: bool, kh: [(f64, f64); 2]) -> (PatchF64, PatchF64) {
+fn shared_pair(
+    rng: &mut Rng,
+    ea: Edge,
+    eb: Edge,
+    reversed: bool,
+    kh: [(f64, f64); 2],
+) -> (PatchF64, PatchF64) {
     let a = random_gregory(rng);
     let mut bgrid = bumpy_grid(rng, 0.0, -1.0);
     if reversed {
@@ -293,9 +334,18 @@ fn chiyokura_kimura_makes_the_shared_edge_g1() {
             let (after, gap) = normal_jump(&a, ea, &b, eb, rev);
             assert!(gap0 <= 1e-15 && gap <= 1e-15, "C0 gap {gap0:e} / {gap:e}");
             assert!(s.corner_residual[0] < 1e-12 && s.corner_residual[1] < 1e-12);
-            assert!((s.k[0] - kh[0].0).abs() < 1e-12 && (s.h[1] - kh[1].1).abs() < 1e-12, "config {ci}: {s:?}");
-            assert!(after <= 1e-9, "config {ci}: normal jump after correction {after:e} rad");
-            assert!(before > 1e-3, "config {ci}: negative control jump {before:e} rad is not measurable");
+            assert!(
+                (s.k[0] - kh[0].0).abs() < 1e-12 && (s.h[1] - kh[1].1).abs() < 1e-12,
+                "config {ci}: {s:?}"
+            );
+            assert!(
+                after <= 1e-9,
+                "config {ci}: normal jump after correction {after:e} rad"
+            );
+            assert!(
+                before > 1e-3,
+                "config {ci}: negative control jump {before:e} rad is not measurable"
+            );
             worst_after = worst_after.max(after);
             least_before = least_before.min(before);
         }
@@ -317,7 +367,14 @@ fn chiyokura_kimura_residual_is_zero_for_all_t() {
     let c = [p[1] - p[0], p[2] - p[1], p[3] - p[2]];
     let a = [a0, s.a_face[0] - p[1], s.a_face[1] - p[2], a3];
     let b = [b0, s.b_face[0] - p[1], s.b_face[1] - p[2], b3];
-    let bern3 = |t: f64| [(1. - t).powi(3), 3. * t * (1. - t).powi(2), 3. * t * t * (1. - t), t.powi(3)];
+    let bern3 = |t: f64| {
+        [
+            (1. - t).powi(3),
+            3. * t * (1. - t).powi(2),
+            3. * t * t * (1. - t),
+            t.powi(3),
+        ]
+    };
     let mut max = 0.0f64;
     for k in 0..=100 {
         let t = k as f64 / 100.0;

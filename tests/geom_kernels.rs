@@ -13,7 +13,11 @@ fn fixture(name: &str) -> Value {
 }
 
 fn ints(v: &Value) -> Vec<i32> {
-    v.as_array().unwrap().iter().map(|x| x.as_i64().unwrap() as i32).collect()
+    v.as_array()
+        .unwrap()
+        .iter()
+        .map(|x| x.as_i64().unwrap() as i32)
+        .collect()
 }
 
 fn pts(flat: &[i32]) -> Vec<IVec2> {
@@ -24,7 +28,10 @@ fn pts(flat: &[i32]) -> Vec<IVec2> {
 fn bresenham_equals_skimage_for_every_pair_in_minus8_8() {
     let fx = fixture("bresenham.json");
     // skimage's line depends on p1 − p0 only; the generator asserted that for all 17⁴ pairs
-    assert_eq!(fx["translation_invariance_checked_pairs"].as_u64(), Some(83521));
+    assert_eq!(
+        fx["translation_invariance_checked_pairs"].as_u64(),
+        Some(83521)
+    );
     let rel: HashMap<IVec2, Vec<IVec2>> = fx["offsets"]
         .as_array()
         .unwrap()
@@ -56,7 +63,10 @@ fn bresenham_equals_skimage_for_every_pair_in_minus8_8() {
     let sample = fx["absolute_sample"].as_array().unwrap();
     for s in sample {
         let (a, b) = (ints(&s["p0"]), ints(&s["p1"]));
-        assert_eq!(bresenham(IVec2::new(a[0], a[1]), IVec2::new(b[0], b[1])), pts(&ints(&s["line"])));
+        assert_eq!(
+            bresenham(IVec2::new(a[0], a[1]), IVec2::new(b[0], b[1])),
+            pts(&ints(&s["line"]))
+        );
     }
     eprintln!("Bresenham = skimage.draw.line on all {pairs} end-point pairs in [−8,8]² and {} absolute samples", sample.len());
     assert_eq!(pairs, 83521);
@@ -64,7 +74,11 @@ fn bresenham_equals_skimage_for_every_pair_in_minus8_8() {
 
 #[test]
 fn bresenham_lines_are_8_connected_and_cover_the_major_axis() {
-    for (a, b) in [(IVec2::new(-100, 3), IVec2::new(250, -40)), (IVec2::new(5, 5), IVec2::new(5, 5)), (IVec2::new(0, 0), IVec2::new(-3, 90))] {
+    for (a, b) in [
+        (IVec2::new(-100, 3), IVec2::new(250, -40)),
+        (IVec2::new(5, 5), IVec2::new(5, 5)),
+        (IVec2::new(0, 0), IVec2::new(-3, 90)),
+    ] {
         let l = bresenham(a, b);
         let d = (b - a).abs();
         assert_eq!(l.len() as i32, d.x.max(d.y) + 1);
@@ -112,7 +126,13 @@ fn dda_visits_exactly_the_brute_force_voxels() {
     let mut total = 0;
     for case in 0..3000 {
         // segments inside, crossing in and out, missing; every 4th one axis-parallel in one or two axes
-        let mut p = |_| DVec3::new(rng.range(g.origin.x - 1.0, hi.x + 1.0), rng.range(g.origin.y - 1.0, hi.y + 1.0), rng.range(g.origin.z - 1.0, hi.z + 1.0));
+        let mut p = |_| {
+            DVec3::new(
+                rng.range(g.origin.x - 1.0, hi.x + 1.0),
+                rng.range(g.origin.y - 1.0, hi.y + 1.0),
+                rng.range(g.origin.z - 1.0, hi.z + 1.0),
+            )
+        };
         let p0 = p(0);
         let mut p1 = p(1);
         match case % 4 {
@@ -130,7 +150,11 @@ fn dda_visits_exactly_the_brute_force_voxels() {
         want.sort_by_key(|v| (v.x, v.y, v.z));
         assert_eq!(sorted, want, "segment {p0} → {p1}");
         // in order along the segment, face-adjacent steps, no repeats
-        assert!(got.windows(2).all(|w| (w[1] - w[0]).abs().element_sum() == 1), "{got:?}");
+        assert!(
+            got.windows(2)
+                .all(|w| (w[1] - w[0]).abs().element_sum() == 1),
+            "{got:?}"
+        );
         total += got.len();
     }
     eprintln!("DDA = brute force on 3000 random segments ({total} voxels visited)");
@@ -141,11 +165,21 @@ fn dda_visits_exactly_the_brute_force_voxels() {
 fn dda_stops_early_and_reports_entry_parameters() {
     let g = VoxelGrid::new(DVec3::ZERO, 1.0, UVec3::splat(8)).unwrap();
     let mut seen = Vec::new();
-    dda_traverse(&g, DVec3::new(0.5, 0.5, -2.0), DVec3::Z * 2.0, 0.0, f64::INFINITY, |v, t0, t1| {
-        seen.push((v.z, t0, t1));
-        v.z < 3
-    });
-    assert_eq!(seen, vec![(0, 1.0, 1.5), (1, 1.5, 2.0), (2, 2.0, 2.5), (3, 2.5, 3.0)]);
+    dda_traverse(
+        &g,
+        DVec3::new(0.5, 0.5, -2.0),
+        DVec3::Z * 2.0,
+        0.0,
+        f64::INFINITY,
+        |v, t0, t1| {
+            seen.push((v.z, t0, t1));
+            v.z < 3
+        },
+    );
+    assert_eq!(
+        seen,
+        vec![(0, 1.0, 1.5), (1, 1.5, 2.0), (2, 2.0, 2.5), (3, 2.5, 3.0)]
+    );
     // degenerate rays visit nothing
     let mut n = 0;
     dda_traverse(&g, DVec3::ONE, DVec3::ZERO, 0.0, 1.0, |_, _, _| {
@@ -199,9 +233,15 @@ fn ray_sphere_closed_forms() {
 
 #[test]
 fn ray_triangle_closed_forms() {
-    let (a, b, c) = (DVec3::new(0., 0., 1.), DVec3::new(2., 0., 1.), DVec3::new(0., 2., 1.));
+    let (a, b, c) = (
+        DVec3::new(0., 0., 1.),
+        DVec3::new(2., 0., 1.),
+        DVec3::new(0., 2., 1.),
+    );
     let h = ray_triangle(DVec3::new(0.5, 0.5, -1.0), DVec3::Z, a, b, c).unwrap();
-    assert!((h.t - 2.0).abs() <= 1e-12 && (h.u - 0.25).abs() <= 1e-12 && (h.v - 0.25).abs() <= 1e-12);
+    assert!(
+        (h.t - 2.0).abs() <= 1e-12 && (h.u - 0.25).abs() <= 1e-12 && (h.v - 0.25).abs() <= 1e-12
+    );
     // two-sided
     assert!(ray_triangle(DVec3::new(0.5, 0.5, 3.0), -DVec3::Z, a, b, c).is_some());
     // outside, behind, parallel, degenerate
@@ -238,8 +278,21 @@ fn shading_terms() {
     // the highlight peaks in the mirror direction and is 0 behind the surface
     assert!((phong_specular(n, l, r, 32.0) - 1.0).abs() <= 1e-12);
     assert!(phong_specular(n, l, DVec3::Z, 32.0) < phong_specular(n, l, r, 32.0));
-    assert_eq!(phong_specular(n, DVec3::new(0.6, 0.0, -0.8), DVec3::new(-0.6, 0.0, -0.8), 32.0), 0.0);
-    let m = Phong { ka: 0.1, kd: 0.5, ks: 0.4, shininess: 8.0 };
+    assert_eq!(
+        phong_specular(
+            n,
+            DVec3::new(0.6, 0.0, -0.8),
+            DVec3::new(-0.6, 0.0, -0.8),
+            32.0
+        ),
+        0.0
+    );
+    let m = Phong {
+        ka: 0.1,
+        kd: 0.5,
+        ks: 0.4,
+        shininess: 8.0,
+    };
     let i = phong(&m, n, l, DVec3::Z, 0.5, 2.0, true);
     let want = 0.1 * 0.5 + 2.0 * (0.5 * 0.8 + 0.4 * 0.8f64.powf(8.0)); // r·v = 0.8
     assert!((i - want).abs() <= 1e-12, "{i} vs {want}");
@@ -250,15 +303,45 @@ fn hard_shadows_behind_an_occluding_sphere() {
     let light = DVec3::new(0.0, 10.0, 0.0);
     let spheres = [(DVec3::new(0.0, 5.0, 0.0), 1.0)];
     // on the floor y = 0 under the sphere: shadowed; far to the side: lit
-    assert!(in_shadow_spheres(DVec3::ZERO, DVec3::Y, light, 1e-4, &spheres));
-    assert!(!in_shadow_spheres(DVec3::new(5.0, 0.0, 0.0), DVec3::Y, light, 1e-4, &spheres));
+    assert!(in_shadow_spheres(
+        DVec3::ZERO,
+        DVec3::Y,
+        light,
+        1e-4,
+        &spheres
+    ));
+    assert!(!in_shadow_spheres(
+        DVec3::new(5.0, 0.0, 0.0),
+        DVec3::Y,
+        light,
+        1e-4,
+        &spheres
+    ));
     // a light between the point and the sphere: not shadowed (occluder beyond the light)
-    assert!(!in_shadow_spheres(DVec3::ZERO, DVec3::Y, DVec3::new(0.0, 2.0, 0.0), 1e-4, &spheres));
+    assert!(!in_shadow_spheres(
+        DVec3::ZERO,
+        DVec3::Y,
+        DVec3::new(0.0, 2.0, 0.0),
+        1e-4,
+        &spheres
+    ));
     // no acne: a point on the sphere's lit top does not shadow itself thanks to the ε offset
     let top = DVec3::new(0.0, 6.0, 0.0);
     assert!(!in_shadow_spheres(top, DVec3::Y, light, 1e-4, &spheres));
     // penumbra-free boundary: the shadow's edge on the floor is the tangent cone, radius 10/√(25−1)·1
     let edge = 10.0 / (24.0f64).sqrt();
-    assert!(in_shadow_spheres(DVec3::new(edge - 1e-3, 0.0, 0.0), DVec3::Y, light, 1e-4, &spheres));
-    assert!(!in_shadow_spheres(DVec3::new(edge + 1e-3, 0.0, 0.0), DVec3::Y, light, 1e-4, &spheres));
+    assert!(in_shadow_spheres(
+        DVec3::new(edge - 1e-3, 0.0, 0.0),
+        DVec3::Y,
+        light,
+        1e-4,
+        &spheres
+    ));
+    assert!(!in_shadow_spheres(
+        DVec3::new(edge + 1e-3, 0.0, 0.0),
+        DVec3::Y,
+        light,
+        1e-4,
+        &spheres
+    ));
 }

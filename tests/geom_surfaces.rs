@@ -15,11 +15,19 @@ fn fixture(name: &str) -> Value {
 }
 
 fn f64s(v: &Value) -> Vec<f64> {
-    v.as_array().unwrap().iter().map(|x| x.as_f64().unwrap()).collect()
+    v.as_array()
+        .unwrap()
+        .iter()
+        .map(|x| x.as_f64().unwrap())
+        .collect()
 }
 
 fn vec3s(v: &Value) -> Vec<DVec3> {
-    v.as_array().unwrap().iter().map(|p| DVec3::from_slice(&f64s(p))).collect()
+    v.as_array()
+        .unwrap()
+        .iter()
+        .map(|p| DVec3::from_slice(&f64s(p)))
+        .collect()
 }
 
 #[test]
@@ -29,16 +37,32 @@ fn surfaces_match_geomdl() {
     let (mut mp, mut md, mut m32) = (0.0f64, 0.0f64, 0.0f64);
     let mut kinds = std::collections::BTreeSet::new();
     for (ci, c) in cases.iter().enumerate() {
-        let deg = [c["degree_u"].as_u64().unwrap() as usize, c["degree_v"].as_u64().unwrap() as usize];
-        let size = [c["size_u"].as_u64().unwrap() as usize, c["size_v"].as_u64().unwrap() as usize];
+        let deg = [
+            c["degree_u"].as_u64().unwrap() as usize,
+            c["degree_v"].as_u64().unwrap() as usize,
+        ];
+        let size = [
+            c["size_u"].as_u64().unwrap() as usize,
+            c["size_v"].as_u64().unwrap() as usize,
+        ];
         let ctrl = vec3s(&c["ctrl"]);
         let weights = c["weights"].as_array().map(|_| f64s(&c["weights"]));
         let bezier = c["knots_kind"] == "bezier";
         kinds.insert((c["kind"].as_str().unwrap().to_string(), bezier));
         let s = match (bezier, &weights) {
             (true, None) => NurbsSurface::bezier(size, ctrl.clone()).unwrap(),
-            (true, Some(w)) => NurbsSurface::rational_bezier(size, ctrl.clone(), w.clone()).unwrap(),
-            _ => NurbsSurface::new(deg, size, f64s(&c["knots_u"]), f64s(&c["knots_v"]), ctrl.clone(), weights.clone()).unwrap(),
+            (true, Some(w)) => {
+                NurbsSurface::rational_bezier(size, ctrl.clone(), w.clone()).unwrap()
+            }
+            _ => NurbsSurface::new(
+                deg,
+                size,
+                f64s(&c["knots_u"]),
+                f64s(&c["knots_v"]),
+                ctrl.clone(),
+                weights.clone(),
+            )
+            .unwrap(),
         };
         assert_eq!(s.degree(), deg);
         let s32 = NurbsSurface::new(
@@ -47,13 +71,18 @@ fn surfaces_match_geomdl() {
             f64s(&c["knots_u"]).iter().map(|&k| k as f32).collect(),
             f64s(&c["knots_v"]).iter().map(|&k| k as f32).collect(),
             ctrl.iter().map(|p| p.as_vec3()).collect::<Vec<Vec3>>(),
-            weights.as_ref().map(|w| w.iter().map(|&x| x as f32).collect()),
+            weights
+                .as_ref()
+                .map(|w| w.iter().map(|&x| x as f32).collect()),
         )
         .unwrap();
         let lo = ctrl.iter().fold(DVec3::INFINITY, |a, &b| a.min(b));
         let hi = ctrl.iter().fold(DVec3::NEG_INFINITY, |a, &b| a.max(b));
         let diag = (hi - lo).length();
-        let want: Vec<Vec<DVec3>> = ["p", "su", "sv", "suu", "suv", "svv"].iter().map(|k| vec3s(&c[*k])).collect();
+        let want: Vec<Vec<DVec3>> = ["p", "su", "sv", "suu", "suv", "svv"]
+            .iter()
+            .map(|k| vec3s(&c[*k]))
+            .collect();
         let params = c["params"].as_array().unwrap();
         assert!(params.len() >= 101);
         for (i, uv) in params.iter().enumerate() {
@@ -62,14 +91,24 @@ fn surfaces_match_geomdl() {
             let got = [d.p, d.su, d.sv, d.suu, d.suv, d.svv];
             let ep = (got[0] - want[0][i]).length();
             let scale = (1..6).map(|k| want[k][i].length()).fold(1.0f64, f64::max);
-            let ed = (1..6).map(|k| (got[k] - want[k][i]).length() / scale).fold(0.0f64, f64::max);
-            assert!(ep <= 1e-12 && ed <= 1e-12, "case {ci} at {uv:?}: |ΔS| {ep:e}, derivatives {ed:e}");
-            let e32 = (s32.eval(uv[0] as f32, uv[1] as f32).as_dvec3() - want[0][i]).length() / diag;
+            let ed = (1..6)
+                .map(|k| (got[k] - want[k][i]).length() / scale)
+                .fold(0.0f64, f64::max);
+            assert!(
+                ep <= 1e-12 && ed <= 1e-12,
+                "case {ci} at {uv:?}: |ΔS| {ep:e}, derivatives {ed:e}"
+            );
+            let e32 =
+                (s32.eval(uv[0] as f32, uv[1] as f32).as_dvec3() - want[0][i]).length() / diag;
             assert!(e32 <= 1e-5, "case {ci} f32 at {uv:?}: {e32:e}");
             (mp, md, m32) = (mp.max(ep), md.max(ed), m32.max(e32));
         }
     }
-    assert_eq!(kinds.len(), 4, "B-spline, NURBS, Bézier, rational Bézier all covered: {kinds:?}");
+    assert_eq!(
+        kinds.len(),
+        4,
+        "B-spline, NURBS, Bézier, rational Bézier all covered: {kinds:?}"
+    );
     eprintln!(
         "surfaces vs geomdl ({} cases × 101 (u,v)): f64 |ΔS| {mp:.2e}, derivatives (1st+2nd) {md:.2e} rel; f32 {m32:.2e} × diag",
         cases.len()
@@ -141,9 +180,33 @@ fn cylinder_curvature() {
 fn bad_surface_input_is_an_error() {
     let k = vec![0., 0., 1., 1.];
     let four = vec![DVec3::ZERO; 4];
-    assert!(NurbsSurface::new([1, 1], [2, 2], k.clone(), k.clone(), four.clone(), Some(vec![1.; 3])).is_err());
-    assert!(NurbsSurface::new([1, 1], [2, 2], k.clone(), k.clone(), four.clone(), Some(vec![1., 1., -1., 1.])).is_err());
-    assert!(NurbsSurface::new([1, 1], [2, 2], k.clone(), vec![0., 1., 0., 1.], four.clone(), None).is_err());
+    assert!(NurbsSurface::new(
+        [1, 1],
+        [2, 2],
+        k.clone(),
+        k.clone(),
+        four.clone(),
+        Some(vec![1.; 3])
+    )
+    .is_err());
+    assert!(NurbsSurface::new(
+        [1, 1],
+        [2, 2],
+        k.clone(),
+        k.clone(),
+        four.clone(),
+        Some(vec![1., 1., -1., 1.])
+    )
+    .is_err());
+    assert!(NurbsSurface::new(
+        [1, 1],
+        [2, 2],
+        k.clone(),
+        vec![0., 1., 0., 1.],
+        four.clone(),
+        None
+    )
+    .is_err());
     assert!(NurbsSurface::new([2, 1], [2, 2], k.clone(), k.clone(), four.clone(), None).is_err());
     assert!(NurbsSurface::<f64, DVec3>::bezier([0, 2], vec![]).is_err());
     let e = NurbsSurface::new([1, 1], [2, 3], k.clone(), k, four, None).unwrap_err();

@@ -98,10 +98,15 @@ impl<S: Real, P: Point<S>> Bezier<S, P> {
     /// ```
     pub fn new(ctrl: Vec<P>) -> Result<Self> {
         if ctrl.is_empty() {
-            return Err(Error::Invalid("Bézier curve: needs at least one control point".into()));
+            return Err(Error::Invalid(
+                "Bézier curve: needs at least one control point".into(),
+            ));
         }
         check_finite(&ctrl, "Bézier control points")?;
-        Ok(Bezier { ctrl, _s: std::marker::PhantomData })
+        Ok(Bezier {
+            ctrl,
+            _s: std::marker::PhantomData,
+        })
     }
 
     /// Degree n (number of control points − 1).
@@ -124,7 +129,10 @@ impl<S: Real, P: Point<S>> Bezier<S, P> {
     /// ```
     pub fn eval_bernstein(&self, t: S) -> P {
         let b = bernstein_all(self.degree(), clamp01(t));
-        self.ctrl.iter().zip(b).fold(P::zero(), |acc, (&p, w)| acc + p * w)
+        self.ctrl
+            .iter()
+            .zip(b)
+            .fold(P::zero(), |acc, (&p, w)| acc + p * w)
     }
 
     /// C(t) by de Casteljau (the evaluator of record).
@@ -166,7 +174,10 @@ impl<S: Real, P: Point<S>> Bezier<S, P> {
             left.push(w[0]);
             right[n - 1 - r] = w[n - 1 - r];
         }
-        let mk = |ctrl| Bezier { ctrl, _s: std::marker::PhantomData };
+        let mk = |ctrl| Bezier {
+            ctrl,
+            _s: std::marker::PhantomData,
+        };
         (mk(left), mk(right))
     }
 
@@ -188,7 +199,10 @@ impl<S: Real, P: Point<S>> Bezier<S, P> {
             let s = S::from_usize(n);
             self.ctrl.windows(2).map(|w| (w[1] - w[0]) * s).collect()
         };
-        Bezier { ctrl, _s: std::marker::PhantomData }
+        Bezier {
+            ctrl,
+            _s: std::marker::PhantomData,
+        }
     }
 
     /// C(t), C′(t), …, C⁽ᵏ⁾(t) (k + 1 values) from repeated hodographs.
@@ -227,7 +241,10 @@ impl<S: Real, P: Point<S>> Bezier<S, P> {
             ctrl.push(self.ctrl[i - 1] * a + self.ctrl[i] * (S::ONE - a));
         }
         ctrl.push(self.ctrl[n]);
-        Bezier { ctrl, _s: std::marker::PhantomData }
+        Bezier {
+            ctrl,
+            _s: std::marker::PhantomData,
+        }
     }
 }
 
@@ -251,7 +268,9 @@ impl RationalBezier {
     /// ```
     pub fn new(ctrl: &[glam::DVec3], weights: &[f64]) -> Result<Self> {
         let hom = super::nurbs::homogeneous(ctrl, weights)?;
-        Ok(RationalBezier { hom: Bezier::new(hom)? })
+        Ok(RationalBezier {
+            hom: Bezier::new(hom)?,
+        })
     }
 
     /// Degree.

@@ -19,7 +19,9 @@ use crate::{Error, Result};
 /// ```
 pub fn check_knots<S: Real>(degree: usize, n_ctrl: usize, knots: &[S]) -> Result<()> {
     if degree == 0 {
-        return Err(Error::Invalid("B-spline: degree 0 is not supported (degree, not order: use ≥ 1)".into()));
+        return Err(Error::Invalid(
+            "B-spline: degree 0 is not supported (degree, not order: use ≥ 1)".into(),
+        ));
     }
     if n_ctrl < degree + 1 {
         return Err(Error::Invalid(format!(
@@ -132,7 +134,13 @@ pub fn basis_funs<S: Real>(span: usize, degree: usize, u: S, knots: &[S]) -> Vec
 /// // derivatives of the cubic Bernstein basis at 1/2: 3(B_{i-1,2} − B_{i,2})
 /// assert_eq!(d[1], vec![-0.75, -0.75, 0.75, 0.75]);
 /// ```
-pub fn ders_basis_funs<S: Real>(span: usize, degree: usize, u: S, nd: usize, knots: &[S]) -> Vec<Vec<S>> {
+pub fn ders_basis_funs<S: Real>(
+    span: usize,
+    degree: usize,
+    u: S,
+    nd: usize,
+    knots: &[S],
+) -> Vec<Vec<S>> {
     let p = degree;
     let i = span;
     let mut ndu = vec![vec![S::ZERO; p + 1]; p + 1];
@@ -168,7 +176,11 @@ pub fn ders_basis_funs<S: Real>(span: usize, degree: usize, u: S, nd: usize, kno
                 d = a[s2][0] * ndu[rk as usize][pk];
             }
             let j1 = if rk >= -1 { 1 } else { (-rk) as usize };
-            let j2 = if (r as isize - 1) <= pk as isize { k - 1 } else { p - r };
+            let j2 = if (r as isize - 1) <= pk as isize {
+                k - 1
+            } else {
+                p - r
+            };
             for j in j1..=j2 {
                 let idx = (rk + j as isize) as usize;
                 a[s2][j] = (a[s1][j] - a[s1][j - 1]) / ndu[pk + 1][idx];
@@ -194,14 +206,22 @@ pub fn ders_basis_funs<S: Real>(span: usize, degree: usize, u: S, nd: usize, kno
 
 /// C(u) and its derivatives up to order `nd` for raw (degree, knots, control points); unchecked kernel
 /// shared by curves, NURBS (on homogeneous points) and surfaces.
-pub(crate) fn curve_derivs_raw<S: Real, P: Point<S>>(degree: usize, knots: &[S], ctrl: &[P], u: S, nd: usize) -> Vec<P> {
+pub(crate) fn curve_derivs_raw<S: Real, P: Point<S>>(
+    degree: usize,
+    knots: &[S],
+    ctrl: &[P],
+    u: S,
+    nd: usize,
+) -> Vec<P> {
     let n = ctrl.len();
     let u = clamp_domain(degree, n, knots, u);
     let span = find_span(degree, n, u, knots);
     let ders = ders_basis_funs(span, degree, u, nd, knots);
     (0..=nd)
         .map(|k| {
-            (0..=degree).fold(P::zero(), |acc, j| acc + ctrl[span - degree + j] * ders[k][j])
+            (0..=degree).fold(P::zero(), |acc, j| {
+                acc + ctrl[span - degree + j] * ders[k][j]
+            })
         })
         .collect()
 }
@@ -252,9 +272,7 @@ pub(crate) fn insert_knot_raw<S: Real, P: Point<S>>(
     uq.extend_from_slice(&knots[k + 1..=mp]);
     let mut q = vec![P::zero(); n + r];
     q[..=(k - p)].copy_from_slice(&ctrl[..=(k - p)]);
-    for i in (k - s)..n {
-        q[i + r] = ctrl[i];
-    }
+    q[(k - s + r)..(n + r)].copy_from_slice(&ctrl[(k - s)..n]);
     let mut rw: Vec<P> = (0..=(p - s)).map(|i| ctrl[k - p + i]).collect();
     let mut l = 0;
     for j in 1..=r {
@@ -266,14 +284,19 @@ pub(crate) fn insert_knot_raw<S: Real, P: Point<S>>(
         q[l] = rw[0];
         q[k + r - j - s] = rw[p - j - s];
     }
-    for i in (l + 1)..(k - s) {
-        q[i] = rw[i - l];
+    if l + 1 < k - s {
+        q[(l + 1)..(k - s)].copy_from_slice(&rw[1..(k - s - l)]);
     }
     Ok((uq, q))
 }
 
 /// Split raw data at u into two clamped pieces (knots in the original parameter).
-pub(crate) fn split_raw<S: Real, P: Point<S>>(degree: usize, knots: &[S], ctrl: &[P], u: S) -> Result<[(Vec<S>, Vec<P>); 2]> {
+pub(crate) fn split_raw<S: Real, P: Point<S>>(
+    degree: usize,
+    knots: &[S],
+    ctrl: &[P],
+    u: S,
+) -> Result<[(Vec<S>, Vec<P>); 2]> {
     let p = degree;
     let n = ctrl.len();
     if !(u.is_finite() && u > knots[p] && u < knots[n]) {
@@ -284,7 +307,10 @@ pub(crate) fn split_raw<S: Real, P: Point<S>>(degree: usize, knots: &[S], ctrl: 
     }
     let s = knots.iter().filter(|&&k| k == u).count();
     let (kn, q) = insert_knot_raw(p, knots, ctrl, u, p.saturating_sub(s))?;
-    let a = kn.iter().position(|&x| x == u).expect("inserted knot present");
+    let a = kn
+        .iter()
+        .position(|&x| x == u)
+        .expect("inserted knot present");
     let mut lk = kn[..a + p].to_vec();
     lk.push(u);
     let lq = q[..a].to_vec();
@@ -315,7 +341,11 @@ impl<S: Real, P: Point<S>> BSplineCurve<S, P> {
     pub fn new(degree: usize, knots: Vec<S>, ctrl: Vec<P>) -> Result<Self> {
         check_knots(degree, ctrl.len(), &knots)?;
         check_finite(&ctrl, "B-spline control points")?;
-        Ok(BSplineCurve { degree, knots, ctrl })
+        Ok(BSplineCurve {
+            degree,
+            knots,
+            ctrl,
+        })
     }
 
     /// A clamped uniform curve on [0, 1] through the given control points.
@@ -384,7 +414,11 @@ impl<S: Real, P: Point<S>> BSplineCurve<S, P> {
     /// ```
     pub fn insert_knot(&self, u: S, times: usize) -> Result<Self> {
         let (knots, ctrl) = insert_knot_raw(self.degree, &self.knots, &self.ctrl, u, times)?;
-        Ok(BSplineCurve { degree: self.degree, knots, ctrl })
+        Ok(BSplineCurve {
+            degree: self.degree,
+            knots,
+            ctrl,
+        })
     }
 
     /// Splits at u (strictly inside the domain) into two clamped curves on [U[p], u] and [u, U[n]].
@@ -399,6 +433,17 @@ impl<S: Real, P: Point<S>> BSplineCurve<S, P> {
     pub fn split(&self, u: S) -> Result<(Self, Self)> {
         let [(lk, lq), (rk, rq)] = split_raw(self.degree, &self.knots, &self.ctrl, u)?;
         let p = self.degree;
-        Ok((BSplineCurve { degree: p, knots: lk, ctrl: lq }, BSplineCurve { degree: p, knots: rk, ctrl: rq }))
+        Ok((
+            BSplineCurve {
+                degree: p,
+                knots: lk,
+                ctrl: lq,
+            },
+            BSplineCurve {
+                degree: p,
+                knots: rk,
+                ctrl: rq,
+            },
+        ))
     }
 }

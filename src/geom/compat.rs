@@ -55,8 +55,17 @@ fn solve2(a: DVec3, c: DVec3, b: DVec3) -> Result<(f64, f64, f64)> {
 /// assert_eq!(s.k, [-1.0, -1.0]);
 /// assert_eq!(s.b_face, [DVec3::new(1.0, -1.0, 0.0), DVec3::new(2.0, -1.0, 0.0)]);
 /// ```
-pub fn chiyokura_kimura(p: &[DVec3; 4], a0: DVec3, a3: DVec3, b0: DVec3, b3: DVec3) -> Result<CkSolution> {
-    if p.iter().chain([a0, a3, b0, b3].iter()).any(|v| !v.is_finite()) {
+pub fn chiyokura_kimura(
+    p: &[DVec3; 4],
+    a0: DVec3,
+    a3: DVec3,
+    b0: DVec3,
+    b3: DVec3,
+) -> Result<CkSolution> {
+    if p.iter()
+        .chain([a0, a3, b0, b3].iter())
+        .any(|v| !v.is_finite())
+    {
         return Err(Error::Invalid("Chiyokura–Kimura: non-finite input".into()));
     }
     let c = [p[1] - p[0], p[2] - p[1], p[3] - p[2]];
@@ -153,13 +162,22 @@ impl Edge {
 /// assert_eq!(s.k, [-1.0, -1.0]);
 /// assert!(ck_correct_edge(&mut a, Edge::U1, &mut b, Edge::V1).is_err()); // not shared
 /// ```
-pub fn ck_correct_edge(a: &mut PatchF64, ea: Edge, b: &mut PatchF64, eb: Edge) -> Result<CkSolution> {
+pub fn ck_correct_edge(
+    a: &mut PatchF64,
+    ea: Edge,
+    b: &mut PatchF64,
+    eb: Edge,
+) -> Result<CkSolution> {
     let pa = ea.boundary().map(|i| a.cv[i]);
     let ia = ea.inner();
     let (mut bb, mut ib) = (eb.boundary(), eb.inner());
     let size = (pa[3] - pa[0]).length() + (pa[1] - pa[0]).length() + (pa[2] - pa[1]).length();
     let tol = 1e-9 * size.max(f64::MIN_POSITIVE);
-    let same = |idx: &[usize; 4]| idx.iter().zip(&pa).all(|(&i, p)| (b.cv[i] - *p).length() <= tol);
+    let same = |idx: &[usize; 4]| {
+        idx.iter()
+            .zip(&pa)
+            .all(|(&i, p)| (b.cv[i] - *p).length() <= tol)
+    };
     if !same(&bb) {
         bb.reverse();
         ib.reverse();
@@ -169,7 +187,13 @@ pub fn ck_correct_edge(a: &mut PatchF64, ea: Edge, b: &mut PatchF64, eb: Edge) -
             )));
         }
     }
-    let s = chiyokura_kimura(&pa, a.cv[ia[0]] - pa[0], a.cv[ia[3]] - pa[3], b.cv[ib[0]] - pa[0], b.cv[ib[3]] - pa[3])?;
+    let s = chiyokura_kimura(
+        &pa,
+        a.cv[ia[0]] - pa[0],
+        a.cv[ia[3]] - pa[3],
+        b.cv[ib[0]] - pa[0],
+        b.cv[ib[3]] - pa[3],
+    )?;
     a.cv[ia[1]] = s.a_face[0];
     a.cv[ia[2]] = s.a_face[1];
     b.cv[ib[1]] = s.b_face[0];

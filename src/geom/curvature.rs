@@ -91,7 +91,13 @@ pub fn surface_normal(su: DVec3, sv: DVec3) -> Option<DVec3> {
 /// let (k, h) = gaussian_mean_curvature(DVec3::X, DVec3::Y, DVec3::Z, DVec3::ZERO, DVec3::Z).unwrap();
 /// assert_eq!((k, h), (1.0, 1.0));
 /// ```
-pub fn gaussian_mean_curvature(su: DVec3, sv: DVec3, suu: DVec3, suv: DVec3, svv: DVec3) -> Option<(f64, f64)> {
+pub fn gaussian_mean_curvature(
+    su: DVec3,
+    sv: DVec3,
+    suu: DVec3,
+    suv: DVec3,
+    svv: DVec3,
+) -> Option<(f64, f64)> {
     let n = surface_normal(su, sv)?;
     let (e, f, g) = (su.dot(su), su.dot(sv), sv.dot(sv));
     let (l, m, nn) = (suu.dot(n), suv.dot(n), svv.dot(n));
@@ -99,5 +105,8 @@ pub fn gaussian_mean_curvature(su: DVec3, sv: DVec3, suu: DVec3, suv: DVec3, svv
     if !(det > 0.0) {
         return None;
     }
-    Some(((l * nn - m * m) / det, (e * nn - 2.0 * f * m + g * l) / (2.0 * det)))
+    Some((
+        (l * nn - m * m) / det,
+        (e * nn - 2.0 * f * m + g * l) / (2.0 * det),
+    ))
 }

@@ -39,7 +39,12 @@ pub const BEZIER_GRID: [[[usize; 2]; 4]; 4] = [
 ];
 
 /// Interior cells (col, row) and the signs of (∂a/∂u, ∂b/∂v): a depends on u only, b on v only.
-const INTERIOR: [(usize, usize, f64, f64); 4] = [(1, 1, 1.0, 1.0), (2, 1, -1.0, 1.0), (1, 2, 1.0, -1.0), (2, 2, -1.0, -1.0)];
+const INTERIOR: [(usize, usize, f64, f64); 4] = [
+    (1, 1, 1.0, 1.0),
+    (2, 1, -1.0, 1.0),
+    (1, 2, 1.0, -1.0),
+    (2, 2, -1.0, -1.0),
+];
 
 /// Cubic Bernstein values and first and second derivatives at t.
 fn bern3<S: Real>(t: S) -> [[S; 4]; 3] {
@@ -48,9 +53,19 @@ fn bern3<S: Real>(t: S) -> [[S; 4]; 3] {
     let s = S::ONE - t;
     [
         [s * s * s, three * t * s * s, three * t * t * s, t * t * t],
-        [-three * s * s, three * s * s - six * t * s, six * t * s - three * t * t, three * t * t],
+        [
+            -three * s * s,
+            three * s * s - six * t * s,
+            six * t * s - three * t * t,
+            three * t * t,
+        ],
         // d²/dt² of (1−t)³, 3t(1−t)², 3t²(1−t), t³
-        [six * s, S::from_f64(18.0) * t - S::from_f64(12.0), six - S::from_f64(18.0) * t, six * t],
+        [
+            six * s,
+            S::from_f64(18.0) * t - S::from_f64(12.0),
+            six - S::from_f64(18.0) * t,
+            six * t,
+        ],
     ]
 }
 
@@ -95,7 +110,13 @@ pub struct GregoryEval<P> {
 /// 4. if `exact`, add Σ B_i(u)B_j(v)·∂Q_ij over the interior cells (in the order Q11, Q21, Q12, Q22).
 ///
 /// `second` also computes the second derivatives (exact: with the ∂Q and ∂²Q terms).
-pub fn eval_generic<S: Real, P: Point<S>>(cv: &[P; 20], u: S, v: S, exact: bool, second: bool) -> GregoryEval<P> {
+pub fn eval_generic<S: Real, P: Point<S>>(
+    cv: &[P; 20],
+    u: S,
+    v: S,
+    exact: bool,
+    second: bool,
+) -> GregoryEval<P> {
     let (u, v) = (clamp01(u), clamp01(v));
     let bu = bern3(u);
     let bv = bern3(v);
@@ -131,7 +152,11 @@ pub fn eval_generic<S: Real, P: Point<S>>(cv: &[P; 20], u: S, v: S, exact: bool,
     let mut sv = contract(&bu[0], &bv[1]);
     let mut sec = [P::zero(); 3];
     if second {
-        sec = [contract(&bu[2], &bv[0]), contract(&bu[1], &bv[1]), contract(&bu[0], &bv[2])];
+        sec = [
+            contract(&bu[2], &bv[0]),
+            contract(&bu[1], &bv[1]),
+            contract(&bu[0], &bv[2]),
+        ];
     }
     if exact {
         let two = S::from_f64(2.0);
@@ -147,7 +172,12 @@ pub fn eval_generic<S: Real, P: Point<S>>(cv: &[P; 20], u: S, v: S, exact: bool,
             }
         }
     }
-    GregoryEval { p, su, sv, second: sec }
+    GregoryEval {
+        p,
+        su,
+        sv,
+        second: sec,
+    }
 }
 
 /// The frozen 16-point Bézier net at (u, v): the boundary points and Q_ij(u, v), `[row = v][col = u]`.
@@ -186,10 +216,19 @@ macro_rules! normal_impl {
             }
             let (u, v) = (clamp01(u), clamp01(v));
             let lerp2 = |pts: [$v; 4], t: $s| -> [$v; 2] {
-                let a = [pts[0].lerp(pts[1], t), pts[1].lerp(pts[2], t), pts[2].lerp(pts[3], t)];
+                let a = [
+                    pts[0].lerp(pts[1], t),
+                    pts[1].lerp(pts[2], t),
+                    pts[2].lerp(pts[3], t),
+                ];
                 [a[0].lerp(a[1], t), a[1].lerp(a[2], t)]
             };
-            let rows: [[$v; 2]; 4] = [lerp2(net[0], u), lerp2(net[1], u), lerp2(net[2], u), lerp2(net[3], u)];
+            let rows: [[$v; 2]; 4] = [
+                lerp2(net[0], u),
+                lerp2(net[1], u),
+                lerp2(net[2], u),
+                lerp2(net[3], u),
+            ];
             let c0 = lerp2([rows[0][0], rows[1][0], rows[2][0], rows[3][0]], v);
             let c1 = lerp2([rows[0][1], rows[1][1], rows[2][1], rows[3][1]], v);
             // c0 = [c00, c01] (column u-low, v low/high), c1 = [c10, c11]
@@ -211,12 +250,10 @@ macro_rules! normal_impl {
 mod normal64 {
     use super::*;
     normal_impl!(f64, DVec3);
-
 }
 mod normal32 {
     use super::*;
     normal_impl!(f32, Vec3);
-
 }
 
 /// A Gregory patch in f64 for reference maths.
@@ -247,7 +284,9 @@ impl PatchF64 {
     /// ```
     pub fn new(cv: [DVec3; 20]) -> Result<Self> {
         if let Some(i) = cv.iter().position(|p| !p.is_finite()) {
-            return Err(Error::Invalid(format!("Gregory patch: control point {i} is not finite")));
+            return Err(Error::Invalid(format!(
+                "Gregory patch: control point {i} is not finite"
+            )));
         }
         Ok(PatchF64 { cv })
     }
@@ -371,7 +410,9 @@ impl PatchF64 {
     /// assert_eq!(std::mem::size_of_val(&p), 320);
     /// ```
     pub fn to_gpu(&self) -> Patch {
-        Patch { cv: self.cv.map(|p| [p.x as f32, p.y as f32, p.z as f32, 1.0]) }
+        Patch {
+            cv: self.cv.map(|p| [p.x as f32, p.y as f32, p.z as f32, 1.0]),
+        }
     }
 }
 
@@ -389,7 +430,11 @@ impl Patch {
     /// assert_eq!(p.to_f64().to_gpu(), p);
     /// ```
     pub fn to_f64(&self) -> PatchF64 {
-        PatchF64 { cv: self.cv.map(|c| DVec3::new(c[0] as f64, c[1] as f64, c[2] as f64)) }
+        PatchF64 {
+            cv: self
+                .cv
+                .map(|c| DVec3::new(c[0] as f64, c[1] as f64, c[2] as f64)),
+        }
     }
 
     /// f32 (S, S_u, S_v) with exact derivatives, in the operation order of [`eval_generic`].

@@ -9,6 +9,11 @@
 //! - Constructors that take user data validate it and return [`crate::Error::Invalid`]; once a value exists,
 //!   its evaluators do not fail (parameters outside the domain are clamped to it).
 //! - Surfaces index control points `ctrl[i * size_v + j]` (i along u, j along v; v fastest), as geomdl.
+// `!(a < b)` is deliberate throughout: unlike `a >= b` it is true when either side is NaN, which is how
+// invalid input is rejected and how NaN parameters are clamped.
+#![allow(clippy::neg_cmp_op_on_partial_ord)]
+// Index loops mirror the published algorithms (The NURBS Book A2.x, A5.1) line by line.
+#![allow(clippy::needless_range_loop)]
 pub mod bezier;
 pub mod bspline;
 pub mod compat;

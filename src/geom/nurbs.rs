@@ -5,7 +5,9 @@
 //! keeps the denominator w(u) = Σ N_i w_i positive everywhere (the basis is a partition of unity), so
 //! evaluation never divides by zero. Derivatives are those of the rational curve (quotient rule on the
 //! homogeneous curve A = w·C), with respect to the stored knot parameter.
-use super::bspline::{check_knots, clamped_uniform_knots, curve_derivs_raw, insert_knot_raw, split_raw};
+use super::bspline::{
+    check_knots, clamped_uniform_knots, curve_derivs_raw, insert_knot_raw, split_raw,
+};
 use super::real::{check_finite, Point, Real};
 use crate::{Error, Result};
 use glam::{DVec3, DVec4};
@@ -21,7 +23,11 @@ use glam::{DVec3, DVec4};
 pub fn homogeneous(ctrl: &[DVec3], weights: &[f64]) -> Result<Vec<DVec4>> {
     check_weights(ctrl.len(), weights)?;
     check_finite(ctrl, "control points")?;
-    Ok(ctrl.iter().zip(weights).map(|(p, &w)| (*p * w).extend(w)).collect())
+    Ok(ctrl
+        .iter()
+        .zip(weights)
+        .map(|(p, &w)| (*p * w).extend(w))
+        .collect())
 }
 
 pub(crate) fn check_weights<S: Real>(n_ctrl: usize, weights: &[S]) -> Result<()> {
@@ -31,8 +37,14 @@ pub(crate) fn check_weights<S: Real>(n_ctrl: usize, weights: &[S]) -> Result<()>
             weights.len()
         )));
     }
-    if let Some(i) = weights.iter().position(|w| !(w.is_finite() && *w > S::ZERO)) {
-        return Err(Error::Invalid(format!("NURBS: weight {i} = {:?} must be finite and > 0", weights[i])));
+    if let Some(i) = weights
+        .iter()
+        .position(|w| !(w.is_finite() && *w > S::ZERO))
+    {
+        return Err(Error::Invalid(format!(
+            "NURBS: weight {i} = {:?} must be finite and > 0",
+            weights[i]
+        )));
     }
     Ok(())
 }
@@ -88,7 +100,13 @@ impl<S: Real, P: Point<S>> NurbsCurve<S, P> {
         check_weights(ctrl.len(), &weights)?;
         check_finite(&ctrl, "NURBS control points")?;
         let wctrl = ctrl.iter().zip(&weights).map(|(&p, &w)| p * w).collect();
-        Ok(NurbsCurve { degree, knots, ctrl, weights, wctrl })
+        Ok(NurbsCurve {
+            degree,
+            knots,
+            ctrl,
+            weights,
+            wctrl,
+        })
     }
 
     /// A rational Bézier curve as a NURBS (knots 0 and 1, each repeated degree + 1 times).
@@ -162,7 +180,7 @@ impl<S: Real, P: Point<S>> NurbsCurve<S, P> {
     pub fn insert_knot(&self, u: S, times: usize) -> Result<Self> {
         let (knots, wctrl) = insert_knot_raw(self.degree, &self.knots, &self.wctrl, u, times)?;
         let (_, weights) = insert_knot_raw(self.degree, &self.knots, &self.weights, u, times)?;
-        Ok(self.from_homogeneous(knots, wctrl, weights))
+        Ok(self.with_homogeneous(knots, wctrl, weights))
     }
 
     /// Splits at u (strictly inside the domain) into two NURBS curves.
@@ -176,11 +194,24 @@ impl<S: Real, P: Point<S>> NurbsCurve<S, P> {
     pub fn split(&self, u: S) -> Result<(Self, Self)> {
         let [(lk, lq), (rk, rq)] = split_raw(self.degree, &self.knots, &self.wctrl, u)?;
         let [(_, lw), (_, rw)] = split_raw(self.degree, &self.knots, &self.weights, u)?;
-        Ok((self.from_homogeneous(lk, lq, lw), self.from_homogeneous(rk, rq, rw)))
+        Ok((
+            self.with_homogeneous(lk, lq, lw),
+            self.with_homogeneous(rk, rq, rw),
+        ))
     }
 
-    fn from_homogeneous(&self, knots: Vec<S>, wctrl: Vec<P>, weights: Vec<S>) -> Self {
-        let ctrl = wctrl.iter().zip(&weights).map(|(&p, &w)| p * (S::ONE / w)).collect();
-        NurbsCurve { degree: self.degree, knots, ctrl, weights, wctrl }
+    fn with_homogeneous(&self, knots: Vec<S>, wctrl: Vec<P>, weights: Vec<S>) -> Self {
+        let ctrl = wctrl
+            .iter()
+            .zip(&weights)
+            .map(|(&p, &w)| p * (S::ONE / w))
+            .collect();
+        NurbsCurve {
+            degree: self.degree,
+            knots,
+            ctrl,
+            weights,
+            wctrl,
+        }
     }
 }

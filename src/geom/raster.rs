@@ -39,7 +39,11 @@ pub fn bresenham(p0: IVec2, p1: IVec2) -> Vec<IVec2> {
     let mut d = 2 * dr - dc;
     let mut out = Vec::with_capacity(dc as usize + 1);
     for _ in 0..dc {
-        out.push(if steep { IVec2::new(r as i32, c as i32) } else { IVec2::new(c as i32, r as i32) });
+        out.push(if steep {
+            IVec2::new(r as i32, c as i32)
+        } else {
+            IVec2::new(c as i32, r as i32)
+        });
         while d >= 0 {
             r += sr;
             d -= 2 * dc;
@@ -73,7 +77,9 @@ impl VoxelGrid {
     /// ```
     pub fn new(origin: DVec3, cell: f64, dims: UVec3) -> crate::Result<Self> {
         if !(cell > 0.0 && cell.is_finite() && origin.is_finite()) {
-            return Err(crate::Error::Invalid(format!("voxel grid: cell {cell} / origin {origin} not usable")));
+            return Err(crate::Error::Invalid(format!(
+                "voxel grid: cell {cell} / origin {origin} not usable"
+            )));
         }
         Ok(VoxelGrid { origin, cell, dims })
     }
@@ -102,7 +108,14 @@ impl VoxelGrid {
 /// let r = ray_box(DVec3::new(-1.0, 0.5, 0.5), DVec3::X, DVec3::ZERO, DVec3::ONE, 0.0, 10.0);
 /// assert_eq!(r, Some((1.0, 2.0)));
 /// ```
-pub fn ray_box(origin: DVec3, dir: DVec3, lo: DVec3, hi: DVec3, t_min: f64, t_max: f64) -> Option<(f64, f64)> {
+pub fn ray_box(
+    origin: DVec3,
+    dir: DVec3,
+    lo: DVec3,
+    hi: DVec3,
+    t_min: f64,
+    t_max: f64,
+) -> Option<(f64, f64)> {
     let (mut t0, mut t1) = (t_min, t_max);
     for a in 0..3 {
         if dir[a] == 0.0 {
@@ -144,7 +157,9 @@ pub fn dda_traverse(
     t_max: f64,
     mut visit: impl FnMut(IVec3, f64, f64) -> bool,
 ) {
-    if !(origin.is_finite() && dir.is_finite() && dir != DVec3::ZERO) || grid.dims.min_element() == 0 {
+    if !(origin.is_finite() && dir.is_finite() && dir != DVec3::ZERO)
+        || grid.dims.min_element() == 0
+    {
         return;
     }
     let lo = grid.origin;
@@ -158,7 +173,10 @@ pub fn dda_traverse(
     let dims = grid.dims.as_ivec3();
     // start voxel from the midpoint-free entry point, clamped into the grid against rounding
     let entry = origin + dir * t0;
-    let mut v = ((entry - lo) / grid.cell).floor().as_ivec3().clamp(IVec3::ZERO, dims - IVec3::ONE);
+    let mut v = ((entry - lo) / grid.cell)
+        .floor()
+        .as_ivec3()
+        .clamp(IVec3::ZERO, dims - IVec3::ONE);
     let step = IVec3::new(sgn(dir.x), sgn(dir.y), sgn(dir.z));
     // boundary parameters are computed from absolute plane positions each time (no accumulated drift)
     let next_t = |v: IVec3, a: usize| -> f64 {

@@ -49,7 +49,13 @@ pub fn ray_sphere(origin: DVec3, dir: DVec3, centre: DVec3, radius: f64) -> Opti
 /// use glam::DVec3;
 /// assert_eq!(ray_sphere_hit(DVec3::ZERO, DVec3::X, DVec3::ZERO, 1.0, 1e-9), Some(1.0));
 /// ```
-pub fn ray_sphere_hit(origin: DVec3, dir: DVec3, centre: DVec3, radius: f64, t_min: f64) -> Option<f64> {
+pub fn ray_sphere_hit(
+    origin: DVec3,
+    dir: DVec3,
+    centre: DVec3,
+    radius: f64,
+    t_min: f64,
+) -> Option<f64> {
     let (t0, t1) = ray_sphere(origin, dir, centre, radius)?;
     if t0 >= t_min {
         Some(t0)
@@ -81,7 +87,13 @@ pub struct TriangleHit {
 /// assert_eq!((h.t, h.u, h.v), (1.0, 0.25, 0.25));
 /// assert!(ray_triangle(DVec3::new(0.8, 0.8, 1.0), -DVec3::Z, DVec3::ZERO, DVec3::X, DVec3::Y).is_none());
 /// ```
-pub fn ray_triangle(origin: DVec3, dir: DVec3, a: DVec3, b: DVec3, c: DVec3) -> Option<TriangleHit> {
+pub fn ray_triangle(
+    origin: DVec3,
+    dir: DVec3,
+    a: DVec3,
+    b: DVec3,
+    c: DVec3,
+) -> Option<TriangleHit> {
     let e1 = b - a;
     let e2 = c - a;
     let p = dir.cross(e2);

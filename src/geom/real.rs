@@ -92,7 +92,15 @@ impl_real!(f64);
 /// assert_eq!(<DVec3 as Point<f64>>::coords(p), vec![2.0, 0.0, 0.0]);
 /// ```
 pub trait Point<S: Real>:
-    Copy + Debug + PartialEq + Add<Output = Self> + Sub<Output = Self> + Mul<S, Output = Self> + Send + Sync + 'static
+    Copy
+    + Debug
+    + PartialEq
+    + Add<Output = Self>
+    + Sub<Output = Self>
+    + Mul<S, Output = Self>
+    + Send
+    + Sync
+    + 'static
 {
     /// The origin / zero vector.
     fn zero() -> Self;
@@ -104,7 +112,11 @@ pub trait Point<S: Real>:
     }
     /// Euclidean length, in f64.
     fn norm_f64(self) -> f64 {
-        self.coords().into_iter().map(|c| c.to_f64() * c.to_f64()).sum::<f64>().sqrt()
+        self.coords()
+            .into_iter()
+            .map(|c| c.to_f64() * c.to_f64())
+            .sum::<f64>()
+            .sqrt()
     }
 }
 
@@ -157,7 +169,10 @@ pub fn binomial<S: Real>(n: usize, k: usize) -> S {
 /// Validates that every value is finite, naming `what` in the error.
 pub(crate) fn check_finite<S: Real, P: Point<S>>(pts: &[P], what: &str) -> crate::Result<()> {
     match pts.iter().position(|p| !p.all_finite()) {
-        Some(i) => Err(crate::Error::Invalid(format!("{what}: entry {i} is not finite ({:?})", pts[i]))),
+        Some(i) => Err(crate::Error::Invalid(format!(
+            "{what}: entry {i} is not finite ({:?})",
+            pts[i]
+        ))),
         None => Ok(()),
     }
 }

@@ -81,7 +81,11 @@ pub struct Phong {
 /// assert_eq!(phong(&m, DVec3::Z, DVec3::Z, DVec3::Z, 1.0, 1.0, false), 0.1);
 /// ```
 pub fn phong(m: &Phong, n: DVec3, l: DVec3, v: DVec3, ia: f64, il: f64, lit: bool) -> f64 {
-    let direct = if lit { il * (m.kd * lambert(n, l) + m.ks * phong_specular(n, l, v, m.shininess)) } else { 0.0 };
+    let direct = if lit {
+        il * (m.kd * lambert(n, l) + m.ks * phong_specular(n, l, v, m.shininess))
+    } else {
+        0.0
+    };
     ambient(m.ka, ia) + direct
 }
 
@@ -109,7 +113,13 @@ pub fn shadow_ray(p: DVec3, n: DVec3, light: DVec3, eps: f64) -> (DVec3, DVec3) 
 ///     |o, d| ray_sphere(o, d, DVec3::new(0., 0., 5.), 1.0).map(|(a, b)| vec![a, b]).unwrap_or_default());
 /// assert!(blocked);
 /// ```
-pub fn in_shadow_by(p: DVec3, n: DVec3, light: DVec3, eps: f64, hit: impl Fn(DVec3, DVec3) -> Vec<f64>) -> bool {
+pub fn in_shadow_by(
+    p: DVec3,
+    n: DVec3,
+    light: DVec3,
+    eps: f64,
+    hit: impl Fn(DVec3, DVec3) -> Vec<f64>,
+) -> bool {
     let (o, d) = shadow_ray(p, n, light, eps);
     hit(o, d).into_iter().any(|t| t > 0.0 && t < 1.0)
 }
@@ -123,8 +133,18 @@ pub fn in_shadow_by(p: DVec3, n: DVec3, light: DVec3, eps: f64, hit: impl Fn(DVe
 /// assert!(in_shadow_spheres(DVec3::ZERO, DVec3::Z, DVec3::new(0., 0., 10.), 1e-4, &s));
 /// assert!(!in_shadow_spheres(DVec3::new(3., 0., 0.), DVec3::Z, DVec3::new(3., 0., 10.), 1e-4, &s));
 /// ```
-pub fn in_shadow_spheres(p: DVec3, n: DVec3, light: DVec3, eps: f64, spheres: &[(DVec3, f64)]) -> bool {
+pub fn in_shadow_spheres(
+    p: DVec3,
+    n: DVec3,
+    light: DVec3,
+    eps: f64,
+    spheres: &[(DVec3, f64)],
+) -> bool {
     in_shadow_by(p, n, light, eps, |o, d| {
-        spheres.iter().filter_map(|&(c, r)| ray_sphere(o, d, c, r)).flat_map(|(a, b)| [a, b]).collect()
+        spheres
+            .iter()
+            .filter_map(|&(c, r)| ray_sphere(o, d, c, r))
+            .flat_map(|(a, b)| [a, b])
+            .collect()
     })
 }

@@ -6,7 +6,9 @@
 //! B-spline with knots {0^(p+1), 1^(p+1)}, and non-rational surfaces skip the division (so they are not
 //! perturbed by a Σ N ≠ 1 rounding). Rational derivatives follow from A = w·S by the quotient rule;
 //! weights are > 0, so w(u, v) > 0 everywhere.
-use super::bspline::{check_knots, clamp_domain, clamped_uniform_knots, ders_basis_funs, find_span};
+use super::bspline::{
+    check_knots, clamp_domain, clamped_uniform_knots, ders_basis_funs, find_span,
+};
 use super::curvature::{gaussian_mean_curvature, surface_normal};
 use super::nurbs::check_weights;
 use super::real::{check_finite, Point, Real};
@@ -90,8 +92,10 @@ impl<S: Real, P: Point<S>> NurbsSurface<S, P> {
         ctrl: Vec<P>,
         weights: Option<Vec<S>>,
     ) -> Result<Self> {
-        check_knots(degree[0], size[0], &knots_u).map_err(|e| Error::Invalid(format!("surface, u direction: {e}")))?;
-        check_knots(degree[1], size[1], &knots_v).map_err(|e| Error::Invalid(format!("surface, v direction: {e}")))?;
+        check_knots(degree[0], size[0], &knots_u)
+            .map_err(|e| Error::Invalid(format!("surface, u direction: {e}")))?;
+        check_knots(degree[1], size[1], &knots_v)
+            .map_err(|e| Error::Invalid(format!("surface, v direction: {e}")))?;
         if ctrl.len() != size[0] * size[1] {
             return Err(Error::Invalid(format!(
                 "surface: a {}×{} grid needs {} control points, got {}",
@@ -109,7 +113,15 @@ impl<S: Real, P: Point<S>> NurbsSurface<S, P> {
             }
             None => ctrl.clone(),
         };
-        Ok(NurbsSurface { degree, size, knots_u, knots_v, ctrl, weights, wctrl })
+        Ok(NurbsSurface {
+            degree,
+            size,
+            knots_u,
+            knots_v,
+            ctrl,
+            weights,
+            wctrl,
+        })
     }
 
     /// An N×M Bézier patch: `size = [deg_u + 1, deg_v + 1]`, control points v fastest.
@@ -141,9 +153,16 @@ impl<S: Real, P: Point<S>> NurbsSurface<S, P> {
         Self::rational_bezier_opt(size, ctrl, Some(weights))
     }
 
-    fn rational_bezier_opt(size: [usize; 2], ctrl: Vec<P>, weights: Option<Vec<S>>) -> Result<Self> {
+    fn rational_bezier_opt(
+        size: [usize; 2],
+        ctrl: Vec<P>,
+        weights: Option<Vec<S>>,
+    ) -> Result<Self> {
         let d = [size[0].saturating_sub(1), size[1].saturating_sub(1)];
-        let (ku, kv) = (clamped_uniform_knots(d[0], size[0]), clamped_uniform_knots(d[1], size[1]));
+        let (ku, kv) = (
+            clamped_uniform_knots(d[0], size[0]),
+            clamped_uniform_knots(d[1], size[1]),
+        );
         Self::new(d, size, ku, kv, ctrl, weights)
     }
 
@@ -201,9 +220,19 @@ impl<S: Real, P: Point<S>> NurbsSurface<S, P> {
             acc
         };
         let kl = [(0, 0), (1, 0), (0, 1), (2, 0), (1, 1), (0, 2)];
-        let a: Vec<P> = kl.iter().map(|&(k, l)| contract(&|i| self.wctrl[i], k, l)).collect();
+        let a: Vec<P> = kl
+            .iter()
+            .map(|&(k, l)| contract(&|i| self.wctrl[i], k, l))
+            .collect();
         let Some(wts) = &self.weights else {
-            return SurfaceDerivs { p: a[0], su: a[1], sv: a[2], suu: a[3], suv: a[4], svv: a[5] };
+            return SurfaceDerivs {
+                p: a[0],
+                su: a[1],
+                sv: a[2],
+                suu: a[3],
+                suv: a[4],
+                svv: a[5],
+            };
         };
         let mut w = [S::ZERO; 6];
         for (slot, &(k, l)) in w.iter_mut().zip(kl.iter()) {
@@ -223,7 +252,14 @@ impl<S: Real, P: Point<S>> NurbsSurface<S, P> {
         let suu = (a[3] - s_u * (two * w[1]) - p * w[3]) * inv;
         let suv = (a[4] - p * w[4] - s_v * w[1] - s_u * w[2]) * inv;
         let svv = (a[5] - s_v * (two * w[2]) - p * w[5]) * inv;
-        SurfaceDerivs { p, su: s_u, sv: s_v, suu, suv, svv }
+        SurfaceDerivs {
+            p,
+            su: s_u,
+            sv: s_v,
+            suu,
+            suv,
+            svv,
+        }
     }
 }
 
@@ -237,6 +273,9 @@ impl<S: Real, P: Point<S>> NurbsSurface<S, P> {
 /// assert_eq!(bicubic_bezier(&b, 0.5, 0.25), DVec3::new(1.5, 0.75, 0.0));
 /// ```
 pub fn bicubic_bezier(b: &[[DVec3; 4]; 4], u: f64, v: f64) -> DVec3 {
-    let rows: Vec<DVec3> = b.iter().map(|row| super::bezier::de_casteljau(row, u)).collect();
+    let rows: Vec<DVec3> = b
+        .iter()
+        .map(|row| super::bezier::de_casteljau(row, u))
+        .collect();
     super::bezier::de_casteljau(&rows, v)
 }
