@@ -212,3 +212,46 @@ fn bad_surface_input_is_an_error() {
     let e = NurbsSurface::new([1, 1], [2, 3], k.clone(), k, four, None).unwrap_err();
     eprintln!("{e}");
 }
+
+#[test]
+fn affine_and_projective_invariance() {
+    use glam::{DMat4, DQuat};
+    use gregvox::geom::nurbs::NurbsCurve;
+    use gregvox::geom::transform::{transform_points, transform_rational};
+    let m = DMat4::from_scale_rotation_translation(
+        DVec3::new(2.0, 0.5, 1.5),
+        DQuat::from_euler(glam::EulerRot::XYZ, 0.3, -0.7, 1.1),
+        DVec3::new(1.0, -2.0, 3.0),
+    );
+    let ctrl = vec![
+        DVec3::ZERO,
+        DVec3::new(1., 2., 0.),
+        DVec3::new(3., 3., 1.),
+        DVec3::new(4., 1., 2.),
+        DVec3::new(6., 0., 1.),
+    ];
+    let w = vec![1., 0.5, 2., 1., 3.];
+    let knots = vec![0., 0., 0., 0., 0.5, 1., 1., 1., 1.];
+    let c = NurbsCurve::new(3, knots.clone(), ctrl.clone(), w.clone()).unwrap();
+    let ct = NurbsCurve::new(3, knots.clone(), transform_points(&m, &ctrl), w.clone()).unwrap();
+    // a genuinely projective map (perspective row): the weights must change with the points
+    let mut pm = DMat4::IDENTITY;
+    pm.x_axis.w = 0.05;
+    pm.z_axis.w = 0.1;
+    let (pp, pw) = transform_rational(&pm, &ctrl, &w).unwrap();
+    let cp = NurbsCurve::new(3, knots, pp, pw).unwrap();
+    let (mut ea, mut ep) = (0.0f64, 0.0f64);
+    for k in 0..=100 {
+        let u = k as f64 / 100.0;
+        ea = ea.max((ct.eval(u) - m.transform_point3(c.eval(u))).length());
+        let h = pm * c.eval(u).extend(1.0);
+        let want = h.truncate() / h.w;
+        ep = ep.max((cp.eval(u) - want).length());
+    }
+    eprintln!("NURBS affine invariance {ea:.2e}, projective invariance {ep:.2e}");
+    assert!(ea <= 1e-13 && ep <= 1e-13);
+    // a weight pushed through the plane at infinity is an error
+    let mut bad = DMat4::IDENTITY;
+    bad.x_axis.w = -1.0;
+    assert!(transform_rational(&bad, &ctrl, &w).is_err());
+}

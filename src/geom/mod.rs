@@ -25,5 +25,6 @@ pub mod ray;
 pub mod real;
 pub mod shading;
 pub mod surface;
+pub mod transform;
 
 pub use real::{Point, Real};
