@@ -1,7 +1,7 @@
 //! Lecture kernels: Bresenham vs skimage 0.26.0 (tests/fixtures/geom/bresenham.json), Amanatides–Woo DDA
 //! vs a brute-force segment/box test, ray–sphere and ray–triangle vs closed forms, shading and shadows.
 use glam::{DVec3, IVec2, IVec3, UVec3};
-use gregvox::geom::raster::{bresenham, dda_segment, dda_traverse, ray_box, VoxelGrid};
+use gregvox::geom::raster::{bresenham, dda_segment, dda_traverse, VoxelGrid};
 use gregvox::geom::ray::{ray_sphere, ray_sphere_hit, ray_triangle};
 use gregvox::geom::shading::{in_shadow_spheres, lambert, phong, phong_specular, reflect, Phong};
 use serde_json::Value;
@@ -99,23 +99,64 @@ impl Rng {
     }
 }
 
-/// Every voxel whose box the segment crosses over a parameter interval of positive length (brute force).
+/// Every voxel whose box the segment crosses over a parameter interval of positive length (brute force,
+/// Liang–Barsky clipping written independently of the library's `ray_box`).
 fn brute_force(g: &VoxelGrid, p0: DVec3, p1: DVec3) -> Vec<IVec3> {
+    let d = p1 - p0;
     let mut out = Vec::new();
     for i in 0..g.dims.x as i32 {
         for j in 0..g.dims.y as i32 {
             for k in 0..g.dims.z as i32 {
                 let v = IVec3::new(i, j, k);
-                let (lo, hi) = g.voxel_box(v);
-                if let Some((t0, t1)) = ray_box(p0, p1 - p0, lo, hi, 0.0, 1.0) {
-                    if t1 > t0 {
-                        out.push(v);
+                let lo = g.origin + v.as_dvec3() * g.cell;
+                let hi = lo + DVec3::splat(g.cell);
+                let (mut t0, mut t1) = (0.0f64, 1.0f64);
+                let mut inside = true;
+                for (pp, q) in [
+                    (-d.x, p0.x - lo.x),
+                    (d.x, hi.x - p0.x),
+                    (-d.y, p0.y - lo.y),
+                    (d.y, hi.y - p0.y),
+                    (-d.z, p0.z - lo.z),
+                    (d.z, hi.z - p0.z),
+                ] {
+                    if pp == 0.0 {
+                        inside &= q >= 0.0;
+                    } else if pp < 0.0 {
+                        t0 = t0.max(q / pp);
+                    } else {
+                        t1 = t1.min(q / pp);
                     }
+                }
+                if inside && t1 > t0 {
+                    out.push(v);
                 }
             }
         }
     }
     out
+}
+
+#[test]
+fn dda_through_voxel_edges_steps_diagonally() {
+    // a ray exactly through the edges x = y = k: the voxels (k+1, k) and (k, k+1) touch it in a point only
+    let g = VoxelGrid::new(DVec3::ZERO, 1.0, UVec3::new(4, 4, 1)).unwrap();
+    let v = dda_segment(&g, DVec3::new(0.0, 0.0, 0.5), DVec3::new(4.0, 4.0, 0.5));
+    assert_eq!(v, (0..4).map(|k| IVec3::new(k, k, 0)).collect::<Vec<_>>());
+    assert_eq!(
+        brute_force(&g, DVec3::new(0.0, 0.0, 0.5), DVec3::new(4.0, 4.0, 0.5)),
+        v
+    );
+    // grid-aligned start on a voxel face, going −x
+    let v = dda_segment(&g, DVec3::new(3.0, 0.5, 0.5), DVec3::new(-1.0, 0.5, 0.5));
+    assert_eq!(
+        v,
+        vec![
+            IVec3::new(2, 0, 0),
+            IVec3::new(1, 0, 0),
+            IVec3::new(0, 0, 0)
+        ]
+    );
 }
 
 #[test]
@@ -344,4 +385,39 @@ fn hard_shadows_behind_an_occluding_sphere() {
         1e-4,
         &spheres
     ));
+}
+
+#[test]
+fn dda_matches_brute_force_on_lattice_segments_with_ties() {
+    // end points on a quarter-cell lattice: many segments pass exactly through voxel edges and corners.
+    // Dyadic inputs make every crossing parameter a correctly rounded quotient of exact numbers, so equal
+    // crossings compare equal in both implementations and the tie rule is tested, not rounding luck.
+    let g = VoxelGrid::new(DVec3::ZERO, 1.0, UVec3::splat(6)).unwrap();
+    let mut rng = Rng(0x1A77);
+    let mut q = || (rng.range(-4.0, 28.0)).floor() * 0.25;
+    let (mut n, mut ties) = (0, 0);
+    while n < 3000 {
+        let p0 = DVec3::new(q(), q(), q());
+        let p1 = DVec3::new(q(), q(), q());
+        let d = p1 - p0;
+        // a segment lying in a voxel face plane touches two voxel rows: ambiguous by definition, skip
+        if (0..3).any(|a| d[a] == 0.0 && p0[a].fract() == 0.0) || d == DVec3::ZERO {
+            continue;
+        }
+        let got = dda_segment(&g, p0, p1);
+        let mut sorted = got.clone();
+        sorted.sort_by_key(|v| (v.x, v.y, v.z));
+        let mut want = brute_force(&g, p0, p1);
+        want.sort_by_key(|v| (v.x, v.y, v.z));
+        assert_eq!(sorted, want, "segment {p0} → {p1}");
+        ties += got
+            .windows(2)
+            .filter(|w| (w[1] - w[0]).abs().element_sum() > 1)
+            .count();
+        n += 1;
+    }
+    eprintln!(
+        "DDA = brute force on {n} lattice segments ({ties} diagonal steps through edges/corners)"
+    );
+    assert!(ties > 50, "the lattice must exercise ties");
 }

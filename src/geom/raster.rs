@@ -191,7 +191,8 @@ pub fn dda_traverse(
         let tm = [next_t(v, 0), next_t(v, 1), next_t(v, 2)];
         let t_next = tm[0].min(tm[1]).min(tm[2]);
         let t_exit = t_next.min(t1);
-        if !visit(v, t_enter, t_exit) || t_next >= t1 {
+        // a zero-length stay (the ray starts exactly on a voxel face and leaves through it) is not a visit
+        if t_exit > t_enter && !visit(v, t_enter, t_exit) || t_next >= t1 {
             return;
         }
         for a in 0..3 {
