@@ -279,3 +279,65 @@ fn bad_input_is_an_error_not_a_panic() {
     assert_eq!(c.eval(-1.0), DVec3::ZERO);
     assert!(c.eval(f64::NAN).is_finite());
 }
+
+/// The textbook recursion N_{i,0} = [U_i ≤ u < U_{i+1}], N_{i,p} = ω N_{i,p−1} + (1−ω') N_{i+1,p−1}
+/// with 0/0 := 0: slow, but independent of the library's triangular scheme.
+fn cox_de_boor(i: usize, p: usize, u: f64, k: &[f64]) -> f64 {
+    if p == 0 {
+        return if k[i] <= u && u < k[i + 1] { 1.0 } else { 0.0 };
+    }
+    let a = if k[i + p] > k[i] {
+        (u - k[i]) / (k[i + p] - k[i])
+    } else {
+        0.0
+    };
+    let b = if k[i + p + 1] > k[i + 1] {
+        (k[i + p + 1] - u) / (k[i + p + 1] - k[i + 1])
+    } else {
+        0.0
+    };
+    a * cox_de_boor(i, p - 1, u, k) + b * cox_de_boor(i + 1, p - 1, u, k)
+}
+
+#[test]
+fn unclamped_and_repeated_knots_match_the_recursive_definition() {
+    let ctrl: Vec<DVec3> = (0..9)
+        .map(|i| DVec3::new(i as f64, ((i * 7) % 5) as f64 - 2.0, ((i * 3) % 4) as f64))
+        .collect();
+    let cases: Vec<(usize, Vec<f64>)> = vec![
+        // uniform, unclamped: domain [U[p], U[n]] = [3, 9]
+        (3, (0..13).map(|i| i as f64).collect()),
+        // arbitrary non-decreasing, interior knot of multiplicity 2 and one of multiplicity p, not clamped
+        (
+            3,
+            vec![
+                -1.0, 0.0, 0.5, 1.0, 2.0, 2.0, 3.5, 3.5, 3.5, 4.0, 6.0, 7.0, 7.5,
+            ],
+        ),
+        (
+            2,
+            vec![0.0, 0.0, 1.0, 1.0, 2.0, 3.0, 3.0, 3.0, 5.0, 6.0, 6.0, 6.0],
+        ),
+        (
+            5,
+            vec![
+                0.0, 1.0, 2.0, 3.0, 4.0, 5.0, 6.0, 7.0, 8.0, 9.0, 10.0, 11.0, 12.0, 13.0, 14.0,
+            ],
+        ),
+    ];
+    let mut max = 0.0f64;
+    for (p, knots) in cases {
+        let c = BSplineCurve::new(p, knots.clone(), ctrl.clone()).unwrap();
+        let (a, b) = c.domain();
+        for s in 0..=200 {
+            // the half-open recursion is right-continuous: stay below the domain's end
+            let u = a + (b - a) * (s as f64 / 200.0) * (1.0 - 1e-12);
+            let want: DVec3 = (0..ctrl.len())
+                .map(|i| ctrl[i] * cox_de_boor(i, p, u, &knots))
+                .sum();
+            max = max.max((c.eval(u) - want).length());
+        }
+    }
+    eprintln!("unclamped / repeated knots vs recursive Cox–de Boor: max {max:.2e}");
+    assert!(max <= 1e-12);
+}

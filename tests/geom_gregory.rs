@@ -199,7 +199,7 @@ fn corners_never_produce_nan_or_inf() {
 #[test]
 fn f32_patch_matches_f64_reference() {
     let mut rng = Rng(5);
-    let mut max = 0.0f64;
+    let (mut max, mut max_d, mut max_n) = (0.0f64, 0.0f64, 0.0f64);
     for _ in 0..10 {
         let g = random_gregory(&mut rng);
         let g32 = g.to_gpu();
@@ -207,14 +207,22 @@ fn f32_patch_matches_f64_reference() {
         for i in 0..=16 {
             for j in 0..=16 {
                 let (u, v) = (i as f32 / 16.0, j as f32 / 16.0);
-                let (p, _, _) = g32.eval(u, v);
-                let (q, _, _) = g64.eval(u as f64, v as f64);
+                let (p, su, sv) = g32.eval(u, v);
+                let (q, qu, qv) = g64.eval(u as f64, v as f64);
                 max = max.max((p.as_dvec3() - q).length());
+                let sd = qu.length().max(qv.length());
+                max_d = max_d
+                    .max((su.as_dvec3() - qu).length() / sd)
+                    .max((sv.as_dvec3() - qv).length() / sd);
+                let (n, m) = (g32.normal(u, v).as_dvec3(), g64.normal(u as f64, v as f64));
+                max_n = max_n.max(n.cross(m).length().atan2(n.dot(m)));
             }
         }
     }
-    eprintln!("f32 Gregory vs f64 reference: max |ΔP| {max:.2e} (patch size ~1.5)");
-    assert!(max <= 1e-6);
+    eprintln!(
+        "f32 Gregory vs f64 reference (17² × 10 patches incl. edges/corners): |ΔP| {max:.2e} (patch size ~1.5), derivatives {max_d:.2e} rel, normals {max_n:.2e} rad"
+    );
+    assert!(max <= 1e-6 && max_d <= 1e-5 && max_n <= 1e-5);
 }
 
 #[test]
