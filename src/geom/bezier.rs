@@ -81,6 +81,13 @@ pub fn de_casteljau<S: Real, P: Point<S>>(ctrl: &[P], t: S) -> P {
 }
 
 /// A Bézier curve of degree `ctrl.len() − 1` over points `P` (2D, 3D, homogeneous 4D, f32 or f64).
+///
+/// ```
+/// use gregvox::geom::bezier::Bezier;
+/// use glam::DVec3;
+/// let c = Bezier::new(vec![DVec3::ZERO, DVec3::X, DVec3::Y]).unwrap();
+/// assert_eq!((c.degree(), c.ctrl().len()), (2, 3));
+/// ```
 #[derive(Clone, Debug, PartialEq)]
 pub struct Bezier<S: Real, P: Point<S>> {
     ctrl: Vec<P>,
@@ -110,11 +117,21 @@ impl<S: Real, P: Point<S>> Bezier<S, P> {
     }
 
     /// Degree n (number of control points − 1).
+    ///
+    /// ```
+    /// use gregvox::geom::bezier::Bezier;
+    /// assert_eq!(Bezier::<f64, f64>::new(vec![1.0]).unwrap().degree(), 0);
+    /// ```
     pub fn degree(&self) -> usize {
         self.ctrl.len() - 1
     }
 
     /// The control points.
+    ///
+    /// ```
+    /// use gregvox::geom::bezier::Bezier;
+    /// assert_eq!(Bezier::<f64, f64>::new(vec![1.0, 2.0]).unwrap().ctrl(), &[1.0, 2.0]);
+    /// ```
     pub fn ctrl(&self) -> &[P] {
         &self.ctrl
     }
@@ -250,6 +267,14 @@ impl<S: Real, P: Point<S>> Bezier<S, P> {
 
 /// A rational Bézier curve in 3D: control points with positive weights, evaluated in homogeneous
 /// coordinates (x·w, y·w, z·w, w) and projected.
+///
+/// ```
+/// use gregvox::geom::bezier::RationalBezier;
+/// use glam::DVec3;
+/// // weights 1 everywhere: the ordinary Bézier curve
+/// let c = RationalBezier::new(&[DVec3::ZERO, DVec3::X * 2.0], &[1.0, 1.0]).unwrap();
+/// assert_eq!((c.degree(), c.eval(0.5)), (1, DVec3::X));
+/// ```
 #[derive(Clone, Debug, PartialEq)]
 pub struct RationalBezier {
     hom: Bezier<f64, DVec4>,
@@ -274,11 +299,25 @@ impl RationalBezier {
     }
 
     /// Degree.
+    ///
+    /// ```
+    /// use gregvox::geom::bezier::RationalBezier;
+    /// use glam::DVec3;
+    /// assert_eq!(RationalBezier::new(&[DVec3::ZERO; 4], &[1.0; 4]).unwrap().degree(), 3);
+    /// ```
     pub fn degree(&self) -> usize {
         self.hom.degree()
     }
 
     /// C(t).
+    ///
+    /// ```
+    /// use gregvox::geom::bezier::RationalBezier;
+    /// use glam::DVec3;
+    /// // a heavy middle weight pulls the curve towards its control point
+    /// let c = RationalBezier::new(&[DVec3::ZERO, DVec3::Y, DVec3::X], &[1.0, 10.0, 1.0]).unwrap();
+    /// assert!(c.eval(0.5).y > 0.9);
+    /// ```
     pub fn eval(&self, t: f64) -> glam::DVec3 {
         let h = self.hom.eval(t);
         h.truncate() / h.w

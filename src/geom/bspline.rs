@@ -321,6 +321,14 @@ pub(crate) fn split_raw<S: Real, P: Point<S>>(
 }
 
 /// A non-rational B-spline curve (degree, knots, control points), validated on construction.
+///
+/// ```
+/// use gregvox::geom::bspline::BSplineCurve;
+/// use glam::DVec2;
+/// let c = BSplineCurve::clamped_uniform(2, vec![DVec2::ZERO, DVec2::X, DVec2::ONE, DVec2::Y]).unwrap();
+/// assert_eq!((c.degree(), c.knots(), c.ctrl().len(), c.domain()), (2, &[0., 0., 0., 0.5, 1., 1., 1.][..], 4, (0.0, 1.0)));
+/// assert_eq!(c.eval(0.0), DVec2::ZERO); // clamped: interpolates the end points
+/// ```
 #[derive(Clone, Debug, PartialEq)]
 pub struct BSplineCurve<S: Real, P: Point<S>> {
     degree: usize,
@@ -361,18 +369,38 @@ impl<S: Real, P: Point<S>> BSplineCurve<S, P> {
     }
 
     /// Degree p.
+    ///
+    /// ```
+    /// let c = gregvox::geom::bspline::BSplineCurve::<f64, f64>::clamped_uniform(2, vec![0.0, 1.0, 0.0]).unwrap();
+    /// assert_eq!(c.degree(), 2);
+    /// ```
     pub fn degree(&self) -> usize {
         self.degree
     }
     /// Knot vector.
+    ///
+    /// ```
+    /// let c = gregvox::geom::bspline::BSplineCurve::<f64, f64>::clamped_uniform(2, vec![0.0, 1.0, 0.0]).unwrap();
+    /// assert_eq!(c.knots().len(), 6);
+    /// ```
     pub fn knots(&self) -> &[S] {
         &self.knots
     }
     /// Control points.
+    ///
+    /// ```
+    /// let c = gregvox::geom::bspline::BSplineCurve::<f64, f64>::clamped_uniform(2, vec![0.0, 1.0, 0.0]).unwrap();
+    /// assert_eq!(c.ctrl(), &[0.0, 1.0, 0.0]);
+    /// ```
     pub fn ctrl(&self) -> &[P] {
         &self.ctrl
     }
     /// Parameter domain [U[p], U[n]].
+    ///
+    /// ```
+    /// let c = gregvox::geom::bspline::BSplineCurve::<f64, f64>::clamped_uniform(2, vec![0.0, 1.0, 0.0]).unwrap();
+    /// assert_eq!(c.domain(), (0.0, 1.0));
+    /// ```
     pub fn domain(&self) -> (S, S) {
         (self.knots[self.degree], self.knots[self.ctrl.len()])
     }

@@ -15,6 +15,15 @@ use crate::{Error, Result};
 use glam::DVec3;
 
 /// Result of the correction.
+///
+/// ```
+/// use gregvox::geom::compat::chiyokura_kimura;
+/// use glam::DVec3;
+/// let p = [0.0, 1.0, 2.0, 3.0].map(|x| DVec3::new(x, 0.0, 0.0));
+/// let s = chiyokura_kimura(&p, DVec3::Y, DVec3::Y, -2.0 * DVec3::Y, -DVec3::Y).unwrap();
+/// assert_eq!((s.k, s.h), ([-2.0, -1.0], [0.0, 0.0]));
+/// assert_eq!(s.corner_residual, [0.0, 0.0]);
+/// ```
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct CkSolution {
     /// (k0, k1) of k(t) = k0(1−t) + k1 t.
@@ -86,6 +95,12 @@ pub fn chiyokura_kimura(
 
 /// An edge of a Gregory patch, with the control-point indices of its boundary cubic and of the first inner
 /// row, both listed in increasing parameter (u for `V0`/`V1`, v for `U0`/`U1`).
+///
+/// ```
+/// use gregvox::geom::compat::Edge;
+/// // every edge's cubic starts at a corner point (indices 0, 5, 10, 15)
+/// for e in [Edge::V0, Edge::U1, Edge::V1, Edge::U0] { assert_eq!(e.boundary()[0] % 5, 0); }
+/// ```
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Edge {
     /// v = 0

@@ -20,6 +20,15 @@ use bytemuck::{Pod, Zeroable};
 use glam::{DVec3, Vec3};
 
 /// Corner-guard threshold on the denominator d = a + b of a rational interior point.
+///
+/// ```
+/// // exactly at a corner the guard picks P_a and the result is still the corner point
+/// use gregvox::geom::gregory::{PatchF64, CORNER_EPS};
+/// use glam::DVec3;
+/// let g = PatchF64 { cv: std::array::from_fn(|i| DVec3::splat(i as f64)) };
+/// assert_eq!(CORNER_EPS, 1e-6);
+/// assert_eq!(g.eval(0.0, 0.0).0, g.cv[0]);
+/// ```
 pub const CORNER_EPS: f64 = 1e-6;
 
 /// The 4×4 Bézier grid in terms of the 20 control points: `BEZIER_GRID[row = v][col = u] = [a, b]`; on the
@@ -90,6 +99,14 @@ fn rational_point<S: Real, P: Point<S>>(pa: P, pb: P, a: S, b: S, au: S, bv: S) 
 }
 
 /// Evaluation result: position, first and (optionally) second partial derivatives.
+///
+/// ```
+/// use gregvox::geom::gregory::{eval_generic, PatchF64};
+/// use glam::DVec3;
+/// let g = PatchF64 { cv: [DVec3::ONE; 20] };
+/// let e = eval_generic(&g.cv, 0.5, 0.5, true, true);
+/// assert_eq!((e.p, e.su, e.second[1]), (DVec3::ONE, DVec3::ZERO, DVec3::ZERO));
+/// ```
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct GregoryEval<P> {
     /// S(u, v)
@@ -110,6 +127,17 @@ pub struct GregoryEval<P> {
 /// 4. if `exact`, add Σ B_i(u)B_j(v)·∂Q_ij over the interior cells (in the order Q11, Q21, Q12, Q22).
 ///
 /// `second` also computes the second derivatives (exact: with the ∂Q and ∂²Q terms).
+///
+/// ```
+/// use gregvox::geom::gregory::{eval_generic, PatchF64};
+/// use glam::{DVec3, Vec3};
+/// let b: [[DVec3; 4]; 4] = std::array::from_fn(|j| std::array::from_fn(|i| DVec3::new(i as f64, j as f64, (i + j) as f64)));
+/// let g = PatchF64::from_bezier(&b);
+/// let e64 = eval_generic(&g.cv, 0.25, 0.5, true, false);
+/// let e32 = eval_generic(&g.to_gpu().points(), 0.25f32, 0.5f32, true, false);
+/// assert_eq!(e64.p, DVec3::new(0.75, 1.5, 2.25));
+/// assert!((e32.p - Vec3::new(0.75, 1.5, 2.25)).length() < 1e-6);
+/// ```
 pub fn eval_generic<S: Real, P: Point<S>>(
     cv: &[P; 20],
     u: S,
@@ -181,6 +209,14 @@ pub fn eval_generic<S: Real, P: Point<S>>(
 }
 
 /// The frozen 16-point Bézier net at (u, v): the boundary points and Q_ij(u, v), `[row = v][col = u]`.
+///
+/// ```
+/// use gregvox::geom::gregory::bezier_net_generic;
+/// use glam::DVec3;
+/// let cv: [DVec3; 20] = std::array::from_fn(|i| DVec3::splat(i as f64));
+/// // Q11 = (u·P110 + v·P111)/(u + v) with P110 = cv3, P111 = cv4
+/// assert_eq!(bezier_net_generic(&cv, 0.25, 0.75)[1][1], DVec3::splat(3.75));
+/// ```
 pub fn bezier_net_generic<S: Real, P: Point<S>>(cv: &[P; 20], u: S, v: S) -> [[P; 4]; 4] {
     let (u, v) = (clamp01(u), clamp01(v));
     let mut net = [[P::zero(); 4]; 4];
@@ -257,6 +293,13 @@ mod normal32 {
 }
 
 /// A Gregory patch in f64 for reference maths.
+///
+/// ```
+/// use gregvox::geom::gregory::PatchF64;
+/// use glam::DVec3;
+/// let g = PatchF64 { cv: std::array::from_fn(|i| DVec3::new(i as f64, 0.0, 0.0)) };
+/// assert_eq!(g.eval(1.0, 0.0).0, g.cv[5]); // corner 1 = (1, 0)
+/// ```
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct PatchF64 {
     /// The 20 control points in GREGORY_BASIS order.
@@ -264,6 +307,13 @@ pub struct PatchF64 {
 }
 
 /// A Gregory patch as the GPU reads it: 20 × vec4 (w = 1, unused), std430-compatible, `Pod`.
+///
+/// ```
+/// use gregvox::geom::gregory::Patch;
+/// let p = Patch { cv: [[0.0, 1.0, 2.0, 1.0]; 20] };
+/// let bytes: &[u8] = bytemuck::bytes_of(&p);
+/// assert_eq!(bytes.len(), 20 * 16); // 20 × vec4, std430 array stride 16
+/// ```
 #[repr(C)]
 #[derive(Clone, Copy, Debug, PartialEq, Pod, Zeroable)]
 pub struct Patch {
@@ -396,6 +446,13 @@ impl PatchF64 {
     }
 
     /// The frozen 4×4 Bézier net at (u, v) (`[row = v][col = u]`).
+    ///
+    /// ```
+    /// use gregvox::geom::gregory::PatchF64;
+    /// use glam::DVec3;
+    /// let b = [[DVec3::X; 4]; 4];
+    /// assert_eq!(PatchF64::from_bezier(&b).bezier_net(0.3, 0.6), b);
+    /// ```
     pub fn bezier_net(&self, u: f64, v: f64) -> [[DVec3; 4]; 4] {
         bezier_net_generic(&self.cv, u, v)
     }
@@ -418,6 +475,11 @@ impl PatchF64 {
 
 impl Patch {
     /// The control points as `Vec3`.
+    ///
+    /// ```
+    /// use gregvox::geom::gregory::Patch;
+    /// assert_eq!(Patch { cv: [[1.0, 2.0, 3.0, 1.0]; 20] }.points()[0], glam::Vec3::new(1.0, 2.0, 3.0));
+    /// ```
     pub fn points(&self) -> [Vec3; 20] {
         self.cv.map(|c| Vec3::new(c[0], c[1], c[2]))
     }

@@ -74,6 +74,13 @@ pub(crate) fn rational_derivs<S: Real, P: Point<S>>(a: &[P], w: &[S]) -> Vec<P> 
 }
 
 /// A NURBS curve over points `P` (f64 or f32): degree, knots, Cartesian control points and weights.
+///
+/// ```
+/// use gregvox::geom::nurbs::NurbsCurve;
+/// let c = NurbsCurve::<f64, f64>::new(1, vec![0., 0., 1., 1.], vec![0.0, 1.0], vec![1.0, 3.0]).unwrap();
+/// assert_eq!((c.degree(), c.knots().len(), c.ctrl(), c.weights()), (1, 4, &[0.0, 1.0][..], &[1.0, 3.0][..]));
+/// assert_eq!(c.eval(0.5), 0.75); // (0·1 + 1·3)·½ / ((1 + 3)·½)
+/// ```
 #[derive(Clone, Debug, PartialEq)]
 pub struct NurbsCurve<S: Real, P: Point<S>> {
     degree: usize,
@@ -122,18 +129,38 @@ impl<S: Real, P: Point<S>> NurbsCurve<S, P> {
     }
 
     /// Degree p.
+    ///
+    /// ```
+    /// let c = gregvox::geom::nurbs::NurbsCurve::<f64, f64>::new(1, vec![0., 0., 1., 1.], vec![0.0, 1.0], vec![1.0, 3.0]).unwrap();
+    /// assert_eq!(c.degree(), 1);
+    /// ```
     pub fn degree(&self) -> usize {
         self.degree
     }
     /// Knots.
+    ///
+    /// ```
+    /// let c = gregvox::geom::nurbs::NurbsCurve::<f64, f64>::new(1, vec![0., 0., 1., 1.], vec![0.0, 1.0], vec![1.0, 3.0]).unwrap();
+    /// assert_eq!(c.knots(), &[0., 0., 1., 1.]);
+    /// ```
     pub fn knots(&self) -> &[S] {
         &self.knots
     }
     /// Cartesian control points.
+    ///
+    /// ```
+    /// let c = gregvox::geom::nurbs::NurbsCurve::<f64, f64>::new(1, vec![0., 0., 1., 1.], vec![0.0, 1.0], vec![1.0, 3.0]).unwrap();
+    /// assert_eq!(c.ctrl(), &[0.0, 1.0]);
+    /// ```
     pub fn ctrl(&self) -> &[P] {
         &self.ctrl
     }
     /// Weights.
+    ///
+    /// ```
+    /// let c = gregvox::geom::nurbs::NurbsCurve::<f64, f64>::new(1, vec![0., 0., 1., 1.], vec![0.0, 1.0], vec![1.0, 3.0]).unwrap();
+    /// assert_eq!(c.weights(), &[1.0, 3.0]);
+    /// ```
     pub fn weights(&self) -> &[S] {
         &self.weights
     }

@@ -56,6 +56,13 @@ pub fn bresenham(p0: IVec2, p1: IVec2) -> Vec<IVec2> {
 }
 
 /// A regular grid of `dims` cubic voxels of side `cell` with its minimum corner at `origin`.
+///
+/// ```
+/// use gregvox::geom::raster::VoxelGrid;
+/// use glam::{DVec3, UVec3};
+/// let g = VoxelGrid { origin: DVec3::ZERO, cell: 0.25, dims: UVec3::new(4, 4, 2) };
+/// assert_eq!(g.voxel_box(glam::IVec3::new(3, 3, 1)).1, DVec3::new(1.0, 1.0, 0.5));
+/// ```
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct VoxelGrid {
     /// Minimum corner.

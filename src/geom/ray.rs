@@ -67,6 +67,14 @@ pub fn ray_sphere_hit(
 }
 
 /// A ray–triangle hit: ray parameter and barycentrics.
+///
+/// ```
+/// use gregvox::geom::ray::ray_triangle;
+/// use glam::DVec3;
+/// let (a, b, c) = (DVec3::ZERO, DVec3::X, DVec3::Y);
+/// let h = ray_triangle(DVec3::new(0.5, 0.25, 2.0), -DVec3::Z, a, b, c).unwrap();
+/// assert_eq!(a * (1.0 - h.u - h.v) + b * h.u + c * h.v, DVec3::new(0.5, 0.25, 0.0));
+/// ```
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct TriangleHit {
     /// Ray parameter.

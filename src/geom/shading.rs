@@ -59,6 +59,13 @@ pub fn phong_specular(n: DVec3, l: DVec3, v: DVec3, shininess: f64) -> f64 {
 }
 
 /// Material coefficients of the Phong model.
+///
+/// ```
+/// use gregvox::geom::shading::{phong, Phong};
+/// use glam::DVec3;
+/// let matte = Phong { ka: 0.0, kd: 1.0, ks: 0.0, shininess: 1.0 };
+/// assert_eq!(phong(&matte, DVec3::Z, DVec3::Z, DVec3::X, 0.0, 0.5, true), 0.5);
+/// ```
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Phong {
     /// Ambient reflectance k_a.

@@ -16,6 +16,14 @@ use crate::{Error, Result};
 use glam::DVec3;
 
 /// Position and partial derivatives up to order 2 at one (u, v).
+///
+/// ```
+/// use gregvox::geom::surface::NurbsSurface;
+/// use glam::DVec3;
+/// let s = NurbsSurface::bezier([2, 2], vec![DVec3::ZERO, DVec3::Y, DVec3::X, DVec3::new(1., 1., 1.)]).unwrap();
+/// let d = s.derivs(0.5, 0.5);
+/// assert_eq!((d.p, d.suv), (DVec3::new(0.5, 0.5, 0.25), DVec3::Z));
+/// ```
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct SurfaceDerivs<P> {
     /// S(u, v)
@@ -59,6 +67,13 @@ impl SurfaceDerivs<DVec3> {
 }
 
 /// A tensor-product B-spline or NURBS surface (Bézier and rational Bézier patches are special cases).
+///
+/// ```
+/// use gregvox::geom::surface::NurbsSurface;
+/// let s = NurbsSurface::<f64, f64>::rational_bezier([2, 3], vec![0., 0., 0., 1., 1., 1.], vec![1.; 6]).unwrap();
+/// assert_eq!((s.degree(), s.size(), s.ctrl().len(), s.weights().map(|w| w.len())), ([1, 2], [2, 3], 6, Some(6)));
+/// assert_eq!(s.eval(0.25, 0.9), 0.25);
+/// ```
 #[derive(Clone, Debug, PartialEq)]
 pub struct NurbsSurface<S: Real, P: Point<S>> {
     degree: [usize; 2],
@@ -167,23 +182,48 @@ impl<S: Real, P: Point<S>> NurbsSurface<S, P> {
     }
 
     /// Degrees (p_u, p_v).
+    ///
+    /// ```
+    /// let s = gregvox::geom::surface::NurbsSurface::<f64, f64>::bezier([2, 2], vec![0., 1., 2., 3.]).unwrap();
+    /// assert_eq!(s.degree(), [1, 1]);
+    /// ```
     pub fn degree(&self) -> [usize; 2] {
         self.degree
     }
     /// Grid size (n_u, n_v).
+    ///
+    /// ```
+    /// let s = gregvox::geom::surface::NurbsSurface::<f64, f64>::bezier([2, 2], vec![0., 1., 2., 3.]).unwrap();
+    /// assert_eq!(s.size(), [2, 2]);
+    /// ```
     pub fn size(&self) -> [usize; 2] {
         self.size
     }
     /// Control points (v fastest).
+    ///
+    /// ```
+    /// let s = gregvox::geom::surface::NurbsSurface::<f64, f64>::bezier([2, 2], vec![0., 1., 2., 3.]).unwrap();
+    /// assert_eq!(s.ctrl()[3], 3.0);
+    /// ```
     pub fn ctrl(&self) -> &[P] {
         &self.ctrl
     }
     /// Weights, if rational.
+    ///
+    /// ```
+    /// let s = gregvox::geom::surface::NurbsSurface::<f64, f64>::bezier([2, 2], vec![0., 1., 2., 3.]).unwrap();
+    /// assert_eq!(s.weights(), None);
+    /// ```
     pub fn weights(&self) -> Option<&[S]> {
         self.weights.as_deref()
     }
 
     /// S(u, v).
+    ///
+    /// ```
+    /// let s = gregvox::geom::surface::NurbsSurface::<f64, f64>::bezier([2, 2], vec![0., 1., 2., 3.]).unwrap();
+    /// assert_eq!(s.eval(0.5, 0.5), 1.5);
+    /// ```
     pub fn eval(&self, u: S, v: S) -> P {
         self.derivs(u, v).p
     }
