@@ -427,6 +427,25 @@ impl PatchF64 {
         eval_generic(&self.cv, u, v, true, true).second
     }
 
+    /// (Gaussian K, mean H) from the exact first and second derivatives (H signed w.r.t. S_u × S_v);
+    /// `None` where S_u ∥ S_v.
+    ///
+    /// ```
+    /// use gregvox::geom::gregory::PatchF64;
+    /// use glam::DVec3;
+    /// // the paraboloid z = (x² + y²)/2 over [−1, 1]², exactly bicubic: K = H = 1 at the apex
+    /// let g3 = [0.5, -1.0 / 6.0, -1.0 / 6.0, 0.5];
+    /// let b: [[DVec3; 4]; 4] = std::array::from_fn(|j| std::array::from_fn(|i|
+    ///     DVec3::new(-1.0 + 2.0 * i as f64 / 3.0, -1.0 + 2.0 * j as f64 / 3.0, g3[i] + g3[j])));
+    /// let (k, h) = PatchF64::from_bezier(&b).curvature(0.5, 0.5).unwrap();
+    /// assert!((k - 1.0).abs() < 1e-14 && (h - 1.0).abs() < 1e-14);
+    /// ```
+    pub fn curvature(&self, u: f64, v: f64) -> Option<(f64, f64)> {
+        let e = eval_generic(&self.cv, u, v, true, true);
+        let [suu, suv, svv] = e.second;
+        super::curvature::gaussian_mean_curvature(e.su, e.sv, suu, suv, svv)
+    }
+
     /// Unit normal with the degenerate fallback (see [`Patch::normal`] for the steps); never NaN.
     ///
     /// ```
