@@ -400,3 +400,66 @@ fn chiyokura_kimura_residual_is_zero_for_all_t() {
     assert!(chiyokura_kimura(&p, c[0], a3, b0, b3).is_err());
     assert!(chiyokura_kimura(&p, DVec3::NAN, a3, b0, b3).is_err());
 }
+
+/// The 20-point layout, checked from OpenSubdiv's *definitions* rather than from our own table: corners
+/// CCW (0,0), (1,0), (1,1), (0,1); corner i owns [P, Ep, Em, Fp, Fm] at 5i..5i+4; Ep_i lies on the edge
+/// towards corner i+1, Em_i on the edge towards corner i−1; Fp_i sets the cross-boundary derivative of the
+/// Ep edge only, Fm_i that of the Em edge only (the Gregory decoupling).
+#[test]
+fn layout_follows_opensubdiv_gregory_basis_semantics() {
+    // edge k joins corner k to corner k+1
+    let edge_uv = |k: usize, t: f64| match k {
+        0 => (t, 0.0),
+        1 => (1.0, t),
+        2 => (1.0 - t, 1.0),
+        _ => (0.0, 1.0 - t),
+    };
+    let mut rng = Rng(31337);
+    let g = random_gregory(&mut rng);
+    // per edge: max change of the position and of the cross-boundary derivative over interior samples
+    let changes = |h: &PatchF64| -> [(f64, f64); 4] {
+        std::array::from_fn(|k| {
+            let (mut dp, mut dx) = (0.0f64, 0.0f64);
+            for s in 1..16 {
+                let (u, v) = edge_uv(k, s as f64 / 16.0);
+                let (a, b) = (g.eval(u, v), h.eval(u, v));
+                let cross = |e: (DVec3, DVec3, DVec3)| if k % 2 == 0 { e.2 } else { e.1 };
+                dp = dp.max((a.0 - b.0).length());
+                dx = dx.max((cross(a) - cross(b)).length());
+            }
+            (dp, dx)
+        })
+    };
+    for i in 0..4 {
+        let (ep_edge, em_edge) = (i, (i + 3) % 4);
+        for (slot, what) in [(1, "Ep"), (2, "Em"), (3, "Fp"), (4, "Fm")] {
+            let mut h = g;
+            h.cv[5 * i + slot] += DVec3::new(0.1, -0.2, 0.3);
+            let c = changes(&h);
+            let own = if slot == 1 || slot == 3 {
+                ep_edge
+            } else {
+                em_edge
+            };
+            for (k, &(dp, dx)) in c.iter().enumerate() {
+                let on_boundary = slot <= 2; // edge points move the boundary curve itself
+                if k == own {
+                    assert!(
+                        dx > 1e-3,
+                        "{what}{i} must steer edge {k}'s cross derivative"
+                    );
+                    assert_eq!(
+                        dp > 1e-3,
+                        on_boundary,
+                        "{what}{i}: edge {k} position change {dp:e}"
+                    );
+                } else if slot >= 3 {
+                    assert!(
+                        dp < 1e-15 && dx < 1e-15,
+                        "{what}{i} leaks into edge {k}: {dp:e} {dx:e}"
+                    );
+                }
+            }
+        }
+    }
+}
