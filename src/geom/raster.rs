@@ -4,8 +4,9 @@
 //! - [`bresenham`] works on integer (x, y) and returns every pixel from `p0` to `p1`, **both end points
 //!   included**, in order. It is exactly `skimage.draw.line(y0, x0, y1, x1)` read as (x = column, y = row):
 //!   the major axis is y only when |Δy| > |Δx| (a tie steps along x), and the minor coordinate advances
-//!   while the error term is ≥ 0. It depends only on p1 − p0 (translation invariant), but p0→p1 and p1→p0
-//!   may differ in the tie cases, as in skimage.
+//!   while the error term is ≥ 0. It depends only on p1 − p0 (translation invariant), but p1→p0 is not
+//!   always p0→p1 reversed (rounding ties go the same way in both directions: 112 of the 289 offsets in
+//!   [−8, 8]² differ, exactly as in skimage). Allocates max(|Δx|, |Δy|) + 1 points.
 //! - [`VoxelGrid`]: voxel (i, j, k) is the box origin + [i, i+1]×[j, j+1]×[k, k+1] · cell. The traversal
 //!   visits, in order along the ray, every voxel whose box the ray crosses over a parameter interval of
 //!   positive length; where the ray passes exactly through a voxel edge or corner it steps the tied axes

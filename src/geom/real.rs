@@ -1,8 +1,9 @@
 //! Scalar and point abstractions for evaluators that exist in f64 (reference) and f32 (GPU mirror).
 //!
 //! Invariants: [`Real`] is implemented for `f32` and `f64` only; [`Point<S>`] for `S` itself and for the
-//! glam vectors of that scalar (`Vec2/3/4`, `DVec2/3/4`). Nothing here allocates. Homogeneous (rational)
-//! maths uses the 4-vectors or a point plus a separate weight, never a special type.
+//! glam vectors of that scalar (`Vec2/3/4`, `DVec2/3/4`); `coords()` allocates and serves validation and
+//! tests only, never an evaluation path. Homogeneous (rational) maths uses the 4-vectors or a point plus a
+//! separate weight, never a special type.
 use glam::{DVec2, DVec3, DVec4, Vec2, Vec3, Vec4};
 use std::fmt::Debug;
 use std::ops::{Add, AddAssign, Div, Mul, MulAssign, Neg, Sub, SubAssign};
