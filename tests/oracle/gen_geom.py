@@ -33,6 +33,15 @@ HERE = os.path.dirname(os.path.abspath(__file__))
 OUT = os.path.normpath(os.path.join(HERE, "..", "fixtures", "geom"))
 
 
+def uni(rng, lo, hi, size=None):
+    """Uniform draws rounded to 15 significant digits *before* any oracle sees them, so the inputs stored in
+    the fixtures are exactly the inputs the oracle used."""
+    x = rng.uniform(lo, hi, size=size)
+    if size is None:
+        return float(f"{x:.15g}")
+    return np.vectorize(lambda y: float(f"{y:.15g}"), otypes=[np.float64])(x)
+
+
 def round15(x):
     """15 significant digits: error <= 5e-15 relative, far below the tests' 1e-12, and ~25 % smaller files."""
     if isinstance(x, float):
@@ -61,7 +70,7 @@ def versions():
 def random_clamped_knots(rng, n, p, repeat_interior=False):
     """Clamped knot vector on [0,1] for n control points of degree p (n + p + 1 knots)."""
     m_int = n - p - 1
-    interior = sorted(rng.uniform(0.05, 0.95, size=m_int).tolist())
+    interior = sorted(uni(rng, 0.05, 0.95, size=m_int).tolist())
     if repeat_interior and m_int >= 2:
         # one interior knot of multiplicity 2 (still <= p for p >= 2): exercises repeated knots
         interior[1] = interior[0]
@@ -75,13 +84,13 @@ def open_uniform_knots(n, p):
 
 def params_101(rng):
     """101 parameters: the 2 end points, the interior knots' neighbourhood is hit by random draws."""
-    u = np.concatenate([[0.0, 1.0], rng.uniform(0.0, 1.0, size=99)])
+    u = np.concatenate([[0.0, 1.0], uni(rng, 0.0, 1.0, size=99)])
     return sorted(u.tolist())
 
 
 # ---------------------------------------------------------------- curves
 def curve_case(rng, kind, p, n, knots_kind):
-    ctrl = rng.uniform(-2.0, 2.0, size=(n, 3)).tolist()
+    ctrl = uni(rng, -2.0, 2.0, size=(n, 3)).tolist()
     if knots_kind == "bezier":
         kv = [0.0] * (p + 1) + [1.0] * (p + 1)
     elif knots_kind == "open_uniform":
@@ -96,7 +105,7 @@ def curve_case(rng, kind, p, n, knots_kind):
     else:
         c = NURBS.Curve()
         c.degree = p
-        weights = rng.uniform(0.5, 2.0, size=n).tolist()
+        weights = uni(rng, 0.5, 2.0, size=n).tolist()
         # geomdl NURBS takes the weighted (homogeneous) points ctrlptsw = [x*w, y*w, z*w, w]
         c.ctrlptsw = [[x * w, y * w, z * w, w] for (x, y, z), w in zip(ctrl, weights)]
     c.knotvector = kv
@@ -125,7 +134,7 @@ def gen_curves(rng):
 
 # ---------------------------------------------------------------- surfaces
 def surface_case(rng, kind, pu, pv, nu, nv, knots_kind):
-    ctrl = rng.uniform(-2.0, 2.0, size=(nu * nv, 3)).tolist()  # index i*nv + j (v fastest)
+    ctrl = uni(rng, -2.0, 2.0, size=(nu * nv, 3)).tolist()  # index i*nv + j (v fastest)
     if knots_kind == "bezier":
         ku = [0.0] * (pu + 1) + [1.0] * (pu + 1)
         kvv = [0.0] * (pv + 1) + [1.0] * (pv + 1)
@@ -137,7 +146,7 @@ def surface_case(rng, kind, pu, pv, nu, nv, knots_kind):
         weights = None
     else:
         s = NURBS.Surface()
-        weights = rng.uniform(0.5, 2.0, size=nu * nv).tolist()
+        weights = uni(rng, 0.5, 2.0, size=nu * nv).tolist()
     s.degree_u = pu
     s.degree_v = pv
     s.ctrlpts_size_u = nu
@@ -149,7 +158,7 @@ def surface_case(rng, kind, pu, pv, nu, nv, knots_kind):
     s.knotvector_u = ku
     s.knotvector_v = kvv
     corners = [[0.0, 0.0], [1.0, 0.0], [0.0, 1.0], [1.0, 1.0]]
-    uv = corners + rng.uniform(0.0, 1.0, size=(97, 2)).tolist()
+    uv = corners + uni(rng, 0.0, 1.0, size=(97, 2)).tolist()
     out = {"p": [], "su": [], "sv": [], "suu": [], "suv": [], "svv": []}
     for u, v in uv:
         d = s.derivatives(u, v, order=2)
@@ -183,7 +192,7 @@ def gen_surfaces(rng):
 def gen_ops(rng):
     elev = []
     for p in range(1, 6):
-        ctrl = rng.uniform(-2.0, 2.0, size=(p + 1, 3)).tolist()
+        ctrl = uni(rng, -2.0, 2.0, size=(p + 1, 3)).tolist()
         elev.append({"ctrl": ctrl, "times": 1, "elevated": helpers.degree_elevation(p, ctrl, num=1)})
         elev.append({"ctrl": ctrl, "times": 2, "elevated": helpers.degree_elevation(p, ctrl, num=2)})
     # the notes' vectors
@@ -197,9 +206,9 @@ def gen_ops(rng):
             n = p + 1 if kind == "bezier" else p + 1 + int(rng.integers(1, 5))
             c = BSpline.Curve()
             c.degree = p
-            c.ctrlpts = rng.uniform(-2.0, 2.0, size=(n, 3)).tolist()
+            c.ctrlpts = uni(rng, -2.0, 2.0, size=(n, 3)).tolist()
             c.knotvector = ([0.0] * (p + 1) + [1.0] * (p + 1)) if kind == "bezier" else random_clamped_knots(rng, n, p)
-            u = float(rng.uniform(0.1, 0.9)) if kind == "random" else 0.3
+            u = float(uni(rng, 0.1, 0.9)) if kind == "random" else 0.3
             a, b = operations.split_curve(c, u)
             split.append({"degree": p, "ctrl": c.ctrlpts, "knots": list(c.knotvector), "u": u,
                           "left_ctrl": a.ctrlpts, "left_knots": list(a.knotvector),
@@ -209,7 +218,7 @@ def gen_ops(rng):
     for p in range(1, 6):
         for kind in ("bspline", "nurbs"):
             n = p + 1 + int(rng.integers(1, 5))
-            ctrl = rng.uniform(-2.0, 2.0, size=(n, 3)).tolist()
+            ctrl = uni(rng, -2.0, 2.0, size=(n, 3)).tolist()
             kv = random_clamped_knots(rng, n, p)
             if kind == "bspline":
                 c = BSpline.Curve()
@@ -219,10 +228,10 @@ def gen_ops(rng):
             else:
                 c = NURBS.Curve()
                 c.degree = p
-                weights = rng.uniform(0.5, 2.0, size=n).tolist()
+                weights = uni(rng, 0.5, 2.0, size=n).tolist()
                 c.ctrlptsw = [[x * w, y * w, z * w, w] for (x, y, z), w in zip(ctrl, weights)]
             c.knotvector = kv
-            u = float(rng.uniform(0.05, 0.95))
+            u = float(uni(rng, 0.05, 0.95))
             r = int(rng.integers(1, p + 1))
             operations.insert_knot(c, [u], [r])  # mutates c
             insert.append({"kind": kind, "degree": p, "ctrl": ctrl, "weights": weights, "knots": kv, "u": u,
@@ -239,7 +248,7 @@ def bernstein(n, i, t):
 def gen_bezier(rng):
     cases = []
     for n in range(1, 8):
-        ctrl = rng.uniform(-2.0, 2.0, size=(n + 1, 2))
+        ctrl = uni(rng, -2.0, 2.0, size=(n + 1, 2))
         ts = np.linspace(0.0, 1.0, 101)
         pts, d1, d2, kappa = [], [], [], []
         hod1 = n * (ctrl[1:] - ctrl[:-1])
