@@ -1,9 +1,9 @@
 //! B-spline basis functions (Cox–de Boor), span search, B-spline curves, knot insertion and split.
 //!
 //! Conventions (as geomdl and *The NURBS Book*): degree p, not order; n control points need n + p + 1
-//! non-decreasing knots; the curve is defined on [U[p], U[n]] and parameters outside are clamped to it.
+//! non-decreasing knots; the curve is defined on [`U[p]`, `U[n]`] and parameters outside are clamped to it.
 //! Clamped (open) knot vectors repeat the end knots p + 1 times, so the curve interpolates the end control
-//! points; arbitrary non-decreasing vectors are accepted as long as that domain is not empty. At u = U[n]
+//! points; arbitrary non-decreasing vectors are accepted as long as that domain is not empty. At u = `U[n]`
 //! the last non-empty span is used (the left limit), so the end point is reached exactly.
 use super::real::{check_finite, Point, Real};
 use crate::{Error, Result};
@@ -72,8 +72,8 @@ pub fn clamped_uniform_knots<S: Real>(degree: usize, n_ctrl: usize) -> Vec<S> {
     k
 }
 
-/// Span index k with U[k] ≤ u < U[k+1], k ∈ [p, n−1] (binary search, *The NURBS Book* A2.1); u is clamped
-/// to the domain and u = U[n] maps to the last non-empty span.
+/// Span index k with `U[k]` ≤ u < `U[k+1]`, k ∈ [p, n−1] (binary search, *The NURBS Book* A2.1); u is clamped
+/// to the domain and u = `U[n]` maps to the last non-empty span.
 ///
 /// ```
 /// let k = [0., 0., 0., 0., 0.25, 0.5, 0.75, 1., 1., 1., 1.];
@@ -395,7 +395,7 @@ impl<S: Real, P: Point<S>> BSplineCurve<S, P> {
     pub fn ctrl(&self) -> &[P] {
         &self.ctrl
     }
-    /// Parameter domain [U[p], U[n]].
+    /// Parameter domain [`U[p]`, `U[n]`].
     ///
     /// ```
     /// let c = gregvox::geom::bspline::BSplineCurve::<f64, f64>::clamped_uniform(2, vec![0.0, 1.0, 0.0]).unwrap();
@@ -449,7 +449,7 @@ impl<S: Real, P: Point<S>> BSplineCurve<S, P> {
         })
     }
 
-    /// Splits at u (strictly inside the domain) into two clamped curves on [U[p], u] and [u, U[n]].
+    /// Splits at u (strictly inside the domain) into two clamped curves on [`U[p]`, u] and [u, `U[n]`].
     ///
     /// ```
     /// use gregvox::geom::bspline::BSplineCurve;

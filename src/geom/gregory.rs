@@ -10,7 +10,7 @@
 //! - Corner guard: where d = a + b < [`CORNER_EPS`] (= 1e-6, in f32 and f64 alike) Q = P_a and ∂Q = 0. Only
 //!   the exact corner has d = 0, and there every weight multiplying Q is 0, so any finite value is right;
 //!   1e-6 rather than `d == 0` because 1/d² overflows f32 for d below ~1e-19 (Inf·0 = NaN).
-//! - (u, v) outside [0,1]² (and NaN) are clamped into it first, so no input produces NaN from finite points.
+//! - (u, v) outside `[0,1]²` (and NaN) are clamped into it first, so no input produces NaN from finite points.
 //! - One generic implementation serves f64 (reference) and f32 (GPU mirror, [`Patch`]); the operation order
 //!   is the documented one of [`eval_generic`], which the shaders follow.
 use super::bezier::clamp01;
@@ -32,7 +32,7 @@ use glam::{DVec3, Vec3};
 pub const CORNER_EPS: f64 = 1e-6;
 
 /// The 4×4 Bézier grid in terms of the 20 control points: `BEZIER_GRID[row = v][col = u] = [a, b]`; on the
-/// boundary a = b, in the interior cells Q = (α·cv[a] + β·cv[b])/(α + β) with (α, β) = (u, v) at (1,1),
+/// boundary a = b, in the interior cells Q = (α·`cv[a]` + β·`cv[b]`)/(α + β) with (α, β) = (u, v) at (1,1),
 /// (1−u, v) at col 2 row 1, (u, 1−v) at col 1 row 2, (1−u, 1−v) at (2,2).
 ///
 /// ```
