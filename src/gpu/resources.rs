@@ -339,6 +339,15 @@ impl Context {
         self.read_buffer_range(buf, 0, buf.size)
     }
 
+    /// Reads the whole of `buf` back as values of `T` (trailing bytes that do not fill a `T` are dropped).
+    pub fn read_pod<T: bytemuck::Pod>(&self, buf: &Buffer) -> Result<Vec<T>> {
+        let bytes = self.read_buffer(buf)?;
+        let n = bytes.len() / std::mem::size_of::<T>().max(1);
+        Ok(bytemuck::pod_collect_to_vec(
+            &bytes[..n * std::mem::size_of::<T>()],
+        ))
+    }
+
     /// Reads `size` bytes at `offset` of `buf` back to the host.
     pub fn read_buffer_range(&self, buf: &Buffer, offset: u64, size: u64) -> Result<Vec<u8>> {
         if offset + size > buf.size {

@@ -1,7 +1,9 @@
 //! One GPU pass per file. Each owns its pipelines and layouts and exposes `new`, `record`, `destroy`;
 //! buffers are passed in, never owned by two passes.
+pub mod gregory_eval;
 pub mod iota;
 pub mod peel;
 pub mod spinner;
+pub mod spmv;
 pub mod triangles;
 pub mod voxel_fill;

@@ -1,0 +1,139 @@
+//! `SpmvPass`: y = A·x for a CSR matrix on the GPU (glsl/spmv.comp), one invocation per row, a gather in
+//! row order (no atomics, deterministic, equal to `SparseMatrix::spmv_f32` bit for bit: the shader forbids
+//! fused multiply-adds with `precise`).
+//!
+//! Invariants: the pass owns only its pipeline. A [`GpuSparse`] owns the three CSR buffers of one matrix;
+//! point buffers `x` and `y` are the caller's, `vec4` per point (w ignored on input, 1 on output). On exit
+//! `y`'s writes are visible to later compute and vertex-shader reads and to transfers.
+use crate::error::{Error, Result};
+use crate::gpu::pipeline::{Binding, ComputePipeline, DescriptorSetLayoutBuilder};
+use crate::gpu::resources::memory_barrier;
+use crate::gpu::{shaders, Buffer, Context};
+use crate::mesh::SparseMatrix;
+use ash::vk;
+
+/// A CSR matrix in device-local buffers.
+pub struct GpuSparse {
+    pub rows: u32,
+    pub cols: u32,
+    pub row_ptr: Buffer,
+    pub col: Buffer,
+    pub val: Buffer,
+}
+
+impl GpuSparse {
+    /// Uploads `m` (values converted to f32).
+    pub fn upload(ctx: &Context, name: &str, m: &SparseMatrix<f64>) -> Result<Self> {
+        let usage = vk::BufferUsageFlags::STORAGE_BUFFER;
+        let vals: Vec<f32> = m.val.iter().map(|&v| v as f32).collect();
+        // A matrix with no entries still needs non-empty buffers.
+        let col: Vec<u32> = if m.col.is_empty() {
+            vec![0]
+        } else {
+            m.col.clone()
+        };
+        let vals = if vals.is_empty() { vec![0.0] } else { vals };
+        let row_ptr = ctx.upload_buffer(
+            &format!("{name} row_ptr"),
+            bytemuck::cast_slice(&m.row_ptr),
+            usage,
+        )?;
+        let col = match ctx.upload_buffer(&format!("{name} col"), bytemuck::cast_slice(&col), usage)
+        {
+            Ok(b) => b,
+            Err(e) => {
+                row_ptr.destroy(ctx);
+                return Err(e);
+            }
+        };
+        let val =
+            match ctx.upload_buffer(&format!("{name} val"), bytemuck::cast_slice(&vals), usage) {
+                Ok(b) => b,
+                Err(e) => {
+                    row_ptr.destroy(ctx);
+                    col.destroy(ctx);
+                    return Err(e);
+                }
+            };
+        Ok(GpuSparse {
+            rows: m.n_rows,
+            cols: m.n_cols,
+            row_ptr,
+            col,
+            val,
+        })
+    }
+
+    /// Destroys the buffers.
+    pub fn destroy(self, ctx: &Context) {
+        self.row_ptr.destroy(ctx);
+        self.col.destroy(ctx);
+        self.val.destroy(ctx);
+    }
+}
+
+/// The SpMV compute pass.
+pub struct SpmvPass {
+    pipeline: ComputePipeline,
+}
+
+impl SpmvPass {
+    /// Builds the pipeline.
+    pub fn new(ctx: &Context) -> Result<Self> {
+        let mut b = DescriptorSetLayoutBuilder::new();
+        for i in 0..5 {
+            b = b.storage_buffer(i, vk::ShaderStageFlags::COMPUTE);
+        }
+        let layout = b.build(ctx, "spmv set")?;
+        Ok(SpmvPass {
+            pipeline: ComputePipeline::new(ctx, "spmv", shaders::SPMV_COMP, vec![layout], 4, 64)?,
+        })
+    }
+
+    /// Records y = A·x.
+    pub fn record(
+        &self,
+        ctx: &Context,
+        cmd: vk::CommandBuffer,
+        a: &GpuSparse,
+        x: &Buffer,
+        y: &Buffer,
+    ) -> Result<()> {
+        if (a.cols as u64) * 16 > x.size || (a.rows as u64) * 16 > y.size {
+            return Err(Error::Invalid(format!(
+                "spmv: {}×{} matrix does not fit x '{}' ({} B) or y '{}' ({} B)",
+                a.rows, a.cols, x.name, x.size, y.name, y.size
+            )));
+        }
+        let bindings = [
+            (0, Binding::Storage(a.row_ptr.raw)),
+            (1, Binding::Storage(a.col.raw)),
+            (2, Binding::Storage(a.val.raw)),
+            (3, Binding::Storage(x.raw)),
+            (4, Binding::Storage(y.raw)),
+        ];
+        self.pipeline
+            .bind(ctx, cmd, &bindings, bytemuck::bytes_of(&a.rows));
+        self.pipeline.dispatch_linear(ctx, cmd, a.rows as u64)?;
+        memory_barrier(
+            ctx,
+            cmd,
+            (
+                vk::PipelineStageFlags2::COMPUTE_SHADER,
+                vk::AccessFlags2::SHADER_STORAGE_WRITE,
+            ),
+            (
+                vk::PipelineStageFlags2::COMPUTE_SHADER
+                    | vk::PipelineStageFlags2::VERTEX_SHADER
+                    | vk::PipelineStageFlags2::COPY,
+                vk::AccessFlags2::SHADER_STORAGE_READ | vk::AccessFlags2::TRANSFER_READ,
+            ),
+        );
+        Ok(())
+    }
+
+    /// Destroys the pipeline.
+    pub fn destroy(self, ctx: &Context) {
+        self.pipeline.destroy(ctx);
+    }
+}
