@@ -1,9 +1,12 @@
 //! One GPU pass per file. Each owns its pipelines and layouts and exposes `new`, `record`, `destroy`;
 //! buffers are passed in, never owned by two passes.
+pub mod cage_deform;
 pub mod gregory_eval;
 pub mod iota;
+pub mod mesh_normals;
 pub mod peel;
 pub mod spinner;
 pub mod spmv;
+pub mod surface_draw;
 pub mod triangles;
 pub mod voxel_fill;

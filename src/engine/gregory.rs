@@ -1,0 +1,432 @@
+//! The Gregory surface on the GPU: cage (rest) → [deform] → cage → [SpMV] control points = W·cage →
+//! [evaluate] device-local vertex buffer, which the graphics pipelines and the voxelizer read directly.
+//!
+//! Invariants:
+//! - `GregorySurface` owns every buffer of the chain and the passes; nothing is copied to the host per frame.
+//! - The vertex buffer has STORAGE | VERTEX usage and holds `SurfaceVertex` (stride 32, position first), so
+//!   `SurfaceDrawPass` draws it and `PeelVoxelizer::new(ctx, 32)` peels it as-is.
+//! - `record` starts with a barrier from every earlier reader of the chain's buffers (vertex input, vertex
+//!   and fragment shaders, compute, copies — including those of the previous frame still in flight) to the
+//!   compute writes, so one set of buffers serves all frames in flight.
+//! - Shared boundary control points come from shared W rows (same row ⇒ identical bits), and patch edge
+//!   vertices are evaluated canonically, so neighbouring patches meet without cracks.
+use crate::error::{Error, Result};
+use crate::gpu::resources::memory_barrier;
+use crate::gpu::{Buffer, Context, MemoryLocation, Profiler};
+use crate::mesh::SparseMatrix;
+use crate::passes::cage_deform::{CageDeformPass, DeformParams, Deformation};
+use crate::passes::gregory_eval::{
+    grid_indices, vertex_count, GregoryEvalPass, SurfaceVertex, MAX_LEVEL,
+};
+use crate::passes::spmv::{GpuSparse, SpmvPass};
+use ash::vk;
+use glam::DVec3;
+
+/// What the GPU needs to know about a patch layout: the stencil matrix and, per patch, its 20 point rows and
+/// canonical-edge flags.
+#[derive(Clone, Debug)]
+pub struct GregoryTopology {
+    /// Control points = `w` · cage (rows: points, columns: cage vertices).
+    pub w: SparseMatrix<f64>,
+    /// Per patch, the row of `w` of each GREGORY_BASIS point.
+    pub patch_points: Vec<[u32; 20]>,
+    /// Per patch, bit e set when edge e runs from the higher cage vertex to the lower (see
+    /// [`canonical_edge_flags`]).
+    pub patch_flags: Vec<u32>,
+}
+
+/// Canonical-edge flags of quad faces: edges are listed with the patch parameter increasing —
+/// e0 = v0→v1, e1 = v1→v2, e2 = v3→v2, e3 = v0→v3 — and bit e is set when that list runs from the higher
+/// cage vertex index to the lower.
+///
+/// ```
+/// use gregvox::engine::gregory::canonical_edge_flags;
+/// // Face 0 1 2 3: e0 0→1 ok, e1 1→2 ok, e2 3→2 reversed, e3 0→3 ok.
+/// assert_eq!(canonical_edge_flags(&[[0, 1, 2, 3]]), [0b0100]);
+/// ```
+pub fn canonical_edge_flags(quads: &[[u32; 4]]) -> Vec<u32> {
+    quads
+        .iter()
+        .map(|q| {
+            let edges = [(q[0], q[1]), (q[1], q[2]), (q[3], q[2]), (q[0], q[3])];
+            edges
+                .iter()
+                .enumerate()
+                .fold(0, |f, (e, &(a, b))| f | (((a > b) as u32) << e))
+        })
+        .collect()
+}
+
+/// The GPU Gregory surface. See the module invariants.
+pub struct GregorySurface {
+    spmv: SpmvPass,
+    eval: GregoryEvalPass,
+    deform: CageDeformPass,
+    w: GpuSparse,
+    rest: Buffer,
+    cage: Buffer,
+    points: Buffer,
+    patch_points: Buffer,
+    patch_flags: Buffer,
+    vertices: Buffer,
+    indices: Buffer,
+    pub patch_count: u32,
+    pub cage_count: u32,
+    pub level: u32,
+    pub canonical_edges: bool,
+    pub box_min: [f32; 3],
+    pub box_size: [f32; 3],
+}
+
+fn vec4s(points: &[DVec3]) -> Vec<[f32; 4]> {
+    points
+        .iter()
+        .map(|p| [p.x as f32, p.y as f32, p.z as f32, 1.0])
+        .collect()
+}
+
+impl GregorySurface {
+    /// Uploads the layout and the rest cage and creates the buffers for `level`.
+    pub fn new(ctx: &Context, topo: &GregoryTopology, cage: &[DVec3], level: u32) -> Result<Self> {
+        if topo.patch_points.is_empty() {
+            return Err(Error::Invalid("no patches to evaluate".into()));
+        }
+        if cage.len() != topo.w.n_cols as usize {
+            return Err(Error::Invalid(format!(
+                "the cage has {} vertices but the stencils expect {}",
+                cage.len(),
+                topo.w.n_cols
+            )));
+        }
+        if topo.patch_flags.len() != topo.patch_points.len() {
+            return Err(Error::Invalid(
+                "patch flags and patch points differ in length".into(),
+            ));
+        }
+        if let Some(bad) = topo
+            .patch_points
+            .iter()
+            .flatten()
+            .find(|&&r| r >= topo.w.n_rows)
+        {
+            return Err(Error::Invalid(format!(
+                "patch point row {bad} is past the {} stencil rows",
+                topo.w.n_rows
+            )));
+        }
+        if !(1..=MAX_LEVEL).contains(&level) {
+            return Err(Error::Invalid(format!(
+                "tessellation level {level} is outside 1…{MAX_LEVEL}"
+            )));
+        }
+        let mut lo = [f32::INFINITY; 3];
+        let mut hi = [f32::NEG_INFINITY; 3];
+        for p in cage {
+            for a in 0..3 {
+                lo[a] = lo[a].min(p[a] as f32);
+                hi[a] = hi[a].max(p[a] as f32);
+            }
+        }
+        // Build step by step; on failure destroy what exists (a Vec of buffers keeps that simple).
+        let mut made: Vec<Buffer> = Vec::new();
+        let mut passes: (
+            Option<SpmvPass>,
+            Option<GregoryEvalPass>,
+            Option<CageDeformPass>,
+        ) = (None, None, None);
+        let mut w_gpu: Option<GpuSparse> = None;
+        let result = (|| -> Result<()> {
+            passes.0 = Some(SpmvPass::new(ctx)?);
+            passes.1 = Some(GregoryEvalPass::new(ctx)?);
+            passes.2 = Some(CageDeformPass::new(ctx)?);
+            w_gpu = Some(GpuSparse::upload(ctx, "gregory W", &topo.w)?);
+            let storage = vk::BufferUsageFlags::STORAGE_BUFFER;
+            let rw =
+                storage | vk::BufferUsageFlags::TRANSFER_SRC | vk::BufferUsageFlags::TRANSFER_DST;
+            made.push(ctx.upload_buffer("cage rest", bytemuck::cast_slice(&vec4s(cage)), rw)?);
+            made.push(ctx.create_buffer(
+                "cage",
+                cage.len() as u64 * 16,
+                rw,
+                MemoryLocation::GpuOnly,
+            )?);
+            made.push(ctx.create_buffer(
+                "gregory points",
+                topo.w.n_rows.max(1) as u64 * 16,
+                rw,
+                MemoryLocation::GpuOnly,
+            )?);
+            made.push(ctx.upload_buffer(
+                "patch points",
+                bytemuck::cast_slice(&topo.patch_points),
+                storage,
+            )?);
+            made.push(ctx.upload_buffer(
+                "patch flags",
+                bytemuck::cast_slice(&topo.patch_flags),
+                storage,
+            )?);
+            let (v, i) = Self::level_buffers(ctx, topo.patch_points.len() as u32, level)?;
+            made.push(v);
+            made.push(i);
+            Ok(())
+        })();
+        if let Err(e) = result {
+            for b in made {
+                b.destroy(ctx);
+            }
+            if let Some(w) = w_gpu {
+                w.destroy(ctx);
+            }
+            if let Some(p) = passes.0 {
+                p.destroy(ctx);
+            }
+            if let Some(p) = passes.1 {
+                p.destroy(ctx);
+            }
+            if let Some(p) = passes.2 {
+                p.destroy(ctx);
+            }
+            return Err(e);
+        }
+        let mut it = made.into_iter();
+        let mut next = || it.next().expect("seven buffers");
+        Ok(GregorySurface {
+            spmv: passes.0.unwrap(),
+            eval: passes.1.unwrap(),
+            deform: passes.2.unwrap(),
+            w: w_gpu.unwrap(),
+            rest: next(),
+            cage: next(),
+            points: next(),
+            patch_points: next(),
+            patch_flags: next(),
+            vertices: next(),
+            indices: next(),
+            patch_count: topo.patch_points.len() as u32,
+            cage_count: cage.len() as u32,
+            level,
+            canonical_edges: true,
+            box_min: lo,
+            box_size: [hi[0] - lo[0], hi[1] - lo[1], hi[2] - lo[2]],
+        })
+    }
+
+    fn level_buffers(ctx: &Context, patches: u32, level: u32) -> Result<(Buffer, Buffer)> {
+        let n = vertex_count(patches, level);
+        let bytes = n * std::mem::size_of::<SurfaceVertex>() as u64;
+        let max = ctx.limits.max_storage_buffer_range as u64;
+        if bytes > max {
+            return Err(Error::Limit {
+                what: format!(
+                    "{patches} patches at level {level} ({n} vertices, {} MiB)",
+                    bytes >> 20
+                ),
+                detail: format!("one storage binding holds at most {} MiB", max >> 20),
+            });
+        }
+        let vertices = ctx.create_buffer(
+            "gregory vertices",
+            bytes,
+            vk::BufferUsageFlags::STORAGE_BUFFER
+                | vk::BufferUsageFlags::VERTEX_BUFFER
+                | vk::BufferUsageFlags::TRANSFER_SRC,
+            MemoryLocation::GpuOnly,
+        )?;
+        let idx = grid_indices(patches, level);
+        match ctx.upload_buffer(
+            "gregory indices",
+            bytemuck::cast_slice(&idx),
+            vk::BufferUsageFlags::INDEX_BUFFER | vk::BufferUsageFlags::STORAGE_BUFFER,
+        ) {
+            Ok(i) => Ok((vertices, i)),
+            Err(e) => {
+                vertices.destroy(ctx);
+                Err(e)
+            }
+        }
+    }
+
+    /// Switches to `level`; returns the old vertex and index buffers, to be destroyed once no frame in
+    /// flight uses them (e.g. through `Frames::defer`).
+    pub fn set_level(&mut self, ctx: &Context, level: u32) -> Result<Vec<Buffer>> {
+        if !(1..=MAX_LEVEL).contains(&level) {
+            return Err(Error::Invalid(format!(
+                "tessellation level {level} is outside 1…{MAX_LEVEL}"
+            )));
+        }
+        if level == self.level {
+            return Ok(Vec::new());
+        }
+        let (v, i) = Self::level_buffers(ctx, self.patch_count, level)?;
+        self.level = level;
+        Ok(vec![
+            std::mem::replace(&mut self.vertices, v),
+            std::mem::replace(&mut self.indices, i),
+        ])
+    }
+
+    /// The device-local vertex buffer (stride 32: position, normal).
+    pub fn vertices(&self) -> &Buffer {
+        &self.vertices
+    }
+
+    /// The static index buffer of the current level (u32, triangle list).
+    pub fn indices(&self) -> &Buffer {
+        &self.indices
+    }
+
+    /// Number of indices of the current level.
+    pub fn index_count(&self) -> u32 {
+        self.patch_count * self.level * self.level * 6
+    }
+
+    /// The control points buffer (vec4 per W row).
+    pub fn points(&self) -> &Buffer {
+        &self.points
+    }
+
+    /// Records a whole update: [deform] → W·cage → evaluate. `deform` = None evaluates the rest cage.
+    pub fn record(
+        &self,
+        ctx: &Context,
+        cmd: vk::CommandBuffer,
+        deform: Option<&DeformParams>,
+        mut profiler: Option<(&mut Profiler, usize)>,
+    ) -> Result<()> {
+        // Earlier readers (this or the previous frame's draw, peel, copies) before this frame's writes.
+        memory_barrier(
+            ctx,
+            cmd,
+            (
+                vk::PipelineStageFlags2::VERTEX_ATTRIBUTE_INPUT
+                    | vk::PipelineStageFlags2::VERTEX_SHADER
+                    | vk::PipelineStageFlags2::FRAGMENT_SHADER
+                    | vk::PipelineStageFlags2::COMPUTE_SHADER
+                    | vk::PipelineStageFlags2::COPY,
+                vk::AccessFlags2::NONE,
+            ),
+            (
+                vk::PipelineStageFlags2::COMPUTE_SHADER,
+                vk::AccessFlags2::SHADER_STORAGE_WRITE,
+            ),
+        );
+        let mut scope = |name: &str, f: &mut dyn FnMut() -> Result<()>| -> Result<()> {
+            match profiler.as_mut() {
+                Some((p, slot)) => {
+                    let s = p.begin(ctx, cmd, *slot, name);
+                    let r = f();
+                    p.end(ctx, cmd, s);
+                    r
+                }
+                None => f(),
+            }
+        };
+        let source = match deform {
+            Some(d) if d.mode != Deformation::None => {
+                scope("cage deform", &mut || {
+                    self.deform
+                        .record(ctx, cmd, &self.rest, &self.cage, self.cage_count, d)
+                })?;
+                &self.cage
+            }
+            _ => &self.rest,
+        };
+        scope("gregory points (W·cage)", &mut || {
+            self.spmv.record(ctx, cmd, &self.w, source, &self.points)
+        })?;
+        scope("gregory eval", &mut || {
+            self.eval.record(
+                ctx,
+                cmd,
+                &self.points,
+                &self.patch_points,
+                &self.patch_flags,
+                self.patch_count,
+                self.level,
+                self.canonical_edges,
+                &self.vertices,
+            )
+        })
+    }
+
+    /// Replaces the rest cage (user-moved vertices) from the command buffer, so frames in flight keep the old
+    /// one: `vkCmdUpdateBuffer` in chunks of 64 KiB.
+    pub fn record_cage_update(
+        &self,
+        ctx: &Context,
+        cmd: vk::CommandBuffer,
+        cage: &[DVec3],
+    ) -> Result<()> {
+        if cage.len() != self.cage_count as usize {
+            return Err(Error::Invalid(format!(
+                "{} cage vertices given, {} expected",
+                cage.len(),
+                self.cage_count
+            )));
+        }
+        memory_barrier(
+            ctx,
+            cmd,
+            (
+                vk::PipelineStageFlags2::COMPUTE_SHADER | vk::PipelineStageFlags2::COPY,
+                vk::AccessFlags2::NONE,
+            ),
+            (
+                vk::PipelineStageFlags2::ALL_TRANSFER,
+                vk::AccessFlags2::TRANSFER_WRITE,
+            ),
+        );
+        let data = vec4s(cage);
+        let bytes: &[u8] = bytemuck::cast_slice(&data);
+        for (k, chunk) in bytes.chunks(65536).enumerate() {
+            // SAFETY: recording; the range lies inside the rest buffer (same vertex count).
+            unsafe {
+                ctx.device
+                    .cmd_update_buffer(cmd, self.rest.raw, k as u64 * 65536, chunk)
+            };
+        }
+        memory_barrier(
+            ctx,
+            cmd,
+            (
+                vk::PipelineStageFlags2::ALL_TRANSFER,
+                vk::AccessFlags2::TRANSFER_WRITE,
+            ),
+            (
+                vk::PipelineStageFlags2::COMPUTE_SHADER,
+                vk::AccessFlags2::SHADER_STORAGE_READ,
+            ),
+        );
+        Ok(())
+    }
+
+    /// Reads the evaluated vertices back (tests, `gregvox tessellate`).
+    pub fn read_vertices(&self, ctx: &Context) -> Result<Vec<SurfaceVertex>> {
+        ctx.read_pod(&self.vertices)
+    }
+
+    /// Reads the control points back.
+    pub fn read_points(&self, ctx: &Context) -> Result<Vec<[f32; 4]>> {
+        ctx.read_pod(&self.points)
+    }
+
+    /// Destroys everything (the caller guarantees the GPU is done with it).
+    pub fn destroy(self, ctx: &Context) {
+        for b in [
+            self.rest,
+            self.cage,
+            self.points,
+            self.patch_points,
+            self.patch_flags,
+            self.vertices,
+            self.indices,
+        ] {
+            b.destroy(ctx);
+        }
+        self.w.destroy(ctx);
+        self.spmv.destroy(ctx);
+        self.eval.destroy(ctx);
+        self.deform.destroy(ctx);
+    }
+}
