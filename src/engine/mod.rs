@@ -1,4 +1,5 @@
 //! Multi-pass GPU workflows composed from the passes: voxelization (and, later, the Gregory surface
 //! pipeline). Each workflow owns its passes and the transient resources of one run.
+pub mod flag;
 pub mod gregory;
 pub mod voxelize;
