@@ -4,7 +4,10 @@ use mesh_common::model;
 use std::process::Command;
 
 fn gregvox(args: &[&str]) -> std::process::Output {
-    Command::new(env!("CARGO_BIN_EXE_gregvox")).args(args).output().expect("gregvox runs")
+    Command::new(env!("CARGO_BIN_EXE_gregvox"))
+        .args(args)
+        .output()
+        .expect("gregvox runs")
 }
 
 const REQUIRED: [&str; 10] = [
@@ -23,7 +26,11 @@ const REQUIRED: [&str; 10] = [
 fn json_of(name: &str) -> serde_json::Value {
     let path = model(name);
     let out = gregvox(&["mesh", path.to_str().unwrap(), "--json"]);
-    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
     serde_json::from_slice(&out.stdout).expect("stdout is one JSON document")
 }
 
@@ -43,20 +50,38 @@ fn mesh_json_of_the_bunny() {
     assert_eq!(j["components"], 1);
     assert_eq!(j["euler_characteristic"], -3);
     assert_eq!(j["unreferenced_vertices"], 1113);
-    assert_eq!(j["boundary_loop_sizes"], serde_json::json!([22, 39, 40, 42, 80]));
+    assert_eq!(
+        j["boundary_loop_sizes"],
+        serde_json::json!([22, 39, 40, 42, 80])
+    );
     // keys are strings, counts sum to the referenced vertices
     let hist = j["valence_histogram"].as_object().unwrap();
     assert_eq!(hist["6"], 26169);
-    assert_eq!(hist.values().map(|v| v.as_u64().unwrap()).sum::<u64>(), 34834);
+    assert_eq!(
+        hist.values().map(|v| v.as_u64().unwrap()).sum::<u64>(),
+        34834
+    );
 }
 
 #[test]
 fn mesh_json_of_cow_teapot_suzanne() {
     let cow = json_of("cow.obj");
-    assert_eq!((cow["closed"].as_bool(), cow["euler_characteristic"].as_i64()), (Some(true), Some(1)));
+    assert_eq!(
+        (
+            cow["closed"].as_bool(),
+            cow["euler_characteristic"].as_i64()
+        ),
+        (Some(true), Some(1))
+    );
     assert_eq!(cow["non_manifold_vertices"], 1);
     let teapot = json_of("teapot.obj");
-    assert_eq!((teapot["components"].as_u64(), teapot["face_components"].as_u64()), (Some(4), Some(19)));
+    assert_eq!(
+        (
+            teapot["components"].as_u64(),
+            teapot["face_components"].as_u64()
+        ),
+        (Some(4), Some(19))
+    );
     let suzanne = json_of("suzanne.obj");
     assert_eq!(suzanne["components"], 3);
 }
@@ -67,7 +92,10 @@ fn mesh_human_report_names_the_figures() {
     let out = gregvox(&["mesh", path.to_str().unwrap()]);
     assert!(out.status.success());
     let s = String::from_utf8(out.stdout).unwrap();
-    assert!(s.contains("spot.obj") && s.contains("5856") && s.contains("closed           yes"), "{s}");
+    assert!(
+        s.contains("spot.obj") && s.contains("5856") && s.contains("closed           yes"),
+        "{s}"
+    );
 }
 
 #[test]
@@ -87,14 +115,27 @@ fn bad_input_is_one_line_and_a_non_zero_exit() {
     std::fs::write(&bad, "v 0 0 0\nv nan 0 0\nv 0 1 0\nf 1 2 3\n").unwrap();
     for args in [
         vec!["mesh".to_string(), bad.display().to_string()],
-        vec!["mesh".to_string(), dir.join("absent.obj").display().to_string(), "--json".into()],
-        vec!["subdivide".to_string(), bad.display().to_string(), "--out".into(), dir.join("o.obj").display().to_string()],
+        vec![
+            "mesh".to_string(),
+            dir.join("absent.obj").display().to_string(),
+            "--json".into(),
+        ],
+        vec![
+            "subdivide".to_string(),
+            bad.display().to_string(),
+            "--out".into(),
+            dir.join("o.obj").display().to_string(),
+        ],
     ] {
         let out = gregvox(&args.iter().map(|s| s.as_str()).collect::<Vec<_>>());
         assert!(!out.status.success(), "{args:?}");
         let err = String::from_utf8(out.stderr).unwrap();
         assert_eq!(err.trim_end().lines().count(), 1, "{err}");
-        assert!(err.contains("gregvox: error:") && (err.contains("nan-cli.obj") || err.contains("absent.obj")), "{err}");
+        assert!(
+            err.contains("gregvox: error:")
+                && (err.contains("nan-cli.obj") || err.contains("absent.obj")),
+            "{err}"
+        );
         assert!(!err.contains("panicked"));
         assert!(out.stdout.is_empty());
     }
@@ -106,15 +147,33 @@ fn subdivide_writes_catmull_clark_obj() {
     std::fs::create_dir_all(&dir).unwrap();
     let out_path = dir.join("spot-cc2.obj");
     let input = model("spot_control_mesh.obj");
-    let out = gregvox(&["subdivide", input.to_str().unwrap(), "--levels", "2", "--out", out_path.to_str().unwrap()]);
-    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let out = gregvox(&[
+        "subdivide",
+        input.to_str().unwrap(),
+        "--levels",
+        "2",
+        "--out",
+        out_path.to_str().unwrap(),
+    ]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
     let m = gregvox::mesh::load_obj(&out_path).unwrap();
     assert_eq!((m.positions.len(), m.n_faces()), (2930, 2928));
     // the library result, written and read back exactly
     let lib = gregvox::mesh::catmull_clark(&gregvox::mesh::load_obj(&input).unwrap(), 2);
     assert_eq!(m, lib);
     // Loop on polygons is refused with a message naming the file
-    let out = gregvox(&["subdivide", input.to_str().unwrap(), "--scheme", "loop", "--out", out_path.to_str().unwrap()]);
+    let out = gregvox(&[
+        "subdivide",
+        input.to_str().unwrap(),
+        "--scheme",
+        "loop",
+        "--out",
+        out_path.to_str().unwrap(),
+    ]);
     assert!(!out.status.success());
     assert!(String::from_utf8_lossy(&out.stderr).contains("spot_control_mesh.obj"));
 }

@@ -31,7 +31,11 @@ fn bunny_positions_are_kept_as_given_with_unreferenced_vertices() {
     // first v line of the file, read as f64 (no f32 rounding)
     let text = std::fs::read_to_string(model("stanford-bunny.obj")).unwrap();
     let first = text.lines().find(|l| l.starts_with("v ")).unwrap();
-    let c: Vec<f64> = first.split_whitespace().skip(1).map(|t| t.parse().unwrap()).collect();
+    let c: Vec<f64> = first
+        .split_whitespace()
+        .skip(1)
+        .map(|t| t.parse().unwrap())
+        .collect();
     assert_eq!(mesh.positions[0].to_array(), [c[0], c[1], c[2]]);
 }
 
@@ -47,7 +51,8 @@ fn polygons_are_kept_not_triangulated() {
 
 #[test]
 fn slash_forms_relative_indices_and_other_statements_are_read() {
-    let text = "# comment\nmtllib x.mtl\no thing\nv 0 0 0\nv 1 0 0 1.0\nv 1 1 0 0.5 0.5 0.5\nv 0 1 0\n\
+    let text =
+        "# comment\nmtllib x.mtl\no thing\nv 0 0 0\nv 1 0 0 1.0\nv 1 1 0 0.5 0.5 0.5\nv 0 1 0\n\
 vt 0 0\nvn 0 0 1\ng g1\ns off\nusemtl m\nf 1/1/1 2//1 3/1 -1\nl 1 2\n";
     let m = parse_obj(text, "forms.obj").unwrap();
     assert_eq!(m.face(0), &[0, 1, 2, 3]);
@@ -56,8 +61,13 @@ vt 0 0\nvn 0 0 1\ng g1\ns off\nusemtl m\nf 1/1/1 2//1 3/1 -1\nl 1 2\n";
 
 #[test]
 fn missing_file_names_the_file() {
-    let e = load_obj("/nonexistent/dir/missing-mesh.obj").unwrap_err().to_string();
-    assert!(e.contains("missing-mesh.obj") && e.contains("No such file"), "{e}");
+    let e = load_obj("/nonexistent/dir/missing-mesh.obj")
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.contains("missing-mesh.obj") && e.contains("No such file"),
+        "{e}"
+    );
 }
 
 #[test]
@@ -72,15 +82,24 @@ fn parse_error_names_the_line() {
     let msg = error_of("parse.obj", b"v 0 0 0\nv 1 zero 0\nv 0 1 0\nf 1 2 3\n");
     assert!(msg.contains("line 2") && msg.contains("zero"), "{msg}");
     let msg = error_of("short.obj", b"v 0 0\n");
-    assert!(msg.contains("line 1") && msg.contains("2 coordinates"), "{msg}");
+    assert!(
+        msg.contains("line 1") && msg.contains("2 coordinates"),
+        "{msg}"
+    );
     let msg = error_of("badface.obj", b"v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 x\n");
     assert!(msg.contains("line 4") && msg.contains("'x'"), "{msg}");
 }
 
 #[test]
 fn index_out_of_range_names_the_line_and_index() {
-    let msg = error_of("range.obj", b"v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\nf 1 2 9\n");
-    assert!(msg.contains("line 5") && msg.contains("index 9") && msg.contains("3 vertices"), "{msg}");
+    let msg = error_of(
+        "range.obj",
+        b"v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\nf 1 2 9\n",
+    );
+    assert!(
+        msg.contains("line 5") && msg.contains("index 9") && msg.contains("3 vertices"),
+        "{msg}"
+    );
 }
 
 #[test]
@@ -94,9 +113,15 @@ fn zero_and_too_negative_indices_are_errors() {
 #[test]
 fn nan_and_inf_coordinates_are_errors() {
     let msg = error_of("nan.obj", b"v 0 0 0\nv 1 NaN 0\nv 0 1 0\nf 1 2 3\n");
-    assert!(msg.contains("line 2") && msg.contains("vertex 2") && msg.contains("non-finite"), "{msg}");
+    assert!(
+        msg.contains("line 2") && msg.contains("vertex 2") && msg.contains("non-finite"),
+        "{msg}"
+    );
     let msg = error_of("inf.obj", b"v 0 0 0\nv 1 0 0\nv 0 1 -inf\nf 1 2 3\n");
-    assert!(msg.contains("line 3") && msg.contains("non-finite"), "{msg}");
+    assert!(
+        msg.contains("line 3") && msg.contains("non-finite"),
+        "{msg}"
+    );
     let msg = error_of("huge.obj", b"v 1e400 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n");
     assert!(msg.contains("line 1"), "{msg}");
 }
@@ -104,7 +129,10 @@ fn nan_and_inf_coordinates_are_errors() {
 #[test]
 fn faces_with_fewer_than_three_vertices_are_errors() {
     let msg = error_of("two.obj", b"v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2\n");
-    assert!(msg.contains("line 4") && msg.contains("2 vertices"), "{msg}");
+    assert!(
+        msg.contains("line 4") && msg.contains("2 vertices"),
+        "{msg}"
+    );
     let msg = error_of("rep.obj", b"v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 2\n");
     assert!(msg.contains("line 4") && msg.contains("twice"), "{msg}");
 }
@@ -121,7 +149,9 @@ fn empty_meshes_are_errors() {
 
 #[test]
 fn binary_garbage_is_an_error_not_a_panic() {
-    let mut garbage: Vec<u8> = (0..4096u32).map(|i| (i.wrapping_mul(2654435761) >> 13) as u8).collect();
+    let mut garbage: Vec<u8> = (0..4096u32)
+        .map(|i| (i.wrapping_mul(2654435761) >> 13) as u8)
+        .collect();
     garbage[10] = 0;
     let msg = error_of("garbage.obj", &garbage);
     assert!(msg.contains("binary") || msg.contains("UTF-8"), "{msg}");
@@ -148,6 +178,8 @@ fn write_then_read_is_exact() {
 #[test]
 fn writing_into_a_missing_directory_is_an_io_error() {
     let mesh = parse_obj("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n", "t.obj").unwrap();
-    let e = write_obj("/nonexistent/dir/out.obj", &mesh).unwrap_err().to_string();
+    let e = write_obj("/nonexistent/dir/out.obj", &mesh)
+        .unwrap_err()
+        .to_string();
     assert!(e.contains("out.obj"), "{e}");
 }

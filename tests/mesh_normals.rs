@@ -2,7 +2,9 @@
 //! policy for unreferenced and degenerate vertices.
 mod mesh_common;
 use glam::DVec3;
-use gregvox::mesh::{face_centroids, face_normals, load_obj, parse_obj, vertex_normals, MeshMatrix, NormalWeighting};
+use gregvox::mesh::{
+    face_centroids, face_normals, load_obj, parse_obj, vertex_normals, MeshMatrix, NormalWeighting,
+};
 use mesh_common::{model, read_f64x3};
 
 /// Max component difference over referenced vertices; unreferenced vertices must be exactly zero here
@@ -12,7 +14,11 @@ fn compare(name: &str, fixture: &str, weighting: NormalWeighting) -> f64 {
     let m = MeshMatrix::from_mesh(&mesh);
     let ours = m.vertex_normals(&mesh.positions, weighting);
     let oracle = read_f64x3(fixture);
-    assert_eq!(ours.len(), oracle.len(), "{name}: one normal per vertex, unreferenced included");
+    assert_eq!(
+        ours.len(),
+        oracle.len(),
+        "{name}: one normal per vertex, unreferenced included"
+    );
     let mut worst = 0.0f64;
     let mut compared = 0;
     for v in 0..ours.len() {
@@ -21,7 +27,11 @@ fn compare(name: &str, fixture: &str, weighting: NormalWeighting) -> f64 {
             worst = worst.max((ours[v] - oracle[v]).abs().max_element());
             compared += 1;
         } else {
-            assert_eq!(ours[v], DVec3::ZERO, "{name}: unreferenced vertex {v} gets a zero normal");
+            assert_eq!(
+                ours[v],
+                DVec3::ZERO,
+                "{name}: unreferenced vertex {v} gets a zero normal"
+            );
         }
     }
     eprintln!("{name} {weighting:?}: {compared} vertices, max component difference {worst:e}");
@@ -32,7 +42,13 @@ fn compare(name: &str, fixture: &str, weighting: NormalWeighting) -> f64 {
 // we sum unnormalised normals: equal up to rounding).
 #[test]
 fn area_normals_equal_libigl_on_the_bunny_referenced_vertices() {
-    assert!(compare("stanford-bunny.obj", "stanford-bunny.normals_area.f64", NormalWeighting::Area) <= 1e-12);
+    assert!(
+        compare(
+            "stanford-bunny.obj",
+            "stanford-bunny.normals_area.f64",
+            NormalWeighting::Area
+        ) <= 1e-12
+    );
 }
 
 #[test]
@@ -47,7 +63,13 @@ fn area_normals_equal_libigl_on_cow() {
 
 #[test]
 fn angle_normals_equal_trimesh_vertex_normals_on_spot() {
-    assert!(compare("spot.obj", "spot.normals_angle_trimesh.f64", NormalWeighting::Angle) <= 1e-12);
+    assert!(
+        compare(
+            "spot.obj",
+            "spot.normals_angle_trimesh.f64",
+            NormalWeighting::Angle
+        ) <= 1e-12
+    );
 }
 
 #[test]
@@ -58,16 +80,26 @@ fn weightings_differ_where_they_should() {
     let area = m.vertex_normals(&mesh.positions, NormalWeighting::Area);
     let angle = m.vertex_normals(&mesh.positions, NormalWeighting::Angle);
     let uniform = m.vertex_normals(&mesh.positions, NormalWeighting::Uniform);
-    let d = |a: &[DVec3], b: &[DVec3]| a.iter().zip(b).map(|(x, y)| (*x - *y).length()).fold(0.0, f64::max);
+    let d = |a: &[DVec3], b: &[DVec3]| {
+        a.iter()
+            .zip(b)
+            .map(|(x, y)| (*x - *y).length())
+            .fold(0.0, f64::max)
+    };
     assert!(d(&area, &angle) > 1e-3 && d(&area, &uniform) > 1e-3);
 }
 
 #[test]
 fn uniform_normals_of_a_square_pyramid_apex_point_up() {
-    let text = "v 0 0 1\nv 1 0 0\nv 0 1 0\nv -1 0 0\nv 0 -1 0\nf 1 2 3\nf 1 3 4\nf 1 4 5\nf 1 5 2\n";
+    let text =
+        "v 0 0 1\nv 1 0 0\nv 0 1 0\nv -1 0 0\nv 0 -1 0\nf 1 2 3\nf 1 3 4\nf 1 4 5\nf 1 5 2\n";
     let mesh = parse_obj(text, "pyramid.obj").unwrap();
     let m = MeshMatrix::from_mesh(&mesh);
-    for w in [NormalWeighting::Area, NormalWeighting::Uniform, NormalWeighting::Angle] {
+    for w in [
+        NormalWeighting::Area,
+        NormalWeighting::Uniform,
+        NormalWeighting::Angle,
+    ] {
         let n = vertex_normals(&m, &mesh.positions, w);
         assert!((n[0] - DVec3::Z).length() < 1e-15, "{w:?}: {}", n[0]);
     }
@@ -79,8 +111,15 @@ fn degenerate_faces_give_zero_not_nan() {
     let mesh = parse_obj("v 0 0 0\nv 1 0 0\nv 2 0 0\nf 1 2 3\n", "line.obj").unwrap();
     let m = MeshMatrix::from_mesh(&mesh);
     assert_eq!(face_normals(&m, &mesh.positions), vec![DVec3::ZERO]);
-    for w in [NormalWeighting::Area, NormalWeighting::Uniform, NormalWeighting::Angle] {
-        assert!(m.vertex_normals(&mesh.positions, w).iter().all(|n| *n == DVec3::ZERO));
+    for w in [
+        NormalWeighting::Area,
+        NormalWeighting::Uniform,
+        NormalWeighting::Angle,
+    ] {
+        assert!(m
+            .vertex_normals(&mesh.positions, w)
+            .iter()
+            .all(|n| *n == DVec3::ZERO));
     }
 }
 
@@ -91,6 +130,12 @@ fn polygon_normals_and_centroids() {
     let mesh = parse_obj(text, "penta.obj").unwrap();
     let m = MeshMatrix::from_mesh(&mesh);
     assert_eq!(face_normals(&m, &mesh.positions), vec![DVec3::Z]);
-    assert_eq!(face_centroids(&m, &mesh.positions), vec![DVec3::new(1.0, 1.0, 2.0)]);
-    assert!(m.vertex_normals(&mesh.positions, NormalWeighting::Area).iter().all(|n| *n == DVec3::Z));
+    assert_eq!(
+        face_centroids(&m, &mesh.positions),
+        vec![DVec3::new(1.0, 1.0, 2.0)]
+    );
+    assert!(m
+        .vertex_normals(&mesh.positions, NormalWeighting::Area)
+        .iter()
+        .all(|n| *n == DVec3::Z));
 }

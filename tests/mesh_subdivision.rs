@@ -3,13 +3,14 @@
 mod mesh_common;
 use glam::DVec3;
 use gregvox::mesh::{
-    catmull_clark, catmull_clark_matrix, load_obj, loop_matrix, parse_obj, rows_sum_to_one, LoopBeta,
-    MeshMatrix, SubdivisionStack,
+    catmull_clark, catmull_clark_matrix, load_obj, loop_matrix, parse_obj, rows_sum_to_one,
+    LoopBeta, MeshMatrix, SubdivisionStack,
 };
 use mesh_common::{canonical_face, model, nearest, read_f64x3};
 use std::collections::HashSet;
 
-const CUBE: &str = "v -1 -1 -1\nv 1 -1 -1\nv 1 1 -1\nv -1 1 -1\nv -1 -1 1\nv 1 -1 1\nv 1 1 1\nv -1 1 1\n\
+const CUBE: &str =
+    "v -1 -1 -1\nv 1 -1 -1\nv 1 1 -1\nv -1 1 -1\nv -1 -1 1\nv 1 -1 1\nv 1 1 1\nv -1 1 1\n\
 f 1 4 3 2\nf 5 6 7 8\nf 1 2 6 5\nf 2 3 7 6\nf 3 4 8 7\nf 4 1 5 8\n";
 
 #[test]
@@ -20,17 +21,26 @@ fn cube_first_level_has_corners_at_five_ninths_edges_at_three_quarters() {
     // vertex points first: each corner moves to (5/9)(±1, ±1, ±1); closed form, f64 rounding only
     for (i, p) in out.positions[..8].iter().enumerate() {
         let expect = cube.positions[i] * (5.0 / 9.0);
-        assert!((*p - expect).abs().max_element() <= 1e-15, "corner {i}: {p} vs {expect}");
+        assert!(
+            (*p - expect).abs().max_element() <= 1e-15,
+            "corner {i}: {p} vs {expect}"
+        );
     }
     // face points (next 6) are the face centres (unit distance along one axis)
     for p in &out.positions[8..14] {
-        assert!((p.abs().max_element() - 1.0).abs() <= 1e-15 && (p.abs().element_sum() - 1.0).abs() <= 1e-15);
+        assert!(
+            (p.abs().max_element() - 1.0).abs() <= 1e-15
+                && (p.abs().element_sum() - 1.0).abs() <= 1e-15
+        );
     }
     // edge points (last 12): two coordinates ±3/4, one 0
     for p in &out.positions[14..] {
         let mut a = p.abs().to_array();
         a.sort_by(|x, y| x.partial_cmp(y).unwrap());
-        assert!(a[0].abs() <= 1e-15 && (a[1] - 0.75).abs() <= 1e-15 && (a[2] - 0.75).abs() <= 1e-15, "{p}");
+        assert!(
+            a[0].abs() <= 1e-15 && (a[1] - 0.75).abs() <= 1e-15 && (a[2] - 0.75).abs() <= 1e-15,
+            "{p}"
+        );
     }
     let m = MeshMatrix::from_mesh(&out);
     assert!(m.is_closed() && m.report().consistently_oriented);
@@ -53,10 +63,19 @@ fn catmull_clark_twice_of_spot_control_equals_spot_quadrangulated() {
     let map: Vec<u32> = nn.iter().map(|x| x.0 as u32).collect();
     let distinct: HashSet<u32> = map.iter().copied().collect();
     assert_eq!(distinct.len(), map.len(), "the matching is a bijection");
-    let ref_faces: HashSet<Vec<u32>> =
-        (0..reference.n_faces()).map(|f| canonical_face(reference.face(f))).collect();
+    let ref_faces: HashSet<Vec<u32>> = (0..reference.n_faces())
+        .map(|f| canonical_face(reference.face(f)))
+        .collect();
     let our_faces: HashSet<Vec<u32>> = (0..ours.n_faces())
-        .map(|f| canonical_face(&ours.face(f).iter().map(|&v| map[v as usize]).collect::<Vec<_>>()))
+        .map(|f| {
+            canonical_face(
+                &ours
+                    .face(f)
+                    .iter()
+                    .map(|&v| map[v as usize])
+                    .collect::<Vec<_>>(),
+            )
+        })
         .collect();
     assert_eq!(our_faces, ref_faces, "identical oriented faces");
 }
@@ -70,7 +89,10 @@ fn subdivision_matrix_rows_are_affine_and_the_stack_is_one_spmv_per_level() {
         assert!(rows_sum_to_one(&l.s, 1e-14));
         assert!(l.s.row_ptr.windows(2).all(|w| w[0] <= w[1]));
     }
-    assert_eq!(stack.levels[1].topology.layout(), &gregvox::mesh::FaceLayout::Stride(4));
+    assert_eq!(
+        stack.levels[1].topology.layout(),
+        &gregvox::mesh::FaceLayout::Stride(4)
+    );
     // a deforming cage: the stack applied to moved positions = subdividing the moved mesh from scratch
     let mut moved = control.clone();
     for (i, p) in moved.positions.iter_mut().enumerate() {
@@ -81,11 +103,23 @@ fn subdivision_matrix_rows_are_affine_and_the_stack_is_one_spmv_per_level() {
     assert_eq!(a, b, "bit-identical: same matrices, same summation order");
     // f32 path (the GPU twin) stays within 2e-5 of f64 on this 2-unit model
     let s32: Vec<_> = stack.levels.iter().map(|l| l.s.to_f32()).collect();
-    let mut p32: Vec<[f32; 3]> = moved.positions.iter().map(|p| p.as_vec3().to_array()).collect();
+    let mut p32: Vec<[f32; 3]> = moved
+        .positions
+        .iter()
+        .map(|p| p.as_vec3().to_array())
+        .collect();
     for s in &s32 {
         p32 = s.spmv_f32(&p32);
     }
-    let err = p32.iter().zip(&a).map(|(x, y)| (DVec3::new(x[0] as f64, x[1] as f64, x[2] as f64) - *y).abs().max_element()).fold(0.0, f64::max);
+    let err = p32
+        .iter()
+        .zip(&a)
+        .map(|(x, y)| {
+            (DVec3::new(x[0] as f64, x[1] as f64, x[2] as f64) - *y)
+                .abs()
+                .max_element()
+        })
+        .fold(0.0, f64::max);
     assert!(err <= 2e-5, "f32 vs f64 {err}");
 }
 
@@ -136,7 +170,9 @@ fn loop_with_warrens_beta_equals_libigl_on_spot() {
     let ours = sub.s.spmv(&spot.positions);
     // even vertices keep their index in libigl's output: compare them by index too
     let igl = read_f64x3("spot.loop_igl.f64");
-    let even = (0..spot.positions.len()).map(|i| (ours[i] - igl[i]).abs().max_element()).fold(0.0, f64::max);
+    let even = (0..spot.positions.len())
+        .map(|i| (ours[i] - igl[i]).abs().max_element())
+        .fold(0.0, f64::max);
     assert!(even <= 1e-12, "even vertices {even}");
     assert_same_points(&ours, &igl, 1e-12, "loop (Warren) vs igl.loop");
 }
@@ -146,10 +182,22 @@ fn loop_with_loops_beta_equals_trimesh_on_spot() {
     let spot = load_obj(model("spot.obj")).unwrap();
     let sub = loop_matrix(&MeshMatrix::from_mesh(&spot), LoopBeta::Loop).unwrap();
     let ours = sub.s.spmv(&spot.positions);
-    assert_same_points(&ours, &read_f64x3("spot.loop_trimesh.f64"), 1e-12, "loop (Loop β) vs trimesh");
+    assert_same_points(
+        &ours,
+        &read_f64x3("spot.loop_trimesh.f64"),
+        1e-12,
+        "loop (Loop β) vs trimesh",
+    );
     // and the two β really differ (so the two tests above can tell them apart)
-    let warren = loop_matrix(&MeshMatrix::from_mesh(&spot), LoopBeta::Warren).unwrap().s.spmv(&spot.positions);
-    let diff = ours.iter().zip(&warren).map(|(a, b)| (*a - *b).length()).fold(0.0, f64::max);
+    let warren = loop_matrix(&MeshMatrix::from_mesh(&spot), LoopBeta::Warren)
+        .unwrap()
+        .s
+        .spmv(&spot.positions);
+    let diff = ours
+        .iter()
+        .zip(&warren)
+        .map(|(a, b)| (*a - *b).length())
+        .fold(0.0, f64::max);
     assert!(diff > 1e-4, "β variants differ by {diff}");
 }
 

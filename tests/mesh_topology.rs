@@ -43,7 +43,12 @@ fn dual_adjacency_of_triangles_is_s_f_equal_to_two() {
     for f in 0..m.n_faces() {
         let (cols, vals) = sf.row(f);
         assert_eq!(sf.get(f, f as u32), Some(3), "diag(S_f) = face order");
-        let twos: Vec<u32> = cols.iter().zip(vals).filter(|(&g, &v)| v == 2 && g as usize != f).map(|(&g, _)| g).collect();
+        let twos: Vec<u32> = cols
+            .iter()
+            .zip(vals)
+            .filter(|(&g, &v)| v == 2 && g as usize != f)
+            .map(|(&g, _)| g)
+            .collect();
         assert_eq!(twos, ad.row(f).0, "face {f}");
     }
 }
@@ -54,7 +59,10 @@ fn quads_sharing_a_diagonal_are_not_dual_adjacent() {
     let text = "v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nv 2 2 0\nv 1 2 1\nf 1 2 3 4\nf 1 3 5 6\n";
     let m = MeshMatrix::from_mesh(&parse_obj(text, "diag.obj").unwrap());
     assert_eq!(m.s_f().get(0, 1), Some(2), "S_f sees two shared vertices");
-    assert!(m.dual_adjacency().row(0).0.is_empty(), "but E sees no shared edge");
+    assert!(
+        m.dual_adjacency().row(0).0.is_empty(),
+        "but E sees no shared edge"
+    );
 }
 
 #[test]
@@ -118,12 +126,31 @@ fn report_figures_equal_the_oracles() {
         let r = m.report();
         let o = &s["meshes"][name];
         assert_eq!(r.edges as u64, o["edges"].as_u64().unwrap(), "{name} edges");
-        assert_eq!(r.boundary_edges as u64, o["boundary_edges"].as_u64().unwrap(), "{name} boundary");
-        assert_eq!(r.non_manifold_edges as u64, o["non_manifold_edges"].as_u64().unwrap(), "{name}");
-        assert_eq!(r.closed, o["trimesh_is_watertight"].as_bool().unwrap(), "{name} closed = watertight");
-        assert_eq!(r.unreferenced_vertices as u64, o["unreferenced_vertices"].as_u64().unwrap());
-        let hist: BTreeMap<String, usize> = serde_json::from_value(o["valence_histogram"].clone()).unwrap();
-        assert_eq!(r.valence_histogram, hist, "{name} valence = igl.adjacency_list sizes");
+        assert_eq!(
+            r.boundary_edges as u64,
+            o["boundary_edges"].as_u64().unwrap(),
+            "{name} boundary"
+        );
+        assert_eq!(
+            r.non_manifold_edges as u64,
+            o["non_manifold_edges"].as_u64().unwrap(),
+            "{name}"
+        );
+        assert_eq!(
+            r.closed,
+            o["trimesh_is_watertight"].as_bool().unwrap(),
+            "{name} closed = watertight"
+        );
+        assert_eq!(
+            r.unreferenced_vertices as u64,
+            o["unreferenced_vertices"].as_u64().unwrap()
+        );
+        let hist: BTreeMap<String, usize> =
+            serde_json::from_value(o["valence_histogram"].clone()).unwrap();
+        assert_eq!(
+            r.valence_histogram, hist,
+            "{name} valence = igl.adjacency_list sizes"
+        );
     }
 }
 
@@ -135,7 +162,10 @@ fn ordered_one_rings_equal_libigl_sorted_adjacency_up_to_rotation() {
     for (v, igl) in rings.iter().enumerate() {
         let ours = m.one_ring(v);
         assert_eq!(ours.len(), igl.len(), "vertex {v}");
-        let k = igl.iter().position(|&x| x == ours[0]).unwrap_or_else(|| panic!("vertex {v}"));
+        let k = igl
+            .iter()
+            .position(|&x| x == ours[0])
+            .unwrap_or_else(|| panic!("vertex {v}"));
         let rotated: Vec<u32> = (0..igl.len()).map(|i| igl[(k + i) % igl.len()]).collect();
         assert_eq!(ours, rotated, "vertex {v}: same cyclic order");
     }
@@ -153,10 +183,15 @@ fn faces_per_vertex_is_the_diagonal_of_s_v() {
     let adj = m.vertex_adjacency();
     for v in 0..m.n_verts() {
         let (cols, vals) = sv.row(v);
-        let off: Vec<u32> = cols.iter().zip(vals).filter(|(&c, _)| c as usize != v).map(|(&c, &x)| {
-            assert_eq!(x, 2);
-            c
-        }).collect();
+        let off: Vec<u32> = cols
+            .iter()
+            .zip(vals)
+            .filter(|(&c, _)| c as usize != v)
+            .map(|(&c, &x)| {
+                assert_eq!(x, 2);
+                c
+            })
+            .collect();
         assert_eq!(off, adj.row(v).0);
     }
 }
@@ -190,12 +225,30 @@ fn e_is_the_corner_walk_of_m() {
 #[test]
 fn second_writes_flag_non_manifold_and_inconsistent_edges() {
     // three triangles on edge 1–2 (non-manifold), and a flipped pair elsewhere
-    let nm = parse_obj("v 0 0 0\nv 1 0 0\nv 0 1 0\nv 1 1 0\nv 0 0 1\nf 1 2 3\nf 2 1 4\nf 1 2 5\n", "nm.obj").unwrap();
+    let nm = parse_obj(
+        "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 1 1 0\nv 0 0 1\nf 1 2 3\nf 2 1 4\nf 1 2 5\n",
+        "nm.obj",
+    )
+    .unwrap();
     let r = MeshMatrix::from_mesh(&nm).report();
-    assert_eq!((r.non_manifold_edges, r.second_writes, r.closed), (1, 1, false));
-    let flip = parse_obj("v 0 0 0\nv 1 0 0\nv 0 1 0\nv 1 1 0\nf 1 2 3\nf 1 2 4\n", "flip.obj").unwrap();
+    assert_eq!(
+        (r.non_manifold_edges, r.second_writes, r.closed),
+        (1, 1, false)
+    );
+    let flip = parse_obj(
+        "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 1 1 0\nf 1 2 3\nf 1 2 4\n",
+        "flip.obj",
+    )
+    .unwrap();
     let r = MeshMatrix::from_mesh(&flip).report();
-    assert_eq!((r.inconsistent_edges, r.second_writes, r.consistently_oriented), (1, 1, false));
+    assert_eq!(
+        (
+            r.inconsistent_edges,
+            r.second_writes,
+            r.consistently_oriented
+        ),
+        (1, 1, false)
+    );
 }
 
 #[test]
@@ -235,7 +288,11 @@ fn welding_the_teapot_joins_its_patches() {
     let (welded, map) = gregvox::mesh::weld(&mesh, 1e-7);
     let m0 = MeshMatrix::from_mesh(&mesh);
     let m1 = MeshMatrix::from_mesh(&welded);
-    eprintln!("teapot welded: {} → {} vertices", mesh.positions.len(), welded.positions.len());
+    eprintln!(
+        "teapot welded: {} → {} vertices",
+        mesh.positions.len(),
+        welded.positions.len()
+    );
     assert!(welded.positions.len() < mesh.positions.len());
     assert_eq!(map.len(), mesh.positions.len());
     assert!(m1.face_components().0 < m0.face_components().0);

@@ -149,7 +149,7 @@ pub fn load_obj(path: impl AsRef<Path>) -> Result<Mesh> {
 /// let m = parse_obj("v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nf 1 2 3 4\n", "quad.obj").unwrap();
 /// assert_eq!(m.face(0), &[0, 1, 2, 3]);
 /// let err = parse_obj("v 0 0 0\nv 1 0 0\nv nan 1 0\nf 1 2 3\n", "bad.obj").unwrap_err();
-/// assert_eq!(err.to_string(), "bad.obj: line 3: vertex 3 has a non-finite coordinate (nan)");
+/// assert_eq!(err.to_string(), "bad.obj: line 3: vertex 3 has a non-finite coordinate (NaN)");
 /// ```
 pub fn parse_obj(text: &str, path: impl AsRef<Path>) -> Result<Mesh> {
     parse_obj_bytes(text.as_bytes(), path.as_ref())

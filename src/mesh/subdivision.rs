@@ -343,6 +343,15 @@ impl SubdivisionStack {
     }
 
     /// New positions after all levels: one SpMV per level.
+    ///
+    /// ```
+    /// use gregvox::mesh::{MeshMatrix, SubdivisionStack};
+    /// use glam::DVec3;
+    /// let m = MeshMatrix::new(4, &[0, 4], vec![0, 1, 2, 3]).unwrap();
+    /// let stack = SubdivisionStack::catmull_clark(&m, 1);
+    /// let p = stack.apply(&[DVec3::ZERO, DVec3::X, DVec3::new(1.0, 1.0, 0.0), DVec3::Y]);
+    /// assert_eq!(p[4], DVec3::new(0.5, 0.5, 0.0)); // the face point follows the vertex points
+    /// ```
     pub fn apply(&self, cage: &[DVec3]) -> Vec<DVec3> {
         let mut p = cage.to_vec();
         for l in &self.levels {
@@ -352,6 +361,12 @@ impl SubdivisionStack {
     }
 
     /// The finest topology (panics if the stack has no level).
+    ///
+    /// ```
+    /// use gregvox::mesh::{MeshMatrix, SubdivisionStack};
+    /// let m = MeshMatrix::new(3, &[0, 3], vec![0, 1, 2]).unwrap();
+    /// assert_eq!(SubdivisionStack::catmull_clark(&m, 1).finest().n_faces(), 3);
+    /// ```
     pub fn finest(&self) -> &MeshMatrix {
         &self
             .levels

@@ -526,7 +526,7 @@ impl MeshMatrix {
         let mut label = vec![NONE; self.n_verts()];
         let mut root_label = vec![NONE; self.n_verts()];
         let mut n = 0u32;
-        for v in 0..self.n_verts() {
+        for (v, l) in label.iter_mut().enumerate() {
             if !self.is_referenced(v) {
                 continue;
             }
@@ -535,7 +535,7 @@ impl MeshMatrix {
                 root_label[r] = n;
                 n += 1;
             }
-            label[v] = root_label[r];
+            *l = root_label[r];
         }
         (n as usize, label)
     }
@@ -560,13 +560,13 @@ impl MeshMatrix {
         let mut label = vec![NONE; self.n_faces()];
         let mut root_label = vec![NONE; self.n_faces()];
         let mut n = 0u32;
-        for f in 0..self.n_faces() {
+        for (f, l) in label.iter_mut().enumerate() {
             let r = uf.find(f as u32) as usize;
             if root_label[r] == NONE {
                 root_label[r] = n;
                 n += 1;
             }
-            label[f] = root_label[r];
+            *l = root_label[r];
         }
         (n as usize, label)
     }

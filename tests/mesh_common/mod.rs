@@ -7,12 +7,16 @@ use std::path::PathBuf;
 
 /// `shared/models/NAME` beside the repository (CI checks shared/ out there too).
 pub fn model(name: &str) -> PathBuf {
-    PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../shared/models").join(name)
+    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+        .join("../shared/models")
+        .join(name)
 }
 
 /// `tests/fixtures/mesh/NAME`.
 pub fn fixture(name: &str) -> PathBuf {
-    PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("tests/fixtures/mesh").join(name)
+    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+        .join("tests/fixtures/mesh")
+        .join(name)
 }
 
 /// Rows of 3 little-endian f64.
@@ -29,7 +33,9 @@ pub fn read_f64x3(name: &str) -> Vec<DVec3> {
 /// Flat little-endian u32.
 pub fn read_u32(name: &str) -> Vec<u32> {
     let b = std::fs::read(fixture(name)).unwrap_or_else(|e| panic!("{name}: {e}"));
-    b.chunks_exact(4).map(|c| u32::from_le_bytes(c.try_into().unwrap())).collect()
+    b.chunks_exact(4)
+        .map(|c| u32::from_le_bytes(c.try_into().unwrap()))
+        .collect()
 }
 
 /// The oracle summary (`summary.json`).
@@ -42,7 +48,11 @@ pub fn summary() -> serde_json::Value {
 /// cell `cell`; points farther than one cell are reported as unmatched with distance infinity).
 pub fn nearest(a: &[DVec3], b: &[DVec3], cell: f64) -> Vec<(usize, f64)> {
     let key = |p: DVec3| -> [i64; 3] {
-        [(p.x / cell).floor() as i64, (p.y / cell).floor() as i64, (p.z / cell).floor() as i64]
+        [
+            (p.x / cell).floor() as i64,
+            (p.y / cell).floor() as i64,
+            (p.z / cell).floor() as i64,
+        ]
     };
     let mut grid: HashMap<[i64; 3], Vec<usize>> = HashMap::new();
     for (i, &p) in b.iter().enumerate() {
