@@ -124,13 +124,19 @@ impl MeshMatrix {
     /// assert_eq!(m.layout(), &FaceLayout::Stride(3));
     /// assert_eq!(m.n_edges(), 5);
     /// ```
+    ///
+    /// # Panics
+    /// If `mesh` breaks the [`Mesh`] invariants, which only a hand-built `Mesh` can (the loader and
+    /// [`Mesh::from_polygons`] validate); use [`MeshMatrix::new`] to get an error instead.
     pub fn from_mesh(mesh: &Mesh) -> Self {
-        Self::from_parts(
+        match Self::new(
             mesh.positions.len() as u32,
             &mesh.face_ptr,
             mesh.indices.clone(),
-        )
-        .expect("a Mesh is validated on construction")
+        ) {
+            Ok(m) => m,
+            Err(e) => panic!("invalid Mesh: {e}"),
+        }
     }
 
     /// Builds the matrices from a vertex count, face offsets and corner vertices, validating indices.
@@ -168,10 +174,6 @@ impl MeshMatrix {
             }
         }
         Ok(Self::from_parts_unchecked(n_verts, face_ptr, corner_vertex))
-    }
-
-    fn from_parts(n_verts: u32, face_ptr: &[u32], corner_vertex: Vec<u32>) -> Result<Self> {
-        Self::new(n_verts, face_ptr, corner_vertex)
     }
 
     /// Builds from trusted parts (produced inside this module, e.g. by subdivision).
@@ -406,8 +408,8 @@ impl MeshMatrix {
         &self.edge
     }
 
-    /// Endpoints of undirected edge `e`, as its representative half-edge `[tail, head]`
-    /// (`tail < head` unless the edge only exists as `head → tail`... i.e. a boundary edge seen the other way).
+    /// Endpoints of undirected edge `e`, as its representative half-edge `[tail, head]`: `tail < head`
+    /// whenever a half-edge runs that way, else (a boundary edge running high → low) `tail > head`.
     ///
     /// ```
     /// # use gregvox::mesh::MeshMatrix;

@@ -16,6 +16,7 @@ Binary files are little-endian: *.f64 = rows of 3 float64; *.u32 = flat uint32.
 import json
 import os
 import sys
+from importlib.metadata import version
 
 import igl
 import numpy as np
@@ -62,7 +63,7 @@ def main():
     os.makedirs(OUT, exist_ok=True)
     summary = {
         "versions": {
-            "libigl": igl.__version__ if hasattr(igl, "__version__") else "2.6.3",
+            "libigl": version("libigl"),
             "trimesh": trimesh.__version__,
             "numpy": np.__version__,
             "scipy": scipy.__version__,
