@@ -244,15 +244,25 @@ impl MeshMatrix {
         let mut twin = vec![NONE; n_corners];
         let mut edge = vec![NONE; n_corners];
         let mut edge_rep = Vec::new();
+        let (ptr, col) = (&m.vc.ptr, &m.e.col);
+        let first_in_row = |row: u32, target: u32, end: u32| -> u32 {
+            let a = ptr[row as usize];
+            col[a as usize..end as usize]
+                .iter()
+                .position(|&c| c == target)
+                .map_or(NONE, |p| a + p as u32)
+        };
         for i in 0..n_verts {
-            for k in m.vc.ptr[i as usize]..m.vc.ptr[i as usize + 1] {
-                let j = m.e.col[k as usize];
-                twin[k as usize] = m.find(j, i);
-                let (a, b) = (i.min(j), i.max(j));
-                let rep = if let Some(r) = m.find_opt(a, b) {
-                    r
+            for k in ptr[i as usize]..ptr[i as usize + 1] {
+                let j = col[k as usize];
+                let t = first_in_row(j, i, ptr[j as usize + 1]);
+                twin[k as usize] = t;
+                // i > j with a twin: the twin (first j → i) is the representative; otherwise it is the
+                // first i → j, at or before k in row i.
+                let rep = if i > j && t != NONE {
+                    t
                 } else {
-                    m.find(b, a)
+                    first_in_row(i, j, k + 1)
                 };
                 if rep == k {
                     edge[k as usize] = edge_rep.len() as u32;
