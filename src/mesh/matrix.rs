@@ -21,9 +21,20 @@ use bytemuck::{Pod, Zeroable};
 use glam::DVec3;
 
 /// No entry / no twin.
+///
+/// ```
+/// # use gregvox::mesh::{MeshMatrix, NONE};
+/// let m = MeshMatrix::new(3, &[0, 3], vec![0, 1, 2]).unwrap();
+/// assert_eq!(m.twins(), &[NONE; 3]); // a lone triangle: every half-edge is on the boundary
+/// ```
 pub const NONE: u32 = u32::MAX;
 
 /// How faces sit in the corner array.
+///
+/// ```
+/// # use gregvox::mesh::{MeshMatrix, FaceLayout};
+/// assert_eq!(MeshMatrix::new(4, &[0, 4], vec![0, 1, 2, 3]).unwrap().layout(), &FaceLayout::Stride(4));
+/// ```
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub enum FaceLayout {
     /// Every face has this many corners; face `f` owns corners `s·f .. s·f + s`.
@@ -34,6 +45,12 @@ pub enum FaceLayout {
 
 /// An action map: slot `k` (1-based corner value of M) is replaced by `w[k]` in a product. Slot 0 is unused;
 /// slots ≥ 7 all read `w[7]` (so a constant map serves any polygon). 32 bytes, `Pod`: a push constant.
+///
+/// ```
+/// use gregvox::mesh::ActionMap;
+/// let m = ActionMap::new(&[-1.0, 0.0, 1.0]); // P3 − P1
+/// assert_eq!(bytemuck::bytes_of(&m).len(), 32);
+/// ```
 #[repr(C)]
 #[derive(Debug, Clone, Copy, PartialEq, Pod, Zeroable)]
 pub struct ActionMap {
@@ -80,6 +97,13 @@ impl ActionMap {
 }
 
 /// Mᵀ as CSR: for each vertex, its corners in increasing corner id.
+///
+/// ```
+/// # use gregvox::mesh::MeshMatrix;
+/// let m = MeshMatrix::new(3, &[0, 3], vec![2, 0, 1]).unwrap();
+/// let vc = m.vertex_corners();
+/// assert_eq!((&vc.ptr[..], &vc.corner[..]), (&[0, 1, 2, 3][..], &[1, 2, 0][..]));
+/// ```
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub struct VertexCorners {
     /// Row pointers, |V| + 1.
@@ -90,6 +114,14 @@ pub struct VertexCorners {
 
 /// E as CSR: entry `k` of row `i` is half-edge `i → col[k]` of face `face1[k] - 1`; its row pointer is
 /// [`VertexCorners::ptr`] and its entry `k` comes from corner `VertexCorners::corner[k]`.
+///
+/// ```
+/// # use gregvox::mesh::MeshMatrix;
+/// let m = MeshMatrix::new(4, &[0, 3, 6], vec![0, 1, 2, 2, 1, 3]).unwrap();
+/// let e = m.half_edge_face();
+/// let k = m.find(2, 1) as usize; // half-edge 2 → 1 belongs to face 1
+/// assert_eq!((e.col[k], e.face1[k]), (1, 2));
+/// ```
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub struct HalfEdgeFace {
     /// Head vertex of each half-edge.
@@ -99,6 +131,12 @@ pub struct HalfEdgeFace {
 }
 
 /// The vertex×face mesh matrix with its transpose, E, and per-half-edge twins and undirected edge ids.
+///
+/// ```
+/// # use gregvox::mesh::MeshMatrix;
+/// let m = MeshMatrix::new(4, &[0, 3, 6], vec![0, 1, 2, 2, 1, 3]).unwrap();
+/// assert_eq!((m.n_verts(), m.n_faces(), m.n_corners(), m.n_edges()), (4, 2, 6, 5));
+/// ```
 #[derive(Debug, Clone)]
 pub struct MeshMatrix {
     n_verts: u32,

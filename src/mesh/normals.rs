@@ -10,6 +10,10 @@ use super::matrix::MeshMatrix;
 use glam::DVec3;
 
 /// How face normals are weighted when summed into vertex normals.
+///
+/// ```
+/// assert_eq!(gregvox::mesh::NormalWeighting::default(), gregvox::mesh::NormalWeighting::Area);
+/// ```
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub enum NormalWeighting {
     /// Weight by face area (sum of unnormalised normals); libigl's default. The project default.

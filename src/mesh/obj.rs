@@ -17,6 +17,11 @@ use std::io::Write;
 use std::path::Path;
 
 /// A polygon mesh as read from a file: positions and faces as offsets into one index array.
+///
+/// ```
+/// let m = gregvox::mesh::parse_obj("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n", "t.obj").unwrap();
+/// assert_eq!((m.face_ptr.clone(), m.indices.clone()), (vec![0, 3], vec![0, 1, 2]));
+/// ```
 #[derive(Debug, Clone, PartialEq)]
 pub struct Mesh {
     /// Vertex positions, in file order.

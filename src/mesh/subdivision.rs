@@ -24,6 +24,12 @@ use crate::error::{Error, Result};
 use glam::DVec3;
 
 /// One refinement level: the subdivision matrix and the refined topology.
+///
+/// ```
+/// use gregvox::mesh::{MeshMatrix, catmull_clark_matrix};
+/// let sub = catmull_clark_matrix(&MeshMatrix::new(3, &[0, 3], vec![0, 1, 2]).unwrap());
+/// assert_eq!((sub.s.n_rows, sub.s.n_cols, sub.topology.n_verts()), (7, 3, 7));
+/// ```
 #[derive(Debug, Clone)]
 pub struct Subdivision {
     /// `|V'| × |V|` weights: new positions = `s.spmv(old positions)`.
@@ -33,6 +39,11 @@ pub struct Subdivision {
 }
 
 /// Which β the Loop scheme uses for smooth even vertices of valence n.
+///
+/// ```
+/// use gregvox::mesh::LoopBeta;
+/// assert_eq!(LoopBeta::default(), LoopBeta::Warren);
+/// ```
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub enum LoopBeta {
     /// Warren: 3/16 for n = 3, 3/(8n) otherwise (libigl `igl::loop`).
@@ -315,6 +326,12 @@ pub fn loop_matrix(m: &MeshMatrix, beta: LoopBeta) -> Result<Subdivision> {
 }
 
 /// Several levels of one scheme, built once: per frame, refine a deforming cage with one SpMV per level.
+///
+/// ```
+/// use gregvox::mesh::{MeshMatrix, SubdivisionStack};
+/// let stack = SubdivisionStack::catmull_clark(&MeshMatrix::new(3, &[0, 3], vec![0, 1, 2]).unwrap(), 2);
+/// assert_eq!(stack.levels.len(), 2);
+/// ```
 #[derive(Debug, Clone)]
 pub struct SubdivisionStack {
     /// The levels, coarse to fine.

@@ -43,6 +43,12 @@ impl UnionFind {
 }
 
 /// Per undirected edge: how many faces use it, and whether two of them run the same way.
+///
+/// ```
+/// # use gregvox::mesh::MeshMatrix;
+/// let m = MeshMatrix::new(3, &[0, 3], vec![0, 1, 2]).unwrap();
+/// assert!(m.edge_uses().iter().all(|u| u.forward == 1 && u.backward == 0));
+/// ```
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub struct EdgeUse {
     /// Half-edges tail → head in the direction of the edge's representative.
@@ -63,6 +69,14 @@ impl EdgeUse {
 }
 
 /// Everything `gregvox mesh --json` prints (the first ten keys are the issue's contract).
+///
+/// ```
+/// # use gregvox::mesh::MeshMatrix;
+/// let r = MeshMatrix::new(4, &[0, 3], vec![0, 1, 2]).unwrap().report();
+/// assert_eq!((r.unreferenced_vertices, r.boundary_edges, r.closed), (1, 3, false));
+/// let json = serde_json::to_value(&r).unwrap();
+/// assert_eq!(json["valence_histogram"]["2"], 3);
+/// ```
 #[derive(Debug, Clone, Serialize, PartialEq)]
 pub struct TopologyReport {
     /// All vertices in the file, referenced or not.
