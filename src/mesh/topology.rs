@@ -281,9 +281,16 @@ impl MeshMatrix {
     /// assert_eq!(m.neighbours(0), vec![1, 3]); // not the diagonal 2
     /// ```
     pub fn neighbours(&self, v: usize) -> Vec<u32> {
+        let mut out = Vec::new();
+        self.neighbours_into(v, &mut out);
+        out
+    }
+
+    /// [`MeshMatrix::neighbours`] into a reused buffer (cleared first).
+    pub(crate) fn neighbours_into(&self, v: usize, out: &mut Vec<u32>) {
         let vc = self.vertex_corners();
         let cv = self.corner_vertex();
-        let mut out: Vec<u32> = Vec::new();
+        out.clear();
         for k in vc.ptr[v]..vc.ptr[v + 1] {
             let c = vc.corner[k as usize];
             out.push(cv[self.next(c) as usize]);
@@ -291,7 +298,6 @@ impl MeshMatrix {
         }
         out.sort_unstable();
         out.dedup();
-        out
     }
 
     /// Valence (number of distinct edge neighbours) of `v`.
