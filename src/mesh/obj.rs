@@ -211,6 +211,9 @@ fn parse_obj_bytes(bytes: &[u8], path: &Path) -> Result<Mesh> {
                         ),
                     ));
                 }
+                if positions.len() >= u32::MAX as usize {
+                    return Err(err(line_no, "too many vertices for u32 indices".into()));
+                }
                 positions.push(p);
             }
             "f" => {
@@ -359,10 +362,11 @@ pub fn weld(mesh: &Mesh, tol: f64) -> (Mesh, Vec<u32>) {
                 (p.z / cell).floor() as i64,
             ]
         } else {
+            // + 0.0 turns -0.0 into 0.0, so exact welding merges the two zeros.
             [
-                p.x.to_bits() as i64,
-                p.y.to_bits() as i64,
-                p.z.to_bits() as i64,
+                (p.x + 0.0).to_bits() as i64,
+                (p.y + 0.0).to_bits() as i64,
+                (p.z + 0.0).to_bits() as i64,
             ]
         }
     };
