@@ -334,8 +334,9 @@ impl MeshMatrix {
         let start = (a..b).find(|&k| twins[k as usize] == NONE).unwrap_or(a);
         let cv = self.corner_vertex();
         let mut ring = vec![col[start as usize]];
+        let mut visited = vec![start];
         let mut k = start;
-        for _ in 0..(b - a) {
+        loop {
             let c = vc.corner[k as usize];
             let nxt = cv[self.prev(c) as usize];
             let kk = self.find(v as u32, nxt);
@@ -343,9 +344,12 @@ impl MeshMatrix {
                 break;
             }
             ring.push(nxt);
-            if kk == NONE {
+            // A missing half-edge ends an open fan; a revisit (possible only around non-manifold or
+            // inconsistently oriented edges) ends the walk too, so it always terminates.
+            if kk == NONE || visited.contains(&kk) {
                 break;
             }
+            visited.push(kk);
             k = kk;
         }
         ring
