@@ -80,6 +80,34 @@ impl Mesh {
         &self.indices[self.face_ptr[f] as usize..self.face_ptr[f + 1] as usize]
     }
 
+    /// Fan triangulation (`[v0, vk, vk+1]` per polygon, in face order); triangles are kept as they are.
+    /// Loading keeps polygons; this is the "unless asked" of the loading contract. A fan diagonal may
+    /// coincide with an existing edge (suzanne has one) and then makes it non-manifold: analyse polygon
+    /// meshes as polygons.
+    ///
+    /// ```
+    /// # use gregvox::mesh::Mesh; use glam::DVec3;
+    /// let p = vec![DVec3::ZERO, DVec3::X, DVec3::ONE, DVec3::Y];
+    /// let t = Mesh::from_polygons(p, &[vec![0, 1, 2, 3]]).unwrap().triangulated();
+    /// assert_eq!((t.face(0), t.face(1)), (&[0, 1, 2][..], &[0, 2, 3][..]));
+    /// ```
+    pub fn triangulated(&self) -> Mesh {
+        let mut face_ptr = vec![0u32];
+        let mut indices = Vec::with_capacity(self.indices.len() * 2);
+        for f in 0..self.n_faces() {
+            let face = self.face(f);
+            for k in 1..face.len() - 1 {
+                indices.extend_from_slice(&[face[0], face[k], face[k + 1]]);
+                face_ptr.push(indices.len() as u32);
+            }
+        }
+        Mesh {
+            positions: self.positions.clone(),
+            face_ptr,
+            indices,
+        }
+    }
+
     /// Checks the invariants (no file, so errors name face and vertex indices).
     fn validate(&self) -> Result<()> {
         if self.positions.is_empty() {
