@@ -233,13 +233,9 @@ impl MeshMatrix {
         } else {
             FaceLayout::Offsets(face_ptr.to_vec())
         };
-        let mut corner_face = vec![0u32; n_corners];
-        for f in 0..n_faces {
-            for c in face_ptr[f]..face_ptr[f + 1] {
-                corner_face[c as usize] = f as u32;
-            }
-        }
-        // Mᵀ by a stable counting sort of corners by vertex.
+        // Mᵀ by a stable counting sort of corners by vertex. The scatter walks corners in increasing order
+        // face by face, so E's columns (the next corner's vertex) and faces are written in the same pass
+        // from sequential reads: row i of E = {(next(c), face(c) + 1) : c a corner at i}, in Mᵀ's order.
         let mut ptr = vec![0u32; n_verts as usize + 1];
         for &v in &corner_vertex {
             ptr[v as usize + 1] += 1;
@@ -249,9 +245,21 @@ impl MeshMatrix {
         }
         let mut fill = ptr.clone();
         let mut corner = vec![0u32; n_corners];
-        for (c, &v) in corner_vertex.iter().enumerate() {
-            corner[fill[v as usize] as usize] = c as u32;
-            fill[v as usize] += 1;
+        let mut corner_face = vec![0u32; n_corners];
+        let mut col = vec![0u32; n_corners];
+        let mut face1 = vec![0u32; n_corners];
+        for f in 0..n_faces {
+            let (a, b) = (face_ptr[f], face_ptr[f + 1]);
+            for c in a..b {
+                let next = if c + 1 == b { a } else { c + 1 };
+                let v = corner_vertex[c as usize] as usize;
+                let pos = fill[v] as usize;
+                fill[v] += 1;
+                corner[pos] = c;
+                col[pos] = corner_vertex[next as usize];
+                face1[pos] = f as u32 + 1;
+                corner_face[c as usize] = f as u32;
+            }
         }
         let vc = VertexCorners { ptr, corner };
         let mut m = MeshMatrix {
@@ -260,22 +268,11 @@ impl MeshMatrix {
             corner_vertex,
             corner_face,
             vc,
-            e: HalfEdgeFace {
-                col: Vec::new(),
-                face1: Vec::new(),
-            },
+            e: HalfEdgeFace { col, face1 },
             twin: Vec::new(),
             edge: Vec::new(),
             edge_rep: Vec::new(),
         };
-        // E: row i = {(next(c), face(c) + 1) : c a corner at i}, in Mᵀ's order.
-        let mut col = Vec::with_capacity(n_corners);
-        let mut face1 = Vec::with_capacity(n_corners);
-        for &c in &m.vc.corner {
-            col.push(m.corner_vertex[m.next(c) as usize]);
-            face1.push(m.corner_face[c as usize] + 1);
-        }
-        m.e = HalfEdgeFace { col, face1 };
         // Twins and undirected edge ids. The representative of {i, j} is the first entry of row min(i, j)
         // with column max(i, j), else the first of row max with column min: it never comes after any
         // entry of its edge in storage order, so one pass numbers edges in E's row-major order.
