@@ -177,3 +177,33 @@ fn subdivide_writes_catmull_clark_obj() {
     assert!(!out.status.success());
     assert!(String::from_utf8_lossy(&out.stderr).contains("spot_control_mesh.obj"));
 }
+
+#[test]
+fn mesh_triangulate_flag_fan_splits_polygons() {
+    let path = model("suzanne.obj");
+    let out = gregvox(&["mesh", path.to_str().unwrap(), "--json", "--triangulate"]);
+    assert!(out.status.success());
+    let j: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    let polys = json_of("suzanne.obj");
+    // 32 triangles + 468 quads × 2
+    assert_eq!(j["faces"], 32 + 2 * 468);
+    assert_eq!(j["components"], polys["components"]);
+    assert_eq!(j["boundary_edges"], polys["boundary_edges"]);
+    // Each diagonal is a new edge except one that coincides with an existing edge: the naive fan makes
+    // that edge non-manifold and raises χ by one (the "test polygon paths on polygon data" trap).
+    assert_eq!(
+        j["edges"].as_u64().unwrap(),
+        polys["edges"].as_u64().unwrap() + 468 - 1
+    );
+    assert_eq!(
+        (
+            j["non_manifold_edges"].as_u64(),
+            polys["non_manifold_edges"].as_u64()
+        ),
+        (Some(1), Some(0))
+    );
+    assert_eq!(
+        j["euler_characteristic"].as_i64().unwrap(),
+        polys["euler_characteristic"].as_i64().unwrap() + 1
+    );
+}

@@ -183,3 +183,20 @@ fn writing_into_a_missing_directory_is_an_io_error() {
         .to_string();
     assert!(e.contains("out.obj"), "{e}");
 }
+
+#[test]
+fn exact_welding_merges_signed_zeros_and_keeps_unreferenced_vertices() {
+    let m = parse_obj(
+        "v 0 0 0\nv 1 0 0\nv 0 1 0\nv -0 -0 0\nv 1 -0 0\nv 0 0 1\nv 9 9 9\nf 1 2 3\nf 4 6 5\n",
+        "w.obj",
+    )
+    .unwrap();
+    let (w, map) = gregvox::mesh::weld(&m, 0.0);
+    assert_eq!(map, vec![0, 1, 2, 0, 1, 3, 4]);
+    assert_eq!(
+        w.positions.len(),
+        5,
+        "the unreferenced vertex (9,9,9) is kept"
+    );
+    assert_eq!(w.face(1), &[0, 3, 1]);
+}

@@ -207,3 +207,99 @@ fn loop_refuses_polygons() {
     let err = loop_matrix(&MeshMatrix::from_mesh(&quad), LoopBeta::Warren).unwrap_err();
     assert!(err.to_string().contains("triangle"));
 }
+
+#[test]
+fn loop_with_loops_beta_equals_trimesh_on_the_pinched_cow() {
+    // vertex 253 has two fans; its even rule uses all its distinct neighbours, as trimesh does
+    let cow = load_obj(model("cow.obj")).unwrap();
+    let sub = loop_matrix(&MeshMatrix::from_mesh(&cow), LoopBeta::Loop).unwrap();
+    let ours = sub.s.spmv(&cow.positions);
+    let oracle = read_f64x3("cow.loop_trimesh.f64");
+    let even = (0..cow.positions.len())
+        .map(|i| (ours[i] - oracle[i]).abs().max_element())
+        .fold(0.0, f64::max);
+    assert!(even <= 1e-12, "even vertices by index: {even}");
+    assert_same_points(&ours, &oracle, 1e-12, "loop (Loop β) vs trimesh on cow");
+}
+
+#[test]
+fn regular_periodic_quad_grid_equals_bicubic_b_spline_refinement() {
+    // A perturbed 8×6 torus grid: away from extraordinary vertices Catmull–Clark is uniform bicubic
+    // B-spline knot insertion, i.e. the tensor product of the 1D stencils (1/8, 6/8, 1/8) (vertex) and
+    // (1/2, 1/2) (edge). Closed form, so the tolerance is f64 rounding (1e-12).
+    let (nu, nv) = (8usize, 6usize);
+    let id = |i: usize, j: usize| (i % nu) + nu * (j % nv);
+    let mut text = String::new();
+    for j in 0..nv {
+        for i in 0..nu {
+            let (u, v) = (
+                i as f64 / nu as f64 * std::f64::consts::TAU,
+                j as f64 / nv as f64 * std::f64::consts::TAU,
+            );
+            let jitter = 0.05 * ((7 * i + 3 * j) as f64).sin();
+            let (r, big) = (1.0 + jitter, 3.0);
+            text += &format!(
+                "v {} {} {}\n",
+                (big + r * v.cos()) * u.cos(),
+                (big + r * v.cos()) * u.sin(),
+                r * v.sin() + 0.1 * jitter
+            );
+        }
+    }
+    for j in 0..nv {
+        for i in 0..nu {
+            text += &format!(
+                "f {} {} {} {}\n",
+                id(i, j) + 1,
+                id(i + 1, j) + 1,
+                id(i + 1, j + 1) + 1,
+                id(i, j + 1) + 1
+            );
+        }
+    }
+    let torus = parse_obj(&text, "torus.obj").unwrap();
+    let p = &torus.positions;
+    let m = MeshMatrix::from_mesh(&torus);
+    assert_eq!((m.is_closed(), m.euler_characteristic()), (true, 0));
+    let out = catmull_clark_matrix(&m).s.spmv(p);
+    let at = |i: usize, j: usize, a: usize, b: usize| p[id(i + a + nu - 1, j + b + nv - 1)];
+    let mut expect_vertex = Vec::new();
+    let mut expect_face = Vec::new();
+    let mut expect_edge = Vec::new();
+    let w3 = [0.125, 0.75, 0.125];
+    for j in 0..nv {
+        for i in 0..nu {
+            let mut q = DVec3::ZERO;
+            for (b, wb) in w3.iter().enumerate() {
+                for (a, wa) in w3.iter().enumerate() {
+                    q += wa * wb * at(i, j, a, b);
+                }
+            }
+            expect_vertex.push(q);
+            expect_face.push(
+                0.25 * (p[id(i, j)] + p[id(i + 1, j)] + p[id(i + 1, j + 1)] + p[id(i, j + 1)]),
+            );
+            // edge (i,j)–(i+1,j): (1/2, 1/2) along u, (1/8, 6/8, 1/8) along v
+            let mut eu = DVec3::ZERO;
+            let mut ev = DVec3::ZERO;
+            for (b, wb) in w3.iter().enumerate() {
+                eu += 0.5 * wb * (at(i, j, 1, b) + at(i, j, 2, b));
+                ev += 0.5 * wb * (at(i, j, b, 1) + at(i, j, b, 2));
+            }
+            expect_edge.push(eu);
+            expect_edge.push(ev);
+        }
+    }
+    let n = nu * nv;
+    for k in 0..n {
+        assert!(
+            (out[k] - expect_vertex[k]).length() <= 1e-12,
+            "vertex point {k}"
+        );
+        assert!(
+            (out[n + k] - expect_face[k]).length() <= 1e-12,
+            "face point {k}"
+        );
+    }
+    assert_same_points(&out[2 * n..], &expect_edge, 1e-12, "torus edge points");
+}

@@ -298,3 +298,46 @@ fn welding_the_teapot_joins_its_patches() {
     assert!(m1.face_components().0 < m0.face_components().0);
     assert!(m1.report().boundary_edges < m0.report().boundary_edges);
 }
+
+#[test]
+fn twins_and_edge_ids_agree_with_a_brute_force_map() {
+    // includes a non-manifold edge (1–2 in three faces) and a flipped face, where "first entry" rules matter
+    let odd = parse_obj(
+        "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 1 1 0\nv 0 0 1\nv 2 2 2\nf 1 2 3\nf 2 1 4\nf 1 2 5\nf 3 2 6\nf 6 2 3\n",
+        "odd.obj",
+    )
+    .unwrap();
+    for mesh in [
+        odd,
+        load_obj(model("suzanne.obj")).unwrap(),
+        load_obj(model("teapot.obj")).unwrap(),
+    ] {
+        let m = MeshMatrix::from_mesh(&mesh);
+        let e = m.half_edge_face();
+        let ptr = &m.vertex_corners().ptr;
+        let mut ids: std::collections::HashMap<(u32, u32), u32> = std::collections::HashMap::new();
+        for i in 0..m.n_verts() {
+            for k in ptr[i]..ptr[i + 1] {
+                let j = e.col[k as usize];
+                let first_twin =
+                    (ptr[j as usize]..ptr[j as usize + 1]).find(|&t| e.col[t as usize] == i as u32);
+                assert_eq!(m.twins()[k as usize], first_twin.unwrap_or(NONE));
+                let key = (j.min(i as u32), j.max(i as u32));
+                let id = m.half_edge_edge()[k as usize];
+                assert_eq!(
+                    *ids.entry(key).or_insert(id),
+                    id,
+                    "one id per unordered pair"
+                );
+                assert_eq!(
+                    {
+                        let [a, b] = m.edge_vertices(id as usize);
+                        (a.min(b), a.max(b))
+                    },
+                    key
+                );
+            }
+        }
+        assert_eq!(ids.len(), m.n_edges());
+    }
+}

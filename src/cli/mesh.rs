@@ -15,6 +15,9 @@ pub struct MeshArgs {
     /// Weld vertices closer than this (per-axis distance) before the analysis.
     #[arg(long, value_name = "TOL")]
     pub weld: Option<f64>,
+    /// Fan-triangulate polygons before the analysis (loading keeps polygons).
+    #[arg(long)]
+    pub triangulate: bool,
 }
 
 /// Subdivision schemes of `gregvox subdivide`.
@@ -58,6 +61,9 @@ pub fn run_mesh(args: &MeshArgs) -> anyhow::Result<()> {
                 args.input.display()
             );
         }
+    }
+    if args.triangulate {
+        m = m.triangulated();
     }
     let mm = MeshMatrix::from_mesh(&m);
     let report = mm.report();

@@ -21,9 +21,20 @@ use bytemuck::{Pod, Zeroable};
 use glam::DVec3;
 
 /// No entry / no twin.
+///
+/// ```
+/// # use gregvox::mesh::{MeshMatrix, NONE};
+/// let m = MeshMatrix::new(3, &[0, 3], vec![0, 1, 2]).unwrap();
+/// assert_eq!(m.twins(), &[NONE; 3]); // a lone triangle: every half-edge is on the boundary
+/// ```
 pub const NONE: u32 = u32::MAX;
 
 /// How faces sit in the corner array.
+///
+/// ```
+/// # use gregvox::mesh::{MeshMatrix, FaceLayout};
+/// assert_eq!(MeshMatrix::new(4, &[0, 4], vec![0, 1, 2, 3]).unwrap().layout(), &FaceLayout::Stride(4));
+/// ```
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub enum FaceLayout {
     /// Every face has this many corners; face `f` owns corners `s·f .. s·f + s`.
@@ -34,6 +45,12 @@ pub enum FaceLayout {
 
 /// An action map: slot `k` (1-based corner value of M) is replaced by `w[k]` in a product. Slot 0 is unused;
 /// slots ≥ 7 all read `w[7]` (so a constant map serves any polygon). 32 bytes, `Pod`: a push constant.
+///
+/// ```
+/// use gregvox::mesh::ActionMap;
+/// let m = ActionMap::new(&[-1.0, 0.0, 1.0]); // P3 − P1
+/// assert_eq!(bytemuck::bytes_of(&m).len(), 32);
+/// ```
 #[repr(C)]
 #[derive(Debug, Clone, Copy, PartialEq, Pod, Zeroable)]
 pub struct ActionMap {
@@ -80,6 +97,13 @@ impl ActionMap {
 }
 
 /// Mᵀ as CSR: for each vertex, its corners in increasing corner id.
+///
+/// ```
+/// # use gregvox::mesh::MeshMatrix;
+/// let m = MeshMatrix::new(3, &[0, 3], vec![2, 0, 1]).unwrap();
+/// let vc = m.vertex_corners();
+/// assert_eq!((&vc.ptr[..], &vc.corner[..]), (&[0, 1, 2, 3][..], &[1, 2, 0][..]));
+/// ```
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub struct VertexCorners {
     /// Row pointers, |V| + 1.
@@ -90,6 +114,14 @@ pub struct VertexCorners {
 
 /// E as CSR: entry `k` of row `i` is half-edge `i → col[k]` of face `face1[k] - 1`; its row pointer is
 /// [`VertexCorners::ptr`] and its entry `k` comes from corner `VertexCorners::corner[k]`.
+///
+/// ```
+/// # use gregvox::mesh::MeshMatrix;
+/// let m = MeshMatrix::new(4, &[0, 3, 6], vec![0, 1, 2, 2, 1, 3]).unwrap();
+/// let e = m.half_edge_face();
+/// let k = m.find(2, 1) as usize; // half-edge 2 → 1 belongs to face 1
+/// assert_eq!((e.col[k], e.face1[k]), (1, 2));
+/// ```
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub struct HalfEdgeFace {
     /// Head vertex of each half-edge.
@@ -99,6 +131,12 @@ pub struct HalfEdgeFace {
 }
 
 /// The vertex×face mesh matrix with its transpose, E, and per-half-edge twins and undirected edge ids.
+///
+/// ```
+/// # use gregvox::mesh::MeshMatrix;
+/// let m = MeshMatrix::new(4, &[0, 3, 6], vec![0, 1, 2, 2, 1, 3]).unwrap();
+/// assert_eq!((m.n_verts(), m.n_faces(), m.n_corners(), m.n_edges()), (4, 2, 6, 5));
+/// ```
 #[derive(Debug, Clone)]
 pub struct MeshMatrix {
     n_verts: u32,
@@ -124,13 +162,19 @@ impl MeshMatrix {
     /// assert_eq!(m.layout(), &FaceLayout::Stride(3));
     /// assert_eq!(m.n_edges(), 5);
     /// ```
+    ///
+    /// # Panics
+    /// If `mesh` breaks the [`Mesh`] invariants, which only a hand-built `Mesh` can (the loader and
+    /// [`Mesh::from_polygons`] validate); use [`MeshMatrix::new`] to get an error instead.
     pub fn from_mesh(mesh: &Mesh) -> Self {
-        Self::from_parts(
+        match Self::new(
             mesh.positions.len() as u32,
             &mesh.face_ptr,
             mesh.indices.clone(),
-        )
-        .expect("a Mesh is validated on construction")
+        ) {
+            Ok(m) => m,
+            Err(e) => panic!("invalid Mesh: {e}"),
+        }
     }
 
     /// Builds the matrices from a vertex count, face offsets and corner vertices, validating indices.
@@ -170,10 +214,6 @@ impl MeshMatrix {
         Ok(Self::from_parts_unchecked(n_verts, face_ptr, corner_vertex))
     }
 
-    fn from_parts(n_verts: u32, face_ptr: &[u32], corner_vertex: Vec<u32>) -> Result<Self> {
-        Self::new(n_verts, face_ptr, corner_vertex)
-    }
-
     /// Builds from trusted parts (produced inside this module, e.g. by subdivision).
     pub(crate) fn from_parts_unchecked(
         n_verts: u32,
@@ -193,13 +233,9 @@ impl MeshMatrix {
         } else {
             FaceLayout::Offsets(face_ptr.to_vec())
         };
-        let mut corner_face = vec![0u32; n_corners];
-        for f in 0..n_faces {
-            for c in face_ptr[f]..face_ptr[f + 1] {
-                corner_face[c as usize] = f as u32;
-            }
-        }
-        // Mᵀ by a stable counting sort of corners by vertex.
+        // Mᵀ by a stable counting sort of corners by vertex. The scatter walks corners in increasing order
+        // face by face, so E's columns (the next corner's vertex) and faces are written in the same pass
+        // from sequential reads: row i of E = {(next(c), face(c) + 1) : c a corner at i}, in Mᵀ's order.
         let mut ptr = vec![0u32; n_verts as usize + 1];
         for &v in &corner_vertex {
             ptr[v as usize + 1] += 1;
@@ -209,9 +245,21 @@ impl MeshMatrix {
         }
         let mut fill = ptr.clone();
         let mut corner = vec![0u32; n_corners];
-        for (c, &v) in corner_vertex.iter().enumerate() {
-            corner[fill[v as usize] as usize] = c as u32;
-            fill[v as usize] += 1;
+        let mut corner_face = vec![0u32; n_corners];
+        let mut col = vec![0u32; n_corners];
+        let mut face1 = vec![0u32; n_corners];
+        for f in 0..n_faces {
+            let (a, b) = (face_ptr[f], face_ptr[f + 1]);
+            for c in a..b {
+                let next = if c + 1 == b { a } else { c + 1 };
+                let v = corner_vertex[c as usize] as usize;
+                let pos = fill[v] as usize;
+                fill[v] += 1;
+                corner[pos] = c;
+                col[pos] = corner_vertex[next as usize];
+                face1[pos] = f as u32 + 1;
+                corner_face[c as usize] = f as u32;
+            }
         }
         let vc = VertexCorners { ptr, corner };
         let mut m = MeshMatrix {
@@ -220,37 +268,36 @@ impl MeshMatrix {
             corner_vertex,
             corner_face,
             vc,
-            e: HalfEdgeFace {
-                col: Vec::new(),
-                face1: Vec::new(),
-            },
+            e: HalfEdgeFace { col, face1 },
             twin: Vec::new(),
             edge: Vec::new(),
             edge_rep: Vec::new(),
         };
-        // E: row i = {(next(c), face(c) + 1) : c a corner at i}, in Mᵀ's order.
-        let mut col = Vec::with_capacity(n_corners);
-        let mut face1 = Vec::with_capacity(n_corners);
-        for &c in &m.vc.corner {
-            col.push(m.corner_vertex[m.next(c) as usize]);
-            face1.push(m.corner_face[c as usize] + 1);
-        }
-        m.e = HalfEdgeFace { col, face1 };
         // Twins and undirected edge ids. The representative of {i, j} is the first entry of row min(i, j)
         // with column max(i, j), else the first of row max with column min: it never comes after any
         // entry of its edge in storage order, so one pass numbers edges in E's row-major order.
         let mut twin = vec![NONE; n_corners];
         let mut edge = vec![NONE; n_corners];
         let mut edge_rep = Vec::new();
+        let (ptr, col) = (&m.vc.ptr, &m.e.col);
+        let first_in_row = |row: u32, target: u32, end: u32| -> u32 {
+            let a = ptr[row as usize];
+            col[a as usize..end as usize]
+                .iter()
+                .position(|&c| c == target)
+                .map_or(NONE, |p| a + p as u32)
+        };
         for i in 0..n_verts {
-            for k in m.vc.ptr[i as usize]..m.vc.ptr[i as usize + 1] {
-                let j = m.e.col[k as usize];
-                twin[k as usize] = m.find(j, i);
-                let (a, b) = (i.min(j), i.max(j));
-                let rep = if let Some(r) = m.find_opt(a, b) {
-                    r
+            for k in ptr[i as usize]..ptr[i as usize + 1] {
+                let j = col[k as usize];
+                let t = first_in_row(j, i, ptr[j as usize + 1]);
+                twin[k as usize] = t;
+                // i > j with a twin: the twin (first j → i) is the representative; otherwise it is the
+                // first i → j, at or before k in row i.
+                let rep = if i > j && t != NONE {
+                    t
                 } else {
-                    m.find(b, a)
+                    first_in_row(i, j, k + 1)
                 };
                 if rep == k {
                     edge[k as usize] = edge_rep.len() as u32;
@@ -406,8 +453,8 @@ impl MeshMatrix {
         &self.edge
     }
 
-    /// Endpoints of undirected edge `e`, as its representative half-edge `[tail, head]`
-    /// (`tail < head` unless the edge only exists as `head → tail`... i.e. a boundary edge seen the other way).
+    /// Endpoints of undirected edge `e`, as its representative half-edge `[tail, head]`: `tail < head`
+    /// whenever a half-edge runs that way, else (a boundary edge running high → low) `tail > head`.
     ///
     /// ```
     /// # use gregvox::mesh::MeshMatrix;

@@ -25,7 +25,8 @@ mod topology;
 
 pub use matrix::{ActionMap, FaceLayout, HalfEdgeFace, MeshMatrix, VertexCorners, NONE};
 pub use normals::{
-    face_centroids, face_normals, face_normals_unnormalized, vertex_normals, NormalWeighting,
+    face_centroids, face_normals, face_normals_unnormalized, vertex_normals, vertex_normals_f32,
+    NormalWeighting,
 };
 pub use obj::{load_obj, parse_obj, weld, write_obj, Mesh};
 pub use sparse::SparseMatrix;

@@ -10,6 +10,10 @@ use super::matrix::MeshMatrix;
 use glam::DVec3;
 
 /// How face normals are weighted when summed into vertex normals.
+///
+/// ```
+/// assert_eq!(gregvox::mesh::NormalWeighting::default(), gregvox::mesh::NormalWeighting::Area);
+/// ```
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub enum NormalWeighting {
     /// Weight by face area (sum of unnormalised normals); libigl's default. The project default.
@@ -147,6 +151,58 @@ fn corner_angle(a: DVec3, b: DVec3) -> f64 {
         return 0.0;
     }
     (a.dot(b) / (la * lb)).clamp(-1.0, 1.0).acos()
+}
+
+/// AREA vertex normals in `f32`, in exactly the operation order of the two GPU gather passes: face
+/// pass `n_f = Σ_k (p_k − p_0) × (p_{k+1} − p_0)` (fan order), vertex pass `Σ n_f` over Mᵀ's row in corner
+/// order, then `n · (1/√(n·n))` (zero stays zero). A GPU kernel written the same way reproduces this up to
+/// the last-ulp freedom of its `inversesqrt` and any FMA contraction the driver applies.
+///
+/// ```
+/// use gregvox::mesh::{MeshMatrix, vertex_normals_f32};
+/// let m = MeshMatrix::new(3, &[0, 3], vec![0, 1, 2]).unwrap();
+/// let n = vertex_normals_f32(&m, &[[0.0; 3], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]]);
+/// assert_eq!(n[0], [0.0, 0.0, 1.0]);
+/// ```
+pub fn vertex_normals_f32(m: &MeshMatrix, p: &[[f32; 3]]) -> Vec<[f32; 3]> {
+    let sub = |a: [f32; 3], b: [f32; 3]| [a[0] - b[0], a[1] - b[1], a[2] - b[2]];
+    let cross = |a: [f32; 3], b: [f32; 3]| {
+        [
+            a[1] * b[2] - a[2] * b[1],
+            a[2] * b[0] - a[0] * b[2],
+            a[0] * b[1] - a[1] * b[0],
+        ]
+    };
+    let face_n: Vec<[f32; 3]> = (0..m.n_faces())
+        .map(|f| {
+            let face = m.face(f);
+            let p0 = p[face[0] as usize];
+            let mut n = [0.0f32; 3];
+            for w in face[1..].windows(2) {
+                let c = cross(sub(p[w[0] as usize], p0), sub(p[w[1] as usize], p0));
+                n = [n[0] + c[0], n[1] + c[1], n[2] + c[2]];
+            }
+            n
+        })
+        .collect();
+    let vc = m.vertex_corners();
+    let cf = m.corner_face();
+    (0..m.n_verts())
+        .map(|v| {
+            let mut n = [0.0f32; 3];
+            for k in vc.ptr[v]..vc.ptr[v + 1] {
+                let c = face_n[cf[vc.corner[k as usize] as usize] as usize];
+                n = [n[0] + c[0], n[1] + c[1], n[2] + c[2]];
+            }
+            let d = n[0] * n[0] + n[1] * n[1] + n[2] * n[2];
+            if d > 0.0 && d.is_finite() {
+                let s = 1.0 / d.sqrt();
+                [n[0] * s, n[1] * s, n[2] * s]
+            } else {
+                [0.0; 3]
+            }
+        })
+        .collect()
 }
 
 impl MeshMatrix {

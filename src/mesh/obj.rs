@@ -17,6 +17,11 @@ use std::io::Write;
 use std::path::Path;
 
 /// A polygon mesh as read from a file: positions and faces as offsets into one index array.
+///
+/// ```
+/// let m = gregvox::mesh::parse_obj("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n", "t.obj").unwrap();
+/// assert_eq!((m.face_ptr.clone(), m.indices.clone()), (vec![0, 3], vec![0, 1, 2]));
+/// ```
 #[derive(Debug, Clone, PartialEq)]
 pub struct Mesh {
     /// Vertex positions, in file order.
@@ -73,6 +78,34 @@ impl Mesh {
     /// ```
     pub fn face(&self, f: usize) -> &[u32] {
         &self.indices[self.face_ptr[f] as usize..self.face_ptr[f + 1] as usize]
+    }
+
+    /// Fan triangulation (`[v0, vk, vk+1]` per polygon, in face order); triangles are kept as they are.
+    /// Loading keeps polygons; this is the "unless asked" of the loading contract. A fan diagonal may
+    /// coincide with an existing edge (suzanne has one) and then makes it non-manifold: analyse polygon
+    /// meshes as polygons.
+    ///
+    /// ```
+    /// # use gregvox::mesh::Mesh; use glam::DVec3;
+    /// let p = vec![DVec3::ZERO, DVec3::X, DVec3::ONE, DVec3::Y];
+    /// let t = Mesh::from_polygons(p, &[vec![0, 1, 2, 3]]).unwrap().triangulated();
+    /// assert_eq!((t.face(0), t.face(1)), (&[0, 1, 2][..], &[0, 2, 3][..]));
+    /// ```
+    pub fn triangulated(&self) -> Mesh {
+        let mut face_ptr = vec![0u32];
+        let mut indices = Vec::with_capacity(self.indices.len() * 2);
+        for f in 0..self.n_faces() {
+            let face = self.face(f);
+            for k in 1..face.len() - 1 {
+                indices.extend_from_slice(&[face[0], face[k], face[k + 1]]);
+                face_ptr.push(indices.len() as u32);
+            }
+        }
+        Mesh {
+            positions: self.positions.clone(),
+            face_ptr,
+            indices,
+        }
     }
 
     /// Checks the invariants (no file, so errors name face and vertex indices).
@@ -149,7 +182,7 @@ pub fn load_obj(path: impl AsRef<Path>) -> Result<Mesh> {
 /// let m = parse_obj("v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nf 1 2 3 4\n", "quad.obj").unwrap();
 /// assert_eq!(m.face(0), &[0, 1, 2, 3]);
 /// let err = parse_obj("v 0 0 0\nv 1 0 0\nv nan 1 0\nf 1 2 3\n", "bad.obj").unwrap_err();
-/// assert_eq!(err.to_string(), "bad.obj: line 3: vertex 3 has a non-finite coordinate (nan)");
+/// assert_eq!(err.to_string(), "bad.obj: line 3: vertex 3 has a non-finite coordinate (NaN)");
 /// ```
 pub fn parse_obj(text: &str, path: impl AsRef<Path>) -> Result<Mesh> {
     parse_obj_bytes(text.as_bytes(), path.as_ref())
@@ -205,6 +238,9 @@ fn parse_obj_bytes(bytes: &[u8], path: &Path) -> Result<Mesh> {
                             positions.len() + 1
                         ),
                     ));
+                }
+                if positions.len() >= u32::MAX as usize {
+                    return Err(err(line_no, "too many vertices for u32 indices".into()));
                 }
                 positions.push(p);
             }
@@ -354,10 +390,11 @@ pub fn weld(mesh: &Mesh, tol: f64) -> (Mesh, Vec<u32>) {
                 (p.z / cell).floor() as i64,
             ]
         } else {
+            // + 0.0 turns -0.0 into 0.0, so exact welding merges the two zeros.
             [
-                p.x.to_bits() as i64,
-                p.y.to_bits() as i64,
-                p.z.to_bits() as i64,
+                (p.x + 0.0).to_bits() as i64,
+                (p.y + 0.0).to_bits() as i64,
+                (p.z + 0.0).to_bits() as i64,
             ]
         }
     };

@@ -9,6 +9,13 @@
 use glam::DVec3;
 
 /// A CSR sparse matrix with `u32` row pointers and column indices and values of type `T`.
+///
+/// ```
+/// use gregvox::mesh::SparseMatrix;
+/// let m = SparseMatrix::from_triplets(2, 2, &[(0, 0, 1.0f32), (1, 1, 2.0)], |a, b| a + b);
+/// let bytes: &[u8] = bytemuck::cast_slice(&m.col); // uploads as-is
+/// assert_eq!(bytes.len(), 8);
+/// ```
 #[derive(Debug, Clone, PartialEq)]
 pub struct SparseMatrix<T> {
     /// Number of rows.

@@ -17,13 +17,19 @@
 //! `4f..4f+4`: `[a, ab, ca]`, `[b, bc, ab]`, `[c, ca, bc]`, `[ab, bc, ca]`. Even smooth vertex
 //! `(1 − nβ)P + βΣP_j` with the β of [`LoopBeta`]; boundary rules as for Catmull–Clark; odd interior
 //! `3/8 (P_i + P_j) + 1/8 (P_k + P_l)`.
-use super::matrix::MeshMatrix;
+use super::matrix::{MeshMatrix, NONE};
 use super::obj::Mesh;
 use super::sparse::SparseMatrix;
 use crate::error::{Error, Result};
 use glam::DVec3;
 
 /// One refinement level: the subdivision matrix and the refined topology.
+///
+/// ```
+/// use gregvox::mesh::{MeshMatrix, catmull_clark_matrix};
+/// let sub = catmull_clark_matrix(&MeshMatrix::new(3, &[0, 3], vec![0, 1, 2]).unwrap());
+/// assert_eq!((sub.s.n_rows, sub.s.n_cols, sub.topology.n_verts()), (7, 3, 7));
+/// ```
 #[derive(Debug, Clone)]
 pub struct Subdivision {
     /// `|V'| × |V|` weights: new positions = `s.spmv(old positions)`.
@@ -33,6 +39,11 @@ pub struct Subdivision {
 }
 
 /// Which β the Loop scheme uses for smooth even vertices of valence n.
+///
+/// ```
+/// use gregvox::mesh::LoopBeta;
+/// assert_eq!(LoopBeta::default(), LoopBeta::Warren);
+/// ```
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub enum LoopBeta {
     /// Warren: 3/16 for n = 3, 3/(8n) otherwise (libigl `igl::loop`).
@@ -73,7 +84,7 @@ struct RowBuilder {
     row_ptr: Vec<u32>,
     col: Vec<u32>,
     val: Vec<f64>,
-    buf: Vec<(u32, f64)>,
+    buf: Vec<(u32, u32, f64)>,
 }
 
 impl RowBuilder {
@@ -88,13 +99,15 @@ impl RowBuilder {
         }
     }
     fn add(&mut self, c: u32, w: f64) {
-        self.buf.push((c, w));
+        let seq = self.buf.len() as u32;
+        self.buf.push((c, seq, w));
     }
     fn finish_row(&mut self) {
-        // Stable sort: duplicates are summed in push order, so the weights are reproducible.
-        self.buf.sort_by_key(|e| e.0);
+        // Sorting by (column, push order): duplicates are summed in push order, so the weights are
+        // reproducible; an unstable sort on a unique key avoids the stable sort's scratch allocation.
+        self.buf.sort_unstable_by_key(|e| (e.0, e.1));
         let start = self.col.len();
-        for &(c, w) in &self.buf {
+        for &(c, _, w) in &self.buf {
             if self.col.len() > start && *self.col.last().unwrap() == c {
                 *self.val.last_mut().unwrap() += w;
             } else {
@@ -113,6 +126,43 @@ impl RowBuilder {
             col: self.col,
             val: self.val,
         }
+    }
+}
+
+/// The two faces of an edge used twice, in ascending face order (as `MeshMatrix::edge_faces` lists
+/// them): from the representative and its twin, or for an inconsistently oriented pair, from the general
+/// edge→face matrix, built only if such an edge exists.
+struct EdgeTwoFaces<'a> {
+    m: &'a MeshMatrix,
+    general: Option<SparseMatrix<u32>>,
+}
+
+impl<'a> EdgeTwoFaces<'a> {
+    fn new(m: &'a MeshMatrix) -> Self {
+        let reps = m.edge_reps();
+        let twins = m.twins();
+        let uses = m.edge_uses();
+        let needs_general = uses
+            .iter()
+            .enumerate()
+            .any(|(e, u)| (u.faces() == 2 && twins[reps[e] as usize] == NONE) || u.forward > 1);
+        EdgeTwoFaces {
+            m,
+            general: needs_general.then(|| m.edge_faces()),
+        }
+    }
+    fn get(&self, e: usize) -> [u32; 2] {
+        if let Some(g) = &self.general {
+            let row = g.row(e).0;
+            if row.len() == 2 {
+                return [row[0], row[1]];
+            }
+        }
+        let k = self.m.edge_reps()[e] as usize;
+        let t = self.m.twins()[k] as usize;
+        let face1 = &self.m.half_edge_face().face1;
+        let (f, g) = (face1[k] - 1, face1[t] - 1);
+        [f.min(g), f.max(g)]
     }
 }
 
@@ -173,13 +223,14 @@ pub fn catmull_clark_matrix(m: &MeshMatrix) -> Subdivision {
     let uses = m.edge_uses();
     let (ccount, cnb) = crease_neighbours(m);
     let mut rb = RowBuilder::new(nv + nf + ne, 16 * m.n_corners());
+    let mut nbrs = Vec::new();
     // Vertex points.
     for v in 0..nv {
         let vu = v as u32;
         if !m.is_referenced(v) {
             rb.add(vu, 1.0);
         } else if !crease_vertex_row(&mut rb, vu, ccount[v], cnb[v]) {
-            let nbrs = m.neighbours(v);
+            m.neighbours_into(v, &mut nbrs);
             let n = nbrs.len() as f64;
             let n_faces = (vc.ptr[v + 1] - vc.ptr[v]) as f64;
             rb.add(vu, (n - 2.0) / n);
@@ -207,13 +258,13 @@ pub fn catmull_clark_matrix(m: &MeshMatrix) -> Subdivision {
         rb.finish_row();
     }
     // Edge points.
-    let edge_faces = m.edge_faces();
+    let two_faces = EdgeTwoFaces::new(m);
     for (e, u) in uses.iter().enumerate() {
         let [a, b] = m.edge_vertices(e);
         if u.faces() == 2 {
             rb.add(a, 0.25);
             rb.add(b, 0.25);
-            for &f in edge_faces.row(e).0 {
+            for f in two_faces.get(e) {
                 let face = m.face(f as usize);
                 let w = 0.25 / face.len() as f64;
                 for &x in face {
@@ -262,12 +313,13 @@ pub fn loop_matrix(m: &MeshMatrix, beta: LoopBeta) -> Result<Subdivision> {
     let uses = m.edge_uses();
     let (ccount, cnb) = crease_neighbours(m);
     let mut rb = RowBuilder::new(nv + ne, 7 * nv + 4 * ne);
+    let mut nbrs = Vec::new();
     for v in 0..nv {
         let vu = v as u32;
         if !m.is_referenced(v) {
             rb.add(vu, 1.0);
         } else if !crease_vertex_row(&mut rb, vu, ccount[v], cnb[v]) {
-            let nbrs = m.neighbours(v);
+            m.neighbours_into(v, &mut nbrs);
             let b = beta.beta(nbrs.len());
             rb.add(vu, 1.0 - nbrs.len() as f64 * b);
             for &j in &nbrs {
@@ -276,13 +328,13 @@ pub fn loop_matrix(m: &MeshMatrix, beta: LoopBeta) -> Result<Subdivision> {
         }
         rb.finish_row();
     }
-    let edge_faces = m.edge_faces();
+    let two_faces = EdgeTwoFaces::new(m);
     for (e, u) in uses.iter().enumerate() {
         let [a, b] = m.edge_vertices(e);
         if u.faces() == 2 {
             rb.add(a, 0.375);
             rb.add(b, 0.375);
-            for &f in edge_faces.row(e).0 {
+            for f in two_faces.get(e) {
                 let opp = m
                     .face(f as usize)
                     .iter()
@@ -315,6 +367,12 @@ pub fn loop_matrix(m: &MeshMatrix, beta: LoopBeta) -> Result<Subdivision> {
 }
 
 /// Several levels of one scheme, built once: per frame, refine a deforming cage with one SpMV per level.
+///
+/// ```
+/// use gregvox::mesh::{MeshMatrix, SubdivisionStack};
+/// let stack = SubdivisionStack::catmull_clark(&MeshMatrix::new(3, &[0, 3], vec![0, 1, 2]).unwrap(), 2);
+/// assert_eq!(stack.levels.len(), 2);
+/// ```
 #[derive(Debug, Clone)]
 pub struct SubdivisionStack {
     /// The levels, coarse to fine.
@@ -343,6 +401,15 @@ impl SubdivisionStack {
     }
 
     /// New positions after all levels: one SpMV per level.
+    ///
+    /// ```
+    /// use gregvox::mesh::{MeshMatrix, SubdivisionStack};
+    /// use glam::DVec3;
+    /// let m = MeshMatrix::new(4, &[0, 4], vec![0, 1, 2, 3]).unwrap();
+    /// let stack = SubdivisionStack::catmull_clark(&m, 1);
+    /// let p = stack.apply(&[DVec3::ZERO, DVec3::X, DVec3::new(1.0, 1.0, 0.0), DVec3::Y]);
+    /// assert_eq!(p[4], DVec3::new(0.5, 0.5, 0.0)); // the face point follows the vertex points
+    /// ```
     pub fn apply(&self, cage: &[DVec3]) -> Vec<DVec3> {
         let mut p = cage.to_vec();
         for l in &self.levels {
@@ -352,6 +419,12 @@ impl SubdivisionStack {
     }
 
     /// The finest topology (panics if the stack has no level).
+    ///
+    /// ```
+    /// use gregvox::mesh::{MeshMatrix, SubdivisionStack};
+    /// let m = MeshMatrix::new(3, &[0, 3], vec![0, 1, 2]).unwrap();
+    /// assert_eq!(SubdivisionStack::catmull_clark(&m, 1).finest().n_faces(), 3);
+    /// ```
     pub fn finest(&self) -> &MeshMatrix {
         &self
             .levels

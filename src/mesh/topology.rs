@@ -43,6 +43,12 @@ impl UnionFind {
 }
 
 /// Per undirected edge: how many faces use it, and whether two of them run the same way.
+///
+/// ```
+/// # use gregvox::mesh::MeshMatrix;
+/// let m = MeshMatrix::new(3, &[0, 3], vec![0, 1, 2]).unwrap();
+/// assert!(m.edge_uses().iter().all(|u| u.forward == 1 && u.backward == 0));
+/// ```
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub struct EdgeUse {
     /// Half-edges tail → head in the direction of the edge's representative.
@@ -63,6 +69,14 @@ impl EdgeUse {
 }
 
 /// Everything `gregvox mesh --json` prints (the first ten keys are the issue's contract).
+///
+/// ```
+/// # use gregvox::mesh::MeshMatrix;
+/// let r = MeshMatrix::new(4, &[0, 3], vec![0, 1, 2]).unwrap().report();
+/// assert_eq!((r.unreferenced_vertices, r.boundary_edges, r.closed), (1, 3, false));
+/// let json = serde_json::to_value(&r).unwrap();
+/// assert_eq!(json["valence_histogram"]["2"], 3);
+/// ```
 #[derive(Debug, Clone, Serialize, PartialEq)]
 pub struct TopologyReport {
     /// All vertices in the file, referenced or not.
@@ -267,9 +281,16 @@ impl MeshMatrix {
     /// assert_eq!(m.neighbours(0), vec![1, 3]); // not the diagonal 2
     /// ```
     pub fn neighbours(&self, v: usize) -> Vec<u32> {
+        let mut out = Vec::new();
+        self.neighbours_into(v, &mut out);
+        out
+    }
+
+    /// [`MeshMatrix::neighbours`] into a reused buffer (cleared first).
+    pub(crate) fn neighbours_into(&self, v: usize, out: &mut Vec<u32>) {
         let vc = self.vertex_corners();
         let cv = self.corner_vertex();
-        let mut out: Vec<u32> = Vec::new();
+        out.clear();
         for k in vc.ptr[v]..vc.ptr[v + 1] {
             let c = vc.corner[k as usize];
             out.push(cv[self.next(c) as usize]);
@@ -277,7 +298,6 @@ impl MeshMatrix {
         }
         out.sort_unstable();
         out.dedup();
-        out
     }
 
     /// Valence (number of distinct edge neighbours) of `v`.
@@ -314,8 +334,9 @@ impl MeshMatrix {
         let start = (a..b).find(|&k| twins[k as usize] == NONE).unwrap_or(a);
         let cv = self.corner_vertex();
         let mut ring = vec![col[start as usize]];
+        let mut visited = vec![start];
         let mut k = start;
-        for _ in 0..(b - a) {
+        loop {
             let c = vc.corner[k as usize];
             let nxt = cv[self.prev(c) as usize];
             let kk = self.find(v as u32, nxt);
@@ -323,9 +344,12 @@ impl MeshMatrix {
                 break;
             }
             ring.push(nxt);
-            if kk == NONE {
+            // A missing half-edge ends an open fan; a revisit (possible only around non-manifold or
+            // inconsistently oriented edges) ends the walk too, so it always terminates.
+            if kk == NONE || visited.contains(&kk) {
                 break;
             }
+            visited.push(kk);
             k = kk;
         }
         ring
@@ -526,7 +550,7 @@ impl MeshMatrix {
         let mut label = vec![NONE; self.n_verts()];
         let mut root_label = vec![NONE; self.n_verts()];
         let mut n = 0u32;
-        for v in 0..self.n_verts() {
+        for (v, l) in label.iter_mut().enumerate() {
             if !self.is_referenced(v) {
                 continue;
             }
@@ -535,7 +559,7 @@ impl MeshMatrix {
                 root_label[r] = n;
                 n += 1;
             }
-            label[v] = root_label[r];
+            *l = root_label[r];
         }
         (n as usize, label)
     }
@@ -560,13 +584,13 @@ impl MeshMatrix {
         let mut label = vec![NONE; self.n_faces()];
         let mut root_label = vec![NONE; self.n_faces()];
         let mut n = 0u32;
-        for f in 0..self.n_faces() {
+        for (f, l) in label.iter_mut().enumerate() {
             let r = uf.find(f as u32) as usize;
             if root_label[r] == NONE {
                 root_label[r] = n;
                 n += 1;
             }
-            label[f] = root_label[r];
+            *l = root_label[r];
         }
         (n as usize, label)
     }
