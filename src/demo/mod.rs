@@ -7,16 +7,20 @@
 //! again (after that slot's fence) or at the end.
 use crate::cli::profile::ProfileArgs;
 use crate::gpu::present::begin_color_target;
+use crate::gpu::resources::image_barrier;
 use crate::gpu::{
-    Buffer, Context, ContextDesc, Frames, MemoryLocation, OffscreenTarget, PresentTarget, Profiler,
+    Context, ContextDesc, Frames, Image, ImageDesc, OffscreenTarget, PresentTarget, Profiler,
 };
-use crate::passes::spinner::SpinnerPass;
-use crate::passes::triangles::TrianglesPass;
+use crate::passes::cage_deform::Deformation;
+use crate::passes::surface_draw::ShadingMode;
 use anyhow::{bail, Context as _};
 use ash::vk;
 use clap::Args;
+use scene::{FlagScene, FrameTargets, Scene, SpinnerScene, ViewState, DEPTH_FORMAT};
 use std::path::PathBuf;
 
+pub mod cage;
+pub mod scene;
 mod window;
 
 /// Frames in flight.
@@ -40,6 +44,24 @@ pub struct DemoArgs {
     /// Write every K-th frame as PNG (0: only the last; the last is always written).
     #[arg(long, default_value_t = 0)]
     pub every: u64,
+    /// The scene.
+    #[arg(long, value_enum, default_value = "flag")]
+    pub scene: SceneKind,
+    /// Tessellation level (1–64; default 10 for the flag as in the thesis, 8 for cages).
+    #[arg(long)]
+    pub level: Option<u32>,
+    /// Shading mode.
+    #[arg(long, value_enum, default_value = "phong")]
+    pub shading: ShadingMode,
+    /// Flag: start with the Chiyokura–Kimura correction off.
+    #[arg(long)]
+    pub no_correction: bool,
+    /// Cage: the OBJ quad cage (default: a cage built into the binary).
+    #[arg(long)]
+    pub model: Option<PathBuf>,
+    /// Cage: the deformation.
+    #[arg(long, value_enum, default_value = "twist")]
+    pub deform: Deformation,
     /// Number of triangles in the spinner scene.
     #[arg(long, default_value_t = 48)]
     pub triangles: u32,
@@ -66,48 +88,45 @@ pub fn parse_size(s: &str) -> Result<(u32, u32), String> {
     Ok((w, h))
 }
 
-/// The demo's renderer: per-slot vertex buffers written by compute and drawn by graphics.
+/// The demo's renderer: frames in flight, the profiler, per-slot depth images and the current scene.
 pub struct Renderer {
     pub frames: Frames,
     pub profiler: Profiler,
-    spinner: SpinnerPass,
-    triangles: TrianglesPass,
-    vertex_buffers: Vec<Buffer>,
-    count: u32,
+    depth: Vec<Option<Image>>,
+    pub scene: Box<dyn Scene>,
+    pub view: ViewState,
 }
 
 impl Renderer {
-    /// Builds the passes for targets of `format`.
-    pub fn new(ctx: &Context, format: vk::Format, count: u32) -> anyhow::Result<Self> {
-        let count = count.clamp(1, 1 << 20);
-        let frames = Frames::new(ctx, FRAMES_IN_FLIGHT)?;
-        let profiler = Profiler::new(ctx, FRAMES_IN_FLIGHT, 32)?;
-        let spinner = SpinnerPass::new(ctx)?;
-        let triangles = TrianglesPass::new(ctx, format)?;
-        let mut r = Renderer {
+    /// Builds the renderer around `scene`.
+    pub fn new(ctx: &Context, scene: Box<dyn Scene>, shading: ShadingMode) -> anyhow::Result<Self> {
+        let frames = match Frames::new(ctx, FRAMES_IN_FLIGHT) {
+            Ok(f) => f,
+            Err(e) => {
+                scene.destroy(ctx);
+                return Err(e.into());
+            }
+        };
+        let profiler = match Profiler::new(ctx, FRAMES_IN_FLIGHT, 64) {
+            Ok(p) => p,
+            Err(e) => {
+                frames.destroy(ctx);
+                scene.destroy(ctx);
+                return Err(e.into());
+            }
+        };
+        let view = ViewState {
+            orbit: scene.framing(),
+            shading,
+            animate: true,
+        };
+        Ok(Renderer {
             frames,
             profiler,
-            spinner,
-            triangles,
-            vertex_buffers: Vec::new(),
-            count,
-        };
-        for i in 0..FRAMES_IN_FLIGHT {
-            // One buffer per slot: frame N+1's compute must not overwrite what frame N still draws.
-            match ctx.create_buffer(
-                &format!("spinner vertices {i}"),
-                count as u64 * 48,
-                vk::BufferUsageFlags::STORAGE_BUFFER | vk::BufferUsageFlags::VERTEX_BUFFER,
-                MemoryLocation::GpuOnly,
-            ) {
-                Ok(b) => r.vertex_buffers.push(b),
-                Err(e) => {
-                    r.destroy(ctx);
-                    return Err(e.into());
-                }
-            }
-        }
-        Ok(r)
+            depth: (0..FRAMES_IN_FLIGHT).map(|_| None).collect(),
+            scene,
+            view,
+        })
     }
 
     /// Starts a frame: waits until the next slot's previous frame has completed (its pixels and timings
@@ -116,6 +135,33 @@ impl Renderer {
         let (slot, cmd) = self.frames.begin(ctx)?;
         self.profiler.collect(ctx, slot)?;
         Ok((slot, cmd))
+    }
+
+    fn depth_view(
+        &mut self,
+        ctx: &Context,
+        slot: usize,
+        extent: vk::Extent2D,
+    ) -> anyhow::Result<&Image> {
+        let stale = self.depth[slot]
+            .as_ref()
+            .is_some_and(|d| d.extent2d() != extent);
+        if stale {
+            // The slot's previous frame has completed (begin_frame waited for it): safe to destroy now.
+            if let Some(old) = self.depth[slot].take() {
+                old.destroy(ctx);
+            }
+        }
+        if self.depth[slot].is_none() {
+            let desc = ImageDesc::d2(
+                extent.width,
+                extent.height,
+                DEPTH_FORMAT,
+                vk::ImageUsageFlags::DEPTH_STENCIL_ATTACHMENT,
+            );
+            self.depth[slot] = Some(ctx.create_image(&format!("demo depth {slot}"), &desc)?);
+        }
+        Ok(self.depth[slot].as_ref().unwrap())
     }
 
     /// Records and submits the frame begun by [`Renderer::begin_frame`] at time `t` into `target`.
@@ -132,24 +178,37 @@ impl Renderer {
             self.frames.submit(ctx, &[], &[])?;
             return Ok(false);
         };
-        let aspect = img.extent.width as f32 / img.extent.height.max(1) as f32;
-        let vb = &self.vertex_buffers[slot];
-        let s = self.profiler.begin(ctx, cmd, slot, "spinner (compute)");
-        self.spinner.record(ctx, cmd, vb, self.count, t, aspect)?;
-        self.profiler.end(ctx, cmd, s);
+        let depth = self.depth_view(ctx, slot, img.extent)?;
+        let (depth_image, depth_view, depth_range) = (depth.raw, depth.view, depth.range());
         begin_color_target(ctx, cmd, img.image);
-        let s = self.profiler.begin(ctx, cmd, slot, "triangles (raster)");
-        self.triangles.record(
+        image_barrier(
             ctx,
             cmd,
-            img.view,
-            img.extent,
-            [0.02, 0.02, 0.04, 1.0],
-            vb,
-            self.count * 3,
-            None,
+            depth_image,
+            depth_range,
+            vk::ImageLayout::UNDEFINED,
+            vk::ImageLayout::DEPTH_ATTACHMENT_OPTIMAL,
+            (
+                vk::PipelineStageFlags2::EARLY_FRAGMENT_TESTS
+                    | vk::PipelineStageFlags2::LATE_FRAGMENT_TESTS,
+                vk::AccessFlags2::DEPTH_STENCIL_ATTACHMENT_WRITE,
+            ),
+            (
+                vk::PipelineStageFlags2::EARLY_FRAGMENT_TESTS
+                    | vk::PipelineStageFlags2::LATE_FRAGMENT_TESTS,
+                vk::AccessFlags2::DEPTH_STENCIL_ATTACHMENT_READ
+                    | vk::AccessFlags2::DEPTH_STENCIL_ATTACHMENT_WRITE,
+            ),
         );
-        self.profiler.end(ctx, cmd, s);
+        let targets = FrameTargets {
+            slot,
+            color: img.view,
+            depth: depth_view,
+            extent: img.extent,
+        };
+        let view = self.view;
+        self.scene
+            .record(ctx, cmd, &targets, t, &view, &mut self.profiler)?;
         target.record_finish(ctx, cmd, &img);
         let waits: Vec<(vk::Semaphore, vk::PipelineStageFlags)> = img
             .acquired
@@ -175,13 +234,45 @@ impl Renderer {
     pub fn destroy(self, ctx: &Context) {
         let _ = ctx.wait_idle();
         self.frames.destroy(ctx);
-        for b in self.vertex_buffers {
-            b.destroy(ctx);
+        for d in self.depth.into_iter().flatten() {
+            d.destroy(ctx);
         }
-        self.spinner.destroy(ctx);
-        self.triangles.destroy(ctx);
+        self.scene.destroy(ctx);
         self.profiler.destroy(ctx);
     }
+}
+
+/// The scenes of `gregvox demo`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+pub enum SceneKind {
+    /// The thesis flag: 2×3 Gregory patches from animated boundary curves (C toggles the correction).
+    Flag,
+    /// A quad cage as Gregory patches, deformed on the GPU (D cycles the deformation).
+    Cage,
+    /// The minimal compute → raster smoke scene.
+    Spinner,
+}
+
+/// Builds the scene `args` asks for, drawing into `format` targets.
+pub fn build_scene(
+    ctx: &Context,
+    args: &DemoArgs,
+    format: vk::Format,
+) -> anyhow::Result<Box<dyn Scene>> {
+    Ok(match args.scene {
+        SceneKind::Spinner => Box::new(SpinnerScene::new(
+            ctx,
+            format,
+            args.triangles,
+            FRAMES_IN_FLIGHT,
+        )?),
+        SceneKind::Flag => {
+            let mut s = FlagScene::new(ctx, format, 3, 2, args.level.unwrap_or(10))?;
+            s.correct = !args.no_correction;
+            Box::new(s)
+        }
+        SceneKind::Cage => cage::build(ctx, args, format)?,
+    })
 }
 
 /// Runs `gregvox demo`.
@@ -207,7 +298,9 @@ fn run_offscreen(args: &DemoArgs) -> anyhow::Result<()> {
     let ctx = Context::with_desc(&ContextDesc::default())?;
     let (w, h) = args.size;
     let mut target = OffscreenTarget::new(&ctx, w, h, FRAMES_IN_FLIGHT)?;
-    let mut renderer = match Renderer::new(&ctx, target.format(), args.triangles) {
+    let mut renderer = match build_scene(&ctx, args, target.format())
+        .and_then(|scene| Renderer::new(&ctx, scene, args.shading))
+    {
         Ok(r) => r,
         Err(e) => {
             Box::new(target).destroy(&ctx);

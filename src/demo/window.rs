@@ -62,7 +62,9 @@ impl App<'_> {
             super::FRAMES_IN_FLIGHT,
             true,
         )?;
-        let renderer = match Renderer::new(self.ctx, target.format(), self.args.triangles) {
+        let renderer = match super::build_scene(self.ctx, self.args, target.format())
+            .and_then(|scene| Renderer::new(self.ctx, scene, self.args.shading))
+        {
             Ok(r) => r,
             Err(e) => {
                 Box::new(target).destroy(self.ctx);
