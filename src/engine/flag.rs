@@ -337,7 +337,7 @@ impl FlagSurface {
         }
         let s = profiler
             .as_mut()
-            .map(|(p, slot)| p.begin(ctx, cmd, *slot, "gregory eval"));
+            .map(|(p, slot)| p.begin(ctx, cmd, *slot, "gregory_eval"));
         self.eval.record(
             ctx,
             cmd,

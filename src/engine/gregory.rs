@@ -332,10 +332,10 @@ impl GregorySurface {
             }
             _ => &self.rest,
         };
-        scope("gregory points (W·cage)", &mut || {
+        scope("gregory_points", &mut || {
             self.spmv.record(ctx, cmd, &self.w, source, &self.points)
         })?;
-        scope("gregory eval", &mut || {
+        scope("gregory_eval", &mut || {
             self.eval.record(
                 ctx,
                 cmd,

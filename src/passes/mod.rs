@@ -1,9 +1,11 @@
 //! One GPU pass per file. Each owns its pipelines and layouts and exposes `new`, `record`, `destroy`;
 //! buffers are passed in, never owned by two passes.
+pub mod beziex_eval;
 pub mod cage_deform;
 pub mod gregory_eval;
 pub mod iota;
 pub mod mesh_normals;
+pub mod patch_pull;
 pub mod peel;
 pub mod spinner;
 pub mod spmv;

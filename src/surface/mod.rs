@@ -1,1 +1,2 @@
-//! Gregory patches from cages (ACC-2 stencils), Beziex loader, CPU reference tessellator.
+//! Gregory patches from cages (ACC-2 stencils), Beziex patches, CPU reference tessellator.
+pub mod beziex;

@@ -1,0 +1,91 @@
+//! `BeziexEvalPass`: the compute path for Beziex patches (glsl/beziex_eval.comp): every patch on its (L+1)²
+//! grid into a `SurfaceVertex` buffer, in the same order and layout as `GregoryEvalPass`.
+//!
+//! Invariants: the pass owns only its pipeline; the nets (56 vec4 per patch, `BeziexPatch::to_gpu`) and the
+//! output (STORAGE | VERTEX) are the caller's; on exit the output is visible to vertex input, shaders and copies.
+use crate::error::{Error, Result};
+use crate::gpu::pipeline::{Binding, ComputePipeline, DescriptorSetLayoutBuilder};
+use crate::gpu::resources::memory_barrier;
+use crate::gpu::{shaders, Buffer, Context};
+use crate::passes::gregory_eval::{vertex_count, MAX_LEVEL};
+use ash::vk;
+
+/// The Beziex compute evaluation pass.
+pub struct BeziexEvalPass {
+    pipeline: ComputePipeline,
+}
+
+impl BeziexEvalPass {
+    /// Builds the pipeline.
+    pub fn new(ctx: &Context) -> Result<Self> {
+        let layout = DescriptorSetLayoutBuilder::new()
+            .storage_buffer(0, vk::ShaderStageFlags::COMPUTE)
+            .storage_buffer(1, vk::ShaderStageFlags::COMPUTE)
+            .build(ctx, "beziex eval set")?;
+        Ok(BeziexEvalPass {
+            pipeline: ComputePipeline::new(
+                ctx,
+                "beziex eval",
+                shaders::BEZIEX_EVAL_COMP,
+                vec![layout],
+                8,
+                64,
+            )?,
+        })
+    }
+
+    /// Records the evaluation of `patch_count` patches at `level` into `out`.
+    pub fn record(
+        &self,
+        ctx: &Context,
+        cmd: vk::CommandBuffer,
+        nets: &Buffer,
+        patch_count: u32,
+        level: u32,
+        out: &Buffer,
+    ) -> Result<()> {
+        if !(1..=MAX_LEVEL).contains(&level) {
+            return Err(Error::Invalid(format!(
+                "tessellation level {level} is outside 1…{MAX_LEVEL}"
+            )));
+        }
+        let n = vertex_count(patch_count, level);
+        if n * 32 > out.size || patch_count as u64 * 56 * 16 > nets.size {
+            return Err(Error::Invalid("beziex eval: buffers too small".into()));
+        }
+        let push = [patch_count, level];
+        self.pipeline.bind(
+            ctx,
+            cmd,
+            &[
+                (0, Binding::Storage(nets.raw)),
+                (1, Binding::Storage(out.raw)),
+            ],
+            bytemuck::cast_slice(&push),
+        );
+        self.pipeline.dispatch_linear(ctx, cmd, n)?;
+        memory_barrier(
+            ctx,
+            cmd,
+            (
+                vk::PipelineStageFlags2::COMPUTE_SHADER,
+                vk::AccessFlags2::SHADER_STORAGE_WRITE,
+            ),
+            (
+                vk::PipelineStageFlags2::VERTEX_ATTRIBUTE_INPUT
+                    | vk::PipelineStageFlags2::VERTEX_SHADER
+                    | vk::PipelineStageFlags2::COMPUTE_SHADER
+                    | vk::PipelineStageFlags2::COPY,
+                vk::AccessFlags2::VERTEX_ATTRIBUTE_READ
+                    | vk::AccessFlags2::SHADER_STORAGE_READ
+                    | vk::AccessFlags2::TRANSFER_READ,
+            ),
+        );
+        Ok(())
+    }
+
+    /// Destroys the pipeline.
+    pub fn destroy(self, ctx: &Context) {
+        self.pipeline.destroy(ctx);
+    }
+}

@@ -1,0 +1,162 @@
+//! `PatchPullPass`: the vertex-pull evaluation path (the Beziex seed's instanced grid): one instance per patch,
+//! a static index buffer over one (L+1)² grid, and a vertex shader that evaluates Gregory or Beziex patches
+//! straight from storage buffers (glsl/include/patch_pull_body.glsl), shaded by glsl/surface.frag.
+//!
+//! Invariants: the pass owns its pipeline(s); patch buffers, index buffer and targets are the caller's. Targets
+//! as in `SurfaceDrawPass` (color in `COLOR_ATTACHMENT_OPTIMAL`, depth in `DEPTH_ATTACHMENT_OPTIMAL`, unchanged
+//! on exit). The capture variant (needs `vertexPipelineStoresAndAtomics`) also writes every evaluated vertex to
+//! a buffer in the compute path's order; on exit those writes are visible to transfers.
+use crate::error::{Error, Result};
+use crate::gpu::pipeline::{Binding, DescriptorSetLayoutBuilder, GraphicsDesc, GraphicsPipeline};
+use crate::gpu::resources::memory_barrier;
+use crate::gpu::{shaders, Buffer, Context};
+use crate::passes::surface_draw::{DrawTarget, SurfacePush};
+use ash::vk;
+
+/// Which patch type the vertex shader evaluates.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum PatchKind {
+    /// 20 point indices per patch into the points buffer.
+    Gregory = 0,
+    /// 56 points per patch (`BeziexPatch::to_gpu`).
+    Beziex = 1,
+}
+
+/// The vertex-pull pass.
+pub struct PatchPullPass {
+    pipeline: GraphicsPipeline,
+    capture: bool,
+}
+
+impl PatchPullPass {
+    /// Builds the pipeline; `capture` selects the variant that also stores every evaluated vertex.
+    pub fn new(ctx: &Context, color: vk::Format, depth: vk::Format, capture: bool) -> Result<Self> {
+        if capture && !ctx.info.features.vertex_pipeline_stores_and_atomics {
+            return Err(Error::Limit {
+                what: "capturing vertex-pull output".into(),
+                detail: "the device lacks vertexPipelineStoresAndAtomics".into(),
+            });
+        }
+        let stage = vk::ShaderStageFlags::VERTEX;
+        let mut b = DescriptorSetLayoutBuilder::new()
+            .storage_buffer(0, stage)
+            .storage_buffer(1, stage);
+        if capture {
+            b = b.storage_buffer(2, stage);
+        }
+        let layout = b.build(ctx, "patch pull set")?;
+        let vs = if capture {
+            shaders::PATCH_PULL_CAPTURE_VERT
+        } else {
+            shaders::PATCH_PULL_VERT
+        };
+        let mut desc = GraphicsDesc::new(vs, shaders::SURFACE_FRAG, color, depth);
+        desc.set_layouts = vec![layout];
+        desc.push_constant_bytes = std::mem::size_of::<SurfacePush>() as u32;
+        desc.push_constant_stages = vk::ShaderStageFlags::VERTEX | vk::ShaderStageFlags::FRAGMENT;
+        Ok(PatchPullPass {
+            pipeline: GraphicsPipeline::new(ctx, "patch pull", desc)?,
+            capture,
+        })
+    }
+
+    /// Records the instanced draw of `patch_count` patches at `level` (`grid_indices` is `grid_indices(1, L)`;
+    /// for Beziex `patch_points` is unused but must be a valid buffer). `push.mode` gets the level and kind.
+    #[allow(clippy::too_many_arguments)]
+    pub fn record(
+        &self,
+        ctx: &Context,
+        cmd: vk::CommandBuffer,
+        target: &DrawTarget,
+        clear: Option<[f32; 4]>,
+        kind: PatchKind,
+        points: &Buffer,
+        patch_points: &Buffer,
+        patch_count: u32,
+        level: u32,
+        grid_indices: &Buffer,
+        capture: Option<&Buffer>,
+        push: &SurfacePush,
+    ) -> Result<()> {
+        if self.capture != capture.is_some() {
+            return Err(Error::Invalid(
+                "patch pull: capture buffer given to the wrong pipeline variant".into(),
+            ));
+        }
+        let load = if clear.is_some() {
+            vk::AttachmentLoadOp::CLEAR
+        } else {
+            vk::AttachmentLoadOp::LOAD
+        };
+        let color = [vk::RenderingAttachmentInfo::default()
+            .image_view(target.color)
+            .image_layout(vk::ImageLayout::COLOR_ATTACHMENT_OPTIMAL)
+            .load_op(load)
+            .store_op(vk::AttachmentStoreOp::STORE)
+            .clear_value(vk::ClearValue {
+                color: vk::ClearColorValue {
+                    float32: clear.unwrap_or([0.0; 4]),
+                },
+            })];
+        let depth = vk::RenderingAttachmentInfo::default()
+            .image_view(target.depth)
+            .image_layout(vk::ImageLayout::DEPTH_ATTACHMENT_OPTIMAL)
+            .load_op(load)
+            .store_op(vk::AttachmentStoreOp::STORE)
+            .clear_value(vk::ClearValue {
+                depth_stencil: vk::ClearDepthStencilValue {
+                    depth: 1.0,
+                    stencil: 0,
+                },
+            });
+        let info = vk::RenderingInfo::default()
+            .render_area(vk::Rect2D {
+                offset: vk::Offset2D::default(),
+                extent: target.extent,
+            })
+            .layer_count(1)
+            .color_attachments(&color)
+            .depth_attachment(&depth);
+        let mut p = *push;
+        p.mode[1] = level;
+        p.mode[2] = kind as u32;
+        let mut bindings = vec![
+            (0, Binding::Storage(points.raw)),
+            (1, Binding::Storage(patch_points.raw)),
+        ];
+        if let Some(c) = capture {
+            bindings.push((2, Binding::Storage(c.raw)));
+        }
+        ctx.cmd_begin_rendering(cmd, &info);
+        self.pipeline
+            .bind(ctx, cmd, &bindings, bytemuck::bytes_of(&p), target.extent);
+        // SAFETY: inside the render pass with the pipeline bound; the index buffer covers one grid.
+        unsafe {
+            ctx.device
+                .cmd_bind_index_buffer(cmd, grid_indices.raw, 0, vk::IndexType::UINT32);
+            ctx.device
+                .cmd_draw_indexed(cmd, level * level * 6, patch_count, 0, 0, 0);
+        }
+        ctx.cmd_end_rendering(cmd);
+        if capture.is_some() {
+            memory_barrier(
+                ctx,
+                cmd,
+                (
+                    vk::PipelineStageFlags2::VERTEX_SHADER,
+                    vk::AccessFlags2::SHADER_STORAGE_WRITE,
+                ),
+                (
+                    vk::PipelineStageFlags2::COPY,
+                    vk::AccessFlags2::TRANSFER_READ,
+                ),
+            );
+        }
+        Ok(())
+    }
+
+    /// Destroys the pipeline.
+    pub fn destroy(self, ctx: &Context) {
+        self.pipeline.destroy(ctx);
+    }
+}
