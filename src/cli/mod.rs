@@ -3,9 +3,11 @@
 use clap::{Parser, Subcommand};
 use std::process::ExitCode;
 
+pub mod cage;
 pub mod info;
 pub mod mesh;
 pub mod profile;
+pub mod tessellate;
 pub mod voxelize;
 
 /// gregvox: Gregory surfaces and solid voxels on Vulkan.
@@ -25,6 +27,8 @@ pub enum Command {
     Mesh(mesh::MeshArgs),
     /// Catmull–Clark subdivide a mesh and write the result as OBJ.
     Subdivide(mesh::SubdivideArgs),
+    /// Evaluate Gregory (ACC-2 from a quad cage) or Beziex patches on the GPU and write the grid as OBJ.
+    Tessellate(tessellate::TessellateArgs),
     /// Voxelize a mesh into a solid bit grid (depth peeling on the GPU, or the CPU scanline).
     Voxelize(voxelize::VoxelizeArgs),
     /// Run the live demo in a window, or offscreen writing PNG frames.
@@ -53,6 +57,7 @@ pub fn main() -> ExitCode {
         Command::Subdivide(a) => mesh::run_subdivide(&a),
         Command::Demo(a) => crate::demo::run(&a),
         Command::Voxelize(a) => voxelize::run(&a),
+        Command::Tessellate(a) => tessellate::run(&a),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
