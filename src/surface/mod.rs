@@ -1,2 +1,11 @@
 //! Gregory patches from cages (ACC-2 stencils), Beziex patches, CPU reference tessellator.
+//!
+//! Invariants: patch `k` of a quad cage is face `k`; control points are in OpenSubdiv GREGORY_BASIS order
+//! (see [`crate::geom::gregory`]); tessellation grids follow DESIGN.md's contract (u along v0→v1, rows of u
+//! inner, vertex `j·(L+1)+i` at (i/L, j/L)).
+pub mod acc2;
 pub mod beziex;
+pub mod tessellate;
+
+pub use acc2::{gather_patches, CageStencils, GregoryStencils, Tangents};
+pub use tessellate::{indices, tessellate, write_tessellation_obj, Tessellation};

@@ -1,0 +1,259 @@
+// OpenSubdiv oracle for gregvox's ACC-2 stencils (gregory.md §4.3). Not run by the tests: it writes the
+// fixtures in tests/fixtures/surface/ once (see build_osd.sh) and the Rust tests read them.
+//
+// Per cage: Far at isolation 0, Sdc CATMARK with VTX_BOUNDARY_EDGE_ONLY, ENDCAP_GREGORY_BASIS, double
+// precision patches; local (Gregory basis) points from the double local point stencil table appended after
+// the cage vertices. For an all-quad cage at isolation 0 the ptex face of patch f is base face f.
+//
+// Per patch we write 20 points in GREGORY_BASIS order:
+// - GREGORY_BASIS patches: the 20 points as OpenSubdiv computed them (corner i = face vertex i).
+// - REGULAR patches (B-spline, 16 points, possibly with a boundary mask and phantom points): converted to the
+//   bicubic Bezier form by *evaluation*: EvaluateBasis at the 4x4 grid (u,v) in {0,1/3,2/3,1}^2 and the
+//   inverse of the cubic Bernstein collocation matrix on both sides. Each interior pair gets the same point.
+//   This handles every boundary mask and any patch rotation without reproducing OpenSubdiv's conventions.
+// Optional samples: (u, v, P, dP/du, dP/dv) from EvaluateBasis (OpenSubdiv's default, approximate
+// Gregory derivatives inside the patch, exact on the edges).
+//
+// Binary layout (little endian), file "<name>.osd":
+//   char[8] "GVOSD001"
+//   u32 n_verts, u32 n_faces, u32 point_bytes (4 = f32 points, 8 = f64), u32 n_samples (per patch)
+//   f64 cage[n_verts][3]
+//   u32 face_ptr[n_faces + 1], u32 indices[face_ptr[n_faces]]
+//   u32 patch_type[n_faces]            (0 = REGULAR converted to Bezier, 1 = GREGORY_BASIS)
+//   point_bytes points[n_faces][20][3]
+//   f64 samples[n_faces][n_samples][11] (u, v, P.xyz, Du.xyz, Dv.xyz)
+//
+// Usage: osd_gregory IN.obj OUT.osd [--refine] [--f32] [--samples]
+//   --refine: one uniform Catmull-Clark step by Far first (for non-quad cages); the refined cage is what
+//             the fixture stores, so the Rust test uses OpenSubdiv's vertex numbering.
+#include <opensubdiv/far/topologyDescriptor.h>
+#include <opensubdiv/far/primvarRefiner.h>
+#include <opensubdiv/far/patchTableFactory.h>
+#include <opensubdiv/far/patchMap.h>
+#include <opensubdiv/far/stencilTable.h>
+#include <cstdio>
+#include <cstdlib>
+#include <cstring>
+#include <cstdint>
+#include <fstream>
+#include <sstream>
+#include <string>
+#include <vector>
+
+using namespace OpenSubdiv;
+
+struct V3 {
+    double p[3];
+    void Clear(void * = 0) { p[0] = p[1] = p[2] = 0; }
+    void AddWithWeight(V3 const &s, double w) { for (int k = 0; k < 3; ++k) p[k] += w * s.p[k]; }
+};
+
+struct Cage {
+    std::vector<V3> pos;
+    std::vector<int> nv;   // vertices per face
+    std::vector<int> idx;  // concatenated
+};
+
+static Cage read_obj(const char *path) {
+    Cage c;
+    std::ifstream in(path);
+    if (!in) { fprintf(stderr, "cannot open %s\n", path); exit(1); }
+    std::string line;
+    while (std::getline(in, line)) {
+        std::istringstream ss(line);
+        std::string tag;
+        ss >> tag;
+        if (tag == "v") {
+            V3 v; ss >> v.p[0] >> v.p[1] >> v.p[2]; c.pos.push_back(v);
+        } else if (tag == "f") {
+            std::string tok; int n = 0;
+            while (ss >> tok) {
+                int i = atoi(tok.c_str());
+                if (i < 0) i = (int)c.pos.size() + i + 1;
+                c.idx.push_back(i - 1); ++n;
+            }
+            c.nv.push_back(n);
+        }
+    }
+    return c;
+}
+
+static Sdc::Options sdc_options() {
+    Sdc::Options o;
+    o.SetVtxBoundaryInterpolation(Sdc::Options::VTX_BOUNDARY_EDGE_ONLY);
+    return o;
+}
+
+static Far::TopologyRefiner *make_refiner(const Cage &c) {
+    Far::TopologyDescriptor d;
+    d.numVertices = (int)c.pos.size();
+    d.numFaces = (int)c.nv.size();
+    d.numVertsPerFace = c.nv.data();
+    d.vertIndicesPerFace = c.idx.data();
+    typedef Far::TopologyRefinerFactory<Far::TopologyDescriptor> F;
+    return F::Create(d, F::Options(Sdc::SCHEME_CATMARK, sdc_options()));
+}
+
+static Cage refine_once(const Cage &c) {
+    Far::TopologyRefiner *r = make_refiner(c);
+    r->RefineUniform(Far::TopologyRefiner::UniformOptions(1));
+    std::vector<V3> all(r->GetNumVerticesTotal());
+    std::copy(c.pos.begin(), c.pos.end(), all.begin());
+    Far::PrimvarRefinerReal<double> pr(*r);
+    V3 *src = all.data();
+    V3 *dst = src + c.pos.size();
+    pr.Interpolate(1, src, dst);
+    Far::TopologyLevel const &l1 = r->GetLevel(1);
+    Cage out;
+    out.pos.assign(dst, dst + l1.GetNumVertices());
+    for (int f = 0; f < l1.GetNumFaces(); ++f) {
+        Far::ConstIndexArray fv = l1.GetFaceVertices(f);
+        out.nv.push_back(fv.size());
+        for (int k = 0; k < fv.size(); ++k) out.idx.push_back(fv[k]);
+    }
+    delete r;
+    return out;
+}
+
+// Cubic Bernstein basis.
+static void bern(double t, double b[4]) {
+    double s = 1 - t;
+    b[0] = s * s * s; b[1] = 3 * t * s * s; b[2] = 3 * t * t * s; b[3] = t * t * t;
+}
+
+// Inverse of A[i][k] = B_k(i/3) by Gauss-Jordan.
+static void bern_inverse(double inv[4][4]) {
+    double a[4][8];
+    for (int i = 0; i < 4; ++i) {
+        double b[4]; bern(i / 3.0, b);
+        for (int k = 0; k < 4; ++k) { a[i][k] = b[k]; a[i][4 + k] = (i == k); }
+    }
+    for (int c = 0; c < 4; ++c) {
+        int piv = c;
+        for (int r = c + 1; r < 4; ++r) if (fabs(a[r][c]) > fabs(a[piv][c])) piv = r;
+        for (int k = 0; k < 8; ++k) std::swap(a[c][k], a[piv][k]);
+        double d = a[c][c];
+        for (int k = 0; k < 8; ++k) a[c][k] /= d;
+        for (int r = 0; r < 4; ++r) if (r != c) {
+            double m = a[r][c];
+            for (int k = 0; k < 8; ++k) a[r][k] -= m * a[c][k];
+        }
+    }
+    for (int i = 0; i < 4; ++i) for (int k = 0; k < 4; ++k) inv[i][k] = a[i][4 + k];
+}
+
+// Bezier grid b[row=v][col=u] -> GREGORY_BASIS index pairs (gregory.md §1.2).
+static const int GRID[4][4][2] = {
+    {{0, 0}, {1, 1}, {7, 7}, {5, 5}},
+    {{2, 2}, {3, 4}, {9, 8}, {6, 6}},
+    {{16, 16}, {19, 18}, {13, 14}, {12, 12}},
+    {{15, 15}, {17, 17}, {11, 11}, {10, 10}},
+};
+
+int main(int argc, char **argv) {
+    if (argc < 3) { fprintf(stderr, "usage: %s IN.obj OUT.osd [--refine] [--f32] [--samples]\n", argv[0]); return 2; }
+    bool refine = false, f32 = false, samples = false;
+    for (int i = 3; i < argc; ++i) {
+        if (!strcmp(argv[i], "--refine")) refine = true;
+        else if (!strcmp(argv[i], "--f32")) f32 = true;
+        else if (!strcmp(argv[i], "--samples")) samples = true;
+    }
+    Cage cage = read_obj(argv[1]);
+    if (refine) cage = refine_once(cage);
+    for (int n : cage.nv) if (n != 4) { fprintf(stderr, "%s: not all-quad (use --refine)\n", argv[1]); return 1; }
+    int nf = (int)cage.nv.size();
+
+    Far::TopologyRefiner *r = make_refiner(cage);
+    Far::PatchTableFactory::Options po(0);
+    po.SetEndCapType(Far::PatchTableFactory::Options::ENDCAP_GREGORY_BASIS);
+    po.SetPatchPrecision<double>();
+    r->RefineAdaptive(po.GetRefineAdaptiveOptions());
+    Far::PatchTable const *pt = Far::PatchTableFactory::Create(*r, po);
+
+    int nref = r->GetNumVerticesTotal();
+    int nloc = pt->GetNumLocalPoints();
+    std::vector<V3> pts(nref + nloc);
+    std::copy(cage.pos.begin(), cage.pos.end(), pts.begin());
+    if (nloc) pt->GetLocalPointStencilTable<double>()->UpdateValues(pts.data(), pts.data() + nref);
+
+    Far::PatchMap pm(*pt);
+    double inv[4][4];
+    bern_inverse(inv);
+    std::vector<uint32_t> type(nf, 99);
+    std::vector<double> out(nf * 60, 0.0);
+    const int NS = samples ? 16 : 0;
+    std::vector<double> smp((size_t)nf * NS * 11, 0.0);
+    const double su[4] = {0.0, 1.0 / 3.0, 0.6, 1.0};
+    int nreg = 0, ngreg = 0;
+    for (int a = 0; a < pt->GetNumPatchArrays(); ++a) {
+        Far::PatchDescriptor d = pt->GetPatchArrayDescriptor(a);
+        for (int p = 0; p < pt->GetNumPatches(a); ++p) {
+            Far::PatchParam pp = pt->GetPatchParam(a, p);
+            int f = pp.GetFaceId();
+            if (f < 0 || f >= nf || pp.GetDepth() != 0) { fprintf(stderr, "unexpected patch face %d depth %d\n", f, pp.GetDepth()); return 1; }
+            Far::ConstIndexArray cv = pt->GetPatchVertices(a, p);
+            if (d.GetType() == Far::PatchDescriptor::GREGORY_BASIS) {
+                type[f] = 1; ++ngreg;
+                for (int k = 0; k < 20; ++k) for (int c = 0; c < 3; ++c) out[f * 60 + k * 3 + c] = pts[cv[k]].p[c];
+            } else if (d.GetType() == Far::PatchDescriptor::REGULAR) {
+                type[f] = 0; ++nreg;
+            } else { fprintf(stderr, "unexpected patch type %d\n", (int)d.GetType()); return 1; }
+        }
+    }
+    std::vector<double> w(20), wu(20), wv(20);
+    for (int f = 0; f < nf; ++f) {
+        if (type[f] == 99) { fprintf(stderr, "face %d has no patch\n", f); return 1; }
+        auto eval = [&](double u, double v, double P[3], double Du[3], double Dv[3]) {
+            Far::PatchTable::PatchHandle const *h = pm.FindPatch(f, u, v);
+            if (!h) { fprintf(stderr, "FindPatch failed face %d\n", f); exit(1); }
+            pt->EvaluateBasis(*h, u, v, w.data(), wu.data(), wv.data());
+            Far::ConstIndexArray cv = pt->GetPatchVertices(*h);
+            for (int c = 0; c < 3; ++c) P[c] = Du[c] = Dv[c] = 0;
+            for (int k = 0; k < cv.size(); ++k) for (int c = 0; c < 3; ++c) {
+                P[c] += w[k] * pts[cv[k]].p[c]; Du[c] += wu[k] * pts[cv[k]].p[c]; Dv[c] += wv[k] * pts[cv[k]].p[c];
+            }
+        };
+        if (type[f] == 0) {
+            double X[4][4][3], T[4][4][3], B[4][4][3];
+            for (int j = 0; j < 4; ++j) for (int i = 0; i < 4; ++i) {
+                double du[3], dv[3];
+                eval(i / 3.0, j / 3.0, X[j][i], du, dv);
+            }
+            // B = inv * X * inv^T (rows = v, cols = u)
+            for (int j = 0; j < 4; ++j) for (int i = 0; i < 4; ++i) for (int c = 0; c < 3; ++c) {
+                double s = 0; for (int k = 0; k < 4; ++k) s += inv[j][k] * X[k][i][c]; T[j][i][c] = s;
+            }
+            for (int j = 0; j < 4; ++j) for (int i = 0; i < 4; ++i) for (int c = 0; c < 3; ++c) {
+                double s = 0; for (int k = 0; k < 4; ++k) s += T[j][k][c] * inv[i][k]; B[j][i][c] = s;
+            }
+            for (int j = 0; j < 4; ++j) for (int i = 0; i < 4; ++i) for (int h = 0; h < 2; ++h)
+                for (int c = 0; c < 3; ++c) out[f * 60 + GRID[j][i][h] * 3 + c] = B[j][i][c];
+        }
+        for (int s = 0; s < NS; ++s) {
+            double u = su[s % 4], v = su[s / 4];
+            double *o = &smp[((size_t)f * NS + s) * 11];
+            o[0] = u; o[1] = v;
+            eval(u, v, o + 2, o + 5, o + 8);
+        }
+    }
+
+    FILE *fo = fopen(argv[2], "wb");
+    if (!fo) { fprintf(stderr, "cannot write %s\n", argv[2]); return 1; }
+    fwrite("GVOSD001", 1, 8, fo);
+    uint32_t hdr[4] = {(uint32_t)cage.pos.size(), (uint32_t)nf, f32 ? 4u : 8u, (uint32_t)NS};
+    fwrite(hdr, 4, 4, fo);
+    for (auto &v : cage.pos) fwrite(v.p, 8, 3, fo);
+    uint32_t acc = 0;
+    fwrite(&acc, 4, 1, fo);
+    for (int n : cage.nv) { acc += n; fwrite(&acc, 4, 1, fo); }
+    for (int i : cage.idx) { uint32_t u = i; fwrite(&u, 4, 1, fo); }
+    fwrite(type.data(), 4, nf, fo);
+    if (f32) { std::vector<float> o(out.begin(), out.end()); fwrite(o.data(), 4, o.size(), fo); }
+    else fwrite(out.data(), 8, out.size(), fo);
+    fwrite(smp.data(), 8, smp.size(), fo);
+    fclose(fo);
+    fprintf(stderr, "%s: %zu verts, %d quads, %d regular, %d gregory, %d local points\n", argv[2], cage.pos.size(), nf, nreg, ngreg, nloc);
+    delete pt;
+    delete r;
+    return 0;
+}

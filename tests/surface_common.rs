@@ -1,0 +1,188 @@
+//! Shared helpers of the `surface_*` tests (included with `#[path]`; as its own target it has no tests).
+//!
+//! Fixture format: see tests/oracle/osd_gregory.cpp (OpenSubdiv 3.5, Far isolation 0, GREGORY_BASIS).
+#![allow(dead_code)]
+use glam::DVec3;
+use gregvox::geom::gregory::PatchF64;
+use gregvox::mesh::{Mesh, MeshMatrix, NONE};
+
+pub fn model(rel: &str) -> String {
+    format!("{}/../shared/models/{rel}", env!("CARGO_MANIFEST_DIR"))
+}
+
+pub fn fixture_path(name: &str) -> String {
+    format!(
+        "{}/tests/fixtures/surface/{name}.osd",
+        env!("CARGO_MANIFEST_DIR")
+    )
+}
+
+/// One OpenSubdiv fixture: the cage it saw and per patch (= face) its 20 points.
+pub struct Fixture {
+    pub cage: Vec<DVec3>,
+    pub faces: Vec<Vec<u32>>,
+    /// 0 = REGULAR (converted to Bézier), 1 = GREGORY_BASIS.
+    pub types: Vec<u32>,
+    pub points: Vec<[DVec3; 20]>,
+    /// Per patch: (u, v, P, Du, Dv) as 11 doubles.
+    pub samples: Vec<Vec<[f64; 11]>>,
+    /// Points were stored as f32.
+    pub f32_points: bool,
+}
+
+struct Reader<'a> {
+    b: &'a [u8],
+    at: usize,
+}
+impl Reader<'_> {
+    fn u32(&mut self) -> u32 {
+        let v = u32::from_le_bytes(self.b[self.at..self.at + 4].try_into().unwrap());
+        self.at += 4;
+        v
+    }
+    fn f64(&mut self) -> f64 {
+        let v = f64::from_le_bytes(self.b[self.at..self.at + 8].try_into().unwrap());
+        self.at += 8;
+        v
+    }
+    fn f32(&mut self) -> f64 {
+        let v = f32::from_le_bytes(self.b[self.at..self.at + 4].try_into().unwrap());
+        self.at += 4;
+        v as f64
+    }
+}
+
+pub fn read_fixture(name: &str) -> Fixture {
+    let bytes = std::fs::read(fixture_path(name))
+        .expect("fixture (regenerate with tests/oracle/build_osd.sh)");
+    assert_eq!(&bytes[..8], b"GVOSD001");
+    let mut r = Reader { b: &bytes, at: 8 };
+    let (nv, nf, pb, ns) = (
+        r.u32() as usize,
+        r.u32() as usize,
+        r.u32(),
+        r.u32() as usize,
+    );
+    let cage = (0..nv)
+        .map(|_| DVec3::new(r.f64(), r.f64(), r.f64()))
+        .collect();
+    let ptr: Vec<u32> = (0..=nf).map(|_| r.u32()).collect();
+    let idx: Vec<u32> = (0..ptr[nf]).map(|_| r.u32()).collect();
+    let faces = (0..nf)
+        .map(|f| idx[ptr[f] as usize..ptr[f + 1] as usize].to_vec())
+        .collect();
+    let types = (0..nf).map(|_| r.u32()).collect();
+    let mut points = Vec::with_capacity(nf);
+    for _ in 0..nf {
+        let mut p = [DVec3::ZERO; 20];
+        for q in p.iter_mut() {
+            *q = if pb == 4 {
+                DVec3::new(r.f32(), r.f32(), r.f32())
+            } else {
+                DVec3::new(r.f64(), r.f64(), r.f64())
+            };
+        }
+        points.push(p);
+    }
+    let samples = (0..nf)
+        .map(|_| (0..ns).map(|_| std::array::from_fn(|_| r.f64())).collect())
+        .collect();
+    assert_eq!(r.at, bytes.len(), "fixture {name}: trailing bytes");
+    Fixture {
+        cage,
+        faces,
+        types,
+        points,
+        samples,
+        f32_points: pb == 4,
+    }
+}
+
+pub fn diag(p: &[DVec3]) -> f64 {
+    let lo = p.iter().fold(DVec3::splat(f64::INFINITY), |a, &b| a.min(b));
+    let hi = p
+        .iter()
+        .fold(DVec3::splat(f64::NEG_INFINITY), |a, &b| a.max(b));
+    (hi - lo).length()
+}
+
+pub fn angle(a: DVec3, b: DVec3) -> f64 {
+    a.cross(b).length().atan2(a.dot(b))
+}
+
+/// (u, v) of the point at fraction s along the edge from corner `slot` to corner `slot + 1`.
+pub fn edge_uv(slot: usize, s: f64) -> (f64, f64) {
+    match slot {
+        0 => (s, 0.0),
+        1 => (1.0, s),
+        2 => (1.0 - s, 1.0),
+        _ => (0.0, 1.0 - s),
+    }
+}
+
+/// Twin corner of every corner of an all-quad mesh (face-major corners), or NONE.
+pub fn twin_corners(m: &MeshMatrix) -> Vec<u32> {
+    let cv = m.corner_vertex();
+    (0..m.n_corners())
+        .map(|c| {
+            let (a, b) = (cv[c], cv[m.next(c as u32) as usize]);
+            let k = m.find(b, a);
+            if k == NONE {
+                NONE
+            } else {
+                let f = m.half_edge_face().face1[k as usize] - 1;
+                let s = m.face_start(f as usize);
+                (s..s + 4).find(|&cc| cv[cc as usize] == b).unwrap()
+            }
+        })
+        .collect()
+}
+
+/// G1 figures over every interior edge, `n` samples per edge: (max position gap, max normal jump in rad,
+/// number of edges).
+pub fn g1_figures(mesh: &Mesh, patches: &[PatchF64], n: usize) -> (f64, f64, usize) {
+    let m = MeshMatrix::from_mesh(mesh);
+    let twin = twin_corners(&m);
+    let (mut gap, mut jump, mut edges) = (0.0f64, 0.0f64, 0);
+    for c in 0..m.n_corners() {
+        let t = twin[c];
+        if t == NONE || (t as usize) < c {
+            continue;
+        }
+        edges += 1;
+        let (f, i) = (c / 4, c % 4);
+        let (g, k) = (t as usize / 4, t as usize % 4);
+        for q in 0..n {
+            let s = q as f64 / (n - 1) as f64;
+            let (u1, v1) = edge_uv(i, s);
+            let (u2, v2) = edge_uv(k, 1.0 - s);
+            let p1 = patches[f].eval(u1, v1).0;
+            let p2 = patches[g].eval(u2, v2).0;
+            gap = gap.max((p1 - p2).length());
+            let a = angle(patches[f].normal(u1, v1), patches[g].normal(u2, v2));
+            jump = jump.max(a);
+        }
+    }
+    (gap, jump, edges)
+}
+
+/// A tiny deterministic generator (xorshift64*), uniform in [-1, 1).
+pub struct Rng(pub u64);
+impl Rng {
+    pub fn next(&mut self) -> f64 {
+        self.0 ^= self.0 >> 12;
+        self.0 ^= self.0 << 25;
+        self.0 ^= self.0 >> 27;
+        let x = self.0.wrapping_mul(0x2545_F491_4F6C_DD1D);
+        (x >> 11) as f64 / (1u64 << 52) as f64 - 1.0
+    }
+    /// A random vector of length ≤ r.
+    pub fn ball(&mut self, r: f64) -> DVec3 {
+        loop {
+            let v = DVec3::new(self.next(), self.next(), self.next());
+            if v.length() <= 1.0 {
+                return v * r;
+            }
+        }
+    }
+}
