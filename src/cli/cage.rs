@@ -1,7 +1,9 @@
 //! Shared by the commands that take a quad cage: loading it as GPU Gregory topology, and measuring normal
 //! jumps across shared patch edges of an evaluated grid.
-use crate::engine::gregory::GregoryTopology;
+use crate::engine::gregory::{canonical_edge_flags, GregoryTopology};
+use crate::mesh::{load_obj, Mesh};
 use crate::passes::gregory_eval::SurfaceVertex;
+use crate::surface::{GregoryStencils, Tangents};
 use glam::{DVec3, Vec3};
 use std::collections::HashMap;
 use std::path::Path;
@@ -10,8 +12,80 @@ use std::path::Path;
 pub fn load_cage_topology(
     path: &Path,
 ) -> anyhow::Result<(GregoryTopology, Vec<DVec3>, Option<String>)> {
-    let _ = path;
-    anyhow::bail!("{}: ACC-2 cages are not supported yet", path.display())
+    let mesh = load_obj(path)?;
+    cage_topology(&mesh, Tangents::OpenSubdiv)
+        .map_err(|e| anyhow::anyhow!("{}: {e}", path.display()))
+}
+
+/// The GPU topology of a cage: W (columns = the cage's vertices), patch point rows and canonical-edge flags
+/// of the all-quad patch layout.
+pub fn cage_topology(
+    mesh: &Mesh,
+    tangents: Tangents,
+) -> crate::Result<(GregoryTopology, Vec<DVec3>, Option<String>)> {
+    let cs = GregoryStencils::from_mesh(mesh, tangents)?;
+    let quads: Vec<[u32; 4]> = (0..cs.quad_mesh.n_faces())
+        .map(|f| {
+            let q = cs.quad_mesh.face(f);
+            [q[0], q[1], q[2], q[3]]
+        })
+        .collect();
+    let topo = GregoryTopology {
+        w: cs.stencils.w,
+        patch_points: cs.stencils.patch_points,
+        patch_flags: canonical_edge_flags(&quads),
+    };
+    Ok((topo, mesh.positions.clone(), cs.note))
+}
+
+/// The demo's built-in cage: the surface of an `nx × ny × nz` box lattice of size 2 × 1 × 1, outward quads
+/// (valence-3 corners, valence-4 elsewhere).
+///
+/// ```
+/// let m = gregvox::cli::cage::builtin_cage(4, 2, 2);
+/// assert_eq!(m.n_faces(), 2 * (4 * 2 + 2 * 2 + 4 * 2));
+/// ```
+pub fn builtin_cage(nx: u32, ny: u32, nz: u32) -> Mesh {
+    let (nx, ny, nz) = (nx.max(1), ny.max(1), nz.max(1));
+    let n = [nx, ny, nz];
+    let size = [2.0, 1.0, 1.0];
+    let mut index: HashMap<[u32; 3], u32> = HashMap::new();
+    let mut positions = Vec::new();
+    let mut id = |p: [u32; 3], positions: &mut Vec<DVec3>| -> u32 {
+        *index.entry(p).or_insert_with(|| {
+            positions.push(DVec3::new(
+                size[0] * (p[0] as f64 / nx as f64 - 0.5),
+                size[1] * (p[1] as f64 / ny as f64 - 0.5),
+                size[2] * (p[2] as f64 / nz as f64 - 0.5),
+            ));
+            positions.len() as u32 - 1
+        })
+    };
+    let mut faces = Vec::new();
+    for axis in 0..3 {
+        let (a, b) = ((axis + 1) % 3, (axis + 2) % 3);
+        for side in [0, n[axis]] {
+            for i in 0..n[a] {
+                for j in 0..n[b] {
+                    let corner = |di: u32, dj: u32| {
+                        let mut p = [0u32; 3];
+                        p[axis] = side;
+                        p[a] = i + di;
+                        p[b] = j + dj;
+                        p
+                    };
+                    let q = [corner(0, 0), corner(1, 0), corner(1, 1), corner(0, 1)];
+                    let mut f: Vec<u32> = q.iter().map(|&p| id(p, &mut positions)).collect();
+                    // (a, b, axis) is right-handed: counter-clockwise in (a, b) faces +axis.
+                    if side == 0 {
+                        f.reverse();
+                    }
+                    faces.push(f);
+                }
+            }
+        }
+    }
+    Mesh::from_polygons(positions, &faces).expect("a valid lattice box")
 }
 
 /// Largest normal jump across shared edges (consistently oriented patches).

@@ -1,15 +1,40 @@
 //! The cage scene's input: an OBJ quad cage (or the built-in one) turned into a GPU Gregory surface.
 use super::scene::{CageScene, Scene};
 use super::DemoArgs;
+use crate::cli::cage::{builtin_cage, cage_topology, load_cage_topology};
+use crate::engine::gregory::GregorySurface;
 use crate::gpu::Context;
+use crate::surface::Tangents;
 use ash::vk;
 
 /// Builds the cage scene.
-pub fn build(
-    _ctx: &Context,
-    _args: &DemoArgs,
-    _format: vk::Format,
-) -> anyhow::Result<Box<dyn Scene>> {
-    let _ = CageScene::new;
-    anyhow::bail!("the cage scene needs the ACC-2 stencils, which are not built yet")
+pub fn build(ctx: &Context, args: &DemoArgs, format: vk::Format) -> anyhow::Result<Box<dyn Scene>> {
+    let (topo, cage, note, name) = match &args.model {
+        Some(path) => {
+            let (t, c, n) = load_cage_topology(path)?;
+            (
+                t,
+                c,
+                n,
+                path.file_name()
+                    .map(|f| f.to_string_lossy().into_owned())
+                    .unwrap_or_default(),
+            )
+        }
+        None => {
+            let (t, c, n) = cage_topology(&builtin_cage(4, 2, 2), Tangents::OpenSubdiv)?;
+            (t, c, n, "built-in box cage".to_string())
+        }
+    };
+    if let Some(n) = note {
+        eprintln!("gregvox demo: {n}");
+    }
+    let surface = GregorySurface::new(ctx, &topo, &cage, args.level.unwrap_or(8))?;
+    Ok(Box::new(CageScene::new(
+        ctx,
+        format,
+        surface,
+        args.deform,
+        name,
+    )?))
 }
