@@ -7,9 +7,8 @@
 
 const float GREGORY_CORNER_EPS = 1e-6;
 
-// Bézier grid [row = v][col = u] → control point (a); interior cells pair (a, b).
-const int GREGORY_GRID[16] = int[16](0, 1, 7, 5,  2, 3, 9, 6,  16, 19, 13, 12,  15, 17, 11, 10);
-const int GREGORY_PAIR[16] = int[16](0, 1, 7, 5,  2, 4, 8, 6,  16, 18, 14, 12,  15, 17, 11, 10);
+// Bézier grid [row = v][col = u] (geom::gregory::BEZIER_GRID): row 0: 0 1 7 5; row 1: 2 Q11 Q21 6;
+// row 2: 16 Q12 Q22 12; row 3: 15 17 11 10, with Q11 = (3, 4), Q21 = (9, 8), Q12 = (19, 18), Q22 = (13, 14).
 
 // Cubic Bernstein values (b) and derivatives (d) at t.
 void gregory_bern3(float t, out vec4 b, out vec4 d) {
@@ -36,7 +35,13 @@ void gregory_rational(vec3 pa, vec3 pb, float a, float b, float au, float bv,
     qv = diff * fv;
 }
 
+// One row of the net contracted with weights w: ((a·w.x + b·w.y) + c·w.z) + d·w.w, the CPU's order.
+vec3 gregory_row(vec3 a, vec3 b, vec3 c, vec3 d, vec4 w) {
+    return a * w.x + b * w.y + c * w.z + d * w.w;
+}
+
 // Position and exact first partials at (u, v) ∈ [0,1]²; also returns the frozen net for the normal fallback.
+// Written out without loops or dynamic indexing: llvmpipe keeps every value in registers.
 void gregory_eval(in vec3 cv[20], float u, float v, out vec3 p, out vec3 su, out vec3 sv, out vec3 net[16]) {
     u = clamp(u, 0.0, 1.0);
     v = clamp(v, 0.0, 1.0);
@@ -44,29 +49,32 @@ void gregory_eval(in vec3 cv[20], float u, float v, out vec3 p, out vec3 su, out
     gregory_bern3(u, bu, du);
     gregory_bern3(v, bv, dv);
     float uu = 1.0 - u, vv = 1.0 - v;
-    for (int k = 0; k < 16; ++k) net[k] = cv[GREGORY_GRID[k]];
-    vec3 dqu[4], dqv[4];
+    vec3 q11, q21, q12, q22, u11, v11, u21, v21, u12, v12, u22, v22;
     // Interior cells in the order Q11 (1,1), Q21 (2,1), Q12 (1,2), Q22 (2,2).
-    gregory_rational(cv[3], cv[4], u, v, 1.0, 1.0, net[5], dqu[0], dqv[0]);
-    gregory_rational(cv[9], cv[8], uu, v, -1.0, 1.0, net[6], dqu[1], dqv[1]);
-    gregory_rational(cv[19], cv[18], u, vv, 1.0, -1.0, net[9], dqu[2], dqv[2]);
-    gregory_rational(cv[13], cv[14], uu, vv, -1.0, -1.0, net[10], dqu[3], dqv[3]);
-    p = vec3(0.0); su = vec3(0.0); sv = vec3(0.0);
-    for (int j = 0; j < 4; ++j) {
-        vec3 rp = vec3(0.0), ru = vec3(0.0);
-        for (int i = 0; i < 4; ++i) {
-            rp = rp + net[4 * j + i] * bu[i];
-            ru = ru + net[4 * j + i] * du[i];
-        }
-        p = p + rp * bv[j];
-        su = su + ru * bv[j];
-        sv = sv + rp * dv[j];
-    }
+    gregory_rational(cv[3], cv[4], u, v, 1.0, 1.0, q11, u11, v11);
+    gregory_rational(cv[9], cv[8], uu, v, -1.0, 1.0, q21, u21, v21);
+    gregory_rational(cv[19], cv[18], u, vv, 1.0, -1.0, q12, u12, v12);
+    gregory_rational(cv[13], cv[14], uu, vv, -1.0, -1.0, q22, u22, v22);
+    net[0] = cv[0];  net[1] = cv[1];  net[2] = cv[7];  net[3] = cv[5];
+    net[4] = cv[2];  net[5] = q11;    net[6] = q21;    net[7] = cv[6];
+    net[8] = cv[16]; net[9] = q12;    net[10] = q22;   net[11] = cv[12];
+    net[12] = cv[15]; net[13] = cv[17]; net[14] = cv[11]; net[15] = cv[10];
+    vec3 r0 = gregory_row(cv[0], cv[1], cv[7], cv[5], bu);
+    vec3 r1 = gregory_row(cv[2], q11, q21, cv[6], bu);
+    vec3 r2 = gregory_row(cv[16], q12, q22, cv[12], bu);
+    vec3 r3 = gregory_row(cv[15], cv[17], cv[11], cv[10], bu);
+    vec3 d0 = gregory_row(cv[0], cv[1], cv[7], cv[5], du);
+    vec3 d1 = gregory_row(cv[2], q11, q21, cv[6], du);
+    vec3 d2 = gregory_row(cv[16], q12, q22, cv[12], du);
+    vec3 d3 = gregory_row(cv[15], cv[17], cv[11], cv[10], du);
+    p = gregory_row(r0, r1, r2, r3, bv);
+    su = gregory_row(d0, d1, d2, d3, bv);
+    sv = gregory_row(r0, r1, r2, r3, dv);
     // Exact-derivative correction: Σ B_i(u) B_j(v) ∂Q_ij over the interior cells.
-    su = su + dqu[0] * (bu[1] * bv[1]); sv = sv + dqv[0] * (bu[1] * bv[1]);
-    su = su + dqu[1] * (bu[2] * bv[1]); sv = sv + dqv[1] * (bu[2] * bv[1]);
-    su = su + dqu[2] * (bu[1] * bv[2]); sv = sv + dqv[2] * (bu[1] * bv[2]);
-    su = su + dqu[3] * (bu[2] * bv[2]); sv = sv + dqv[3] * (bu[2] * bv[2]);
+    su = su + u11 * (bu.y * bv.y); sv = sv + v11 * (bu.y * bv.y);
+    su = su + u21 * (bu.z * bv.y); sv = sv + v21 * (bu.z * bv.y);
+    su = su + u12 * (bu.y * bv.z); sv = sv + v12 * (bu.y * bv.z);
+    su = su + u22 * (bu.z * bv.z); sv = sv + v22 * (bu.z * bv.z);
 }
 
 // Unit normal with the fallback of geom::gregory (notes §1.5): S_u × S_v unless degenerate, then the
