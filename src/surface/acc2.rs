@@ -422,8 +422,7 @@ impl GregoryStencils {
         let mut rows: Vec<Row> = vec![Vec::new(); nv + nc + n_back as usize];
         // P rows, one per vertex (from any of its corners).
         let mut p_done = vec![false; nv];
-        for c in 0..nc {
-            let r = &rings[c];
+        for r in &rings {
             if !p_done[r.v as usize] {
                 p_done[r.v as usize] = true;
                 rows[r.v as usize] = p_row(r);
@@ -452,7 +451,7 @@ impl GregoryStencils {
         };
         let cv = m.corner_vertex();
         let mut patch_points = Vec::with_capacity(nf);
-        for f in 0..nf {
+        for (f, &reg) in regular.iter().enumerate() {
             let mut pp = [0u32; 20];
             let base = 4 * f;
             for i in 0..4 {
@@ -467,7 +466,7 @@ impl GregoryStencils {
                 let (cn, cp) = (base + (i + 1) % 4, base + (i + 3) % 4);
                 let r = &rings[c];
                 let (rn, rp) = (&rings[cn], &rings[cp]);
-                let (mut fp_reg, mut fm_reg) = if regular[f] {
+                let (mut fp_reg, mut fm_reg) = if reg {
                     (true, true)
                 } else {
                     (
@@ -476,7 +475,7 @@ impl GregoryStencils {
                     )
                 };
                 let (mut fp_copy, mut fm_copy) = (false, false);
-                if r.boundary && !regular[f] {
+                if r.boundary && !reg {
                     if r.faces > 1 {
                         if r.face_in_ring == 0 {
                             fp_reg = fm_reg;
