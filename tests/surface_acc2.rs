@@ -537,3 +537,73 @@ fn bad_cages_are_clear_errors() {
         .points(&[DVec3::ZERO, DVec3::X, DVec3::NAN, DVec3::Y])
         .is_err());
 }
+
+/// OpenSubdiv's exact Catmull–Clark limit per cage vertex (`PrimvarRefiner::Limit`): (P, tan1, tan2).
+fn read_limit(name: &str) -> Vec<[DVec3; 3]> {
+    let path = format!(
+        "{}/tests/fixtures/surface/{name}.limit",
+        env!("CARGO_MANIFEST_DIR")
+    );
+    let b = std::fs::read(path).unwrap();
+    assert_eq!(b.len() % 72, 0);
+    let f = |k: usize| f64::from_le_bytes(b[8 * k..8 * k + 8].try_into().unwrap());
+    (0..b.len() / 72)
+        .map(|v| {
+            std::array::from_fn(|i| {
+                DVec3::new(f(9 * v + 3 * i), f(9 * v + 3 * i + 1), f(9 * v + 3 * i + 2))
+            })
+        })
+        .collect()
+}
+
+#[test]
+fn exact_tangents_put_corner_normals_on_the_limit_tangent_plane() {
+    // Closed cages: every vertex interior. P rows are the exact limit points in both modes; the corner
+    // normal is the exact limit normal with Tangents::Exact, and only approximately with OpenSubdiv's masks.
+    for name in ["catmark_cube", "spot_quadrangulated"] {
+        let path = if name == "catmark_cube" {
+            model("opensubdiv/catmark_cube.obj")
+        } else {
+            model("spot_quadrangulated.obj")
+        };
+        let mesh = load_obj(path).unwrap();
+        let lim = read_limit(name);
+        assert_eq!(lim.len(), mesh.positions.len());
+        let m = MeshMatrix::from_mesh(&mesh);
+        let d = diag(&mesh.positions);
+        let mut figures = Vec::new();
+        for t in [Tangents::OpenSubdiv, Tangents::Exact] {
+            let s = GregoryStencils::new(&m, t).unwrap();
+            let pts = s.points(&mesh.positions).unwrap();
+            let patches = s.patches_f64(&mesh.positions).unwrap();
+            let (mut perr, mut nerr) = (0.0f64, 0.0f64);
+            for (f, p) in patches.iter().enumerate() {
+                for (i, (u, v)) in [(0.0, 0.0), (1.0, 0.0), (1.0, 1.0), (0.0, 1.0)]
+                    .into_iter()
+                    .enumerate()
+                {
+                    let vtx = m.face(f)[i] as usize;
+                    perr = perr.max((pts[vtx] - lim[vtx][0]).length() / d);
+                    let n_lim = lim[vtx][1].cross(lim[vtx][2]);
+                    // orientation of (tan1, tan2) is OpenSubdiv's; compare the planes (unsigned)
+                    let a = angle(p.normal(u, v), n_lim);
+                    nerr = nerr.max(a.min(std::f64::consts::PI - a));
+                }
+            }
+            eprintln!("{name}: {t:?}: P vs limit {perr:.1e}·diag, corner normal vs limit tangent plane {nerr:.2e} rad ({:.3}°)", nerr.to_degrees());
+            figures.push((perr, nerr));
+        }
+        assert!(figures[0].0 <= 1e-12 && figures[1].0 <= 1e-12);
+        assert!(
+            figures[1].1 <= 1e-9,
+            "{name}: exact mode off the limit plane by {:e}",
+            figures[1].1
+        );
+        if name == "spot_quadrangulated" {
+            assert!(
+                figures[0].1 > 1e-4,
+                "OpenSubdiv masks are expected off the limit plane at EVs"
+            );
+        }
+    }
+}
