@@ -147,8 +147,9 @@ pub struct G1 {
     pub jump: f64,
     /// Interior edges checked.
     pub edges: usize,
-    /// Corner samples skipped because S_u = S_v = 0 there (interior valence-2 vertices, where OpenSubdiv's
-    /// σ_2 = 0 puts Ep = Em = P): the normal is undefined, each patch falls back to its own.
+    /// Corner samples skipped because S_u ∥ S_v there (interior valence-2 vertices: OpenSubdiv's σ_2 = 0
+    /// puts Ep = Em = P; the exact mask gives Em − P = −(Ep − P)): the normal is undefined and each patch
+    /// falls back to its own.
     pub skipped: usize,
 }
 
@@ -170,7 +171,9 @@ pub fn g1_figures(mesh: &Mesh, patches: &[PatchF64], n: usize) -> G1 {
             let (p1, su, sv) = patches[f].eval(u1, v1);
             let p2 = patches[g].eval(u2, v2).0;
             r.gap = r.gap.max((p1 - p2).length());
-            if (q == 0 || q == n - 1) && su.length() + sv.length() == 0.0 {
+            // a corner where S_u ∥ S_v (or both 0) has no tangent plane: each patch uses its fallback
+            if (q == 0 || q == n - 1) && su.cross(sv).length() <= 1e-10 * su.length() * sv.length()
+            {
                 r.skipped += 1;
                 continue;
             }

@@ -73,6 +73,16 @@ fn g1_static_both_tangent_modes() {
     );
     assert!(r.skipped > 0, "test8 has valence-2 vertices");
     assert!(r.gap <= GAP * diag(&mesh.positions) && r.jump <= JUMP);
+    // The exact-tangent mask at valence 2 gives Em − P = −(Ep − P): again no tangent plane at the corner.
+    let s = GregoryStencils::new(&MeshMatrix::from_mesh(&mesh), Tangents::Exact).unwrap();
+    let patches = s.patches_f64(&mesh.positions).unwrap();
+    let r = g1_figures(&mesh, &patches, 33);
+    eprintln!(
+        "catmark_gregory_test8_r1 Exact: gap {:.1e}, normal jump {:.1e} rad, {} samples skipped",
+        r.gap, r.jump, r.skipped
+    );
+    assert!(r.skipped > 0);
+    assert!(r.gap <= GAP * diag(&mesh.positions) && r.jump <= JUMP);
 }
 
 #[test]
