@@ -628,7 +628,7 @@ fn from_mesh_on_non_quad_cages_matches_opensubdiv_refine_then_iso0() {
         let d = diag(&mesh.positions);
         let mut used = vec![false; ours.len()];
         let mut worst = 0.0f64;
-        for (f, theirs) in fx.points.iter().enumerate() {
+        for theirs in &fx.points {
             let mut best = (f64::INFINITY, 0);
             for (g, p) in ours.iter().enumerate() {
                 for r in 0..4 {

@@ -107,11 +107,13 @@ impl Ring {
     fn is_regular(&self) -> bool {
         (self.faces << self.boundary as usize) == 4
     }
-    /// A boundary corner with a single face (treated as a sharp corner in regular patches).
+    /// A boundary corner with a single face: sharp (P = v) in OpenSubdiv, and it does not stop a face
+    /// from being a REGULAR patch; its cosine stays cos(π) = −1 for the neighbouring face points.
     fn is_corner(&self) -> bool {
         self.boundary && self.faces == 1
     }
-    /// The corner cosine c_i of the face-point formula (gregory.md §3.4).
+    /// The corner cosine c_i of the face-point formula (gregory.md §3.4): 0 for regular corners,
+    /// cos(π/F) on a boundary with F faces, cos(2π/n) inside (n = 2 gives −1).
     fn cos(&self) -> f64 {
         if self.is_regular() {
             0.0
