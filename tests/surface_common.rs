@@ -138,38 +138,56 @@ pub fn twin_corners(m: &MeshMatrix) -> Vec<u32> {
         .collect()
 }
 
-/// G1 figures over every interior edge, `n` samples per edge: (max position gap, max normal jump in rad,
-/// number of edges).
-pub fn g1_figures(mesh: &Mesh, patches: &[PatchF64], n: usize) -> (f64, f64, usize) {
+/// G1 figures over every interior edge, `n` samples per edge.
+#[derive(Debug, Default)]
+pub struct G1 {
+    /// Max position gap (absolute).
+    pub gap: f64,
+    /// Max normal jump (rad).
+    pub jump: f64,
+    /// Interior edges checked.
+    pub edges: usize,
+    /// Corner samples skipped because S_u ∥ S_v there (interior valence-2 vertices: OpenSubdiv's σ_2 = 0
+    /// puts Ep = Em = P; the exact mask gives Em − P = −(Ep − P)): the normal is undefined and each patch
+    /// falls back to its own.
+    pub skipped: usize,
+}
+
+pub fn g1_figures(mesh: &Mesh, patches: &[PatchF64], n: usize) -> G1 {
     let m = MeshMatrix::from_mesh(mesh);
     let twin = twin_corners(&m);
-    let (mut gap, mut jump, mut edges) = (0.0f64, 0.0f64, 0);
-    for c in 0..m.n_corners() {
-        let t = twin[c];
+    let mut r = G1::default();
+    for (c, &t) in twin.iter().enumerate() {
         if t == NONE || (t as usize) < c {
             continue;
         }
-        edges += 1;
+        r.edges += 1;
         let (f, i) = (c / 4, c % 4);
         let (g, k) = (t as usize / 4, t as usize % 4);
         for q in 0..n {
             let s = q as f64 / (n - 1) as f64;
             let (u1, v1) = edge_uv(i, s);
             let (u2, v2) = edge_uv(k, 1.0 - s);
-            let p1 = patches[f].eval(u1, v1).0;
+            let (p1, su, sv) = patches[f].eval(u1, v1);
             let p2 = patches[g].eval(u2, v2).0;
-            gap = gap.max((p1 - p2).length());
+            r.gap = r.gap.max((p1 - p2).length());
+            // a corner where S_u ∥ S_v (or both 0) has no tangent plane: each patch uses its fallback
+            if (q == 0 || q == n - 1) && su.cross(sv).length() <= 1e-10 * su.length() * sv.length()
+            {
+                r.skipped += 1;
+                continue;
+            }
             let a = angle(patches[f].normal(u1, v1), patches[g].normal(u2, v2));
-            jump = jump.max(a);
+            r.jump = r.jump.max(a);
         }
     }
-    (gap, jump, edges)
+    r
 }
 
 /// A tiny deterministic generator (xorshift64*), uniform in [-1, 1).
 pub struct Rng(pub u64);
 impl Rng {
-    pub fn next(&mut self) -> f64 {
+    pub fn uniform(&mut self) -> f64 {
         self.0 ^= self.0 >> 12;
         self.0 ^= self.0 << 25;
         self.0 ^= self.0 >> 27;
@@ -179,7 +197,7 @@ impl Rng {
     /// A random vector of length ≤ r.
     pub fn ball(&mut self, r: f64) -> DVec3 {
         loop {
-            let v = DVec3::new(self.next(), self.next(), self.next());
+            let v = DVec3::new(self.uniform(), self.uniform(), self.uniform());
             if v.length() <= 1.0 {
                 return v * r;
             }

@@ -107,11 +107,13 @@ impl Ring {
     fn is_regular(&self) -> bool {
         (self.faces << self.boundary as usize) == 4
     }
-    /// A boundary corner with a single face (treated as a sharp corner in regular patches).
+    /// A boundary corner with a single face: sharp (P = v) in OpenSubdiv, and it does not stop a face
+    /// from being a REGULAR patch; its cosine stays cos(π) = −1 for the neighbouring face points.
     fn is_corner(&self) -> bool {
         self.boundary && self.faces == 1
     }
-    /// The corner cosine c_i of the face-point formula (gregory.md §3.4).
+    /// The corner cosine c_i of the face-point formula (gregory.md §3.4): 0 for regular corners,
+    /// cos(π/F) on a boundary with F faces, cos(2π/n) inside (n = 2 gives −1).
     fn cos(&self) -> f64 {
         if self.is_regular() {
             0.0
@@ -422,8 +424,7 @@ impl GregoryStencils {
         let mut rows: Vec<Row> = vec![Vec::new(); nv + nc + n_back as usize];
         // P rows, one per vertex (from any of its corners).
         let mut p_done = vec![false; nv];
-        for c in 0..nc {
-            let r = &rings[c];
+        for r in &rings {
             if !p_done[r.v as usize] {
                 p_done[r.v as usize] = true;
                 rows[r.v as usize] = p_row(r);
@@ -452,7 +453,7 @@ impl GregoryStencils {
         };
         let cv = m.corner_vertex();
         let mut patch_points = Vec::with_capacity(nf);
-        for f in 0..nf {
+        for (f, &reg) in regular.iter().enumerate() {
             let mut pp = [0u32; 20];
             let base = 4 * f;
             for i in 0..4 {
@@ -467,7 +468,7 @@ impl GregoryStencils {
                 let (cn, cp) = (base + (i + 1) % 4, base + (i + 3) % 4);
                 let r = &rings[c];
                 let (rn, rp) = (&rings[cn], &rings[cp]);
-                let (mut fp_reg, mut fm_reg) = if regular[f] {
+                let (mut fp_reg, mut fm_reg) = if reg {
                     (true, true)
                 } else {
                     (
@@ -476,7 +477,7 @@ impl GregoryStencils {
                     )
                 };
                 let (mut fp_copy, mut fm_copy) = (false, false);
-                if r.boundary && !regular[f] {
+                if r.boundary && !reg {
                     if r.faces > 1 {
                         if r.face_in_ring == 0 {
                             fp_reg = fm_reg;

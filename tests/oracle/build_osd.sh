@@ -15,8 +15,10 @@ for c in catmark_cube catmark_torus catmark_gregory_test0 catmark_gregory_test1 
          catmark_gregory_test6 catmark_tent catmark_flap; do
     "$bin" "$osd/$c.obj" "$out/$c.osd" --samples
 done
+# Exact limit position and tangents per cage vertex (Sdc masks) for the Tangents::Exact checks.
+"$bin" "$osd/catmark_cube.obj" "$out/catmark_cube.osd" --samples --limit "$out/catmark_cube.limit"
 # Valence 2 and mixed faces: one uniform Catmull-Clark step by Far, then isolation 0 on the refined cage.
 "$bin" "$osd/catmark_gregory_test8.obj" "$out/catmark_gregory_test8_r1.osd" --refine --samples
 "$bin" "$osd/catmark_nonquads.obj" "$out/catmark_nonquads_r1.osd" --refine
 # Large: f32 points, no samples (keeps the fixture under 1 MB).
-"$bin" "$models/spot_quadrangulated.obj" "$out/spot_quadrangulated.osd" --f32
+"$bin" "$models/spot_quadrangulated.obj" "$out/spot_quadrangulated.osd" --f32 --limit "$out/spot_quadrangulated.limit"

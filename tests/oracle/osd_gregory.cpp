@@ -23,7 +23,10 @@
 //   point_bytes points[n_faces][20][3]
 //   f64 samples[n_faces][n_samples][11] (u, v, P.xyz, Du.xyz, Dv.xyz)
 //
-// Usage: osd_gregory IN.obj OUT.osd [--refine] [--f32] [--samples]
+// With --limit FILE: also the exact Catmull-Clark limit of every cage vertex from Far::PrimvarRefiner::Limit
+// (Sdc limit position and tangent masks on the unrefined cage): f64 [n_verts][9] = P, tan1, tan2.
+//
+// Usage: osd_gregory IN.obj OUT.osd [--refine] [--f32] [--samples] [--limit FILE]
 //   --refine: one uniform Catmull-Clark step by Far first (for non-quad cages); the refined cage is what
 //             the fixture stores, so the Rust test uses OpenSubdiv's vertex numbering.
 #include <opensubdiv/far/topologyDescriptor.h>
@@ -153,7 +156,9 @@ static const int GRID[4][4][2] = {
 int main(int argc, char **argv) {
     if (argc < 3) { fprintf(stderr, "usage: %s IN.obj OUT.osd [--refine] [--f32] [--samples]\n", argv[0]); return 2; }
     bool refine = false, f32 = false, samples = false;
+    const char *limit_path = 0;
     for (int i = 3; i < argc; ++i) {
+        if (!strcmp(argv[i], "--limit") && i + 1 < argc) { limit_path = argv[++i]; continue; }
         if (!strcmp(argv[i], "--refine")) refine = true;
         else if (!strcmp(argv[i], "--f32")) f32 = true;
         else if (!strcmp(argv[i], "--samples")) samples = true;
@@ -162,6 +167,19 @@ int main(int argc, char **argv) {
     if (refine) cage = refine_once(cage);
     for (int n : cage.nv) if (n != 4) { fprintf(stderr, "%s: not all-quad (use --refine)\n", argv[1]); return 1; }
     int nf = (int)cage.nv.size();
+    if (limit_path) {
+        Far::TopologyRefiner *lr = make_refiner(cage);
+        std::vector<V3> P(cage.pos.size()), T1(cage.pos.size()), T2(cage.pos.size());
+        Far::PrimvarRefinerReal<double> pr(*lr);
+        V3 const *src = cage.pos.data();
+        V3 *dp = P.data(), *d1 = T1.data(), *d2 = T2.data();
+        pr.Limit(src, dp, d1, d2);
+        FILE *fl = fopen(limit_path, "wb");
+        if (!fl) { fprintf(stderr, "cannot write %s\n", limit_path); return 1; }
+        for (size_t v = 0; v < P.size(); ++v) { fwrite(P[v].p, 8, 3, fl); fwrite(T1[v].p, 8, 3, fl); fwrite(T2[v].p, 8, 3, fl); }
+        fclose(fl);
+        delete lr;
+    }
 
     Far::TopologyRefiner *r = make_refiner(cage);
     Far::PatchTableFactory::Options po(0);
