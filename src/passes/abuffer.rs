@@ -2,9 +2,9 @@
 //! abuffer_scatter.frag, abuffer_fill.comp), the §6 alternative to peeling that never drops an equal-depth
 //! fragment. The count pre-pass is the peel pass's (`PeelPass::record_count`); this pass adds:
 //! - `record_scan`: exclusive prefix sum of the R² column counts (+1 trailing slot = the total Φ) in a
-//!   multi-level layout ([`scan_levels`]): level l is scanned in 256-element blocks whose totals form level
+//!   multi-level layout ([`scan_levels`]): level l is scanned in 1,024-element blocks whose totals form level
 //!   l+1, up to a single block, then the block offsets are added back down. Every dispatch goes through
-//!   `dispatch_linear`, so R² up to 2048² (16,385 blocks at level 0) stays within 65,535 groups per dimension.
+//!   `dispatch_linear` (2D beyond 65,535 groups); R² = 2048² is 4,097 blocks at level 0.
 //! - `record_scatter`: one geometry pass with no attachments; each fragment stores ±(z+1) at
 //!   `offset[col] + atomicAdd(cursor[col], 1)`.
 //! - `record_fill`: per column, insertion sort then the winding (or parity) fill of `voxel_fill.comp`, for a
@@ -23,8 +23,11 @@ use crate::passes::peel::{PeelGeometry, PeelPush};
 use crate::voxel::cpu::FillRule;
 use ash::vk;
 
-/// Elements per scan block (`local_size_x` of abuffer_scan.comp).
-pub const SCAN_BLOCK: u64 = 256;
+/// Elements per scan block (abuffer_scan.comp: 64 invocations × [`SCAN_PER_INVOCATION`]).
+pub const SCAN_BLOCK: u64 = 1024;
+
+/// Consecutive elements each scan invocation handles serially.
+pub const SCAN_PER_INVOCATION: u64 = 16;
 
 /// The levels of a multi-level exclusive scan of `n` elements: (first word, length) of each level, level 0
 /// first, the last of length 1 (the grand total of the level below).
@@ -32,7 +35,7 @@ pub const SCAN_BLOCK: u64 = 256;
 /// ```
 /// use gregvox::passes::abuffer::scan_levels;
 /// assert_eq!(scan_levels(10), vec![(0, 10), (10, 1)]);
-/// assert_eq!(scan_levels(2048 * 2048 + 1), vec![(0, 4194305), (4194305, 16385), (4210690, 65), (4210755, 1)]);
+/// assert_eq!(scan_levels(2048 * 2048 + 1), vec![(0, 4194305), (4194305, 4097), (4198402, 5), (4198407, 1)]);
 /// ```
 pub fn scan_levels(n: u64) -> Vec<(u64, u64)> {
     let mut levels = vec![(0, n)];
@@ -99,7 +102,7 @@ impl AbufferPass {
             shaders::ABUFFER_SCAN_COMP,
             vec![scan_layout],
             16,
-            SCAN_BLOCK as u32,
+            (SCAN_BLOCK / SCAN_PER_INVOCATION) as u32,
         )?;
         let scatter = match Self::scatter_pipeline(ctx, stride) {
             Ok(p) => p,
@@ -192,7 +195,8 @@ impl AbufferPass {
                 &[(0, Binding::Storage(scan.raw))],
                 bytemuck::cast_slice(&push(data, len, levels[l + 1].0, 0)),
             );
-            self.scan.dispatch_linear(ctx, cmd, len)?;
+            self.scan
+                .dispatch_linear(ctx, cmd, len.div_ceil(SCAN_PER_INVOCATION))?;
             memory_barrier(ctx, cmd, src, dst);
         }
         // Down: add each scanned level's offsets to the blocks of the level below.
@@ -204,7 +208,8 @@ impl AbufferPass {
                 &[(0, Binding::Storage(scan.raw))],
                 bytemuck::cast_slice(&push(data, len, levels[l + 1].0, 1)),
             );
-            self.scan.dispatch_linear(ctx, cmd, len)?;
+            self.scan
+                .dispatch_linear(ctx, cmd, len.div_ceil(SCAN_PER_INVOCATION))?;
             memory_barrier(ctx, cmd, src, dst);
         }
         memory_barrier(
