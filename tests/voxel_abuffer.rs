@@ -201,3 +201,59 @@ fn an_empty_projection_and_bad_axis_counts_are_handled() {
         assert_eq!((g.count(), s[0].layers), (0, 0));
     });
 }
+
+#[test]
+fn the_prefix_sum_is_exact_across_levels_up_to_2048_squared_columns() {
+    use ash::vk;
+    use gregvox::gpu::resources::memory_barrier;
+    use gregvox::passes::abuffer::{scan_levels, scan_words, AbufferPass};
+    // Sizes around the block edges (1,024 elements) and the largest grid's column count + 1 (2048² + 1:
+    // four levels). Values below 256 (real counts are ≤ L), so the 4 M-element total stays below 2^30.
+    with_gpu(|ctx| {
+        let pass = AbufferPass::new(ctx, 12).unwrap();
+        for n in [1u64, 1023, 1024, 1025, 1024 * 1024 + 1, 2048 * 2048 + 1] {
+            let mut data = vec![0u32; scan_words(n) as usize];
+            let mut x = 0x9e37_79b9u32;
+            for v in data.iter_mut().take(n as usize) {
+                x ^= x << 13;
+                x ^= x >> 17;
+                x ^= x << 5;
+                *v = x >> 24;
+            }
+            let buf = ctx
+                .upload_buffer(
+                    "scan test",
+                    bytemuck::cast_slice(&data),
+                    vk::BufferUsageFlags::STORAGE_BUFFER | vk::BufferUsageFlags::TRANSFER_SRC,
+                )
+                .unwrap();
+            ctx.one_shot(|cmd| {
+                memory_barrier(
+                    ctx,
+                    cmd,
+                    (
+                        vk::PipelineStageFlags2::ALL_TRANSFER,
+                        vk::AccessFlags2::TRANSFER_WRITE,
+                    ),
+                    (
+                        vk::PipelineStageFlags2::COMPUTE_SHADER,
+                        vk::AccessFlags2::SHADER_STORAGE_READ
+                            | vk::AccessFlags2::SHADER_STORAGE_WRITE,
+                    ),
+                );
+                pass.record_scan(ctx, cmd, &buf, n)
+            })
+            .unwrap();
+            let out = ctx.read_buffer_range(&buf, 0, n * 4).unwrap();
+            buf.destroy(ctx);
+            let out: &[u32] = bytemuck::cast_slice(&out);
+            let mut run = 0u32;
+            for (i, (&o, &d)) in out.iter().zip(&data).enumerate() {
+                assert_eq!(o, run, "n = {n}: element {i}");
+                run += d;
+            }
+            eprintln!("scan n = {n}: {} levels, total {run}", scan_levels(n).len());
+        }
+        pass.destroy(ctx);
+    });
+}
