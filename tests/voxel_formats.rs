@@ -224,3 +224,24 @@ fn write_grid_writes_vox_with_a_sidecar_and_rejects_unknown_extensions() {
     assert!(err.contains("unknown voxel format '.stl'"), "{err}");
     std::fs::remove_dir_all(&dir).unwrap();
 }
+
+#[test]
+fn vox_refuses_grids_past_its_4_gib_chunk_limit_with_one_clear_error() {
+    // 1024³ all solid: 2^30 voxels × 4 bytes = 4 GiB > u32::MAX; refused before anything is built.
+    let mut g = VoxelGrid::empty(
+        GridFrame {
+            res: 1024,
+            origin: [0.0; 3],
+            side: 1.0,
+        },
+        Axis::Z,
+    );
+    g.words.fill(u32::MAX);
+    let path = std::env::temp_dir().join(format!("gregvox-big-{}.vox", std::process::id()));
+    let err = write_grid(&g, &path).unwrap_err().to_string();
+    assert!(
+        err.contains("1073741824 solid voxels do not fit a .vox file"),
+        "{err}"
+    );
+    assert!(!path.exists());
+}

@@ -111,6 +111,16 @@ fn tick(progress: &Option<indicatif::ProgressBar>, msg: &str) {
     }
 }
 
+/// Refuses axis lists other than 1 or 3 axes before any GPU work.
+fn check_axes(axes: &[Axis]) -> Result<()> {
+    match axes.len() {
+        1 | 3 => Ok(()),
+        n => Err(Error::Invalid(format!(
+            "voxelize along 1 or 3 axes, not {n}"
+        ))),
+    }
+}
+
 /// One grid from the grids of 1 axis, or the 2-of-3 vote of 3.
 fn vote(mut grids: Vec<VoxelGrid>) -> Result<VoxelGrid> {
     match grids.len() {
@@ -678,9 +688,7 @@ impl PeelVoxelizer {
         rule: FillRule,
         mut profiler: Option<&mut Profiler>,
     ) -> Result<(VoxelGrid, Vec<AxisStats>)> {
-        if axes.len() != 1 && axes.len() != 3 {
-            return vote(Vec::new()).map(|g| (g, Vec::new()));
-        }
+        check_axes(axes)?;
         let mut grids = Vec::new();
         let mut stats = Vec::new();
         for &a in axes {
@@ -1004,9 +1012,7 @@ impl AbufferVoxelizer {
         rule: FillRule,
         mut profiler: Option<&mut Profiler>,
     ) -> Result<(VoxelGrid, Vec<AxisStats>)> {
-        if axes.len() != 1 && axes.len() != 3 {
-            return vote(Vec::new()).map(|g| (g, Vec::new()));
-        }
+        check_axes(axes)?;
         let mut grids = Vec::new();
         let mut stats = Vec::new();
         for &a in axes {

@@ -171,6 +171,15 @@ pub fn write_grid(grid: &VoxelGrid, path: &Path) -> Result<()> {
         }
         "nrrd" => write_atomically(path, |w| w.write_all(&nrrd_bytes(grid))),
         "vox" => {
+            // MAIN's children size is a u32 and every voxel takes 4 bytes: refuse before building the file.
+            let n = grid.count();
+            if n > VOX_MAX_VOXELS {
+                return Err(Error::Invalid(format!(
+                    "{}: {n} solid voxels do not fit a .vox file (at most {VOX_MAX_VOXELS}, 4 bytes each \
+                     in one chunk of at most 4 GiB); use .binvox, .npy, .nrrd or .raw",
+                    path.display()
+                )));
+            }
             write_atomically(path, |w| w.write_all(&vox_bytes(grid)))?;
             write_sidecar(
                 grid,
@@ -270,6 +279,10 @@ pub fn nrrd_bytes(grid: &VoxelGrid) -> Vec<u8> {
 
 /// Largest model edge in a `.vox` file (u8 coordinates).
 pub const VOX_MODEL_MAX: u32 = 256;
+
+/// Most solid voxels a `.vox` file can hold: the MAIN chunk's children size is a u32, each voxel is 4 bytes,
+/// and 64 MiB are left for the per-model headers, the scene graph and the palette.
+pub const VOX_MAX_VOXELS: u64 = (u32::MAX as u64 - (64 << 20)) / 4;
 
 fn vox_chunk(out: &mut Vec<u8>, id: &[u8; 4], content: &[u8], children: &[u8]) {
     out.extend_from_slice(id);
