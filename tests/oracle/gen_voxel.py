@@ -24,7 +24,7 @@ with trimesh (`trimesh.exchange.binvox.load_binvox(..., axis_order='xzy')`) and 
 unpacked .npy (trimesh's own world transform uses scale/(shape−1) and is not compared). The Rust tests never
 run Python.
 """
-import io
+import importlib.metadata
 import json
 import os
 import subprocess
@@ -145,8 +145,7 @@ def main():
     os.makedirs(OUT, exist_ok=True)
     index = {
         "generator": "tests/oracle/gen_voxel.py",
-        "versions": {"libigl": igl.__version__ if hasattr(igl, "__version__") else "2.6.*",
-                     "trimesh": trimesh.__version__, "numpy": np.__version__},
+        "versions": {p: importlib.metadata.version(p) for p in ("libigl", "trimesh", "numpy", "scipy")},
         "layout": "bool[i][j][k] (x, y, z), C order, np.packbits bitorder=little, then (value, run) byte pairs",
         "band": "centre within sqrt(3)/2 * pitch of the mesh",
         "inside": "fast_winding_number > 0.5",
