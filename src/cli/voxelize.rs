@@ -227,7 +227,12 @@ fn run_peel(
     three: bool,
 ) -> anyhow::Result<PeelResult> {
     let ctx = Context::with_desc(&ContextDesc::default())?;
-    let progress = progress_bar(frame.res, if three { 3 } else { 1 }, args.max_layers);
+    let progress = progress_bar(
+        frame.res,
+        tri.triangles.len(),
+        if three { 3 } else { 1 },
+        args.max_layers,
+    );
     let mut profiler = Profiler::new(&ctx, 1, 4096)?;
     let result = (|| -> anyhow::Result<PeelResult> {
         let v = if args.method == Method::Abuffer {
@@ -303,12 +308,21 @@ fn run_peel(
     result
 }
 
-/// A progress bar on stderr for long voxelizations (R ≥ 512, or a layer cap above the default), only when
-/// stderr is a terminal: piped output and tests never see it. Three stages per axis (count, peel or scatter,
-/// fill); a steady tick keeps the spinner alive during a long GPU submission.
-fn progress_bar(res: u32, axes: u64, max_layers: u32) -> Option<indicatif::ProgressBar> {
+/// A progress bar on stderr for long voxelizations, only when stderr is a terminal: piped output and tests
+/// never see it. Long = R ≥ 512, or ≥ 1 M triangles (each of the L peeling passes re-rasterizes them all:
+/// ~0.2 s per pass on lavapipe), or a layer cap raised above the default. The layer count itself is known
+/// only after the count pre-pass, too late to decide. Three stages per axis (count, peel or scatter, fill); a
+/// steady tick keeps the spinner alive during a long GPU submission.
+fn progress_bar(
+    res: u32,
+    triangles: usize,
+    axes: u64,
+    max_layers: u32,
+) -> Option<indicatif::ProgressBar> {
     use std::io::IsTerminal;
-    let long = res >= 512 || max_layers > crate::engine::voxelize::DEFAULT_MAX_LAYERS;
+    let long = res >= 512
+        || triangles >= 1_000_000
+        || max_layers > crate::engine::voxelize::DEFAULT_MAX_LAYERS;
     if !long || !std::io::stderr().is_terminal() {
         return None;
     }
