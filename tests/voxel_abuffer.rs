@@ -1,8 +1,9 @@
 //! Specification of the A-buffer method (`--method abuffer`): equal to the same-sampling CPU scanline on
 //! exact and curved solids along every axis, and — unlike strict depth peeling — it keeps every fragment at
 //! equal depth: duplicated faces (not cleaned) and a coincident internal face between two boxes. The prefix
-//! sum is exercised beyond one block level and beyond 65,535 workgroups of its first level is impossible
-//! here, so its level layout is pinned by the `scan_levels` doctest (2048² columns: 16,385 blocks).
+//! sum is checked exactly against a CPU scan from 1 to 2048² + 1 elements (2 to 4 levels). Its 2D-dispatch
+//! path (> 65,535 groups) needs > 67 M elements, beyond `maxStorageBufferRange`, so it cannot run here; the
+//! fill's 2D path is shared with the peel fill (`dispatch_linear` + `linear_invocation`).
 mod common;
 
 use common::with_gpu;
