@@ -167,3 +167,60 @@ fn bad_inputs_end_with_one_clear_line() {
         "depth layers along x",
     );
 }
+
+#[test]
+fn abuffer_method_equals_peel_on_teapot_and_writes_vox() {
+    // The teapot's overlapping shells (w = 2) and open rims: both GPU methods use the same sampling and the
+    // same fill, so their binvox files are byte-identical; the .vox of the same grid holds the same count.
+    let run = |method: &str, out: &std::path::Path| {
+        let o = gregvox(&[
+            "voxelize",
+            &model("teapot.obj"),
+            "--res",
+            "48",
+            "--axes",
+            "1",
+            "--axis",
+            "z",
+            "--method",
+            method,
+            "--out",
+            out.to_str().unwrap(),
+            "--json",
+        ]);
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        let j: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+        assert_eq!(j["method"], method);
+        j["solid_voxels"].as_u64().unwrap()
+    };
+    let (p, a, v) = (
+        tmp("tp_peel.binvox"),
+        tmp("tp_abuf.binvox"),
+        tmp("tp_abuf.vox"),
+    );
+    let np = run("peel", &p);
+    let na = run("abuffer", &a);
+    let nv = run("abuffer", &v);
+    assert!(np > 0 && np == na && na == nv, "{np} {na} {nv}");
+    assert_eq!(std::fs::read(&p).unwrap(), std::fs::read(&a).unwrap());
+    let vox = dot_vox::load_bytes(&std::fs::read(&v).unwrap()).unwrap();
+    let n: usize = vox.models.iter().map(|m| m.voxels.len()).sum();
+    assert_eq!(n as u64, nv);
+    // No progress bar on a pipe: stderr holds only the informational notes.
+    let o = gregvox(&[
+        "voxelize",
+        &model("teapot.obj"),
+        "--res",
+        "512",
+        "--method",
+        "cpu",
+        "--axes",
+        "1",
+    ]);
+    assert!(o.status.success());
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(
+        err.lines().all(|l| l.starts_with("gregvox voxelize: ")),
+        "{err}"
+    );
+}

@@ -1,7 +1,9 @@
 //! `gregvox voxelize IN.obj --res R [--out OUT.binvox] …`: solid voxels by depth peeling (GPU) or the CPU
 //! scanline, with hygiene, open-mesh detection, axis choice, a memory estimate and per-pass times.
 use super::profile::ProfileArgs;
-use crate::engine::voxelize::{memory_estimate, GpuTriangles, PeelVoxelizer};
+use crate::engine::voxelize::{
+    memory_estimate, AbufferVoxelizer, GpuTriangles, GpuVoxelizer, PeelVoxelizer,
+};
 use crate::gpu::{Context, ContextDesc, Profiler};
 use crate::mesh::{load_obj, Mesh, MeshMatrix};
 use crate::voxel::cpu::{voxelize_cpu, FillRule};
@@ -21,6 +23,8 @@ pub const MAX_RES: u32 = 2048;
 pub enum Method {
     /// Raster depth peeling + compute fill on the GPU.
     Peel,
+    /// GPU A-buffer: count, prefix sum, one scatter pass, per-column sort + fill (no equal-depth loss).
+    Abuffer,
     /// The same-sampling CPU column scanline (all cores).
     Cpu,
 }
@@ -33,7 +37,7 @@ pub struct VoxelizeArgs {
     /// Voxels per side of the cubic grid (1–2048).
     #[arg(long)]
     pub res: u32,
-    /// Output file: .binvox, .npy, .nrrd or .raw (+ .json sidecar).
+    /// Output file: .binvox, .npy, .nrrd, .raw (+ .json sidecar) or .vox (MagicaVoxel).
     #[arg(long)]
     pub out: Option<PathBuf>,
     /// Peel along 1 axis, or 3 with a 2-of-3 vote (default: 3 for open meshes, else 1).
@@ -92,9 +96,9 @@ pub fn run(args: &VoxelizeArgs) -> anyhow::Result<()> {
             .and_then(|e| e.to_str())
             .unwrap_or("")
             .to_ascii_lowercase();
-        if !["binvox", "npy", "nrrd", "raw"].contains(&ext.as_str()) {
+        if !["binvox", "npy", "nrrd", "raw", "vox"].contains(&ext.as_str()) {
             bail!(
-                "{}: unknown voxel format '.{ext}' (use .binvox, .npy, .nrrd or .raw)",
+                "{}: unknown voxel format '.{ext}' (use .binvox, .npy, .nrrd, .raw or .vox)",
                 out.display()
             );
         }
@@ -158,7 +162,7 @@ pub fn run(args: &VoxelizeArgs) -> anyhow::Result<()> {
             };
             (grid, Vec::new(), None, None)
         }
-        Method::Peel => run_peel(args, &tri, &frame, three)?,
+        Method::Peel | Method::Abuffer => run_peel(args, &tri, &frame, three)?,
     };
     let seconds = start.elapsed().as_secs_f64();
     if let Some(out) = &args.out {
@@ -223,10 +227,24 @@ fn run_peel(
     three: bool,
 ) -> anyhow::Result<PeelResult> {
     let ctx = Context::with_desc(&ContextDesc::default())?;
+    let progress = progress_bar(
+        frame.res,
+        tri.triangles.len(),
+        if three { 3 } else { 1 },
+        args.max_layers,
+    );
     let mut profiler = Profiler::new(&ctx, 1, 4096)?;
     let result = (|| -> anyhow::Result<PeelResult> {
-        let mut v = PeelVoxelizer::new(&ctx, 12)?;
-        v.max_layers = args.max_layers;
+        let v = if args.method == Method::Abuffer {
+            let mut v = AbufferVoxelizer::new(&ctx, 12)?;
+            v.progress = progress.clone();
+            GpuVoxelizer::Abuffer(Box::new(v))
+        } else {
+            let mut v = PeelVoxelizer::new(&ctx, 12)?;
+            v.max_layers = args.max_layers;
+            v.progress = progress.clone();
+            GpuVoxelizer::Peel(Box::new(v))
+        };
         let gpu = match GpuTriangles::upload(&ctx, tri) {
             Ok(g) => g,
             Err(e) => {
@@ -280,9 +298,43 @@ fn run_peel(
         out
     })();
     profiler.destroy(&ctx);
+    if let Some(p) = progress {
+        p.finish_and_clear();
+    }
     let leaks = ctx.live_allocations();
     if !leaks.is_empty() {
         bail!("internal error: GPU allocations still alive: {leaks:?}");
     }
     result
+}
+
+/// A progress bar on stderr for long voxelizations, only when stderr is a terminal: piped output and tests
+/// never see it. Long = R ≥ 512, or ≥ 1 M triangles (each of the L peeling passes re-rasterizes them all:
+/// ~0.2 s per pass on lavapipe), or a layer cap raised above the default. The layer count itself is known
+/// only after the count pre-pass, too late to decide. Three stages per axis (count, peel or scatter, fill); a
+/// steady tick keeps the spinner alive during a long GPU submission.
+fn progress_bar(
+    res: u32,
+    triangles: usize,
+    axes: u64,
+    max_layers: u32,
+) -> Option<indicatif::ProgressBar> {
+    use std::io::IsTerminal;
+    let long = res >= 512
+        || triangles >= 1_000_000
+        || max_layers > crate::engine::voxelize::DEFAULT_MAX_LAYERS;
+    if !long || !std::io::stderr().is_terminal() {
+        return None;
+    }
+    let bar = indicatif::ProgressBar::with_draw_target(
+        Some(3 * axes),
+        indicatif::ProgressDrawTarget::stderr(),
+    );
+    if let Ok(style) = indicatif::ProgressStyle::with_template(
+        "{spinner} voxelize [{bar:20}] {pos}/{len} {msg} ({elapsed})",
+    ) {
+        bar.set_style(style.progress_chars("=> "));
+    }
+    bar.enable_steady_tick(std::time::Duration::from_millis(120));
+    Some(bar)
 }

@@ -1,5 +1,10 @@
-//! GPU solid voxelization by depth peeling: count pre-pass → L peeling passes → fill, per axis; the 2-of-3
-//! vote over three axes for open meshes.
+//! GPU solid voxelization, per axis, and the 2-of-3 vote over three axes for open meshes:
+//! - [`PeelVoxelizer`] (Harada–Koshizuka depth peeling): count pre-pass → L peeling passes → fill;
+//! - [`AbufferVoxelizer`] (§6 of the notes): count pre-pass → prefix sum → one scatter pass → per-column sort
+//!   and fill. Two geometry passes whatever L, and no equal-depth fragment is ever lost.
+//!
+//! Progress: both report coarse stages (count, peel/scatter, fill) to an optional `indicatif` bar the caller
+//! owns (hidden when stderr is not a terminal); the engine never draws on its own.
 //!
 //! Invariants:
 //! - Every resource created here is destroyed before returning, on success and on error.
@@ -12,6 +17,7 @@
 use crate::error::{Error, Result};
 use crate::gpu::resources::{image_barrier, memory_barrier};
 use crate::gpu::{Buffer, Context, Image, ImageDesc, MemoryLocation, Profiler};
+use crate::passes::abuffer::{scan_words, AbufferFillJob, AbufferPass};
 use crate::passes::peel::{PeelGeometry, PeelPass, PeelPush};
 use crate::passes::voxel_fill::{FillJob, VoxelFillPass};
 use crate::voxel::cpu::FillRule;
@@ -94,6 +100,36 @@ pub struct PeelVoxelizer {
     /// Largest output slab in bytes (default and upper bound: `maxStorageBufferRange`); tests lower it to
     /// exercise the slab path.
     pub slab_limit: Option<u64>,
+    /// Advanced by one per stage (count, peel, fill) of each axis.
+    pub progress: Option<indicatif::ProgressBar>,
+}
+
+fn tick(progress: &Option<indicatif::ProgressBar>, msg: &str) {
+    if let Some(p) = progress {
+        p.set_message(msg.to_string());
+        p.inc(1);
+    }
+}
+
+/// Refuses axis lists other than 1 or 3 axes before any GPU work.
+fn check_axes(axes: &[Axis]) -> Result<()> {
+    match axes.len() {
+        1 | 3 => Ok(()),
+        n => Err(Error::Invalid(format!(
+            "voxelize along 1 or 3 axes, not {n}"
+        ))),
+    }
+}
+
+/// One grid from the grids of 1 axis, or the 2-of-3 vote of 3.
+fn vote(mut grids: Vec<VoxelGrid>) -> Result<VoxelGrid> {
+    match grids.len() {
+        1 => Ok(grids.pop().unwrap()),
+        3 => Ok(VoxelGrid::majority([&grids[0], &grids[1], &grids[2]])),
+        n => Err(Error::Invalid(format!(
+            "voxelize along 1 or 3 axes, not {n}"
+        ))),
+    }
 }
 
 /// Resources of one axis run, destroyed together.
@@ -178,6 +214,7 @@ impl PeelVoxelizer {
             fill,
             max_layers: DEFAULT_MAX_LAYERS,
             slab_limit: None,
+            progress: None,
         })
     }
 
@@ -360,6 +397,10 @@ impl PeelVoxelizer {
         }
         let max_bytes = ctx.read_buffer_range(counts, 0, 4)?;
         let layers = u32::from_le_bytes(max_bytes[..4].try_into().unwrap());
+        tick(
+            &self.progress,
+            &format!("{}: counted {layers} layers", axis.name()),
+        );
         let mut grid = VoxelGrid::empty(*frame, axis);
         if layers == 0 {
             return Ok((
@@ -480,8 +521,15 @@ impl PeelVoxelizer {
             let start = (first * words) as usize;
             grid.words[start..start + (count * words) as usize]
                 .copy_from_slice(bytemuck::cast_slice(&bytes));
+            if first == 0 {
+                tick(
+                    &self.progress,
+                    &format!("{}: peeled {layers} layers", axis.name()),
+                );
+            }
             first += count;
         }
+        tick(&self.progress, &format!("{}: filled", axis.name()));
         let solid = grid.count();
         Ok((
             grid,
@@ -640,6 +688,7 @@ impl PeelVoxelizer {
         rule: FillRule,
         mut profiler: Option<&mut Profiler>,
     ) -> Result<(VoxelGrid, Vec<AxisStats>)> {
+        check_axes(axes)?;
         let mut grids = Vec::new();
         let mut stats = Vec::new();
         for &a in axes {
@@ -647,21 +696,382 @@ impl PeelVoxelizer {
             grids.push(g);
             stats.push(s);
         }
-        let grid = match grids.len() {
-            1 => grids.pop().unwrap(),
-            3 => VoxelGrid::majority([&grids[0], &grids[1], &grids[2]]),
-            n => {
-                return Err(Error::Invalid(format!(
-                    "voxelize along 1 or 3 axes, not {n}"
-                )))
-            }
-        };
-        Ok((grid, stats))
+        Ok((vote(grids)?, stats))
     }
 
     /// Destroys the passes.
     pub fn destroy(self, ctx: &Context) {
         self.peel.destroy(ctx);
         self.fill.destroy(ctx);
+    }
+}
+
+/// Buffers of one A-buffer axis run, destroyed together.
+#[derive(Default)]
+struct AbufferResources {
+    counts: Option<Buffer>,
+    scan: Option<Buffer>,
+    cursor: Option<Buffer>,
+    frags: Option<Buffer>,
+    out: Option<Buffer>,
+}
+
+impl AbufferResources {
+    fn destroy(mut self, ctx: &Context) {
+        for b in [
+            self.counts.take(),
+            self.scan.take(),
+            self.cursor.take(),
+            self.frags.take(),
+            self.out.take(),
+        ]
+        .into_iter()
+        .flatten()
+        {
+            b.destroy(ctx);
+        }
+    }
+}
+
+/// The A-buffer voxelizer (`--method abuffer`): the peel pass's count pre-pass, a prefix sum, one scatter
+/// pass and a per-column sort + fill. Device memory per axis: 4·(2R² + Φ) bytes + one output slab, with Φ the
+/// fragment count (≈ 1.24·R² on the stanford bunny).
+pub struct AbufferVoxelizer {
+    counter: PeelVoxelizer,
+    pass: AbufferPass,
+    /// Largest output slab in bytes (as [`PeelVoxelizer::slab_limit`]).
+    pub slab_limit: Option<u64>,
+    /// Advanced by one per stage (count, scatter, fill) of each axis.
+    pub progress: Option<indicatif::ProgressBar>,
+}
+
+impl AbufferVoxelizer {
+    /// Builds the passes (vertices of `stride` bytes, positions first).
+    pub fn new(ctx: &Context, stride: u32) -> Result<Self> {
+        let counter = PeelVoxelizer::new(ctx, stride)?;
+        let pass = match AbufferPass::new(ctx, stride) {
+            Ok(p) => p,
+            Err(e) => {
+                counter.destroy(ctx);
+                return Err(e);
+            }
+        };
+        Ok(AbufferVoxelizer {
+            counter,
+            pass,
+            slab_limit: None,
+            progress: None,
+        })
+    }
+
+    /// The count pre-pass only: (deepest column's crossings, columns covered).
+    pub fn count_layers(
+        &self,
+        ctx: &Context,
+        geom: &PeelGeometry,
+        frame: &GridFrame,
+        axis: Axis,
+    ) -> Result<(u32, u64)> {
+        self.counter.count_layers(ctx, geom, frame, axis)
+    }
+
+    /// Voxelizes `geom` in `frame` with columns along `axis`; `AxisStats::layers` is the deepest column's
+    /// fragment count.
+    pub fn voxelize_axis(
+        &self,
+        ctx: &Context,
+        geom: &PeelGeometry,
+        frame: &GridFrame,
+        axis: Axis,
+        rule: FillRule,
+        mut profiler: Option<&mut Profiler>,
+    ) -> Result<(VoxelGrid, AxisStats)> {
+        let max2d = ctx.limits.max_image_dimension2_d;
+        if frame.res > max2d {
+            return Err(Error::Limit {
+                what: format!("resolution {}", frame.res),
+                detail: format!(
+                    "the scatter framebuffer is R×R and maxImageDimension2D is {max2d}"
+                ),
+            });
+        }
+        let mut r = AbufferResources::default();
+        let result = self.run_axis(ctx, geom, frame, axis, rule, &mut r, &mut profiler);
+        r.destroy(ctx);
+        result
+    }
+
+    #[allow(clippy::too_many_arguments)]
+    fn run_axis(
+        &self,
+        ctx: &Context,
+        geom: &PeelGeometry,
+        frame: &GridFrame,
+        axis: Axis,
+        rule: FillRule,
+        r: &mut AbufferResources,
+        profiler: &mut Option<&mut Profiler>,
+    ) -> Result<(VoxelGrid, AxisStats)> {
+        let res = frame.res;
+        let push = peel_push(frame, axis);
+        let r2 = res as u64 * res as u64;
+        let storage = vk::BufferUsageFlags::STORAGE_BUFFER
+            | vk::BufferUsageFlags::TRANSFER_DST
+            | vk::BufferUsageFlags::TRANSFER_SRC;
+        // 1. Count pre-pass, then the prefix sum of the R² counts plus one trailing zero: slot R² = Φ.
+        let counts = &*r.counts.insert(ctx.create_buffer(
+            "abuffer counts",
+            (r2 + 1) * 4,
+            storage,
+            MemoryLocation::GpuOnly,
+        )?);
+        let scan = &*r.scan.insert(ctx.create_buffer(
+            "abuffer scan",
+            scan_words(r2 + 1) * 4,
+            storage,
+            MemoryLocation::GpuOnly,
+        )?);
+        ctx.one_shot(|cmd| {
+            self.counter
+                .record_count(ctx, cmd, geom, &push, counts, profiler);
+            let s = profiler
+                .as_deref_mut()
+                .map(|p| p.begin(ctx, cmd, 0, "abuffer prefix sum"));
+            // SAFETY: recording; regions inside both buffers (counts word 1.. = the R² counters).
+            unsafe {
+                ctx.device.cmd_copy_buffer(
+                    cmd,
+                    counts.raw,
+                    scan.raw,
+                    &[vk::BufferCopy {
+                        src_offset: 4,
+                        dst_offset: 0,
+                        size: r2 * 4,
+                    }],
+                );
+                ctx.device.cmd_fill_buffer(cmd, scan.raw, r2 * 4, 4, 0);
+            }
+            memory_barrier(
+                ctx,
+                cmd,
+                (
+                    vk::PipelineStageFlags2::ALL_TRANSFER,
+                    vk::AccessFlags2::TRANSFER_WRITE,
+                ),
+                (
+                    vk::PipelineStageFlags2::COMPUTE_SHADER,
+                    vk::AccessFlags2::SHADER_STORAGE_READ | vk::AccessFlags2::SHADER_STORAGE_WRITE,
+                ),
+            );
+            self.pass.record_scan(ctx, cmd, scan, r2 + 1)?;
+            if let (Some(p), Some(s)) = (profiler.as_deref_mut(), s) {
+                p.end(ctx, cmd, s);
+            }
+            Ok(())
+        })?;
+        if let Some(p) = profiler.as_deref_mut() {
+            p.collect(ctx, 0)?;
+        }
+        let word = |b: Vec<u8>| u32::from_le_bytes([b[0], b[1], b[2], b[3]]);
+        let layers = word(ctx.read_buffer_range(counts, 0, 4)?);
+        let total = word(ctx.read_buffer_range(scan, r2 * 4, 4)?) as u64;
+        tick(
+            &self.progress,
+            &format!(
+                "{}: {total} fragments, at most {layers} per column",
+                axis.name()
+            ),
+        );
+        let mut grid = VoxelGrid::empty(*frame, axis);
+        if total == 0 {
+            return Ok((
+                grid,
+                AxisStats {
+                    axis,
+                    layers,
+                    solid: 0,
+                },
+            ));
+        }
+        let max_range = ctx.limits.max_storage_buffer_range as u64;
+        if total * 4 > max_range {
+            return Err(Error::Limit {
+                what: format!("{total} fragments along {}", axis.name()),
+                detail: format!(
+                    "the A-buffer needs {} bytes in one binding; maxStorageBufferRange is {max_range}",
+                    total * 4
+                ),
+            });
+        }
+        // 2. Scatter, then sort + fill slab by slab.
+        let cursor = &*r.cursor.insert(ctx.create_buffer(
+            "abuffer cursor",
+            r2 * 4,
+            storage,
+            MemoryLocation::GpuOnly,
+        )?);
+        let frags = &*r.frags.insert(ctx.create_buffer(
+            "abuffer fragments",
+            total * 4,
+            storage,
+            MemoryLocation::GpuOnly,
+        )?);
+        let words = frame.words_per_column() as u64;
+        let max_range = max_range.min(self.slab_limit.unwrap_or(u64::MAX));
+        let slab_columns = (max_range / (words * 4)).min(r2).max(1);
+        let out = &*r.out.insert(ctx.create_buffer(
+            "voxel slab",
+            slab_columns * words * 4,
+            vk::BufferUsageFlags::STORAGE_BUFFER | vk::BufferUsageFlags::TRANSFER_SRC,
+            MemoryLocation::GpuOnly,
+        )?);
+        let mut first = 0u64;
+        while first < r2 {
+            let count = slab_columns.min(r2 - first);
+            ctx.one_shot(|cmd| {
+                if first == 0 {
+                    // SAFETY: recording; whole-buffer fill.
+                    unsafe {
+                        ctx.device
+                            .cmd_fill_buffer(cmd, cursor.raw, 0, vk::WHOLE_SIZE, 0)
+                    };
+                    memory_barrier(
+                        ctx,
+                        cmd,
+                        (
+                            vk::PipelineStageFlags2::ALL_TRANSFER,
+                            vk::AccessFlags2::TRANSFER_WRITE,
+                        ),
+                        (
+                            vk::PipelineStageFlags2::FRAGMENT_SHADER,
+                            vk::AccessFlags2::SHADER_STORAGE_READ
+                                | vk::AccessFlags2::SHADER_STORAGE_WRITE,
+                        ),
+                    );
+                    let s = profiler
+                        .as_deref_mut()
+                        .map(|p| p.begin(ctx, cmd, 0, "abuffer scatter"));
+                    self.pass
+                        .record_scatter(ctx, cmd, geom, &push, scan, cursor, frags);
+                    if let (Some(p), Some(s)) = (profiler.as_deref_mut(), s) {
+                        p.end(ctx, cmd, s);
+                    }
+                }
+                let s = profiler
+                    .as_deref_mut()
+                    .map(|p| p.begin(ctx, cmd, 0, "abuffer sort + fill"));
+                self.pass.record_fill(
+                    ctx,
+                    cmd,
+                    scan,
+                    frags,
+                    out,
+                    &AbufferFillJob {
+                        res,
+                        rule,
+                        first_column: first as u32,
+                        column_count: count as u32,
+                    },
+                )?;
+                if let (Some(p), Some(s)) = (profiler.as_deref_mut(), s) {
+                    p.end(ctx, cmd, s);
+                }
+                Ok(())
+            })?;
+            if let Some(p) = profiler.as_deref_mut() {
+                p.collect(ctx, 0)?;
+            }
+            let bytes = ctx.read_buffer_range(out, 0, count * words * 4)?;
+            let start = (first * words) as usize;
+            grid.words[start..start + (count * words) as usize]
+                .copy_from_slice(bytemuck::cast_slice(&bytes));
+            if first == 0 {
+                tick(&self.progress, &format!("{}: scattered", axis.name()));
+            }
+            first += count;
+        }
+        tick(&self.progress, &format!("{}: filled", axis.name()));
+        let solid = grid.count();
+        Ok((
+            grid,
+            AxisStats {
+                axis,
+                layers,
+                solid,
+            },
+        ))
+    }
+
+    /// Voxelizes along each of `axes` and, for three axes, takes the 2-of-3 vote.
+    pub fn voxelize(
+        &self,
+        ctx: &Context,
+        geom: &PeelGeometry,
+        frame: &GridFrame,
+        axes: &[Axis],
+        rule: FillRule,
+        mut profiler: Option<&mut Profiler>,
+    ) -> Result<(VoxelGrid, Vec<AxisStats>)> {
+        check_axes(axes)?;
+        let mut grids = Vec::new();
+        let mut stats = Vec::new();
+        for &a in axes {
+            let (g, s) = self.voxelize_axis(ctx, geom, frame, a, rule, profiler.as_deref_mut())?;
+            grids.push(g);
+            stats.push(s);
+        }
+        Ok((vote(grids)?, stats))
+    }
+
+    /// Destroys the passes.
+    pub fn destroy(self, ctx: &Context) {
+        self.counter.destroy(ctx);
+        self.pass.destroy(ctx);
+    }
+}
+
+/// A GPU voxelizer of either method, for callers that choose at run time.
+pub enum GpuVoxelizer {
+    Peel(Box<PeelVoxelizer>),
+    Abuffer(Box<AbufferVoxelizer>),
+}
+
+impl GpuVoxelizer {
+    /// The count pre-pass only: (deepest column's crossings, columns covered).
+    pub fn count_layers(
+        &self,
+        ctx: &Context,
+        geom: &PeelGeometry,
+        frame: &GridFrame,
+        axis: Axis,
+    ) -> Result<(u32, u64)> {
+        match self {
+            GpuVoxelizer::Peel(v) => v.count_layers(ctx, geom, frame, axis),
+            GpuVoxelizer::Abuffer(v) => v.count_layers(ctx, geom, frame, axis),
+        }
+    }
+
+    /// Voxelizes along `axes` (1, or 3 with the vote).
+    pub fn voxelize(
+        &self,
+        ctx: &Context,
+        geom: &PeelGeometry,
+        frame: &GridFrame,
+        axes: &[Axis],
+        rule: FillRule,
+        profiler: Option<&mut Profiler>,
+    ) -> Result<(VoxelGrid, Vec<AxisStats>)> {
+        match self {
+            GpuVoxelizer::Peel(v) => v.voxelize(ctx, geom, frame, axes, rule, profiler),
+            GpuVoxelizer::Abuffer(v) => v.voxelize(ctx, geom, frame, axes, rule, profiler),
+        }
+    }
+
+    /// Destroys the passes.
+    pub fn destroy(self, ctx: &Context) {
+        match self {
+            GpuVoxelizer::Peel(v) => v.destroy(ctx),
+            GpuVoxelizer::Abuffer(v) => v.destroy(ctx),
+        }
     }
 }

@@ -1,5 +1,6 @@
 //! One GPU pass per file. Each owns its pipelines and layouts and exposes `new`, `record`, `destroy`;
 //! buffers are passed in, never owned by two passes.
+pub mod abuffer;
 pub mod beziex_eval;
 pub mod cage_deform;
 pub mod gregory_eval;

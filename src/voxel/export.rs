@@ -1,5 +1,6 @@
 //! Voxel grid exporters, chosen by file extension: `.binvox`, `.npy` (packed bits + shape), `.nrrd`
-//! (uint8), `.raw` (packed bits) with a `.json` sidecar. Every header or sidecar records origin and pitch.
+//! (uint8), `.raw` (packed bits) with a `.json` sidecar, `.vox` (MagicaVoxel, multi-model scene graph). Every
+//! header or sidecar records origin and pitch (`.vox` has no place for them: the `.json` sidecar holds them).
 //!
 //! Invariants: files are written to `NAME.tmp` and renamed, so an interrupted run never leaves a truncated
 //! output; index conventions are those of each format (binvox: x slowest, then z, y fastest).
@@ -169,6 +170,24 @@ pub fn write_grid(grid: &VoxelGrid, path: &Path) -> Result<()> {
             )
         }
         "nrrd" => write_atomically(path, |w| w.write_all(&nrrd_bytes(grid))),
+        "vox" => {
+            // MAIN's children size is a u32 and every voxel takes 4 bytes: refuse before building the file.
+            let n = grid.count();
+            if n > VOX_MAX_VOXELS {
+                return Err(Error::Invalid(format!(
+                    "{}: {n} solid voxels do not fit a .vox file (at most {VOX_MAX_VOXELS}, 4 bytes each \
+                     in one chunk of at most 4 GiB); use .binvox, .npy, .nrrd or .raw",
+                    path.display()
+                )));
+            }
+            write_atomically(path, |w| w.write_all(&vox_bytes(grid)))?;
+            write_sidecar(
+                grid,
+                path,
+                "MagicaVoxel .vox: models of at most 256 per axis; grid voxel (i,j,k) is world voxel \
+                 (i,j,k) - floor(R/2); a model of size s with nTRN translation t holds world voxels t - floor(s/2) + xyz",
+            )
+        }
         "raw" => {
             let g = grid.to_axis(Axis::Z);
             let bytes: Vec<u8> = bytemuck::cast_slice(&g.words).to_vec();
@@ -180,7 +199,7 @@ pub fn write_grid(grid: &VoxelGrid, path: &Path) -> Result<()> {
             )
         }
         _ => Err(Error::Invalid(format!(
-            "{}: unknown voxel format '.{ext}' (use .binvox, .npy, .nrrd or .raw)",
+            "{}: unknown voxel format '.{ext}' (use .binvox, .npy, .nrrd, .raw or .vox)",
             path.display()
         ))),
     }
@@ -255,5 +274,155 @@ pub fn nrrd_bytes(grid: &VoxelGrid) -> Vec<u8> {
             out.extend((0..r as usize).map(|x| (col[x / 32] >> (x % 32) & 1) as u8));
         }
     }
+    out
+}
+
+/// Largest model edge in a `.vox` file (u8 coordinates).
+pub const VOX_MODEL_MAX: u32 = 256;
+
+/// Most solid voxels a `.vox` file can hold: the MAIN chunk's children size is a u32, each voxel is 4 bytes,
+/// and 64 MiB are left for the per-model headers, the scene graph and the palette.
+pub const VOX_MAX_VOXELS: u64 = (u32::MAX as u64 - (64 << 20)) / 4;
+
+fn vox_chunk(out: &mut Vec<u8>, id: &[u8; 4], content: &[u8], children: &[u8]) {
+    out.extend_from_slice(id);
+    out.extend_from_slice(&(content.len() as u32).to_le_bytes());
+    out.extend_from_slice(&(children.len() as u32).to_le_bytes());
+    out.extend_from_slice(content);
+    out.extend_from_slice(children);
+}
+
+fn vox_string(out: &mut Vec<u8>, s: &str) {
+    out.extend_from_slice(&(s.len() as u32).to_le_bytes());
+    out.extend_from_slice(s.as_bytes());
+}
+
+fn vox_dict(out: &mut Vec<u8>, pairs: &[(&str, String)]) {
+    out.extend_from_slice(&(pairs.len() as u32).to_le_bytes());
+    for (k, v) in pairs {
+        vox_string(out, k);
+        vox_string(out, v);
+    }
+}
+
+/// MagicaVoxel `.vox` (version 150 chunks + the 0.99 scene graph) of `grid`, colour index 1 for every voxel.
+///
+/// The grid is cut into models of at most [`VOX_MODEL_MAX`] per axis (u8 coordinates); each model is placed
+/// by an `nTRN` whose `_t` is its centre in MagicaVoxel's convention (a model of size s at translation t
+/// covers world voxels `t − ⌊s/2⌋ … t − ⌊s/2⌋ + s − 1`), under one `nGRP`. World voxel = grid voxel − ⌊R/2⌋ on
+/// every axis, which keeps R ≤ 2048 inside MagicaVoxel's ±1000 world. Axes are kept as they are (x, y, z; z
+/// is up in MagicaVoxel). Models with no voxel are skipped unless the whole grid is empty.
+///
+/// ```
+/// use gregvox::voxel::{export::vox_bytes, grid::{Axis, GridFrame, VoxelGrid}};
+/// let mut g = VoxelGrid::empty(GridFrame { res: 2, origin: [0.0; 3], side: 1.0 }, Axis::Z);
+/// g.set(1, 0, 1, true);
+/// let b = vox_bytes(&g);
+/// assert!(b.starts_with(b"VOX \x96\x00\x00\x00MAIN"));
+/// let xyzi = b.windows(4).position(|w| w == b"XYZI").unwrap();
+/// // one voxel at (1, 0, 1) with colour index 1
+/// assert_eq!(&b[xyzi + 12..xyzi + 20], &[1, 0, 0, 0, 1, 0, 1, 1]);
+/// ```
+pub fn vox_bytes(grid: &VoxelGrid) -> Vec<u8> {
+    let f = &grid.frame;
+    let r = f.res;
+    let g = grid.to_axis(Axis::Z);
+    let w = f.words_per_column() as usize;
+    let n = r.div_ceil(VOX_MODEL_MAX);
+    let half = (r / 2) as i64;
+    let mut models: Vec<([u32; 3], [u32; 3], Vec<u8>)> = Vec::new();
+    for cx in 0..n {
+        for cy in 0..n {
+            for cz in 0..n {
+                let lo = [cx, cy, cz].map(|c| c * VOX_MODEL_MAX);
+                let size = lo.map(|l| (r - l).min(VOX_MODEL_MAX));
+                let mut xyzi = Vec::new();
+                for y in lo[1]..lo[1] + size[1] {
+                    for x in lo[0]..lo[0] + size[0] {
+                        // Bits along z: column (u, v) = (x, y), word (y·R + x)·W.
+                        let col = &g.words[(y as usize * r as usize + x as usize) * w..][..w];
+                        for z in lo[2]..lo[2] + size[2] {
+                            if col[z as usize / 32] >> (z % 32) & 1 == 1 {
+                                xyzi.extend_from_slice(&[
+                                    (x - lo[0]) as u8,
+                                    (y - lo[1]) as u8,
+                                    (z - lo[2]) as u8,
+                                    1,
+                                ]);
+                            }
+                        }
+                    }
+                }
+                if !xyzi.is_empty() {
+                    models.push((lo, size, xyzi));
+                }
+            }
+        }
+    }
+    if models.is_empty() {
+        let size = [r.min(VOX_MODEL_MAX); 3];
+        models.push(([0; 3], size, Vec::new()));
+    }
+    let mut children = Vec::new();
+    for (_, size, xyzi) in &models {
+        let s: Vec<u8> = size.iter().flat_map(|v| v.to_le_bytes()).collect();
+        vox_chunk(&mut children, b"SIZE", &s, &[]);
+        let mut c = ((xyzi.len() / 4) as u32).to_le_bytes().to_vec();
+        c.extend_from_slice(xyzi);
+        vox_chunk(&mut children, b"XYZI", &c, &[]);
+    }
+    // Scene graph: 0 = root nTRN → 1 = nGRP → (2 + 2m) nTRN → (3 + 2m) nSHP(model m).
+    let mut c = Vec::new();
+    c.extend_from_slice(&0u32.to_le_bytes());
+    vox_dict(&mut c, &[]);
+    c.extend_from_slice(&1u32.to_le_bytes());
+    c.extend_from_slice(&(-1i32).to_le_bytes());
+    c.extend_from_slice(&0u32.to_le_bytes()); // layer
+    c.extend_from_slice(&1u32.to_le_bytes()); // frames
+    vox_dict(&mut c, &[]);
+    vox_chunk(&mut children, b"nTRN", &c, &[]);
+    let mut c = Vec::new();
+    c.extend_from_slice(&1u32.to_le_bytes());
+    vox_dict(&mut c, &[]);
+    c.extend_from_slice(&(models.len() as u32).to_le_bytes());
+    for m in 0..models.len() as u32 {
+        c.extend_from_slice(&(2 + 2 * m).to_le_bytes());
+    }
+    vox_chunk(&mut children, b"nGRP", &c, &[]);
+    for (m, (lo, size, _)) in models.iter().enumerate() {
+        let m = m as u32;
+        let t: Vec<String> = (0..3)
+            .map(|a| (lo[a] as i64 + (size[a] / 2) as i64 - half).to_string())
+            .collect();
+        let mut c = Vec::new();
+        c.extend_from_slice(&(2 + 2 * m).to_le_bytes());
+        vox_dict(&mut c, &[]);
+        c.extend_from_slice(&(3 + 2 * m).to_le_bytes());
+        c.extend_from_slice(&(-1i32).to_le_bytes());
+        c.extend_from_slice(&0u32.to_le_bytes());
+        c.extend_from_slice(&1u32.to_le_bytes());
+        vox_dict(&mut c, &[("_t", t.join(" "))]);
+        vox_chunk(&mut children, b"nTRN", &c, &[]);
+        let mut c = Vec::new();
+        c.extend_from_slice(&(3 + 2 * m).to_le_bytes());
+        vox_dict(&mut c, &[]);
+        c.extend_from_slice(&1u32.to_le_bytes());
+        c.extend_from_slice(&m.to_le_bytes());
+        vox_dict(&mut c, &[]);
+        vox_chunk(&mut children, b"nSHP", &c, &[]);
+    }
+    // Palette: file colour i is palette index i + 1; index 1 (our voxels) is a warm grey, the rest white.
+    let mut rgba = Vec::with_capacity(1024);
+    for i in 0..256 {
+        rgba.extend_from_slice(if i == 0 {
+            &[0xc8, 0xb4, 0x96, 0xff]
+        } else {
+            &[0xff, 0xff, 0xff, 0xff]
+        });
+    }
+    vox_chunk(&mut children, b"RGBA", &rgba, &[]);
+    let mut out = b"VOX ".to_vec();
+    out.extend_from_slice(&150u32.to_le_bytes());
+    vox_chunk(&mut out, b"MAIN", &[], &children);
     out
 }

@@ -13,6 +13,9 @@ pub struct TriMesh {
     pub triangles: Vec<[u32; 3]>,
 }
 
+/// Indices of the triangles over one position triple: (forward, reversed orientation).
+type Orientations = (Vec<usize>, Vec<usize>);
+
 /// What [`TriMesh::clean`] removed.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize)]
 pub struct CleanReport {
@@ -83,7 +86,7 @@ impl TriMesh {
         let mut report = CleanReport::default();
         let key = |v: u32| self.positions[v as usize].map(f32::to_bits);
         // Per position-triple: indices of the triangles of each orientation.
-        let mut groups: HashMap<[[u32; 3]; 3], (Vec<usize>, Vec<usize>)> = HashMap::new();
+        let mut groups: HashMap<[[u32; 3]; 3], Orientations> = HashMap::new();
         let mut order = Vec::new();
         for (i, t) in self.triangles.iter().enumerate() {
             let p = [key(t[0]), key(t[1]), key(t[2])];
