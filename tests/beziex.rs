@@ -143,7 +143,7 @@ fn max_shared_edge_jump(patches: &[BeziexPatch]) -> (usize, f64) {
     for a in 0..patches.len() {
         for ea in 0..4 {
             let ca = curve(&patches[a], ea);
-            for (b, pb) in patches.iter().enumerate().skip(a + 1) {
+            for pb in patches.iter().skip(a + 1) {
                 for eb in 0..4 {
                     let cb = curve(pb, eb);
                     for rev in [false, true] {

@@ -146,7 +146,7 @@ impl BeziexPatch {
     pub fn eval(&self, u: f64, v: f64) -> (DVec3, DVec3, DVec3) {
         let (u, v) = (u.clamp(0.0, 1.0), v.clamp(0.0, 1.0));
         let [ra, rb] = self.nets(u, v);
-        let near = |t: f64| t < CORNER_EPS || t > 1.0 - CORNER_EPS;
+        let near = |t: f64| !(CORNER_EPS..=1.0 - CORNER_EPS).contains(&t);
         if near(u) && near(v) {
             return (ra[0], ra[1], ra[2]);
         }
