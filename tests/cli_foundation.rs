@@ -85,6 +85,8 @@ fn offscreen_demo_writes_the_asked_frames_and_the_profiles() {
     let trace = dir.join("trace.json");
     let out = gregvox(&[
         "demo",
+        "--scene",
+        "spinner",
         "--offscreen",
         "--frames",
         "7",
@@ -177,4 +179,38 @@ fn demo_rejects_bad_sizes_and_unwritable_outputs_clearly() {
         err.contains("/proc/gregvox-cannot-write-here") && !err.contains("panicked"),
         "{err}"
     );
+}
+
+#[test]
+fn every_demo_scene_renders_offscreen_under_validation() {
+    for scene in ["flag", "cage", "spinner"] {
+        let dir =
+            std::env::temp_dir().join(format!("gregvox-scene-{scene}-{}", std::process::id()));
+        let out = gregvox(&[
+            "demo",
+            "--offscreen",
+            "--scene",
+            scene,
+            "--frames",
+            "3",
+            "--size",
+            "96x64",
+            "--out",
+            dir.to_str().unwrap(),
+        ]);
+        assert!(out.status.success(), "{scene}: {}", text(&out.stderr));
+        assert_clean_stderr(&out);
+        let png = dir.join("frame_00002.png");
+        let decoder =
+            png::Decoder::new(std::io::BufReader::new(std::fs::File::open(&png).unwrap()));
+        let mut reader = decoder.read_info().unwrap();
+        let mut px = vec![0; reader.output_buffer_size()];
+        reader.next_frame(&mut px).unwrap();
+        // Something was drawn: not every pixel equals the first (the clear colour).
+        assert!(
+            px.chunks_exact(4).any(|p| p != &px[..4]),
+            "{scene}: an empty frame"
+        );
+        let _ = std::fs::remove_dir_all(&dir);
+    }
 }
