@@ -28,4 +28,5 @@ command -v cargo >/dev/null || { echo "cargo not found: install Rust with rustup
 export LP_NUM_THREADS="${LP_NUM_THREADS:-2}"
 cargo build --release
 ./target/release/gregvox info
-./target/release/gregvox demo --offscreen --frames 60 --every 30 --size 640x360 --out out/demo --profile
+./target/release/gregvox demo --offscreen --scene flag --frames 60 --every 30 --size 640x360 --out out/demo/flag --profile
+./target/release/gregvox demo --offscreen --scene cage --frames 60 --every 30 --size 640x360 --out out/demo/cage --profile
