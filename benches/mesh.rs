@@ -71,5 +71,85 @@ fn bench(c: &mut Criterion) {
     g.finish();
 }
 
-criterion_group!(benches, bench);
+/// The GPU side of the same work: AREA vertex normals of a (deforming) mesh as two gather kernels, and one
+/// Catmull–Clark level as S·P on the GPU. Each iteration is a submission waited on (the per-frame cost
+/// including submission), on whichever device `GREGVOX_DEVICE` picks (lavapipe here).
+fn bench_gpu(c: &mut Criterion) {
+    use ash::vk;
+    use gregvox::gpu::{Context, ContextDesc, MemoryLocation, Validation};
+    use gregvox::passes::mesh_normals::{GpuMeshMatrix, MeshNormalsPass};
+    use gregvox::passes::spmv::{GpuSparse, SpmvPass};
+    let ctx = match Context::with_desc(&ContextDesc {
+        validation: Validation::Off,
+        ..Default::default()
+    }) {
+        Ok(c) => c,
+        Err(e) => {
+            eprintln!("no Vulkan device, GPU benchmarks skipped: {e}");
+            return;
+        }
+    };
+    let base = bunny();
+    let loop2 = loop_subdivide(&base, 2, LoopBeta::Warren).expect("the bunny is all triangles");
+    let normals = MeshNormalsPass::new(&ctx).unwrap();
+    let spmv = SpmvPass::new(&ctx).unwrap();
+    let mut g = c.benchmark_group("mesh_gpu");
+    g.sample_size(10)
+        .warm_up_time(Duration::from_secs(1))
+        .measurement_time(Duration::from_secs(4));
+    for (name, mesh) in [("bunny", &base), ("bunny_loop2", &loop2)] {
+        let m = MeshMatrix::from_mesh(mesh);
+        let pts: Vec<[f32; 4]> = mesh
+            .positions
+            .iter()
+            .map(|p| [p.x as f32, p.y as f32, p.z as f32, 1.0])
+            .collect();
+        let usage = vk::BufferUsageFlags::STORAGE_BUFFER;
+        let pb = ctx
+            .upload_buffer("positions", bytemuck::cast_slice(&pts), usage)
+            .unwrap();
+        let nb = ctx
+            .create_buffer(
+                "normals",
+                pts.len() as u64 * 16,
+                usage,
+                MemoryLocation::GpuOnly,
+            )
+            .unwrap();
+        let gm = GpuMeshMatrix::upload(&ctx, &m).unwrap();
+        g.throughput(Throughput::Elements(m.n_faces() as u64));
+        g.bench_function(BenchmarkId::new("normals", name), |b| {
+            b.iter(|| {
+                ctx.one_shot(|cmd| normals.record(&ctx, cmd, &gm, &pb, &nb))
+                    .unwrap()
+            })
+        });
+        let sub = catmull_clark_matrix(&m);
+        let s = GpuSparse::upload(&ctx, "S", &sub.s).unwrap();
+        let yb = ctx
+            .create_buffer(
+                "refined",
+                sub.s.n_rows as u64 * 16,
+                usage,
+                MemoryLocation::GpuOnly,
+            )
+            .unwrap();
+        g.bench_function(BenchmarkId::new("cc_spmv", name), |b| {
+            b.iter(|| {
+                ctx.one_shot(|cmd| spmv.record(&ctx, cmd, &s, &pb, &yb))
+                    .unwrap()
+            })
+        });
+        for buf in [pb, nb, yb] {
+            buf.destroy(&ctx);
+        }
+        s.destroy(&ctx);
+        gm.destroy(&ctx);
+    }
+    g.finish();
+    normals.destroy(&ctx);
+    spmv.destroy(&ctx);
+}
+
+criterion_group!(benches, bench, bench_gpu);
 criterion_main!(benches);

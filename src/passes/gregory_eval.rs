@@ -88,7 +88,9 @@ impl GregoryEvalPass {
         ];
         self.pipeline
             .bind(ctx, cmd, &bindings, bytemuck::cast_slice(&push));
-        self.pipeline.dispatch_linear(ctx, cmd, n)?;
+        // One workgroup of 64 per patch (see the shader).
+        self.pipeline
+            .dispatch_linear(ctx, cmd, patch_count as u64 * 64)?;
         memory_barrier(
             ctx,
             cmd,
