@@ -573,6 +573,31 @@ pub fn memory_barrier(
     ctx.cmd_pipeline_barrier2(cmd, &vk::DependencyInfo::default().memory_barriers(&b));
 }
 
+/// The barrier that ends a compute pass: its storage writes become available to every later reader in
+/// gregvox (vertex input, vertex/fragment/compute shaders, copies). One broad barrier instead of one per
+/// consumer keeps the passes independent of who reads their output.
+pub fn compute_writes_to_readers(ctx: &Context, cmd: vk::CommandBuffer) {
+    memory_barrier(
+        ctx,
+        cmd,
+        (
+            vk::PipelineStageFlags2::COMPUTE_SHADER,
+            vk::AccessFlags2::SHADER_STORAGE_WRITE,
+        ),
+        (
+            vk::PipelineStageFlags2::VERTEX_ATTRIBUTE_INPUT
+                | vk::PipelineStageFlags2::VERTEX_SHADER
+                | vk::PipelineStageFlags2::FRAGMENT_SHADER
+                | vk::PipelineStageFlags2::COMPUTE_SHADER
+                | vk::PipelineStageFlags2::COPY,
+            vk::AccessFlags2::VERTEX_ATTRIBUTE_READ
+                | vk::AccessFlags2::SHADER_STORAGE_READ
+                | vk::AccessFlags2::SHADER_SAMPLED_READ
+                | vk::AccessFlags2::TRANSFER_READ,
+        ),
+    );
+}
+
 /// A resource whose destruction waits for the GPU to finish a frame.
 #[derive(Debug)]
 pub enum Deferred {

@@ -8,7 +8,7 @@
 //! to vertex input, vertex-shader storage reads, later compute passes and transfers.
 use crate::error::{Error, Result};
 use crate::gpu::pipeline::{Binding, ComputePipeline, DescriptorSetLayoutBuilder};
-use crate::gpu::resources::memory_barrier;
+use crate::gpu::resources::compute_writes_to_readers;
 use crate::gpu::{shaders, Buffer, Context};
 use ash::vk;
 
@@ -91,23 +91,7 @@ impl GregoryEvalPass {
         // One workgroup of 64 per patch (see the shader).
         self.pipeline
             .dispatch_linear(ctx, cmd, patch_count as u64 * 64)?;
-        memory_barrier(
-            ctx,
-            cmd,
-            (
-                vk::PipelineStageFlags2::COMPUTE_SHADER,
-                vk::AccessFlags2::SHADER_STORAGE_WRITE,
-            ),
-            (
-                vk::PipelineStageFlags2::VERTEX_ATTRIBUTE_INPUT
-                    | vk::PipelineStageFlags2::VERTEX_SHADER
-                    | vk::PipelineStageFlags2::COMPUTE_SHADER
-                    | vk::PipelineStageFlags2::COPY,
-                vk::AccessFlags2::VERTEX_ATTRIBUTE_READ
-                    | vk::AccessFlags2::SHADER_STORAGE_READ
-                    | vk::AccessFlags2::TRANSFER_READ,
-            ),
-        );
+        compute_writes_to_readers(ctx, cmd);
         Ok(())
     }
 

@@ -6,7 +6,7 @@
 //! of `record` the buffer's writes are made visible to transfers and later shader reads.
 use crate::error::Result;
 use crate::gpu::pipeline::{Binding, ComputePipeline, DescriptorSetLayoutBuilder};
-use crate::gpu::resources::memory_barrier;
+use crate::gpu::resources::compute_writes_to_readers;
 use crate::gpu::{shaders, Buffer, Context};
 use ash::vk;
 
@@ -49,18 +49,7 @@ impl IotaPass {
             bytemuck::cast_slice(&push),
         );
         self.pipeline.dispatch_linear(ctx, cmd, count as u64)?;
-        memory_barrier(
-            ctx,
-            cmd,
-            (
-                vk::PipelineStageFlags2::COMPUTE_SHADER,
-                vk::AccessFlags2::SHADER_STORAGE_WRITE,
-            ),
-            (
-                vk::PipelineStageFlags2::COMPUTE_SHADER | vk::PipelineStageFlags2::COPY,
-                vk::AccessFlags2::SHADER_STORAGE_READ | vk::AccessFlags2::TRANSFER_READ,
-            ),
-        );
+        compute_writes_to_readers(ctx, cmd);
         Ok(())
     }
 

@@ -7,7 +7,7 @@
 //! exit the output is visible to later compute, vertex shaders and transfers.
 use crate::error::{Error, Result};
 use crate::gpu::pipeline::{Binding, ComputePipeline, DescriptorSetLayoutBuilder};
-use crate::gpu::resources::memory_barrier;
+use crate::gpu::resources::compute_writes_to_readers;
 use crate::gpu::{shaders, Buffer, Context, MemoryLocation};
 use crate::mesh::MeshMatrix;
 use ash::vk;
@@ -157,18 +157,7 @@ impl MeshNormalsPass {
             bytemuck::bytes_of(&m.faces),
         );
         self.faces.dispatch_linear(ctx, cmd, m.faces as u64)?;
-        memory_barrier(
-            ctx,
-            cmd,
-            (
-                vk::PipelineStageFlags2::COMPUTE_SHADER,
-                vk::AccessFlags2::SHADER_STORAGE_WRITE,
-            ),
-            (
-                vk::PipelineStageFlags2::COMPUTE_SHADER,
-                vk::AccessFlags2::SHADER_STORAGE_READ,
-            ),
-        );
+        compute_writes_to_readers(ctx, cmd);
         self.vertices.bind(
             ctx,
             cmd,
@@ -182,20 +171,7 @@ impl MeshNormalsPass {
             bytemuck::bytes_of(&m.vertices),
         );
         self.vertices.dispatch_linear(ctx, cmd, m.vertices as u64)?;
-        memory_barrier(
-            ctx,
-            cmd,
-            (
-                vk::PipelineStageFlags2::COMPUTE_SHADER,
-                vk::AccessFlags2::SHADER_STORAGE_WRITE,
-            ),
-            (
-                vk::PipelineStageFlags2::COMPUTE_SHADER
-                    | vk::PipelineStageFlags2::VERTEX_SHADER
-                    | vk::PipelineStageFlags2::COPY,
-                vk::AccessFlags2::SHADER_STORAGE_READ | vk::AccessFlags2::TRANSFER_READ,
-            ),
-        );
+        compute_writes_to_readers(ctx, cmd);
         Ok(())
     }
 

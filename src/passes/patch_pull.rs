@@ -10,7 +10,7 @@ use crate::error::{Error, Result};
 use crate::gpu::pipeline::{Binding, DescriptorSetLayoutBuilder, GraphicsDesc, GraphicsPipeline};
 use crate::gpu::resources::memory_barrier;
 use crate::gpu::{shaders, Buffer, Context};
-use crate::passes::surface_draw::{DrawTarget, SurfacePush};
+use crate::passes::surface_draw::{begin_color_depth, DrawTarget, SurfacePush};
 use ash::vk;
 
 /// Which patch type the vertex shader evaluates.
@@ -83,40 +83,7 @@ impl PatchPullPass {
                 "patch pull: capture buffer given to the wrong pipeline variant".into(),
             ));
         }
-        let load = if clear.is_some() {
-            vk::AttachmentLoadOp::CLEAR
-        } else {
-            vk::AttachmentLoadOp::LOAD
-        };
-        let color = [vk::RenderingAttachmentInfo::default()
-            .image_view(target.color)
-            .image_layout(vk::ImageLayout::COLOR_ATTACHMENT_OPTIMAL)
-            .load_op(load)
-            .store_op(vk::AttachmentStoreOp::STORE)
-            .clear_value(vk::ClearValue {
-                color: vk::ClearColorValue {
-                    float32: clear.unwrap_or([0.0; 4]),
-                },
-            })];
-        let depth = vk::RenderingAttachmentInfo::default()
-            .image_view(target.depth)
-            .image_layout(vk::ImageLayout::DEPTH_ATTACHMENT_OPTIMAL)
-            .load_op(load)
-            .store_op(vk::AttachmentStoreOp::STORE)
-            .clear_value(vk::ClearValue {
-                depth_stencil: vk::ClearDepthStencilValue {
-                    depth: 1.0,
-                    stencil: 0,
-                },
-            });
-        let info = vk::RenderingInfo::default()
-            .render_area(vk::Rect2D {
-                offset: vk::Offset2D::default(),
-                extent: target.extent,
-            })
-            .layer_count(1)
-            .color_attachments(&color)
-            .depth_attachment(&depth);
+
         let mut p = *push;
         p.mode[1] = level;
         p.mode[2] = kind as u32;
@@ -127,7 +94,7 @@ impl PatchPullPass {
         if let Some(c) = capture {
             bindings.push((2, Binding::Storage(c.raw)));
         }
-        ctx.cmd_begin_rendering(cmd, &info);
+        begin_color_depth(ctx, cmd, target, clear);
         self.pipeline
             .bind(ctx, cmd, &bindings, bytemuck::bytes_of(&p), target.extent);
         // SAFETY: inside the render pass with the pipeline bound; the index buffer covers one grid.

@@ -6,7 +6,7 @@
 //! exit the writes are visible to vertex-shader storage reads.
 use crate::error::Result;
 use crate::gpu::pipeline::{Binding, ComputePipeline, DescriptorSetLayoutBuilder};
-use crate::gpu::resources::memory_barrier;
+use crate::gpu::resources::compute_writes_to_readers;
 use crate::gpu::{shaders, Buffer, Context};
 use ash::vk;
 
@@ -57,18 +57,7 @@ impl SpinnerPass {
             bytemuck::cast_slice(&push),
         );
         self.pipeline.dispatch_linear(ctx, cmd, count as u64)?;
-        memory_barrier(
-            ctx,
-            cmd,
-            (
-                vk::PipelineStageFlags2::COMPUTE_SHADER,
-                vk::AccessFlags2::SHADER_STORAGE_WRITE,
-            ),
-            (
-                vk::PipelineStageFlags2::VERTEX_SHADER,
-                vk::AccessFlags2::SHADER_STORAGE_READ,
-            ),
-        );
+        compute_writes_to_readers(ctx, cmd);
         Ok(())
     }
 

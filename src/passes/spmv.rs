@@ -7,7 +7,7 @@
 //! `y`'s writes are visible to later compute and vertex-shader reads and to transfers.
 use crate::error::{Error, Result};
 use crate::gpu::pipeline::{Binding, ComputePipeline, DescriptorSetLayoutBuilder};
-use crate::gpu::resources::memory_barrier;
+use crate::gpu::resources::compute_writes_to_readers;
 use crate::gpu::{shaders, Buffer, Context};
 use crate::mesh::SparseMatrix;
 use ash::vk;
@@ -115,20 +115,7 @@ impl SpmvPass {
         self.pipeline
             .bind(ctx, cmd, &bindings, bytemuck::bytes_of(&a.rows));
         self.pipeline.dispatch_linear(ctx, cmd, a.rows as u64)?;
-        memory_barrier(
-            ctx,
-            cmd,
-            (
-                vk::PipelineStageFlags2::COMPUTE_SHADER,
-                vk::AccessFlags2::SHADER_STORAGE_WRITE,
-            ),
-            (
-                vk::PipelineStageFlags2::COMPUTE_SHADER
-                    | vk::PipelineStageFlags2::VERTEX_SHADER
-                    | vk::PipelineStageFlags2::COPY,
-                vk::AccessFlags2::SHADER_STORAGE_READ | vk::AccessFlags2::TRANSFER_READ,
-            ),
-        );
+        compute_writes_to_readers(ctx, cmd);
         Ok(())
     }
 

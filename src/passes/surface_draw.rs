@@ -29,6 +29,51 @@ pub struct SurfacePush {
     pub mode: [u32; 4],
 }
 
+/// Begins dynamic rendering into `target`'s color and depth views, clearing both (`clear` = Some(color)) or
+/// loading them; shared by every pass that draws a surface.
+pub fn begin_color_depth(
+    ctx: &Context,
+    cmd: vk::CommandBuffer,
+    target: &DrawTarget,
+    clear: Option<[f32; 4]>,
+) {
+    let load = if clear.is_some() {
+        vk::AttachmentLoadOp::CLEAR
+    } else {
+        vk::AttachmentLoadOp::LOAD
+    };
+    let color = [vk::RenderingAttachmentInfo::default()
+        .image_view(target.color)
+        .image_layout(vk::ImageLayout::COLOR_ATTACHMENT_OPTIMAL)
+        .load_op(load)
+        .store_op(vk::AttachmentStoreOp::STORE)
+        .clear_value(vk::ClearValue {
+            color: vk::ClearColorValue {
+                float32: clear.unwrap_or([0.0; 4]),
+            },
+        })];
+    let depth = vk::RenderingAttachmentInfo::default()
+        .image_view(target.depth)
+        .image_layout(vk::ImageLayout::DEPTH_ATTACHMENT_OPTIMAL)
+        .load_op(load)
+        .store_op(vk::AttachmentStoreOp::STORE)
+        .clear_value(vk::ClearValue {
+            depth_stencil: vk::ClearDepthStencilValue {
+                depth: 1.0,
+                stencil: 0,
+            },
+        });
+    let info = vk::RenderingInfo::default()
+        .render_area(vk::Rect2D {
+            offset: vk::Offset2D::default(),
+            extent: target.extent,
+        })
+        .layer_count(1)
+        .color_attachments(&color)
+        .depth_attachment(&depth);
+    ctx.cmd_begin_rendering(cmd, &info);
+}
+
 /// The surface draw pass.
 pub struct SurfaceDrawPass {
     pipeline: GraphicsPipeline,
@@ -90,41 +135,7 @@ impl SurfaceDrawPass {
         index_count: u32,
         push: &SurfacePush,
     ) {
-        let load = if clear.is_some() {
-            vk::AttachmentLoadOp::CLEAR
-        } else {
-            vk::AttachmentLoadOp::LOAD
-        };
-        let color = [vk::RenderingAttachmentInfo::default()
-            .image_view(target.color)
-            .image_layout(vk::ImageLayout::COLOR_ATTACHMENT_OPTIMAL)
-            .load_op(load)
-            .store_op(vk::AttachmentStoreOp::STORE)
-            .clear_value(vk::ClearValue {
-                color: vk::ClearColorValue {
-                    float32: clear.unwrap_or([0.0; 4]),
-                },
-            })];
-        let depth = vk::RenderingAttachmentInfo::default()
-            .image_view(target.depth)
-            .image_layout(vk::ImageLayout::DEPTH_ATTACHMENT_OPTIMAL)
-            .load_op(load)
-            .store_op(vk::AttachmentStoreOp::STORE)
-            .clear_value(vk::ClearValue {
-                depth_stencil: vk::ClearDepthStencilValue {
-                    depth: 1.0,
-                    stencil: 0,
-                },
-            });
-        let info = vk::RenderingInfo::default()
-            .render_area(vk::Rect2D {
-                offset: vk::Offset2D::default(),
-                extent: target.extent,
-            })
-            .layer_count(1)
-            .color_attachments(&color)
-            .depth_attachment(&depth);
-        ctx.cmd_begin_rendering(cmd, &info);
+        begin_color_depth(ctx, cmd, target, clear);
         self.pipeline
             .bind(ctx, cmd, &[], bytemuck::bytes_of(push), target.extent);
         // SAFETY: inside the render pass with the pipeline bound; buffers have VERTEX/INDEX usage.
