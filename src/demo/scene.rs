@@ -128,6 +128,38 @@ fn scoped<T>(
     profiler.scope(ctx, cmd, slot, name, f)
 }
 
+/// Draws a surface vertex/index buffer pair (with its tessellation level) in the scene's shading, timed.
+#[allow(clippy::too_many_arguments)]
+fn draw_surface(
+    draw: &SurfaceDrawPass,
+    ctx: &Context,
+    cmd: vk::CommandBuffer,
+    targets: &FrameTargets,
+    view: &ViewState,
+    profiler: &mut Profiler,
+    color: [f32; 3],
+    (vertices, indices, index_count, level): (&Buffer, &Buffer, u32, u32),
+) {
+    let push = surface_push(view, targets, color, level);
+    let target = DrawTarget {
+        color: targets.color,
+        depth: targets.depth,
+        extent: targets.extent,
+    };
+    scoped(profiler, ctx, cmd, targets.slot, "surface draw", || {
+        draw.record(
+            ctx,
+            cmd,
+            &target,
+            Some([0.92, 0.93, 0.95, 1.0]),
+            vertices,
+            indices,
+            index_count,
+            &push,
+        )
+    });
+}
+
 /// The minimal compute → raster scene: a ring of triangles written by a compute shader.
 pub struct SpinnerScene {
     spinner: SpinnerPass,
@@ -296,24 +328,21 @@ impl Scene for FlagScene {
             self.correct,
             Some((profiler, targets.slot)),
         )?;
-        let push = surface_push(view, targets, [0.85, 0.25, 0.2], self.flag.level);
-        let target = DrawTarget {
-            color: targets.color,
-            depth: targets.depth,
-            extent: targets.extent,
-        };
-        scoped(profiler, ctx, cmd, targets.slot, "surface draw", || {
-            self.draw.record(
-                ctx,
-                cmd,
-                &target,
-                Some([0.92, 0.93, 0.95, 1.0]),
+        draw_surface(
+            &self.draw,
+            ctx,
+            cmd,
+            targets,
+            view,
+            profiler,
+            [0.85, 0.25, 0.2],
+            (
                 self.flag.vertices(),
                 self.flag.indices(),
                 self.flag.index_count(),
-                &push,
-            )
-        });
+                self.flag.level,
+            ),
+        );
         Ok(())
     }
 
@@ -398,24 +427,21 @@ impl Scene for CageScene {
         };
         self.surface
             .record(ctx, cmd, Some(&deform), Some((profiler, targets.slot)))?;
-        let push = surface_push(view, targets, [0.3, 0.55, 0.85], self.surface.level);
-        let target = DrawTarget {
-            color: targets.color,
-            depth: targets.depth,
-            extent: targets.extent,
-        };
-        scoped(profiler, ctx, cmd, targets.slot, "surface draw", || {
-            self.draw.record(
-                ctx,
-                cmd,
-                &target,
-                Some([0.92, 0.93, 0.95, 1.0]),
+        draw_surface(
+            &self.draw,
+            ctx,
+            cmd,
+            targets,
+            view,
+            profiler,
+            [0.3, 0.55, 0.85],
+            (
                 self.surface.vertices(),
                 self.surface.indices(),
                 self.surface.index_count(),
-                &push,
-            )
-        });
+                self.surface.level,
+            ),
+        );
         Ok(())
     }
 

@@ -688,15 +688,9 @@ impl PeelVoxelizer {
         rule: FillRule,
         mut profiler: Option<&mut Profiler>,
     ) -> Result<(VoxelGrid, Vec<AxisStats>)> {
-        check_axes(axes)?;
-        let mut grids = Vec::new();
-        let mut stats = Vec::new();
-        for &a in axes {
-            let (g, s) = self.voxelize_axis(ctx, geom, frame, a, rule, profiler.as_deref_mut())?;
-            grids.push(g);
-            stats.push(s);
-        }
-        Ok((vote(grids)?, stats))
+        over_axes(axes, |a| {
+            self.voxelize_axis(ctx, geom, frame, a, rule, profiler.as_deref_mut())
+        })
     }
 
     /// Destroys the passes.
@@ -704,6 +698,22 @@ impl PeelVoxelizer {
         self.peel.destroy(ctx);
         self.fill.destroy(ctx);
     }
+}
+
+/// Runs `one` along each of `axes` (1 or 3, checked) and takes the 2-of-3 vote for three.
+fn over_axes(
+    axes: &[Axis],
+    mut one: impl FnMut(Axis) -> Result<(VoxelGrid, AxisStats)>,
+) -> Result<(VoxelGrid, Vec<AxisStats>)> {
+    check_axes(axes)?;
+    let mut grids = Vec::new();
+    let mut stats = Vec::new();
+    for &a in axes {
+        let (g, s) = one(a)?;
+        grids.push(g);
+        stats.push(s);
+    }
+    Ok((vote(grids)?, stats))
 }
 
 /// Buffers of one A-buffer axis run, destroyed together.
@@ -1012,15 +1022,9 @@ impl AbufferVoxelizer {
         rule: FillRule,
         mut profiler: Option<&mut Profiler>,
     ) -> Result<(VoxelGrid, Vec<AxisStats>)> {
-        check_axes(axes)?;
-        let mut grids = Vec::new();
-        let mut stats = Vec::new();
-        for &a in axes {
-            let (g, s) = self.voxelize_axis(ctx, geom, frame, a, rule, profiler.as_deref_mut())?;
-            grids.push(g);
-            stats.push(s);
-        }
-        Ok((vote(grids)?, stats))
+        over_axes(axes, |a| {
+            self.voxelize_axis(ctx, geom, frame, a, rule, profiler.as_deref_mut())
+        })
     }
 
     /// Destroys the passes.
