@@ -55,6 +55,10 @@ pub struct VoxelizeArgs {
     /// Refuse meshes needing more peeling passes than this.
     #[arg(long, default_value_t = 256)]
     pub max_layers: u32,
+    /// Treat the input as a quad cage: evaluate its ACC-2 Gregory surface at this level on the GPU and voxelize
+    /// it straight from the device-local vertex buffer (no CPU round trip of the surface).
+    #[arg(long, value_name = "LEVEL")]
+    pub gregory_level: Option<u32>,
     /// Print the summary as JSON.
     #[arg(long)]
     pub json: bool,
@@ -102,6 +106,9 @@ pub fn run(args: &VoxelizeArgs) -> anyhow::Result<()> {
                 out.display()
             );
         }
+    }
+    if let Some(level) = args.gregory_level {
+        return run_gregory(args, level);
     }
     let mesh = load_obj(&args.input)?;
     let topo = MeshMatrix::from_mesh(&mesh).report();
@@ -219,6 +226,73 @@ type PeelResult = (
     Option<serde_json::Value>,
     Option<String>,
 );
+
+/// `--gregory-level`: cage → GPU Gregory surface → peel, all on the device.
+fn run_gregory(args: &VoxelizeArgs, level: u32) -> anyhow::Result<()> {
+    use crate::engine::gregory::GregorySurface;
+    use crate::engine::voxelize::voxelize_gregory_surface;
+    if args.method != Method::Peel {
+        bail!("--gregory-level voxelizes the GPU surface by depth peeling: use --method peel");
+    }
+    let mesh = load_obj(&args.input)?;
+    let open = !MeshMatrix::from_mesh(&mesh).report().closed;
+    let (topo, cage, note) =
+        super::cage::cage_topology(&mesh, crate::surface::Tangents::OpenSubdiv)
+            .map_err(|e| anyhow::anyhow!("{}: {e}", args.input.display()))?;
+    if let Some(n) = note {
+        eprintln!("gregvox voxelize: {n}");
+    }
+    let three = match args.axes.as_deref() {
+        Some("3") => true,
+        Some(_) => false,
+        None => open && args.axis.is_none(),
+    };
+    let axes: Vec<Axis> = if three {
+        Axis::ALL.to_vec()
+    } else {
+        vec![args.axis.unwrap_or(Axis::Z)]
+    };
+    let ctx = Context::with_desc(&ContextDesc::default())?;
+    let mut profiler = Profiler::new(&ctx, 1, 4096)?;
+    let start = Instant::now();
+    let result = (|| -> anyhow::Result<(VoxelGrid, Vec<crate::engine::voxelize::AxisStats>)> {
+        let surface = GregorySurface::new(&ctx, &topo, &cage, level)?;
+        let r = ctx
+            .one_shot(|cmd| surface.record(&ctx, cmd, None, Some((&mut profiler, 0))))
+            .map_err(anyhow::Error::from)
+            .and_then(|()| {
+                profiler.collect(&ctx, 0)?;
+                Ok(voxelize_gregory_surface(
+                    &ctx,
+                    &surface,
+                    args.res,
+                    &axes,
+                    args.rule,
+                    args.max_layers,
+                    Some(&mut profiler),
+                )?)
+            });
+        surface.destroy(&ctx);
+        r
+    })();
+    let out = result.and_then(|(grid, stats)| {
+        args.profile.emit(&profiler)?;
+        if let Some(path) = &args.out {
+            write_grid(&grid, path)?;
+        }
+        let layers: Vec<String> = stats.iter().map(|s| format!("{} {}", s.axis.name(), s.layers)).collect();
+        super::print_out(&format!(
+            "{}: Gregory surface at level {level}, {}³ grid\nlayers per axis: {}\nsolid voxels: {}\ntotal time: {:.1} ms\n",
+            args.input.display(),
+            args.res,
+            layers.join(", "),
+            grid.count(),
+            start.elapsed().as_secs_f64() * 1e3
+        ))
+    });
+    profiler.destroy(&ctx);
+    out
+}
 
 fn run_peel(
     args: &VoxelizeArgs,

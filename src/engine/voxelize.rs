@@ -1079,3 +1079,54 @@ impl GpuVoxelizer {
         }
     }
 }
+
+/// Voxelizes a Gregory surface straight from its device-local vertex buffer: the grid frame comes from a GPU
+/// bounds reduction (six numbers read back), and the peel pass draws the evaluation pass's vertex and index
+/// buffers as they are. The surface must have been recorded (evaluated) before.
+pub fn voxelize_gregory_surface(
+    ctx: &Context,
+    surface: &crate::engine::gregory::GregorySurface,
+    res: u32,
+    axes: &[Axis],
+    rule: FillRule,
+    max_layers: u32,
+    profiler: Option<&mut Profiler>,
+) -> Result<(VoxelGrid, Vec<AxisStats>)> {
+    use crate::passes::bounds::{decode, BoundsPass};
+    use crate::passes::gregory_eval::vertex_count;
+    let count = vertex_count(surface.patch_count, surface.level) as u32;
+    let bounds = BoundsPass::new(ctx)?;
+    let buf = match ctx.create_buffer(
+        "surface bounds",
+        24,
+        vk::BufferUsageFlags::STORAGE_BUFFER
+            | vk::BufferUsageFlags::TRANSFER_DST
+            | vk::BufferUsageFlags::TRANSFER_SRC,
+        MemoryLocation::GpuOnly,
+    ) {
+        Ok(b) => b,
+        Err(e) => {
+            bounds.destroy(ctx);
+            return Err(e);
+        }
+    };
+    let words = ctx
+        .one_shot(|cmd| bounds.record(ctx, cmd, surface.vertices(), count, 32, &buf))
+        .and_then(|()| ctx.read_pod::<u32>(&buf));
+    buf.destroy(ctx);
+    bounds.destroy(ctx);
+    let w = words?;
+    let lo = [decode(w[0]), decode(w[1]), decode(w[2])];
+    let hi = [decode(w[3]), decode(w[4]), decode(w[5])];
+    let frame = GridFrame::from_points(&[lo, hi], res)?;
+    let mut v = PeelVoxelizer::new(ctx, 32)?;
+    v.max_layers = max_layers;
+    let geom = PeelGeometry {
+        vertices: surface.vertices(),
+        indices: surface.indices(),
+        index_count: surface.index_count(),
+    };
+    let r = v.voxelize(ctx, &geom, &frame, axes, rule, profiler);
+    v.destroy(ctx);
+    r
+}

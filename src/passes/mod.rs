@@ -2,6 +2,7 @@
 //! buffers are passed in, never owned by two passes.
 pub mod abuffer;
 pub mod beziex_eval;
+pub mod bounds;
 pub mod cage_deform;
 pub mod gregory_eval;
 pub mod iota;
