@@ -366,30 +366,7 @@ impl PeelVoxelizer {
         )?;
         let counts = r.counts.insert(counts);
         ctx.one_shot(|cmd| {
-            // SAFETY: recording; whole-buffer fill.
-            unsafe {
-                ctx.device
-                    .cmd_fill_buffer(cmd, counts.raw, 0, vk::WHOLE_SIZE, 0)
-            };
-            memory_barrier(
-                ctx,
-                cmd,
-                (
-                    vk::PipelineStageFlags2::ALL_TRANSFER,
-                    vk::AccessFlags2::TRANSFER_WRITE,
-                ),
-                (
-                    vk::PipelineStageFlags2::FRAGMENT_SHADER,
-                    vk::AccessFlags2::SHADER_STORAGE_READ | vk::AccessFlags2::SHADER_STORAGE_WRITE,
-                ),
-            );
-            let s = profiler
-                .as_deref_mut()
-                .map(|p| p.begin(ctx, cmd, 0, "peel count pre-pass"));
-            self.peel.record_count(ctx, cmd, geom, &push, counts);
-            if let (Some(p), Some(s)) = (profiler.as_deref_mut(), s) {
-                p.end(ctx, cmd, s);
-            }
+            self.record_count(ctx, cmd, geom, &push, counts, profiler);
             Ok(())
         })?;
         if let Some(p) = profiler.as_deref_mut() {

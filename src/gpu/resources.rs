@@ -186,6 +186,35 @@ impl Buffer {
 }
 
 impl Context {
+    /// Reserves `requirements.size` against the memory budget and allocates it (`bytes` is the size the
+    /// error message names); on failure nothing stays reserved.
+    fn allocate_memory(
+        &self,
+        name: &str,
+        requirements: vk::MemoryRequirements,
+        location: MemoryLocation,
+        linear: bool,
+        bytes: u64,
+    ) -> Result<Allocation> {
+        self.reserve_bytes(name, requirements.size)?;
+        self.allocator()
+            .allocate(&AllocationCreateDesc {
+                name,
+                requirements,
+                location,
+                linear,
+                allocation_scheme: AllocationScheme::GpuAllocatorManaged,
+            })
+            .map_err(|e| {
+                self.release_bytes(requirements.size);
+                Error::Alloc {
+                    name: name.into(),
+                    bytes,
+                    reason: e.to_string(),
+                }
+            })
+    }
+
     /// Creates a named buffer of `size` bytes in `location`.
     pub fn create_buffer(
         &self,
@@ -212,25 +241,9 @@ impl Context {
             unsafe { self.device.destroy_buffer(raw, None) };
             e
         };
-        self.reserve_bytes(name, requirements.size)
-            .map_err(destroy)?;
         let allocation = self
-            .allocator()
-            .allocate(&AllocationCreateDesc {
-                name,
-                requirements,
-                location,
-                linear: true,
-                allocation_scheme: AllocationScheme::GpuAllocatorManaged,
-            })
-            .map_err(|e| {
-                self.release_bytes(requirements.size);
-                destroy(Error::Alloc {
-                    name: name.into(),
-                    bytes: size,
-                    reason: e.to_string(),
-                })
-            })?;
+            .allocate_memory(name, requirements, location, true, size)
+            .map_err(destroy)?;
         // SAFETY: memory and offset come from an allocation that satisfies the requirements.
         if let Err(result) = unsafe {
             self.device
@@ -456,25 +469,15 @@ impl Context {
             unsafe { self.device.destroy_image(raw, None) };
             e
         };
-        self.reserve_bytes(name, requirements.size)
-            .map_err(destroy)?;
         let allocation = self
-            .allocator()
-            .allocate(&AllocationCreateDesc {
+            .allocate_memory(
                 name,
                 requirements,
-                location: MemoryLocation::GpuOnly,
-                linear: false,
-                allocation_scheme: AllocationScheme::GpuAllocatorManaged,
-            })
-            .map_err(|e| {
-                self.release_bytes(requirements.size);
-                destroy(Error::Alloc {
-                    name: name.into(),
-                    bytes: requirements.size,
-                    reason: e.to_string(),
-                })
-            })?;
+                MemoryLocation::GpuOnly,
+                false,
+                requirements.size,
+            )
+            .map_err(destroy)?;
         let free = |e: Error, allocation: Allocation| {
             self.release_bytes(requirements.size);
             let _ = self.allocator().free(allocation);
