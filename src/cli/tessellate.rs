@@ -12,6 +12,7 @@ use crate::passes::gregory_eval::{grid_indices, vertex_count, SurfaceVertex, MAX
 use crate::passes::patch_pull::{PatchKind, PatchPullPass};
 use crate::passes::surface_draw::{DrawTarget, SurfacePush};
 use crate::surface::beziex::{load_beziex, BeziexPatch};
+use crate::surface::Tangents;
 use crate::voxel::export::write_atomically;
 use anyhow::{bail, Context as _};
 use ash::vk;
@@ -26,6 +27,24 @@ pub enum EvalPath {
     Compute,
     /// Instanced grid whose vertex shader evaluates the patches (the Beziex seed's method).
     Vertex,
+}
+
+/// Edge-point masks at extraordinary vertices (gregory.md §3.5).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum TangentMode {
+    /// OpenSubdiv's masks (its GREGORY_BASIS points).
+    Opensubdiv,
+    /// The exact Catmull–Clark limit-tangent masks (EV normals on the limit tangent plane).
+    Exact,
+}
+
+impl From<TangentMode> for Tangents {
+    fn from(t: TangentMode) -> Tangents {
+        match t {
+            TangentMode::Opensubdiv => Tangents::OpenSubdiv,
+            TangentMode::Exact => Tangents::Exact,
+        }
+    }
 }
 
 /// Arguments of `gregvox tessellate`.
@@ -48,6 +67,9 @@ pub struct TessellateArgs {
     /// Re-run the GPU passes K times (for timing).
     #[arg(long, default_value_t = 1)]
     pub repeat: u32,
+    /// Edge-point masks of a cage's ACC-2 patches at extraordinary vertices.
+    #[arg(long, value_enum, default_value = "opensubdiv")]
+    pub tangents: TangentMode,
     /// Print vertex count, the largest normal jump across shared patch edges and the throughput.
     #[arg(long)]
     pub stats: bool,
@@ -125,9 +147,17 @@ pub fn run(args: &TessellateArgs) -> anyhow::Result<()> {
                 args.input.display()
             );
         }
+        if args.tangents != TangentMode::Opensubdiv {
+            bail!(
+                "--tangents chooses a cage's edge-point masks; {} is a Beziex model",
+                args.input.display()
+            );
+        }
         Source::Beziex(load_beziex(&args.input)?)
     } else {
-        let (topo, cage, note) = super::cage::load_cage_topology(&args.input)?;
+        let mesh = crate::mesh::load_obj(&args.input)?;
+        let (topo, cage, note) = super::cage::cage_topology(&mesh, args.tangents.into())
+            .map_err(|e| anyhow::anyhow!("{}: {e}", args.input.display()))?;
         if let Some(n) = note {
             eprintln!("gregvox tessellate: {n}");
         }
