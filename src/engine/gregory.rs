@@ -431,6 +431,20 @@ impl GregorySurface {
         ctx.read_pod(&a.levels)
     }
 
+    /// Reads an adaptive tessellation back compactly: every patch's own (L_p+1)² grid in patch order (rows
+    /// of u inner, as in uniform mode), and the levels L_p. Triangles: `compact_grid_indices(&levels)`.
+    pub fn read_adaptive_grids(&self, ctx: &Context) -> Result<(Vec<SurfaceVertex>, Vec<u32>)> {
+        let levels = self.read_levels(ctx)?;
+        let all = self.read_vertices(ctx)?;
+        let slot = ((self.level + 1) * (self.level + 1)) as usize;
+        let mut out = Vec::new();
+        for (p, &l) in levels.iter().enumerate() {
+            let n = ((l + 1) * (l + 1)) as usize;
+            out.extend_from_slice(&all[p * slot..p * slot + n]);
+        }
+        Ok((out, levels))
+    }
+
     /// Reads the per-edge adaptive levels and each patch edge's edge id back (tests).
     pub fn read_edge_levels(&self, ctx: &Context) -> Result<(Vec<u32>, Vec<u32>)> {
         let a = self.adaptive_state()?;

@@ -81,6 +81,27 @@ pub fn adaptive_indices(l_max: u32) -> Vec<u32> {
         .collect()
 }
 
+/// Triangles over patch grids stored one after the other (patch p's (L_p+1)² vertices, rows of u inner,
+/// right after patch p−1's): the index list of an adaptive tessellation read back compactly.
+///
+/// ```
+/// let idx = gregvox::passes::adaptive_levels::compact_grid_indices(&[1, 1]);
+/// assert_eq!(idx, [0, 1, 3, 0, 3, 2, 4, 5, 7, 4, 7, 6]);
+/// ```
+pub fn compact_grid_indices(levels: &[u32]) -> Vec<u32> {
+    let mut out = Vec::new();
+    let mut base = 0;
+    for &l in levels {
+        out.extend(
+            crate::passes::gregory_eval::grid_indices(1, l)
+                .into_iter()
+                .map(|i| i + base),
+        );
+        base += (l + 1) * (l + 1);
+    }
+    out
+}
+
 /// The draw command of patch `patch` at `level` with slots of (`l_max`+1)² vertices.
 pub fn draw_command(patch: u32, level: u32, l_max: u32) -> DrawCommand {
     DrawCommand {
