@@ -64,8 +64,9 @@ void main() {
     uint t = gl_LocalInvocationIndex;
     if (t < 20u) s_cv[t] = points[patch_points[20u * patch_id + t]].xyz;
     barrier();
-    vec3 cv[20];
+    vec3 cv[20], lcv[20];
     for (int k = 0; k < 20; ++k) cv[k] = s_cv[k];
+    gregory_localize(cv, lcv);
     uint flags = patch_flags[patch_id];
 #ifdef GREGORY_ADAPTIVE
     uint L = levels[patch_id];
@@ -101,7 +102,7 @@ void main() {
 #endif
         vec3 p, su, sv;
         vec3 net[16];
-        gregory_eval(cv, u, v, p, su, sv, net);
+        gregory_eval_local(lcv, cv[0], u, v, p, su, sv, net);
         vec3 nrm = gregory_normal(net, su, sv, u, v);
         if (edge >= 0) p = edge_point(cv, flags, edge, n, m);
         vertices[base + local].position = vec4(p, 1.0);
