@@ -11,9 +11,7 @@ use gregvox::cli::cage::cage_topology;
 use gregvox::engine::gregory::GregorySurface;
 use gregvox::gpu::Context;
 use gregvox::mesh::load_obj;
-use gregvox::passes::adaptive_levels::{
-    draw_command, patch_level, AdaptiveParams, EdgeTopology,
-};
+use gregvox::passes::adaptive_levels::{draw_command, patch_level, AdaptiveParams, EdgeTopology};
 use gregvox::passes::gregory_eval::SurfaceVertex;
 use gregvox::surface::Tangents;
 use std::collections::{BTreeSet, HashMap};
@@ -146,19 +144,27 @@ fn adaptive_levels_are_crack_free_and_equal_uniform_evaluation_at_their_levels()
             }
             // 3. One indexed-indirect command per patch, addressing its own grid in its slot.
             for (p, c) in commands.iter().enumerate() {
-                assert_eq!(*c, draw_command(p as u32, levels[p], L_MAX), "{}", view.name);
+                assert_eq!(
+                    *c,
+                    draw_command(p as u32, levels[p], L_MAX),
+                    "{}",
+                    view.name
+                );
             }
             // 4. Every drawn vertex: finite, and equal (bits) to the uniform evaluation at its level.
-            let mut edge_sets: Vec<Vec<BTreeSet<[u32; 3]>>> = vec![Vec::new(); edges.edge_count() as usize];
+            let mut edge_sets: Vec<Vec<BTreeSet<[u32; 3]>>> =
+                vec![Vec::new(); edges.edge_count() as usize];
             let mut drawn = 0usize;
             for p in 0..patches {
                 let l = levels[p];
                 let n = (l + 1) as usize;
                 let grid = &vertices[p * slot..p * slot + n * n];
                 drawn += n * n;
-                assert!(grid
+                assert!(grid.iter().all(|v| v
+                    .position
                     .iter()
-                    .all(|v| v.position.iter().chain(&v.normal).all(|c| c.is_finite())));
+                    .chain(&v.normal)
+                    .all(|c| c.is_finite())));
                 let own = uniform(ctx, &mut cache, &topo, &cage, l);
                 let own = &own[p * n * n..(p + 1) * n * n];
                 for j in 1..n - 1 {
@@ -182,8 +188,7 @@ fn adaptive_levels_are_crack_free_and_equal_uniform_evaluation_at_their_levels()
                         // Nearest coarse sample, ties up: the shader's snap.
                         let snapped = (2 * k as u32 * le + l) / (2 * l);
                         assert_eq!(
-                            grid[local],
-                            coarse[coarse_row[snapped as usize]],
+                            grid[local], coarse[coarse_row[snapped as usize]],
                             "{}: patch {p} edge {e} sample {k} (L_p {l}, L_e {le})",
                             view.name
                         );
@@ -195,7 +200,12 @@ fn adaptive_levels_are_crack_free_and_equal_uniform_evaluation_at_their_levels()
             //    exactly the L_e + 1 samples of the edge.
             let mut shared = 0;
             for (id, sets) in edge_sets.iter().enumerate() {
-                assert_eq!(sets[0].len() as u32, edge_levels[id] + 1, "{}: edge {id}", view.name);
+                assert_eq!(
+                    sets[0].len() as u32,
+                    edge_levels[id] + 1,
+                    "{}: edge {id}",
+                    view.name
+                );
                 for other in &sets[1..] {
                     assert_eq!(&sets[0], other, "{}: a crack along edge {id}", view.name);
                     shared += 1;
@@ -208,9 +218,17 @@ fn adaptive_levels_are_crack_free_and_equal_uniform_evaluation_at_their_levels()
                 hist,
                 patches * slot
             );
-            assert!(hist.len() >= 3, "{}: levels should vary strongly: {hist:?}", view.name);
+            assert!(
+                hist.len() >= 3,
+                "{}: levels should vary strongly: {hist:?}",
+                view.name
+            );
             assert!(coarser > 0, "{}: no transition was exercised", view.name);
-            assert!(ambiguous * 100 <= patches, "{}: {ambiguous} ties", view.name);
+            assert!(
+                ambiguous * 100 <= patches,
+                "{}: {ambiguous} ties",
+                view.name
+            );
         }
         s.destroy(ctx);
     });
@@ -228,10 +246,25 @@ fn bad_adaptive_parameters_are_clear_errors() {
             pixels_per_segment: 4.0,
         };
         for (bad, needle) in [
-            (AdaptiveParams { pixels_per_segment: 0.0, ..good }, "pixels per segment"),
-            (AdaptiveParams { viewport: [0.0, 10.0], ..good }, "viewport"),
             (
-                AdaptiveParams { view_proj: Mat4::from_cols_array(&[f32::NAN; 16]), ..good },
+                AdaptiveParams {
+                    pixels_per_segment: 0.0,
+                    ..good
+                },
+                "pixels per segment",
+            ),
+            (
+                AdaptiveParams {
+                    viewport: [0.0, 10.0],
+                    ..good
+                },
+                "viewport",
+            ),
+            (
+                AdaptiveParams {
+                    view_proj: Mat4::from_cols_array(&[f32::NAN; 16]),
+                    ..good
+                },
                 "not finite",
             ),
         ] {

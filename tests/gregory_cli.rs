@@ -89,7 +89,10 @@ fn tangents_exact_evaluates_the_exact_limit_tangent_patches() {
                 .fold(0.0, f64::max);
             if (mode == "exact") == (k == 0) {
                 // The OBJ is the f32 GPU surface printed with limited digits: the 1e-5 × diag.
-                assert!(gap <= 1e-5, "--tangents {mode} vs its f64 reference: {gap:e} × diag");
+                assert!(
+                    gap <= 1e-5,
+                    "--tangents {mode} vs its f64 reference: {gap:e} × diag"
+                );
             } else {
                 worst[k] = gap;
             }
@@ -113,7 +116,10 @@ fn tangents_on_a_beziex_model_is_one_clear_error() {
     ]);
     assert!(!o.status.success());
     let err = String::from_utf8_lossy(&o.stderr);
-    assert!(err.contains("--tangents") && err.contains("19_Sphere1"), "{err}");
+    assert!(
+        err.contains("--tangents") && err.contains("19_Sphere1"),
+        "{err}"
+    );
 }
 
 #[test]
@@ -151,7 +157,10 @@ fn adaptive_writes_each_patch_grid_at_its_level_without_cracks() {
     eprintln!("catmark_cube --adaptive 40: levels {levels:?}");
     assert!(distinct.len() >= 2, "levels should vary: {levels:?}");
     let (v, vn) = read_obj(&path);
-    let sizes: Vec<usize> = levels.iter().map(|&l| ((l + 1) * (l + 1)) as usize).collect();
+    let sizes: Vec<usize> = levels
+        .iter()
+        .map(|&l| ((l + 1) * (l + 1)) as usize)
+        .collect();
     assert_eq!(v.len(), sizes.iter().sum::<usize>());
     assert_eq!(vn.len(), v.len());
     let faces = text.lines().filter(|l| l.starts_with("f ")).count() as u32;

@@ -179,8 +179,9 @@ fn kappa(p: &gregvox::geom::gregory::PatchF64, u: f64, v: f64) -> f64 {
     (su.length() + sv.length()) * r / su.cross(sv).length()
 }
 
-/// Above this κ the f32 model (jump ≈ c·2⁻²⁴·κ with c ≤ MODEL_C) allows more than 1e-3 rad.
-const MODEL_C: f64 = 16.0;
+/// Above this κ the f32 model (jump ≈ c·2⁻²⁴·κ with c ≤ MODEL_C) allows more than 1e-3 rad. MODEL_C: the
+/// largest c seen over 100 deformations of spot was 15.2; 32 leaves room for other rounding.
+const MODEL_C: f64 = 32.0;
 const KAPPA: f64 = 1e-3 / (MODEL_C * 5.960_464_477_539_063e-8);
 
 fn gpu_g1(
@@ -287,7 +288,8 @@ fn gpu_g1_over_100_random_deformations_of_one_percent() {
                     for l in 0..n * n {
                         let (u, v) = ((l % n) as f64 / level as f64, (l / n) as f64 / level as f64);
                         let nn = p.normal(u, v);
-                        f64_of_f32[k * n * n + l].normal = [nn.x as f32, nn.y as f32, nn.z as f32, 0.0];
+                        f64_of_f32[k * n * n + l].normal =
+                            [nn.x as f32, nn.y as f32, nn.z as f32, 0.0];
                     }
                 }
                 let h = gpu_g1(&edges, &patches, &f64_of_f32, level);
@@ -319,7 +321,12 @@ fn gpu_g1_over_100_random_deformations_of_one_percent() {
         // The error model holds on the data (else KAPPA could exclude samples the model cannot explain).
         assert!(all.model <= MODEL_C, "{}", all.model);
         // The exclusion stays rare: at most one sample in 10⁴.
-        assert!(all.over * 10_000 <= all.samples, "{} of {}", all.over, all.samples);
+        assert!(
+            all.over * 10_000 <= all.samples,
+            "{} of {}",
+            all.over,
+            all.samples
+        );
         s.destroy(ctx);
     });
 }

@@ -1,9 +1,11 @@
 // The body of the Gregory evaluation kernels, uniform (gregory_eval.comp) and adaptive
 // (gregory_eval_adaptive.comp, which defines GREGORY_ADAPTIVE). One workgroup per patch stages the patch's 20
 // control points in shared memory once (gathered through patch_points), then its 64 invocations stride over
-// the patch's vertices. (One invocation per vertex with 20 indirect loads each ran at 2.5 M vertices/s on
-// llvmpipe: the gathers, not the arithmetic, dominated.) Positions and unit normals go to a device-local
-// buffer that the graphics pipeline then draws as a vertex buffer (stride 32: vec4 position, vec4 normal).
+// the patch's vertices. (Measured on llvmpipe: one invocation per vertex with 20 indirect loads each ran at
+// 0.4–2.5 M vertices/s, the gathers dominating; loading the points per invocation without shared memory and
+// barrier was no faster.) The evaluation runs in patch-local coordinates (points − s_cv[0], see gregory.glsl);
+// edge points use the world-space shared copy. Positions and unit normals go to a device-local buffer that
+// the graphics pipeline then draws as a vertex buffer (stride 32: vec4 position, vec4 normal).
 //
 // Uniform: vertex patch·(L+1)² + j·(L+1) + i at (u, v) = (i/L, j/L).
 // Adaptive: patch p has its own level L_p (levels[p]) and its grid fills the first (L_p+1)² vertices of its
@@ -35,20 +37,29 @@ layout(push_constant) uniform Push {
     uint pad;
 } pc;
 
-// Boundary point lists per edge, parameter increasing with u (edges 0, 2) or v (edges 1, 3).
-const int EDGE_POINTS[16] = int[16](0, 1, 7, 5,  5, 6, 12, 10,  15, 17, 11, 10,  0, 2, 16, 15);
+shared vec3 s_cv[20];   // the patch's control points, world coordinates
 
-vec3 edge_point(in vec3 cv[20], uint flags, int e, uint n, uint L) {
+// The four boundary points of edge e, parameter increasing with u (edges 0, 2) or v (edges 1, 3). Constant
+// indices only: a dynamic index into cv[] can make llvmpipe keep the whole array in per-lane memory.
+// The points come from the workgroup's shared copy (world coordinates, the same bits in both patches of an
+// edge), so no per-invocation world-space array stays alive next to the patch-local one.
+void edge_cubic(int e, out vec3 a, out vec3 b, out vec3 c, out vec3 d) {
+    if (e == 0) { a = s_cv[0]; b = s_cv[1]; c = s_cv[7]; d = s_cv[5]; }
+    else if (e == 1) { a = s_cv[5]; b = s_cv[6]; c = s_cv[12]; d = s_cv[10]; }
+    else if (e == 2) { a = s_cv[15]; b = s_cv[17]; c = s_cv[11]; d = s_cv[10]; }
+    else { a = s_cv[0]; b = s_cv[2]; c = s_cv[16]; d = s_cv[15]; }
+}
+
+vec3 edge_point(uint flags, int e, uint n, uint L) {
     bool reversed = ((flags >> uint(e)) & 1u) == 1u;
-    int b = 4 * e;
+    vec3 a, b, c, d;
+    edge_cubic(e, a, b, c, d);
     if (reversed) {
         float t = float(L - n) / float(L);
-        return gregory_edge(cv[EDGE_POINTS[b + 3]], cv[EDGE_POINTS[b + 2]], cv[EDGE_POINTS[b + 1]],
-                            cv[EDGE_POINTS[b]], t);
+        return gregory_edge(d, c, b, a, t);
     }
     float t = float(n) / float(L);
-    return gregory_edge(cv[EDGE_POINTS[b]], cv[EDGE_POINTS[b + 1]], cv[EDGE_POINTS[b + 2]],
-                        cv[EDGE_POINTS[b + 3]], t);
+    return gregory_edge(a, b, c, d, t);
 }
 
 // Nearest of the L_e + 1 edge samples to sample n of L (ties round up; L_e ≤ L).
@@ -56,7 +67,6 @@ uint snap(uint n, uint L, uint le) {
     return (2u * n * le + L) / (2u * L);
 }
 
-shared vec3 s_cv[20];
 
 void main() {
     uint patch_id = gl_WorkGroupID.y * gl_NumWorkGroups.x + gl_WorkGroupID.x;
@@ -64,15 +74,14 @@ void main() {
     uint t = gl_LocalInvocationIndex;
     if (t < 20u) s_cv[t] = points[patch_points[20u * patch_id + t]].xyz;
     barrier();
-    vec3 cv[20], lcv[20];
-    for (int k = 0; k < 20; ++k) cv[k] = s_cv[k];
-    gregory_localize(cv, lcv);
+    vec3 origin = s_cv[0], lcv[20];
+    for (int k = 0; k < 20; ++k) lcv[k] = s_cv[k] - origin;   // gregory_localize
     uint flags = patch_flags[patch_id];
 #ifdef GREGORY_ADAPTIVE
     uint L = levels[patch_id];
     uint base = patch_id * (pc.level + 1u) * (pc.level + 1u);
-    uint le[4];
-    for (int e = 0; e < 4; ++e) le[e] = edge_levels[edge_ids[4u * patch_id + uint(e)]];
+    uvec4 le = uvec4(edge_levels[edge_ids[4u * patch_id]], edge_levels[edge_ids[4u * patch_id + 1u]],
+                     edge_levels[edge_ids[4u * patch_id + 2u]], edge_levels[edge_ids[4u * patch_id + 3u]]);
 #else
     uint L = pc.level;
     uint base = patch_id * (L + 1u) * (L + 1u);
@@ -94,7 +103,7 @@ void main() {
         }
 #ifdef GREGORY_ADAPTIVE
         if (edge >= 0) {
-            m = le[edge];
+            m = edge == 0 ? le.x : edge == 1 ? le.y : edge == 2 ? le.z : le.w;
             n = snap(n, L, m);
             float s = float(n) / float(m);
             if (edge == 0 || edge == 2) u = s; else v = s;
@@ -102,9 +111,9 @@ void main() {
 #endif
         vec3 p, su, sv;
         vec3 net[16];
-        gregory_eval_local(lcv, cv[0], u, v, p, su, sv, net);
+        gregory_eval_local(lcv, origin, u, v, p, su, sv, net);
         vec3 nrm = gregory_normal(net, su, sv, u, v);
-        if (edge >= 0) p = edge_point(cv, flags, edge, n, m);
+        if (edge >= 0) p = edge_point(flags, edge, n, m);
         vertices[base + local].position = vec4(p, 1.0);
         vertices[base + local].normal = vec4(nrm, 0.0);
     }

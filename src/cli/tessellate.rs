@@ -185,7 +185,14 @@ pub fn run(args: &TessellateArgs) -> anyhow::Result<()> {
     };
     let ctx = Context::with_desc(&ContextDesc::default())?;
     let mut profiler = Profiler::new(&ctx, 1, 4 * args.repeat.min(1000) + 8)?;
-    let result = evaluate(&ctx, &source, args, deform, adaptive.as_ref(), &mut profiler);
+    let result = evaluate(
+        &ctx,
+        &source,
+        args,
+        deform,
+        adaptive.as_ref(),
+        &mut profiler,
+    );
     let out = result.and_then(|(vertices, patches, levels)| {
         args.profile.emit(&profiler)?;
         if let Some(path) = &args.out {
@@ -263,7 +270,10 @@ fn parse_adaptive(args: &TessellateArgs) -> anyhow::Result<Option<AdaptiveArgs>>
         .and_then(|(w, h)| Some([w.trim().parse::<u32>().ok()?, h.trim().parse::<u32>().ok()?]))
         .filter(|v| v[0] > 0 && v[1] > 0)
         .ok_or_else(|| {
-            anyhow::anyhow!("--viewport '{}' is not WIDTHxHEIGHT in pixels", args.viewport)
+            anyhow::anyhow!(
+                "--viewport '{}' is not WIDTHxHEIGHT in pixels",
+                args.viewport
+            )
         })?;
     Ok(Some((px, eye, [vp[0] as f32, vp[1] as f32])))
 }
@@ -273,9 +283,14 @@ fn adaptive_params(a: &AdaptiveArgs, box_min: [f32; 3], box_size: [f32; 3]) -> A
     let size = glam::Vec3::from(box_size);
     let centre = glam::Vec3::from(box_min) + 0.5 * size;
     let d = size.length().max(f32::MIN_POSITIVE);
-    let eye = a.1.map_or(centre + glam::Vec3::Z * 1.5 * d, glam::Vec3::from);
+    let eye =
+        a.1.map_or(centre + glam::Vec3::Z * 1.5 * d, glam::Vec3::from);
     let forward = (centre - eye).normalize_or_zero();
-    let up = if forward.cross(glam::Vec3::Y).length() < 1e-3 { glam::Vec3::Z } else { glam::Vec3::Y };
+    let up = if forward.cross(glam::Vec3::Y).length() < 1e-3 {
+        glam::Vec3::Z
+    } else {
+        glam::Vec3::Y
+    };
     let dist = (centre - eye).length();
     let proj = glam::Mat4::perspective_rh(
         45f32.to_radians(),
@@ -291,9 +306,17 @@ fn adaptive_params(a: &AdaptiveArgs, box_min: [f32; 3], box_size: [f32; 3]) -> A
 }
 
 /// Writes an adaptive tessellation (every patch's own grid, patch order) as OBJ.
-fn write_adaptive_obj(path: &Path, vertices: &[SurfaceVertex], levels: &[u32]) -> anyhow::Result<()> {
+fn write_adaptive_obj(
+    path: &Path,
+    vertices: &[SurfaceVertex],
+    levels: &[u32],
+) -> anyhow::Result<()> {
     write_atomically(path, |w| {
-        writeln!(w, "# gregvox tessellate --adaptive: {} patches, patch p has (L_p+1)^2 vertices", levels.len())?;
+        writeln!(
+            w,
+            "# gregvox tessellate --adaptive: {} patches, patch p has (L_p+1)^2 vertices",
+            levels.len()
+        )?;
         let list: Vec<String> = levels.iter().map(|l| l.to_string()).collect();
         writeln!(w, "# levels {}", list.join(" "))?;
         for v in vertices {

@@ -19,7 +19,8 @@ use crate::gpu::resources::memory_barrier;
 use crate::gpu::{Buffer, Context, MemoryLocation, Profiler};
 use crate::mesh::SparseMatrix;
 use crate::passes::adaptive_levels::{
-    adaptive_indices, AdaptiveBuffers, AdaptiveLevelsPass, AdaptiveParams, DrawCommand, EdgeTopology,
+    adaptive_indices, AdaptiveBuffers, AdaptiveLevelsPass, AdaptiveParams, DrawCommand,
+    EdgeTopology,
 };
 use crate::passes::cage_deform::{CageDeformPass, DeformParams, Deformation};
 use crate::passes::gregory_eval::{
@@ -115,7 +116,11 @@ impl Adaptive {
         let r = (|| -> Result<()> {
             passes.0 = Some(AdaptiveLevelsPass::new(ctx)?);
             passes.1 = Some(GregoryEvalPass::new_adaptive(ctx)?);
-            made.push(ctx.upload_buffer("edge ids", bytemuck::cast_slice(&topo.edge_ids), storage)?);
+            made.push(ctx.upload_buffer(
+                "edge ids",
+                bytemuck::cast_slice(&topo.edge_ids),
+                storage,
+            )?);
             made.push(ctx.upload_buffer(
                 "edge offsets",
                 bytemuck::cast_slice(&topo.edge_offsets),
@@ -127,7 +132,12 @@ impl Adaptive {
             ep.push(0);
             made.push(ctx.upload_buffer("edge patches", bytemuck::cast_slice(&ep), storage)?);
             let gpu = MemoryLocation::GpuOnly;
-            made.push(ctx.create_buffer("edge levels", topo.edge_count() as u64 * 4, storage, gpu)?);
+            made.push(ctx.create_buffer(
+                "edge levels",
+                topo.edge_count() as u64 * 4,
+                storage,
+                gpu,
+            )?);
             made.push(ctx.create_buffer("patch levels", patches * 4, storage, gpu)?);
             made.push(ctx.create_buffer(
                 "adaptive draw commands",
@@ -477,8 +487,13 @@ impl GregorySurface {
             ctx.device
                 .cmd_bind_index_buffer(cmd, a.indices.raw, 0, vk::IndexType::UINT32);
             for p in 0..self.patch_count as u64 {
-                ctx.device
-                    .cmd_draw_indexed_indirect(cmd, a.commands.raw, p * stride, 1, stride as u32);
+                ctx.device.cmd_draw_indexed_indirect(
+                    cmd,
+                    a.commands.raw,
+                    p * stride,
+                    1,
+                    stride as u32,
+                );
             }
         }
         Ok(())

@@ -117,7 +117,12 @@ pub fn draw_command(patch: u32, level: u32, l_max: u32) -> DrawCommand {
 /// so the two can differ by one where s / pixels_per_segment is within rounding of an integer).
 /// Returns the level and the unrounded ratio s / pixels_per_segment (∞ behind the eye).
 pub fn patch_level(cv: &[DVec3; 20], p: &AdaptiveParams, l_max: u32) -> (u32, f64) {
-    const EDGES: [[usize; 4]; 4] = [[0, 1, 7, 5], [5, 6, 12, 10], [15, 17, 11, 10], [0, 2, 16, 15]];
+    const EDGES: [[usize; 4]; 4] = [
+        [0, 1, 7, 5],
+        [5, 6, 12, 10],
+        [15, 17, 11, 10],
+        [0, 2, 16, 15],
+    ];
     let m = p.view_proj.as_dmat4();
     let half = glam::DVec2::new(p.viewport[0] as f64, p.viewport[1] as f64) * 0.5;
     let mut longest = 0.0f64;
@@ -126,7 +131,9 @@ pub fn patch_level(cv: &[DVec3; 20], p: &AdaptiveParams, l_max: u32) -> (u32, f6
         let mut prev = None;
         for k in e {
             let c: DVec4 = m * cv[k].extend(1.0);
-            if !(c.w > 1e-6 * c.truncate().length()) {
+            // Not in front of the eye plane (NaN included).
+            if c.w.partial_cmp(&(1e-6 * c.truncate().length())) != Some(std::cmp::Ordering::Greater)
+            {
                 return (l_max, f64::INFINITY);
             }
             let s = c.truncate().truncate() / c.w * half;
@@ -162,8 +169,12 @@ pub struct EdgeTopology {
 impl EdgeTopology {
     /// Groups the patch edges whose boundary rows are the same set.
     pub fn new(patch_points: &[[u32; 20]]) -> Self {
-        const EDGES: [[usize; 4]; 4] =
-            [[0, 1, 7, 5], [5, 6, 12, 10], [15, 17, 11, 10], [0, 2, 16, 15]];
+        const EDGES: [[usize; 4]; 4] = [
+            [0, 1, 7, 5],
+            [5, 6, 12, 10],
+            [15, 17, 11, 10],
+            [0, 2, 16, 15],
+        ];
         let mut ids = std::collections::HashMap::new();
         let mut lists: Vec<Vec<u32>> = Vec::new();
         let mut edge_ids = Vec::with_capacity(patch_points.len() * 4);
@@ -301,7 +312,8 @@ impl AdaptiveLevelsPass {
         };
         self.pipeline
             .bind(ctx, cmd, &bindings, bytemuck::bytes_of(&push));
-        self.pipeline.dispatch_linear(ctx, cmd, patch_count as u64)?;
+        self.pipeline
+            .dispatch_linear(ctx, cmd, patch_count as u64)?;
         // Patch levels → edge levels.
         memory_barrier(
             ctx,

@@ -141,7 +141,8 @@ impl GregoryEvalPass {
     ) -> Result<()> {
         if !self.adaptive {
             return Err(Error::Invalid(
-                "the uniform evaluation pass cannot record adaptive levels (use new_adaptive)".into(),
+                "the uniform evaluation pass cannot record adaptive levels (use new_adaptive)"
+                    .into(),
             ));
         }
         if !(1..=MAX_LEVEL).contains(&l_max) {
