@@ -1,11 +1,14 @@
 // The body of the Gregory evaluation kernels, uniform (gregory_eval.comp) and adaptive
 // (gregory_eval_adaptive.comp, which defines GREGORY_ADAPTIVE). One workgroup per patch stages the patch's 20
-// control points in shared memory once (gathered through patch_points), then its 64 invocations stride over
-// the patch's vertices. (Measured on llvmpipe: one invocation per vertex with 20 indirect loads each ran at
-// 0.4–2.5 M vertices/s, the gathers dominating; loading the points per invocation without shared memory and
-// barrier was no faster.) The evaluation runs in patch-local coordinates (points − s_cv[0], see gregory.glsl);
-// edge points use the world-space shared copy. Positions and unit normals go to a device-local buffer that
-// the graphics pipeline then draws as a vertex buffer (stride 32: vec4 position, vec4 normal).
+// control points in shared memory once (gathered through patch_points), then its 8 invocations stride over
+// the patch's vertices. Measured on llvmpipe (spot, 2,928 patches): every invocation pays a per-patch set-up
+// of ~1.5 µs before its vertex loop (cause inside llvmpipe not isolated), so the workgroup is one subgroup —
+// at L = 32 37.5 M vertices/s against 13.6 M/s with 64 invocations (L = 16: 28.6 vs 6.6 M/s). One invocation
+// per vertex with 20 indirect loads each ran at 0.4–2.5 M vertices/s (the gathers dominated). On a GPU with
+// 32- or 64-wide subgroups GROUP_SIZE (gregory_eval.rs) should be raised. The evaluation runs in patch-local
+// coordinates (points − s_cv[0], see gregory.glsl); edge points use the world-space shared copy. Positions
+// and unit normals go to a device-local buffer that the graphics pipeline then draws as a vertex buffer
+// (stride 32: vec4 position, vec4 normal).
 //
 // Uniform: vertex patch·(L+1)² + j·(L+1) + i at (u, v) = (i/L, j/L).
 // Adaptive: patch p has its own level L_p (levels[p]) and its grid fills the first (L_p+1)² vertices of its
@@ -19,7 +22,7 @@
 // direction (from the lower cage vertex to the higher, flag bit e of patch_flags) with t from the canonical
 // integer index: both patches of an edge produce bit-identical positions (no cracks).
 #include "gregory.glsl"
-layout(local_size_x = 64) in;
+layout(local_size_x = 8) in;    // gregory_eval.rs GROUP_SIZE
 layout(std430, set = 0, binding = 0) readonly buffer Points { vec4 points[]; };
 layout(std430, set = 0, binding = 1) readonly buffer PatchPoints { uint patch_points[]; };
 layout(std430, set = 0, binding = 2) readonly buffer PatchFlags { uint patch_flags[]; };
@@ -72,21 +75,25 @@ void main() {
     uint patch_id = gl_WorkGroupID.y * gl_NumWorkGroups.x + gl_WorkGroupID.x;
     if (patch_id >= pc.patch_count) return;   // uniform across the workgroup
     uint t = gl_LocalInvocationIndex;
-    if (t < 20u) s_cv[t] = points[patch_points[20u * patch_id + t]].xyz;
+    for (uint k = t; k < 20u; k += gl_WorkGroupSize.x) s_cv[k] = points[patch_points[20u * patch_id + k]].xyz;
     barrier();
-    vec3 origin = s_cv[0], lcv[20];
-    for (int k = 0; k < 20; ++k) lcv[k] = s_cv[k] - origin;   // gregory_localize
-    uint flags = patch_flags[patch_id];
 #ifdef GREGORY_ADAPTIVE
     uint L = levels[patch_id];
     uint base = patch_id * (pc.level + 1u) * (pc.level + 1u);
-    uvec4 le = uvec4(edge_levels[edge_ids[4u * patch_id]], edge_levels[edge_ids[4u * patch_id + 1u]],
-                     edge_levels[edge_ids[4u * patch_id + 2u]], edge_levels[edge_ids[4u * patch_id + 3u]]);
 #else
     uint L = pc.level;
     uint base = patch_id * (L + 1u) * (L + 1u);
 #endif
     uint per_patch = (L + 1u) * (L + 1u);
+    // Invocations without a vertex stop before the per-patch set-up (no barrier follows).
+    if (t >= per_patch) return;
+#ifdef GREGORY_ADAPTIVE
+    uvec4 le = uvec4(edge_levels[edge_ids[4u * patch_id]], edge_levels[edge_ids[4u * patch_id + 1u]],
+                     edge_levels[edge_ids[4u * patch_id + 2u]], edge_levels[edge_ids[4u * patch_id + 3u]]);
+#endif
+    vec3 origin = s_cv[0], lcv[20];
+    for (int k = 0; k < 20; ++k) lcv[k] = s_cv[k] - origin;   // gregory_localize
+    uint flags = patch_flags[patch_id];
     for (uint local = t; local < per_patch; local += gl_WorkGroupSize.x) {
         uint j = local / (L + 1u);
         uint i = local - j * (L + 1u);
