@@ -6,12 +6,14 @@ use crate::engine::gregory::{GregorySurface, GregoryTopology};
 use crate::gpu::present::begin_color_target;
 use crate::gpu::resources::image_barrier;
 use crate::gpu::{Buffer, Context, ContextDesc, ImageDesc, MemoryLocation, Profiler};
+use crate::passes::adaptive_levels::{compact_grid_indices, AdaptiveParams};
 use crate::passes::beziex_eval::BeziexEvalPass;
 use crate::passes::cage_deform::{DeformParams, Deformation};
 use crate::passes::gregory_eval::{grid_indices, vertex_count, SurfaceVertex, MAX_LEVEL};
 use crate::passes::patch_pull::{PatchKind, PatchPullPass};
 use crate::passes::surface_draw::{DrawTarget, SurfacePush};
 use crate::surface::beziex::{load_beziex, BeziexPatch};
+use crate::surface::Tangents;
 use crate::voxel::export::write_atomically;
 use anyhow::{bail, Context as _};
 use ash::vk;
@@ -26,6 +28,24 @@ pub enum EvalPath {
     Compute,
     /// Instanced grid whose vertex shader evaluates the patches (the Beziex seed's method).
     Vertex,
+}
+
+/// Edge-point masks at extraordinary vertices (gregory.md §3.5).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum TangentMode {
+    /// OpenSubdiv's masks (its GREGORY_BASIS points).
+    Opensubdiv,
+    /// The exact Catmull–Clark limit-tangent masks (EV normals on the limit tangent plane).
+    Exact,
+}
+
+impl From<TangentMode> for Tangents {
+    fn from(t: TangentMode) -> Tangents {
+        match t {
+            TangentMode::Opensubdiv => Tangents::OpenSubdiv,
+            TangentMode::Exact => Tangents::Exact,
+        }
+    }
 }
 
 /// Arguments of `gregvox tessellate`.
@@ -48,6 +68,21 @@ pub struct TessellateArgs {
     /// Re-run the GPU passes K times (for timing).
     #[arg(long, default_value_t = 1)]
     pub repeat: u32,
+    /// Edge-point masks of a cage's ACC-2 patches at extraordinary vertices.
+    #[arg(long, value_enum, default_value = "opensubdiv")]
+    pub tangents: TangentMode,
+    /// Screen-space adaptive levels: target PIXELS per tessellation segment on screen, each patch's level
+    /// between 1 and --level (compute path, cages only). The OBJ then holds every patch's own (L_p+1)² grid
+    /// in patch order (rows of u inner), its levels listed in a `# levels` comment.
+    #[arg(long, value_name = "PIXELS")]
+    pub adaptive: Option<f32>,
+    /// With --adaptive: the eye position `X,Y,Z`, looking at the cage's bounding-box centre (up +Y, 45°
+    /// vertical field of view). Default: on +Z, 1.5 bounding-box diagonals from the centre.
+    #[arg(long, value_name = "X,Y,Z")]
+    pub eye: Option<String>,
+    /// With --adaptive: the viewport `WxH` in pixels.
+    #[arg(long, value_name = "WxH", default_value = "1280x720")]
+    pub viewport: String,
     /// Print vertex count, the largest normal jump across shared patch edges and the throughput.
     #[arg(long)]
     pub stats: bool,
@@ -112,6 +147,7 @@ pub fn run(args: &TessellateArgs) -> anyhow::Result<()> {
         bail!("--repeat must be at least 1");
     }
     let deform = args.deform.as_deref().map(parse_deform).transpose()?;
+    let adaptive = parse_adaptive(args)?;
     let ext = args
         .input
         .extension()
@@ -125,9 +161,23 @@ pub fn run(args: &TessellateArgs) -> anyhow::Result<()> {
                 args.input.display()
             );
         }
+        if args.tangents != TangentMode::Opensubdiv {
+            bail!(
+                "--tangents chooses a cage's edge-point masks; {} is a Beziex model",
+                args.input.display()
+            );
+        }
+        if adaptive.is_some() {
+            bail!(
+                "--adaptive tessellates ACC-2 cages; {} is a Beziex model",
+                args.input.display()
+            );
+        }
         Source::Beziex(load_beziex(&args.input)?)
     } else {
-        let (topo, cage, note) = super::cage::load_cage_topology(&args.input)?;
+        let mesh = crate::mesh::load_obj(&args.input)?;
+        let (topo, cage, note) = super::cage::cage_topology(&mesh, args.tangents.into())
+            .map_err(|e| anyhow::anyhow!("{}: {e}", args.input.display()))?;
         if let Some(n) = note {
             eprintln!("gregvox tessellate: {n}");
         }
@@ -135,16 +185,30 @@ pub fn run(args: &TessellateArgs) -> anyhow::Result<()> {
     };
     let ctx = Context::with_desc(&ContextDesc::default())?;
     let mut profiler = Profiler::new(&ctx, 1, 4 * args.repeat.min(1000) + 8)?;
-    let result = evaluate(&ctx, &source, args, deform, &mut profiler);
-    let out = result.and_then(|(vertices, patches)| {
+    let result = evaluate(
+        &ctx,
+        &source,
+        args,
+        deform,
+        adaptive.as_ref(),
+        &mut profiler,
+    );
+    let out = result.and_then(|(vertices, patches, levels)| {
         args.profile.emit(&profiler)?;
         if let Some(path) = &args.out {
-            write_tessellation_obj(path, &vertices, patches, args.level)?;
+            match &levels {
+                Some(l) => write_adaptive_obj(path, &vertices, l)?,
+                None => write_tessellation_obj(path, &vertices, patches, args.level)?,
+            }
         }
         if args.stats {
-            let jump = match &source {
-                Source::Beziex(p) => max_jump_beziex(p, &vertices, args.level),
-                Source::Cage(topo, _) => super::cage::max_jump_shared_edges(topo, &vertices, args.level),
+            let jump = match (&source, &levels) {
+                (Source::Beziex(p), _) => max_jump_beziex(p, &vertices, args.level),
+                // Adaptive grids differ per patch; the uniform-grid edge matcher does not apply.
+                (Source::Cage(..), Some(_)) => f64::NAN,
+                (Source::Cage(topo, _), None) => {
+                    super::cage::max_jump_shared_edges(topo, &vertices, args.level)
+                }
             };
             let eval_ms: f64 = profiler
                 .stats()
@@ -171,17 +235,126 @@ enum Source {
     Cage(GregoryTopology, Vec<DVec3>),
 }
 
+/// The adaptive view of `--adaptive/--eye/--viewport` before the cage is known: (pixels, eye, viewport).
+type AdaptiveArgs = (f32, Option<[f32; 3]>, [f32; 2]);
+
+fn parse_adaptive(args: &TessellateArgs) -> anyhow::Result<Option<AdaptiveArgs>> {
+    let Some(px) = args.adaptive else {
+        if args.eye.is_some() {
+            bail!("--eye sets the view of --adaptive, which is not given");
+        }
+        return Ok(None);
+    };
+    if !(px > 0.0 && px.is_finite()) {
+        bail!("--adaptive {px}: the pixels per segment must be a positive number");
+    }
+    if args.path != EvalPath::Compute {
+        bail!("--adaptive runs on the compute path only");
+    }
+    let eye = match &args.eye {
+        None => None,
+        Some(e) => {
+            let c: Vec<f32> = e
+                .split(',')
+                .map(|x| x.trim().parse::<f32>())
+                .collect::<Result<_, _>>()
+                .ok()
+                .filter(|c: &Vec<f32>| c.len() == 3 && c.iter().all(|x| x.is_finite()))
+                .ok_or_else(|| anyhow::anyhow!("--eye '{e}' is not three numbers X,Y,Z"))?;
+            Some([c[0], c[1], c[2]])
+        }
+    };
+    let vp = args
+        .viewport
+        .split_once(['x', 'X'])
+        .and_then(|(w, h)| Some([w.trim().parse::<u32>().ok()?, h.trim().parse::<u32>().ok()?]))
+        .filter(|v| v[0] > 0 && v[1] > 0)
+        .ok_or_else(|| {
+            anyhow::anyhow!(
+                "--viewport '{}' is not WIDTHxHEIGHT in pixels",
+                args.viewport
+            )
+        })?;
+    Ok(Some((px, eye, [vp[0] as f32, vp[1] as f32])))
+}
+
+/// The adaptive parameters for a cage with bounding box `box_min + [0, box_size]`.
+fn adaptive_params(a: &AdaptiveArgs, box_min: [f32; 3], box_size: [f32; 3]) -> AdaptiveParams {
+    let size = glam::Vec3::from(box_size);
+    let centre = glam::Vec3::from(box_min) + 0.5 * size;
+    let d = size.length().max(f32::MIN_POSITIVE);
+    let eye =
+        a.1.map_or(centre + glam::Vec3::Z * 1.5 * d, glam::Vec3::from);
+    let forward = (centre - eye).normalize_or_zero();
+    let up = if forward.cross(glam::Vec3::Y).length() < 1e-3 {
+        glam::Vec3::Z
+    } else {
+        glam::Vec3::Y
+    };
+    let dist = (centre - eye).length();
+    let proj = glam::Mat4::perspective_rh(
+        45f32.to_radians(),
+        a.2[0] / a.2[1],
+        (1e-3 * d).max(1e-6 * dist),
+        dist + 10.0 * d,
+    );
+    AdaptiveParams {
+        view_proj: proj * glam::Mat4::look_at_rh(eye, centre, up),
+        viewport: a.2,
+        pixels_per_segment: a.0,
+    }
+}
+
+/// Writes an adaptive tessellation (every patch's own grid, patch order) as OBJ.
+fn write_adaptive_obj(
+    path: &Path,
+    vertices: &[SurfaceVertex],
+    levels: &[u32],
+) -> anyhow::Result<()> {
+    write_atomically(path, |w| {
+        writeln!(
+            w,
+            "# gregvox tessellate --adaptive: {} patches, patch p has (L_p+1)^2 vertices",
+            levels.len()
+        )?;
+        let list: Vec<String> = levels.iter().map(|l| l.to_string()).collect();
+        writeln!(w, "# levels {}", list.join(" "))?;
+        for v in vertices {
+            writeln!(w, "v {} {} {}", v.position[0], v.position[1], v.position[2])?;
+        }
+        for v in vertices {
+            writeln!(w, "vn {} {} {}", v.normal[0], v.normal[1], v.normal[2])?;
+        }
+        for t in compact_grid_indices(levels).chunks(3) {
+            let (a, b, c) = (t[0] + 1, t[1] + 1, t[2] + 1);
+            writeln!(w, "f {a}//{a} {b}//{b} {c}//{c}")?;
+        }
+        Ok(())
+    })?;
+    Ok(())
+}
+
+type Evaluated = (Vec<SurfaceVertex>, u32, Option<Vec<u32>>);
+
 fn evaluate(
     ctx: &Context,
     source: &Source,
     args: &TessellateArgs,
     deform: Option<(Deformation, f32)>,
+    adaptive: Option<&AdaptiveArgs>,
     profiler: &mut Profiler,
-) -> anyhow::Result<(Vec<SurfaceVertex>, u32)> {
+) -> anyhow::Result<Evaluated> {
     let level = args.level;
     match (source, args.path) {
         (Source::Cage(topo, cage), EvalPath::Compute) => {
-            let surface = GregorySurface::new(ctx, topo, cage, level)?;
+            let mut surface = GregorySurface::new(ctx, topo, cage, level)?;
+            if let Some(a) = adaptive {
+                let p = adaptive_params(a, surface.box_min, surface.box_size);
+                if let Err(e) = surface.set_adaptive(ctx, Some(p)) {
+                    surface.destroy(ctx);
+                    return Err(e.into());
+                }
+            }
             let params = deform.map(|(mode, amplitude)| DeformParams {
                 mode,
                 t: 1.0,
@@ -189,18 +362,23 @@ fn evaluate(
                 box_min: surface.box_min,
                 box_size: surface.box_size,
             });
-            let r = (|| -> anyhow::Result<Vec<SurfaceVertex>> {
+            let r = (|| -> anyhow::Result<(Vec<SurfaceVertex>, Option<Vec<u32>>)> {
                 for _ in 0..args.repeat {
                     ctx.one_shot(|cmd| {
                         surface.record(ctx, cmd, params.as_ref(), Some((&mut *profiler, 0)))
                     })?;
                     profiler.collect(ctx, 0)?;
                 }
-                Ok(surface.read_vertices(ctx)?)
+                if adaptive.is_some() {
+                    let (v, l) = surface.read_adaptive_grids(ctx)?;
+                    return Ok((v, Some(l)));
+                }
+                Ok((surface.read_vertices(ctx)?, None))
             })();
             let n = surface.patch_count;
             surface.destroy(ctx);
-            Ok((r?, n))
+            let (v, l) = r?;
+            Ok((v, n, l))
         }
         (Source::Cage(topo, cage), EvalPath::Vertex) => {
             let surface = GregorySurface::new(ctx, topo, cage, level)?;
@@ -237,7 +415,7 @@ fn evaluate(
             });
             let n = surface.patch_count;
             surface.destroy(ctx);
-            Ok((r?, n))
+            Ok((r?, n, None))
         }
         (Source::Beziex(patches), path) => {
             let nets: Vec<[f32; 4]> = patches.iter().flat_map(|p| p.to_gpu()).collect();
@@ -295,7 +473,7 @@ fn evaluate(
                 r
             })();
             nb.destroy(ctx);
-            Ok((r?, n))
+            Ok((r?, n, None))
         }
     }
 }

@@ -8,15 +8,23 @@
 //! - `record` starts with a barrier from every earlier reader of the chain's buffers (vertex input, vertex
 //!   and fragment shaders, compute, copies — including those of the previous frame still in flight) to the
 //!   compute writes, so one set of buffers serves all frames in flight.
+//! - Adaptive mode (`set_adaptive`): the current `level` is L_max; patch p's own (L_p+1)² grid fills the start
+//!   of its slot of (L_max+1)² vertices (vertex p·(L_max+1)² + j·(L_p+1) + i), boundary rows snapped to the
+//!   shared edge levels (crack-free), drawn with one indexed-indirect command per patch
+//!   (`record_draw_indirect`). Vertices past a patch's grid in its slot hold stale data and are never drawn.
 //! - Shared boundary control points come from shared W rows (same row ⇒ identical bits), and patch edge
 //!   vertices are evaluated canonically, so neighbouring patches meet without cracks.
 use crate::error::{Error, Result};
 use crate::gpu::resources::memory_barrier;
 use crate::gpu::{Buffer, Context, MemoryLocation, Profiler};
 use crate::mesh::SparseMatrix;
+use crate::passes::adaptive_levels::{
+    adaptive_indices, AdaptiveBuffers, AdaptiveLevelsPass, AdaptiveParams, DrawCommand,
+    EdgeTopology,
+};
 use crate::passes::cage_deform::{CageDeformPass, DeformParams, Deformation};
 use crate::passes::gregory_eval::{
-    grid_indices, vertex_count, GregoryEvalPass, SurfaceVertex, MAX_LEVEL,
+    grid_indices, vertex_count, AdaptiveInputs, GregoryEvalPass, SurfaceVertex, MAX_LEVEL,
 };
 use crate::passes::spmv::{GpuSparse, SpmvPass};
 use ash::vk;
@@ -76,6 +84,121 @@ pub struct GregorySurface {
     pub canonical_edges: bool,
     pub box_min: [f32; 3],
     pub box_size: [f32; 3],
+    adaptive: Option<Adaptive>,
+    /// The patch point rows, kept for the adaptive edge topology.
+    patch_rows: Vec<[u32; 20]>,
+}
+
+/// The adaptive mode's passes and buffers (created by `set_adaptive`, kept when it is switched off).
+struct Adaptive {
+    params: Option<AdaptiveParams>,
+    levels_pass: AdaptiveLevelsPass,
+    eval: GregoryEvalPass,
+    edge_count: u32,
+    edge_ids: Buffer,
+    edge_offsets: Buffer,
+    edge_patches: Buffer,
+    edge_levels: Buffer,
+    levels: Buffer,
+    commands: Buffer,
+    /// Grids of levels 1…L_max concatenated (`adaptive_indices(level)`).
+    indices: Buffer,
+    indices_level: u32,
+}
+
+impl Adaptive {
+    fn new(ctx: &Context, patch_points: &[[u32; 20]], l_max: u32) -> Result<Self> {
+        let topo = EdgeTopology::new(patch_points);
+        let patches = patch_points.len() as u64;
+        let storage = vk::BufferUsageFlags::STORAGE_BUFFER | vk::BufferUsageFlags::TRANSFER_SRC;
+        let mut made: Vec<Buffer> = Vec::new();
+        let mut passes: (Option<AdaptiveLevelsPass>, Option<GregoryEvalPass>) = (None, None);
+        let r = (|| -> Result<()> {
+            passes.0 = Some(AdaptiveLevelsPass::new(ctx)?);
+            passes.1 = Some(GregoryEvalPass::new_adaptive(ctx)?);
+            made.push(ctx.upload_buffer(
+                "edge ids",
+                bytemuck::cast_slice(&topo.edge_ids),
+                storage,
+            )?);
+            made.push(ctx.upload_buffer(
+                "edge offsets",
+                bytemuck::cast_slice(&topo.edge_offsets),
+                storage,
+            )?);
+            // A closed cage always has edges; keep the buffer non-empty for patches without any (impossible
+            // with 4 edges per patch, but an empty buffer cannot be created).
+            let mut ep = topo.edge_patches.clone();
+            ep.push(0);
+            made.push(ctx.upload_buffer("edge patches", bytemuck::cast_slice(&ep), storage)?);
+            let gpu = MemoryLocation::GpuOnly;
+            made.push(ctx.create_buffer(
+                "edge levels",
+                topo.edge_count() as u64 * 4,
+                storage,
+                gpu,
+            )?);
+            made.push(ctx.create_buffer("patch levels", patches * 4, storage, gpu)?);
+            made.push(ctx.create_buffer(
+                "adaptive draw commands",
+                patches * std::mem::size_of::<DrawCommand>() as u64,
+                storage | vk::BufferUsageFlags::INDIRECT_BUFFER,
+                gpu,
+            )?);
+            made.push(Self::index_buffer(ctx, l_max)?);
+            Ok(())
+        })();
+        if let Err(e) = r {
+            made.into_iter().for_each(|b| b.destroy(ctx));
+            if let Some(p) = passes.0 {
+                p.destroy(ctx);
+            }
+            if let Some(p) = passes.1 {
+                p.destroy(ctx);
+            }
+            return Err(e);
+        }
+        let mut it = made.into_iter();
+        let mut next = || it.next().expect("seven buffers");
+        Ok(Adaptive {
+            params: None,
+            levels_pass: passes.0.unwrap(),
+            eval: passes.1.unwrap(),
+            edge_count: topo.edge_count(),
+            edge_ids: next(),
+            edge_offsets: next(),
+            edge_patches: next(),
+            edge_levels: next(),
+            levels: next(),
+            commands: next(),
+            indices: next(),
+            indices_level: l_max,
+        })
+    }
+
+    fn index_buffer(ctx: &Context, l_max: u32) -> Result<Buffer> {
+        ctx.upload_buffer(
+            "adaptive indices",
+            bytemuck::cast_slice(&adaptive_indices(l_max)),
+            vk::BufferUsageFlags::INDEX_BUFFER | vk::BufferUsageFlags::STORAGE_BUFFER,
+        )
+    }
+
+    fn destroy(self, ctx: &Context) {
+        for b in [
+            self.edge_ids,
+            self.edge_offsets,
+            self.edge_patches,
+            self.edge_levels,
+            self.levels,
+            self.commands,
+            self.indices,
+        ] {
+            b.destroy(ctx);
+        }
+        self.levels_pass.destroy(ctx);
+        self.eval.destroy(ctx);
+    }
 }
 
 fn vec4s(points: &[DVec3]) -> Vec<[f32; 4]> {
@@ -209,6 +332,8 @@ impl GregorySurface {
             canonical_edges: true,
             box_min: lo,
             box_size: [hi[0] - lo[0], hi[1] - lo[1], hi[2] - lo[2]],
+            adaptive: None,
+            patch_rows: topo.patch_points.clone(),
         })
     }
 
@@ -259,11 +384,119 @@ impl GregorySurface {
             return Ok(Vec::new());
         }
         let (v, i) = Self::level_buffers(ctx, self.patch_count, level)?;
+        let mut old = Vec::new();
+        if let Some(a) = self.adaptive.as_mut() {
+            match Adaptive::index_buffer(ctx, level) {
+                Ok(ai) => {
+                    old.push(std::mem::replace(&mut a.indices, ai));
+                    a.indices_level = level;
+                }
+                Err(e) => {
+                    v.destroy(ctx);
+                    i.destroy(ctx);
+                    return Err(e);
+                }
+            }
+        }
         self.level = level;
-        Ok(vec![
-            std::mem::replace(&mut self.vertices, v),
-            std::mem::replace(&mut self.indices, i),
-        ])
+        old.push(std::mem::replace(&mut self.vertices, v));
+        old.push(std::mem::replace(&mut self.indices, i));
+        Ok(old)
+    }
+
+    /// Switches screen-space adaptive tessellation on (`Some`) or off (`None`). With it on, the current
+    /// `level` is the maximum L_max, `record` also computes per-patch levels from `params` (on the GPU, every
+    /// frame), and the surface is drawn with [`GregorySurface::record_draw_indirect`]; the OBJ-style uniform
+    /// `indices`/`index_count` no longer describe the vertex buffer. The first call builds the adaptive
+    /// passes and buffers; later calls only change the view.
+    pub fn set_adaptive(&mut self, ctx: &Context, params: Option<AdaptiveParams>) -> Result<()> {
+        if let Some(p) = &params {
+            p.validate()?;
+        }
+        if params.is_some() && self.adaptive.is_none() {
+            self.adaptive = Some(Adaptive::new(ctx, &self.patch_rows, self.level)?);
+        }
+        if let Some(a) = self.adaptive.as_mut() {
+            a.params = params;
+        }
+        Ok(())
+    }
+
+    /// The adaptive parameters in use, if adaptive tessellation is on.
+    pub fn adaptive(&self) -> Option<&AdaptiveParams> {
+        self.adaptive.as_ref().and_then(|a| a.params.as_ref())
+    }
+
+    /// The adaptive draw: (index buffer of all levels' grids, one `DrawCommand` per patch). `None` when
+    /// adaptive tessellation is off.
+    pub fn adaptive_draw(&self) -> Option<(&Buffer, &Buffer)> {
+        let a = self.adaptive.as_ref()?;
+        a.params.as_ref()?;
+        Some((&a.indices, &a.commands))
+    }
+
+    /// Reads the per-patch adaptive levels back (tests, `gregvox tessellate --adaptive`).
+    pub fn read_levels(&self, ctx: &Context) -> Result<Vec<u32>> {
+        let a = self.adaptive_state()?;
+        ctx.read_pod(&a.levels)
+    }
+
+    /// Reads an adaptive tessellation back compactly: every patch's own (L_p+1)² grid in patch order (rows
+    /// of u inner, as in uniform mode), and the levels L_p. Triangles: `compact_grid_indices(&levels)`.
+    pub fn read_adaptive_grids(&self, ctx: &Context) -> Result<(Vec<SurfaceVertex>, Vec<u32>)> {
+        let levels = self.read_levels(ctx)?;
+        let all = self.read_vertices(ctx)?;
+        let slot = ((self.level + 1) * (self.level + 1)) as usize;
+        let mut out = Vec::new();
+        for (p, &l) in levels.iter().enumerate() {
+            let n = ((l + 1) * (l + 1)) as usize;
+            out.extend_from_slice(&all[p * slot..p * slot + n]);
+        }
+        Ok((out, levels))
+    }
+
+    /// Reads the per-edge adaptive levels and each patch edge's edge id back (tests).
+    pub fn read_edge_levels(&self, ctx: &Context) -> Result<(Vec<u32>, Vec<u32>)> {
+        let a = self.adaptive_state()?;
+        Ok((ctx.read_pod(&a.edge_levels)?, ctx.read_pod(&a.edge_ids)?))
+    }
+
+    /// Reads the adaptive draw commands back (tests).
+    pub fn read_draw_commands(&self, ctx: &Context) -> Result<Vec<DrawCommand>> {
+        let a = self.adaptive_state()?;
+        ctx.read_pod(&a.commands)
+    }
+
+    fn adaptive_state(&self) -> Result<&Adaptive> {
+        match &self.adaptive {
+            Some(a) if a.params.is_some() => Ok(a),
+            _ => Err(Error::Invalid("adaptive tessellation is off".into())),
+        }
+    }
+
+    /// Records the adaptive draw into a bound graphics pipeline whose vertex input reads `vertices()` at
+    /// binding 0: binds the all-levels index buffer and issues one `vkCmdDrawIndexedIndirect` per patch
+    /// (drawCount 1: the context does not enable multiDrawIndirect, so one multi-draw is not allowed).
+    pub fn record_draw_indirect(&self, ctx: &Context, cmd: vk::CommandBuffer) -> Result<()> {
+        let a = self.adaptive_state()?;
+        let stride = std::mem::size_of::<DrawCommand>() as u64;
+        // SAFETY: recording inside a render pass with a compatible pipeline bound; the buffers are alive.
+        unsafe {
+            ctx.device
+                .cmd_bind_vertex_buffers(cmd, 0, &[self.vertices.raw], &[0]);
+            ctx.device
+                .cmd_bind_index_buffer(cmd, a.indices.raw, 0, vk::IndexType::UINT32);
+            for p in 0..self.patch_count as u64 {
+                ctx.device.cmd_draw_indexed_indirect(
+                    cmd,
+                    a.commands.raw,
+                    p * stride,
+                    1,
+                    stride as u32,
+                );
+            }
+        }
+        Ok(())
     }
 
     /// The device-local vertex buffer (stride 32: position, normal).
@@ -303,6 +536,7 @@ impl GregorySurface {
                     | vk::PipelineStageFlags2::VERTEX_SHADER
                     | vk::PipelineStageFlags2::FRAGMENT_SHADER
                     | vk::PipelineStageFlags2::COMPUTE_SHADER
+                    | vk::PipelineStageFlags2::DRAW_INDIRECT
                     | vk::PipelineStageFlags2::COPY,
                 vk::AccessFlags2::NONE,
             ),
@@ -335,6 +569,45 @@ impl GregorySurface {
         scope("gregory_points", &mut || {
             self.spmv.record(ctx, cmd, &self.w, source, &self.points)
         })?;
+        if let Some(a) = self.adaptive.as_ref() {
+            if let Some(params) = a.params.as_ref() {
+                debug_assert_eq!(a.indices_level, self.level);
+                scope("adaptive_levels", &mut || {
+                    a.levels_pass.record(
+                        ctx,
+                        cmd,
+                        &AdaptiveBuffers {
+                            points: &self.points,
+                            patch_points: &self.patch_points,
+                            levels: &a.levels,
+                            commands: &a.commands,
+                            edge_offsets: &a.edge_offsets,
+                            edge_patches: &a.edge_patches,
+                            edge_levels: &a.edge_levels,
+                        },
+                        params,
+                        (self.patch_count, a.edge_count, self.level),
+                    )
+                })?;
+                return scope("gregory_eval", &mut || {
+                    a.eval.record_adaptive(
+                        ctx,
+                        cmd,
+                        &self.points,
+                        &self.patch_points,
+                        &self.patch_flags,
+                        self.patch_count,
+                        self.level,
+                        &AdaptiveInputs {
+                            levels: &a.levels,
+                            edge_ids: &a.edge_ids,
+                            edge_levels: &a.edge_levels,
+                        },
+                        &self.vertices,
+                    )
+                });
+            }
+        }
         scope("gregory_eval", &mut || {
             self.eval.record(
                 ctx,
@@ -423,6 +696,9 @@ impl GregorySurface {
             self.indices,
         ] {
             b.destroy(ctx);
+        }
+        if let Some(a) = self.adaptive {
+            a.destroy(ctx);
         }
         self.w.destroy(ctx);
         self.spmv.destroy(ctx);

@@ -5,7 +5,9 @@
 //! written by [`crate::passes::spmv::SpmvPass`]), `patch_points` (20 u32 point indices per patch, GREGORY_BASIS
 //! order) and `patch_flags` (bit e: edge e runs against its canonical direction). The output buffer holds
 //! [`SurfaceVertex`] values (stride 32) and must have STORAGE and VERTEX usage; on exit its writes are visible
-//! to vertex input, vertex-shader storage reads, later compute passes and transfers.
+//! to vertex input, vertex-shader storage reads, later compute passes and transfers. The adaptive variant
+//! (same kernel compiled with GREGORY_ADAPTIVE) also reads per-patch and per-edge levels and writes each
+//! patch's own grid at the start of its fixed slot; vertices past a patch's grid in its slot are not written.
 use crate::error::{Error, Result};
 use crate::gpu::pipeline::{Binding, ComputePipeline, DescriptorSetLayoutBuilder};
 use crate::gpu::resources::compute_writes_to_readers;
@@ -20,12 +22,32 @@ pub struct SurfaceVertex {
     pub normal: [f32; 4],
 }
 
+/// Invocations per workgroup (one workgroup per patch; glsl/include/gregory_eval_body.glsl). Each invocation
+/// pays a per-patch set-up that llvmpipe makes expensive (measured ~1.5 µs: at L = 4 letting the 39 idle
+/// invocations of 64 stop early halved the pass), so fewer invocations each evaluate more vertices: 8 is one
+/// llvmpipe subgroup (spot at L = 32: 37.5 M vertices/s, against 22.9 with 16 and 13.6 with 64). Tuned for
+/// lavapipe; a GPU with wide subgroups wants 32–64.
+pub const GROUP_SIZE: u32 = 8;
+
 /// Highest uniform tessellation level.
 pub const MAX_LEVEL: u32 = 64;
 
-/// The Gregory evaluation compute pass.
+/// The Gregory evaluation compute pass: uniform ([`GregoryEvalPass::new`], [`GregoryEvalPass::record`]) or
+/// adaptive ([`GregoryEvalPass::new_adaptive`], [`GregoryEvalPass::record_adaptive`]).
 pub struct GregoryEvalPass {
     pipeline: ComputePipeline,
+    adaptive: bool,
+}
+
+/// The per-patch and per-edge levels the adaptive variant reads (see
+/// [`crate::passes::adaptive_levels`]).
+pub struct AdaptiveInputs<'a> {
+    /// u32 level per patch.
+    pub levels: &'a Buffer,
+    /// u32 edge id per patch edge (4·patch + e).
+    pub edge_ids: &'a Buffer,
+    /// u32 level per edge.
+    pub edge_levels: &'a Buffer,
 }
 
 /// Vertices of `patches` patches at `level`.
@@ -34,22 +56,30 @@ pub fn vertex_count(patches: u32, level: u32) -> u64 {
 }
 
 impl GregoryEvalPass {
-    /// Builds the pipeline.
+    /// Builds the uniform-level pipeline.
     pub fn new(ctx: &Context) -> Result<Self> {
+        Self::build(ctx, false)
+    }
+
+    /// Builds the adaptive pipeline: per-patch levels, edges snapped to the shared edge level.
+    pub fn new_adaptive(ctx: &Context) -> Result<Self> {
+        Self::build(ctx, true)
+    }
+
+    fn build(ctx: &Context, adaptive: bool) -> Result<Self> {
         let mut b = DescriptorSetLayoutBuilder::new();
-        for i in 0..4 {
+        for i in 0..if adaptive { 7 } else { 4 } {
             b = b.storage_buffer(i, vk::ShaderStageFlags::COMPUTE);
         }
         let layout = b.build(ctx, "gregory eval set")?;
+        let (name, spirv) = if adaptive {
+            ("gregory eval adaptive", shaders::GREGORY_EVAL_ADAPTIVE_COMP)
+        } else {
+            ("gregory eval", shaders::GREGORY_EVAL_COMP)
+        };
         Ok(GregoryEvalPass {
-            pipeline: ComputePipeline::new(
-                ctx,
-                "gregory eval",
-                shaders::GREGORY_EVAL_COMP,
-                vec![layout],
-                16,
-                64,
-            )?,
+            pipeline: ComputePipeline::new(ctx, name, spirv, vec![layout], 16, GROUP_SIZE)?,
+            adaptive,
         })
     }
 
@@ -67,6 +97,11 @@ impl GregoryEvalPass {
         canonical_edges: bool,
         out: &Buffer,
     ) -> Result<()> {
+        if self.adaptive {
+            return Err(Error::Invalid(
+                "the adaptive evaluation pass records with record_adaptive".into(),
+            ));
+        }
         if !(1..=MAX_LEVEL).contains(&level) {
             return Err(Error::Invalid(format!(
                 "tessellation level {level} is outside 1…{MAX_LEVEL}"
@@ -88,9 +123,61 @@ impl GregoryEvalPass {
         ];
         self.pipeline
             .bind(ctx, cmd, &bindings, bytemuck::cast_slice(&push));
-        // One workgroup of 64 per patch (see the shader).
+        // One workgroup per patch (see the shader).
         self.pipeline
-            .dispatch_linear(ctx, cmd, patch_count as u64 * 64)?;
+            .dispatch_linear(ctx, cmd, patch_count as u64 * GROUP_SIZE as u64)?;
+        compute_writes_to_readers(ctx, cmd);
+        Ok(())
+    }
+
+    /// Records the adaptive evaluation: patch p evaluates its own (L_p+1)² grid into the first vertices of its
+    /// slot of (`l_max`+1)² (slot p starts at vertex p·(`l_max`+1)²), with its boundary rows snapped to the
+    /// edge levels. `l_max` must be the maximum the levels were computed with.
+    #[allow(clippy::too_many_arguments)]
+    pub fn record_adaptive(
+        &self,
+        ctx: &Context,
+        cmd: vk::CommandBuffer,
+        points: &Buffer,
+        patch_points: &Buffer,
+        patch_flags: &Buffer,
+        patch_count: u32,
+        l_max: u32,
+        adaptive: &AdaptiveInputs,
+        out: &Buffer,
+    ) -> Result<()> {
+        if !self.adaptive {
+            return Err(Error::Invalid(
+                "the uniform evaluation pass cannot record adaptive levels (use new_adaptive)"
+                    .into(),
+            ));
+        }
+        if !(1..=MAX_LEVEL).contains(&l_max) {
+            return Err(Error::Invalid(format!(
+                "adaptive maximum level {l_max} is outside 1…{MAX_LEVEL}"
+            )));
+        }
+        let n = vertex_count(patch_count, l_max);
+        if n * 32 > out.size {
+            return Err(Error::Invalid(format!(
+                "{n} vertices do not fit buffer '{}'",
+                out.name
+            )));
+        }
+        let push: [u32; 4] = [patch_count, l_max, 1, 0];
+        let bindings = [
+            (0, Binding::Storage(points.raw)),
+            (1, Binding::Storage(patch_points.raw)),
+            (2, Binding::Storage(patch_flags.raw)),
+            (3, Binding::Storage(out.raw)),
+            (4, Binding::Storage(adaptive.levels.raw)),
+            (5, Binding::Storage(adaptive.edge_ids.raw)),
+            (6, Binding::Storage(adaptive.edge_levels.raw)),
+        ];
+        self.pipeline
+            .bind(ctx, cmd, &bindings, bytemuck::cast_slice(&push));
+        self.pipeline
+            .dispatch_linear(ctx, cmd, patch_count as u64 * GROUP_SIZE as u64)?;
         compute_writes_to_readers(ctx, cmd);
         Ok(())
     }

@@ -1,6 +1,7 @@
 //! One GPU pass per file. Each owns its pipelines and layouts and exposes `new`, `record`, `destroy`;
 //! buffers are passed in, never owned by two passes.
 pub mod abuffer;
+pub mod adaptive_levels;
 pub mod beziex_eval;
 pub mod bounds;
 pub mod cage_deform;

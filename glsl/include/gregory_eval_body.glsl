@@ -1,0 +1,127 @@
+// The body of the Gregory evaluation kernels, uniform (gregory_eval.comp) and adaptive
+// (gregory_eval_adaptive.comp, which defines GREGORY_ADAPTIVE). One workgroup per patch stages the patch's 20
+// control points in shared memory once (gathered through patch_points), then its 8 invocations stride over
+// the patch's vertices. Measured on llvmpipe (spot, 2,928 patches): every invocation pays a per-patch set-up
+// of ~1.5 µs before its vertex loop (cause inside llvmpipe not isolated), so the workgroup is one subgroup —
+// at L = 32 37.5 M vertices/s against 13.6 M/s with 64 invocations (L = 16: 28.6 vs 6.6 M/s). One invocation
+// per vertex with 20 indirect loads each ran at 0.4–2.5 M vertices/s (the gathers dominated). On a GPU with
+// 32- or 64-wide subgroups GROUP_SIZE (gregory_eval.rs) should be raised. The evaluation runs in patch-local
+// coordinates (points − s_cv[0], see gregory.glsl); edge points use the world-space shared copy. Positions
+// and unit normals go to a device-local buffer that the graphics pipeline then draws as a vertex buffer
+// (stride 32: vec4 position, vec4 normal).
+//
+// Uniform: vertex patch·(L+1)² + j·(L+1) + i at (u, v) = (i/L, j/L).
+// Adaptive: patch p has its own level L_p (levels[p]) and its grid fills the first (L_p+1)² vertices of its
+// fixed slot of (L_max+1)²: vertex p·(L_max+1)² + j·(L_p+1) + i. Edge e of the patch has the level
+// L_e = min over the patches sharing it (edge_levels[edge_ids[4p+e]]); every vertex of the boundary row is
+// SNAPPED to the nearest of the edge's L_e+1 samples, k = round(i·L_e/L_p), evaluated canonically. Since
+// L_e ≤ L_p the snapped row visits every sample in order (steps of at most one), so both patches of an edge
+// produce the same polyline: no cracks, no T-junctions, only zero-area triangles where samples repeat.
+//
+// Vertices on a patch edge are evaluated from the edge's four boundary points only, in the edge's canonical
+// direction (from the lower cage vertex to the higher, flag bit e of patch_flags) with t from the canonical
+// integer index: both patches of an edge produce bit-identical positions (no cracks).
+#include "gregory.glsl"
+layout(local_size_x = 8) in;    // gregory_eval.rs GROUP_SIZE
+layout(std430, set = 0, binding = 0) readonly buffer Points { vec4 points[]; };
+layout(std430, set = 0, binding = 1) readonly buffer PatchPoints { uint patch_points[]; };
+layout(std430, set = 0, binding = 2) readonly buffer PatchFlags { uint patch_flags[]; };
+struct Vertex { vec4 position; vec4 normal; };
+layout(std430, set = 0, binding = 3) writeonly buffer Vertices { Vertex vertices[]; };
+#ifdef GREGORY_ADAPTIVE
+layout(std430, set = 0, binding = 4) readonly buffer Levels { uint levels[]; };
+layout(std430, set = 0, binding = 5) readonly buffer EdgeIds { uint edge_ids[]; };
+layout(std430, set = 0, binding = 6) readonly buffer EdgeLevels { uint edge_levels[]; };
+#endif
+layout(push_constant) uniform Push {
+    uint patch_count;
+    uint level;        // L (uniform) or L_max (adaptive: the slot size)
+    uint canonical;    // 1: canonical edge evaluation on
+    uint pad;
+} pc;
+
+shared vec3 s_cv[20];   // the patch's control points, world coordinates
+
+// The four boundary points of edge e, parameter increasing with u (edges 0, 2) or v (edges 1, 3). Constant
+// indices only: a dynamic index into cv[] can make llvmpipe keep the whole array in per-lane memory.
+// The points come from the workgroup's shared copy (world coordinates, the same bits in both patches of an
+// edge), so no per-invocation world-space array stays alive next to the patch-local one.
+void edge_cubic(int e, out vec3 a, out vec3 b, out vec3 c, out vec3 d) {
+    if (e == 0) { a = s_cv[0]; b = s_cv[1]; c = s_cv[7]; d = s_cv[5]; }
+    else if (e == 1) { a = s_cv[5]; b = s_cv[6]; c = s_cv[12]; d = s_cv[10]; }
+    else if (e == 2) { a = s_cv[15]; b = s_cv[17]; c = s_cv[11]; d = s_cv[10]; }
+    else { a = s_cv[0]; b = s_cv[2]; c = s_cv[16]; d = s_cv[15]; }
+}
+
+vec3 edge_point(uint flags, int e, uint n, uint L) {
+    bool reversed = ((flags >> uint(e)) & 1u) == 1u;
+    vec3 a, b, c, d;
+    edge_cubic(e, a, b, c, d);
+    if (reversed) {
+        float t = float(L - n) / float(L);
+        return gregory_edge(d, c, b, a, t);
+    }
+    float t = float(n) / float(L);
+    return gregory_edge(a, b, c, d, t);
+}
+
+// Nearest of the L_e + 1 edge samples to sample n of L (ties round up; L_e ≤ L).
+uint snap(uint n, uint L, uint le) {
+    return (2u * n * le + L) / (2u * L);
+}
+
+
+void main() {
+    uint patch_id = gl_WorkGroupID.y * gl_NumWorkGroups.x + gl_WorkGroupID.x;
+    if (patch_id >= pc.patch_count) return;   // uniform across the workgroup
+    uint t = gl_LocalInvocationIndex;
+    for (uint k = t; k < 20u; k += gl_WorkGroupSize.x) s_cv[k] = points[patch_points[20u * patch_id + k]].xyz;
+    barrier();
+#ifdef GREGORY_ADAPTIVE
+    uint L = levels[patch_id];
+    uint base = patch_id * (pc.level + 1u) * (pc.level + 1u);
+#else
+    uint L = pc.level;
+    uint base = patch_id * (L + 1u) * (L + 1u);
+#endif
+    uint per_patch = (L + 1u) * (L + 1u);
+    // Invocations without a vertex stop before the per-patch set-up (no barrier follows).
+    if (t >= per_patch) return;
+#ifdef GREGORY_ADAPTIVE
+    uvec4 le = uvec4(edge_levels[edge_ids[4u * patch_id]], edge_levels[edge_ids[4u * patch_id + 1u]],
+                     edge_levels[edge_ids[4u * patch_id + 2u]], edge_levels[edge_ids[4u * patch_id + 3u]]);
+#endif
+    vec3 origin = s_cv[0], lcv[20];
+    for (int k = 0; k < 20; ++k) lcv[k] = s_cv[k] - origin;   // gregory_localize
+    uint flags = patch_flags[patch_id];
+    for (uint local = t; local < per_patch; local += gl_WorkGroupSize.x) {
+        uint j = local / (L + 1u);
+        uint i = local - j * (L + 1u);
+        float u = float(i) / float(L);
+        float v = float(j) / float(L);
+        // Boundary rows: which edge (-1: interior) and the sample index n of m along it.
+        int edge = -1;
+        uint n = 0u, m = L;
+        if (pc.canonical == 1u) {
+            if (j == 0u) { edge = 0; n = i; }
+            else if (j == L) { edge = 2; n = i; }
+            else if (i == 0u) { edge = 3; n = j; }
+            else if (i == L) { edge = 1; n = j; }
+        }
+#ifdef GREGORY_ADAPTIVE
+        if (edge >= 0) {
+            m = edge == 0 ? le.x : edge == 1 ? le.y : edge == 2 ? le.z : le.w;
+            n = snap(n, L, m);
+            float s = float(n) / float(m);
+            if (edge == 0 || edge == 2) u = s; else v = s;
+        }
+#endif
+        vec3 p, su, sv;
+        vec3 net[16];
+        gregory_eval_local(lcv, origin, u, v, p, su, sv, net);
+        vec3 nrm = gregory_normal(net, su, sv, u, v);
+        if (edge >= 0) p = edge_point(flags, edge, n, m);
+        vertices[base + local].position = vec4(p, 1.0);
+        vertices[base + local].normal = vec4(nrm, 0.0);
+    }
+}
