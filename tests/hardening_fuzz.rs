@@ -12,7 +12,6 @@
 //!
 //! Case counts keep the file well under 60 s in the test profile (1.6 s measured on 2 cores).
 #[path = "surface_common.rs"]
-#[allow(dead_code)]
 mod common;
 
 use glam::DVec3;
