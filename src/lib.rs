@@ -9,6 +9,7 @@ pub mod engine;
 pub mod error;
 pub mod geom;
 pub mod gpu;
+pub mod io;
 pub mod mesh;
 pub mod passes;
 pub mod surface;

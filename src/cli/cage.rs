@@ -17,12 +17,47 @@ pub fn load_cage_topology(
         .map_err(|e| anyhow::anyhow!("{}: {e}", path.display()))
 }
 
+/// Largest vertex valence (and polygon size: an n-gon refined once makes a valence-n vertex) accepted for
+/// Gregory patches. Why a limit: every patch around a vertex reads its whole 1-ring, so the stencil matrix
+/// W grows with the square of the valence (measured, debug build on lavapipe: a 256-gon takes 12 s, a
+/// 1000-gon over a minute, a million-gon never ends). Real cages stay far below (valence ≤ 16 is typical).
+pub const MAX_CAGE_VALENCE: usize = 64;
+
+/// Refuses cages past [`MAX_CAGE_VALENCE`] with a message naming the face or vertex.
+pub fn check_cage_valence(mesh: &Mesh) -> crate::Result<()> {
+    if let Some(f) = (0..mesh.n_faces()).find(|&f| mesh.face(f).len() > MAX_CAGE_VALENCE) {
+        return Err(crate::Error::Invalid(format!(
+            "face {} has {} vertices; refined into quads it makes a vertex of that valence, and Gregory \
+             patches support valence up to {MAX_CAGE_VALENCE}",
+            f + 1,
+            mesh.face(f).len()
+        )));
+    }
+    let mut faces_at = vec![0usize; mesh.positions.len()];
+    for &v in &mesh.indices {
+        faces_at[v as usize] += 1;
+    }
+    // A boundary vertex has one edge more than faces: allow for it.
+    if let Some((v, n)) = faces_at
+        .iter()
+        .enumerate()
+        .find(|&(_, &n)| n + 1 > MAX_CAGE_VALENCE)
+    {
+        return Err(crate::Error::Invalid(format!(
+            "vertex {} is shared by {n} faces; Gregory patches support valence up to {MAX_CAGE_VALENCE}",
+            v + 1
+        )));
+    }
+    Ok(())
+}
+
 /// The GPU topology of a cage: W (columns = the cage's vertices), patch point rows and canonical-edge flags
 /// of the all-quad patch layout.
 pub fn cage_topology(
     mesh: &Mesh,
     tangents: Tangents,
 ) -> crate::Result<(GregoryTopology, Vec<DVec3>, Option<String>)> {
+    check_cage_valence(mesh)?;
     let cs = GregoryStencils::from_mesh(mesh, tangents)?;
     let quads: Vec<[u32; 4]> = (0..cs.quad_mesh.n_faces())
         .map(|f| {

@@ -59,11 +59,40 @@ pub fn main() -> ExitCode {
         Command::Voxelize(a) => voxelize::run(&a),
         Command::Tessellate(a) => tessellate::run(&a),
     };
+    // Resource hygiene: every context of the run has been destroyed by now (each command owns its own). A
+    // leaked allocation or any validation message (the layer reports undestroyed Vulkan objects when the
+    // device is destroyed) turns the run into a failure, even when the command itself succeeded.
+    let leaked = crate::gpu::context::allocations_leaked_at_destruction();
+    let messages = crate::gpu::context::validation_messages_at_destruction();
+    let result = result.and_then(|()| {
+        if leaked > 0 {
+            anyhow::bail!("internal error: {leaked} GPU allocation(s) were still alive at exit (see the log above)");
+        }
+        if messages > 0 {
+            anyhow::bail!("internal error: {messages} Vulkan validation message(s) during the run (see above)");
+        }
+        Ok(())
+    });
     match result {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {
-            eprintln!("gregvox: error: {e:#}");
+            eprintln!("gregvox: error: {}", one_line(&e));
             ExitCode::FAILURE
         }
     }
+}
+
+/// The error and its causes on one line, each cause added only when the text so far does not already say
+/// it (our I/O errors print their source, which anyhow would otherwise repeat: "x: No such file: No such
+/// file").
+pub fn one_line(e: &anyhow::Error) -> String {
+    let mut text = e.to_string();
+    for cause in e.chain().skip(1) {
+        let c = cause.to_string();
+        if !text.contains(&c) {
+            text.push_str(": ");
+            text.push_str(&c);
+        }
+    }
+    text.replace('\n', " ")
 }

@@ -33,17 +33,12 @@ impl ProfileArgs {
     }
 }
 
-/// Writes pretty JSON to `path` through a temporary file and a rename.
+/// Writes pretty JSON to `path` through [`crate::io::write_atomic`].
 pub fn write_json_atomically(
     path: &std::path::Path,
     value: &serde_json::Value,
 ) -> anyhow::Result<()> {
-    let tmp = path.with_extension("json.tmp");
     let text = serde_json::to_string_pretty(value)?;
-    std::fs::write(&tmp, text)
-        .and_then(|()| std::fs::rename(&tmp, path))
-        .map_err(|e| {
-            let _ = std::fs::remove_file(&tmp);
-            anyhow::anyhow!("{}: {e}", path.display())
-        })
+    crate::io::write_atomic(path, |w| w.write_all(text.as_bytes()))?;
+    Ok(())
 }

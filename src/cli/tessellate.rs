@@ -6,6 +6,7 @@ use crate::engine::gregory::{GregorySurface, GregoryTopology};
 use crate::gpu::present::begin_color_target;
 use crate::gpu::resources::image_barrier;
 use crate::gpu::{Buffer, Context, ContextDesc, ImageDesc, MemoryLocation, Profiler};
+use crate::io::write_atomic;
 use crate::passes::adaptive_levels::{compact_grid_indices, AdaptiveParams};
 use crate::passes::beziex_eval::BeziexEvalPass;
 use crate::passes::cage_deform::{DeformParams, Deformation};
@@ -14,7 +15,6 @@ use crate::passes::patch_pull::{PatchKind, PatchPullPass};
 use crate::passes::surface_draw::{DrawTarget, SurfacePush};
 use crate::surface::beziex::{load_beziex, BeziexPatch};
 use crate::surface::Tangents;
-use crate::voxel::export::write_atomically;
 use anyhow::{bail, Context as _};
 use ash::vk;
 use clap::{Args, ValueEnum};
@@ -118,7 +118,7 @@ pub fn write_tessellation_obj(
     patches: u32,
     level: u32,
 ) -> anyhow::Result<()> {
-    write_atomically(path, |w| {
+    write_atomic(path, |w| {
         writeln!(w, "# gregvox tessellate: {patches} patches at level {level}, (level+1)^2 vertices per patch")?;
         for v in vertices {
             writeln!(w, "v {} {} {}", v.position[0], v.position[1], v.position[2])?;
@@ -311,7 +311,7 @@ fn write_adaptive_obj(
     vertices: &[SurfaceVertex],
     levels: &[u32],
 ) -> anyhow::Result<()> {
-    write_atomically(path, |w| {
+    write_atomic(path, |w| {
         writeln!(
             w,
             "# gregvox tessellate --adaptive: {} patches, patch p has (L_p+1)^2 vertices",

@@ -65,8 +65,26 @@ pub struct DemoArgs {
     /// Number of triangles in the spinner scene.
     #[arg(long, default_value_t = 48)]
     pub triangles: u32,
+    /// Soak testing (hidden): print the resident set size after this many frames and again at the end.
+    #[arg(long, hide = true, value_name = "FRAME")]
+    pub soak_report: Option<u64>,
     #[command(flatten)]
     pub profile: ProfileArgs,
+}
+
+/// Prints this process's resident set size (`VmRSS` of /proc/self/status, KiB) for the soak test.
+fn soak_report(frame: &str) {
+    let rss = std::fs::read_to_string("/proc/self/status")
+        .ok()
+        .and_then(|s| {
+            s.lines()
+                .find_map(|l| l.strip_prefix("VmRSS:"))
+                .and_then(|v| v.trim().trim_end_matches("kB").trim().parse::<u64>().ok())
+        });
+    match rss {
+        Some(kib) => eprintln!("gregvox demo: soak rss_kib {frame} {kib}"),
+        None => eprintln!("gregvox demo: soak rss_kib {frame} unavailable"),
+    }
 }
 
 /// Parses `WIDTHxHEIGHT`.
@@ -307,7 +325,14 @@ fn run_offscreen(args: &DemoArgs) -> anyhow::Result<()> {
             return Err(e);
         }
     };
-    let result = offscreen_loop(&ctx, &mut renderer, &mut target, frames, args.every, &out);
+    let result = offscreen_loop(
+        &ctx,
+        &mut renderer,
+        &mut target,
+        (frames, args.soak_report),
+        args.every,
+        &out,
+    );
     let report = renderer.finish(&ctx).and(result).and_then(|written| {
         args.profile.emit(&renderer.profiler)?;
         eprintln!(
@@ -325,7 +350,7 @@ fn offscreen_loop(
     ctx: &Context,
     renderer: &mut Renderer,
     target: &mut OffscreenTarget,
-    frames: u64,
+    (frames, soak_at): (u64, Option<u64>),
     every: u64,
     out: &std::path::Path,
 ) -> anyhow::Result<u64> {
@@ -352,10 +377,16 @@ fn offscreen_loop(
         if f + 1 == frames || (every > 0 && f % every == 0) {
             pending[begun.0] = Some(f);
         }
+        if soak_at == Some(f + 1) {
+            soak_report("warm");
+        }
     }
     renderer.frames.wait_all(ctx)?;
     for slot in 0..FRAMES_IN_FLIGHT {
         save(target, slot, &mut pending)?;
+    }
+    if soak_at.is_some() {
+        soak_report("end");
     }
     Ok(written)
 }

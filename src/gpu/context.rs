@@ -15,11 +15,71 @@ use ash::vk;
 use gpu_allocator::vulkan::{Allocator, AllocatorCreateDesc};
 use std::ffi::{c_char, CStr, CString};
 use std::mem::ManuallyDrop;
-use std::sync::atomic::{AtomicU64, Ordering};
+use std::sync::atomic::{AtomicU64, AtomicUsize, Ordering};
 use std::sync::{Arc, Mutex};
 
 /// The name of the Khronos validation layer.
 pub const VALIDATION_LAYER: &CStr = c"VK_LAYER_KHRONOS_validation";
+
+/// The environment variable that caps GPU memory when [`ContextDesc::memory_budget`] is `None`.
+pub const MEMORY_BUDGET_ENV: &str = "GREGVOX_MEMORY_BUDGET";
+
+/// Over the whole process: GPU allocations found alive, and validation messages received, when a context
+/// was destroyed. Why process-wide: contexts live inside each CLI command, and the CLI checks these at
+/// exit to fail loudly on a leak or a validation message (the context itself can only log from `Drop`).
+static LEAKED_ALLOCATIONS: AtomicUsize = AtomicUsize::new(0);
+static VALIDATION_MESSAGES: AtomicUsize = AtomicUsize::new(0);
+
+/// GPU allocations that were still alive when a context of this process was destroyed.
+pub fn allocations_leaked_at_destruction() -> usize {
+    LEAKED_ALLOCATIONS.load(Ordering::SeqCst)
+}
+
+/// Validation messages received by the contexts of this process that have been destroyed (including the
+/// layer's report of undestroyed objects, which arrives at device destruction).
+pub fn validation_messages_at_destruction() -> usize {
+    VALIDATION_MESSAGES.load(Ordering::SeqCst)
+}
+
+/// Parses a byte size: a whole number with an optional `K`, `M` or `G` suffix (powers of 1024, an optional
+/// trailing `B` or `iB`), e.g. `64M`, `8MiB`, `1G`, `1048576`.
+///
+/// ```
+/// use gregvox::gpu::context::parse_byte_size;
+/// assert_eq!(parse_byte_size("64M"), Some(64 << 20));
+/// assert_eq!(parse_byte_size("8MiB"), Some(8 << 20));
+/// assert_eq!(parse_byte_size("4096"), Some(4096));
+/// assert_eq!(parse_byte_size("0"), None);
+/// assert_eq!(parse_byte_size("lots"), None);
+/// ```
+pub fn parse_byte_size(s: &str) -> Option<u64> {
+    let t = s.trim().to_ascii_uppercase();
+    let t = t
+        .strip_suffix("IB")
+        .or_else(|| t.strip_suffix('B'))
+        .unwrap_or(&t);
+    let (digits, shift) = match t.chars().last()? {
+        'K' => (&t[..t.len() - 1], 10),
+        'M' => (&t[..t.len() - 1], 20),
+        'G' => (&t[..t.len() - 1], 30),
+        _ => (t, 0),
+    };
+    let n: u64 = digits.trim().parse().ok()?;
+    n.checked_mul(1u64 << shift).filter(|&b| b > 0)
+}
+
+/// The budget from [`MEMORY_BUDGET_ENV`], if set; a malformed value is an error naming the variable.
+fn memory_budget_from_env() -> Result<Option<u64>> {
+    match std::env::var(MEMORY_BUDGET_ENV) {
+        Err(_) => Ok(None),
+        Ok(v) => parse_byte_size(&v).map(Some).ok_or_else(|| {
+            Error::Invalid(format!(
+                "{MEMORY_BUDGET_ENV}='{v}' is not a memory size (a positive whole number of bytes, or with a \
+                 K, M or G suffix, e.g. 64M)"
+            ))
+        }),
+    }
+}
 
 /// Whether the validation layer is enabled.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -194,6 +254,11 @@ impl Context {
 
     /// Creates a context as `desc` says.
     pub fn with_desc(desc: &ContextDesc) -> Result<Context> {
+        // Before any Vulkan object exists, so a bad value leaves nothing to clean up.
+        let memory_budget = match desc.memory_budget {
+            Some(b) => Some(b),
+            None => memory_budget_from_env()?,
+        };
         // SAFETY: loading the system Vulkan loader; failure is reported, not a panic.
         let entry = unsafe { ash::Entry::load() }.map_err(|e| {
             Error::NoDriver(format!(
@@ -522,7 +587,7 @@ impl Context {
             validation,
             allocator: ManuallyDrop::new(Mutex::new(allocator)),
             allocated_bytes: AtomicU64::new(0),
-            memory_budget: desc.memory_budget,
+            memory_budget,
             one_shot_pool: Mutex::new(one_shot_pool),
             push_descriptor,
             sync2_ext,
@@ -561,7 +626,10 @@ impl Context {
                 return Err(Error::Alloc {
                     name: name.into(),
                     bytes,
-                    reason: format!("over the memory budget of {budget} bytes ({before} in use)"),
+                    reason: format!(
+                        "over the memory budget of {budget} bytes ({before} in use; the budget comes from \
+                         {MEMORY_BUDGET_ENV} or ContextDesc::memory_budget)"
+                    ),
                 });
             }
         }
@@ -581,6 +649,11 @@ impl Context {
             .into_iter()
             .map(|a| a.name)
             .collect()
+    }
+
+    /// The allocation budget in bytes, if one is set (desc or [`MEMORY_BUDGET_ENV`]).
+    pub fn memory_budget(&self) -> Option<u64> {
+        self.memory_budget
     }
 
     /// Bytes currently allocated through this context.
@@ -854,6 +927,7 @@ impl Drop for Context {
             self.device.destroy_command_pool(pool, None);
             {
                 let report = self.allocator().generate_report();
+                LEAKED_ALLOCATIONS.fetch_add(report.allocations.len(), Ordering::SeqCst);
                 for a in &report.allocations {
                     log::error!(
                         "GPU allocation still alive at context destruction: {} ({} bytes)",
@@ -865,6 +939,8 @@ impl Drop for Context {
             // The allocator frees its memory blocks through the device: it goes before the device.
             ManuallyDrop::drop(&mut self.allocator);
             self.device.destroy_device(None);
+            // The layer reports undestroyed objects during vkDestroyDevice: count after it.
+            VALIDATION_MESSAGES.fetch_add(self.validation.count(), Ordering::SeqCst);
             if let Some((loader, messenger)) = self.debug_utils.take() {
                 loader.destroy_debug_utils_messenger(messenger, None);
             }

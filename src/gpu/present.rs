@@ -168,22 +168,19 @@ impl OffscreenTarget {
 
 /// Writes RGBA8 pixels as a PNG file via a temporary file and a rename.
 pub fn write_png_rgba(path: &Path, width: u32, height: u32, rgba: &[u8]) -> Result<()> {
-    let tmp = path.with_extension("png.tmp");
-    let result = (|| -> Result<()> {
-        let file = std::fs::File::create(&tmp).map_err(|e| Error::io(&tmp, e))?;
-        let mut enc = png::Encoder::new(std::io::BufWriter::new(file), width, height);
+    // Through the one output writer (temporary file + rename); encoder errors become I/O errors on `path`.
+    crate::io::write_atomic(path, |w| {
+        let io = |e: png::EncodingError| match e {
+            png::EncodingError::IoError(e) => e,
+            e => std::io::Error::other(e.to_string()),
+        };
+        let mut enc = png::Encoder::new(w, width, height);
         enc.set_color(png::ColorType::Rgba);
         enc.set_depth(png::BitDepth::Eight);
-        let io = |e: png::EncodingError| Error::io(path, std::io::Error::other(e.to_string()));
         let mut w = enc.write_header().map_err(io)?;
         w.write_image_data(rgba).map_err(io)?;
-        w.finish().map_err(io)?;
-        std::fs::rename(&tmp, path).map_err(|e| Error::io(path, e))
-    })();
-    if result.is_err() {
-        let _ = std::fs::remove_file(&tmp);
-    }
-    result
+        w.finish().map_err(io)
+    })
 }
 
 impl PresentTarget for OffscreenTarget {

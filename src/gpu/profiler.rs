@@ -8,10 +8,44 @@
 //! - Where the queue has no timestamps (`timestampValidBits == 0`) every call is a no-op and the outputs
 //!   are empty: profiling never changes what the engine does.
 //! - On lavapipe the timestamps measure the CPU driver's execution time, not a GPU's.
+//! - Memory is bounded however long the run (a 10,000-frame demo must keep a flat resident size): per pass,
+//!   calls, min, max and total are exact and the median is over the last [`MEDIAN_WINDOW`] calls; the trace
+//!   keeps the first [`TRACE_MAX_EVENTS`] events and counts the rest as dropped.
 use super::context::Context;
 use crate::error::{Result, VkContext};
 use ash::vk;
 use std::collections::HashMap;
+
+/// Calls per pass whose times are kept for the median.
+pub const MEDIAN_WINDOW: usize = 4096;
+/// Trace events kept (the first ones); later events are counted, not stored.
+pub const TRACE_MAX_EVENTS: usize = 4096;
+
+/// Running statistics of one pass (see the module invariants).
+#[derive(Default)]
+struct PassTimes {
+    calls: usize,
+    min: f64,
+    max: f64,
+    total: f64,
+    recent: std::collections::VecDeque<f64>,
+}
+
+impl PassTimes {
+    fn push(&mut self, ms: f64) {
+        if self.calls == 0 {
+            (self.min, self.max) = (ms, ms);
+        }
+        self.calls += 1;
+        self.min = self.min.min(ms);
+        self.max = self.max.max(ms);
+        self.total += ms;
+        if self.recent.len() == MEDIAN_WINDOW {
+            self.recent.pop_front();
+        }
+        self.recent.push_back(ms);
+    }
+}
 
 /// A scope opened by [`Profiler::begin`]; close it with [`Profiler::end`].
 #[derive(Clone, Copy, Debug)]
@@ -58,8 +92,9 @@ pub struct Profiler {
     period_ns: f64,
     valid_mask: u64,
     order: Vec<String>,
-    times_ms: HashMap<String, Vec<f64>>,
+    times_ms: HashMap<String, PassTimes>,
     trace: Vec<TraceEvent>,
+    trace_dropped: u64,
     origin: Option<u64>,
     frames_collected: u64,
     device_name: String,
@@ -111,6 +146,7 @@ impl Profiler {
             order: Vec::new(),
             times_ms: HashMap::new(),
             trace: Vec::new(),
+            trace_dropped: 0,
             origin: None,
             frames_collected: 0,
             device_name: ctx.info.name.clone(),
@@ -222,13 +258,15 @@ impl Profiler {
                 self.order.push(name.clone());
             }
             self.times_ms.entry(name.clone()).or_default().push(ms);
-            if self.trace.len() < 1_000_000 {
+            if self.trace.len() < TRACE_MAX_EVENTS {
                 self.trace.push(TraceEvent {
                     name,
                     start_ns: (t0.wrapping_sub(origin) & self.valid_mask) as f64 * self.period_ns,
                     duration_ns: dt as f64 * self.period_ns,
                     frame,
                 });
+            } else {
+                self.trace_dropped += 1;
             }
         }
         self.frames_collected += 1;
@@ -248,7 +286,8 @@ impl Profiler {
         self.order
             .iter()
             .map(|name| {
-                let mut v = self.times_ms[name].clone();
+                let t = &self.times_ms[name];
+                let mut v: Vec<f64> = t.recent.iter().copied().collect();
                 v.sort_by(f64::total_cmp);
                 let n = v.len();
                 let median = if n % 2 == 1 {
@@ -258,17 +297,17 @@ impl Profiler {
                 };
                 PassStats {
                     name: name.clone(),
-                    calls: n,
-                    min_ms: v[0],
+                    calls: t.calls,
+                    min_ms: t.min,
                     median_ms: median,
-                    max_ms: v[n - 1],
-                    total_ms: v.iter().sum(),
+                    max_ms: t.max,
+                    total_ms: t.total,
                 }
             })
             .collect()
     }
 
-    /// Every timed scope, in collection order.
+    /// The timed scopes in collection order (the first [`TRACE_MAX_EVENTS`]).
     pub fn trace(&self) -> &[TraceEvent] {
         &self.trace
     }
@@ -320,7 +359,7 @@ impl Profiler {
             })
             .collect();
         serde_json::json!({ "traceEvents": events, "displayTimeUnit": "ms",
-                            "otherData": {"device": self.device_name} })
+                            "otherData": {"device": self.device_name, "dropped_events": self.trace_dropped} })
     }
 
     /// Destroys the query pools.

@@ -200,15 +200,13 @@ impl MeshMatrix {
                 )));
             }
             let face = &corner_vertex[a..b];
-            for (k, &v) in face.iter().enumerate() {
-                if v >= n_verts {
-                    return Err(Error::Invalid(format!(
-                        "face {f}: vertex index {v} out of range ({n_verts} vertices)"
-                    )));
-                }
-                if face[..k].contains(&v) {
-                    return Err(Error::Invalid(format!("face {f}: vertex {v} repeated")));
-                }
+            if let Some(&v) = face.iter().find(|&&v| v >= n_verts) {
+                return Err(Error::Invalid(format!(
+                    "face {f}: vertex index {v} out of range ({n_verts} vertices)"
+                )));
+            }
+            if let Some(v) = super::obj::first_repeated(face) {
+                return Err(Error::Invalid(format!("face {f}: vertex {v} repeated")));
             }
         }
         Ok(Self::from_parts_unchecked(n_verts, face_ptr, corner_vertex))
@@ -280,8 +278,29 @@ impl MeshMatrix {
         let mut edge = vec![NONE; n_corners];
         let mut edge_rep = Vec::new();
         let (ptr, col) = (&m.vc.ptr, &m.e.col);
+        // Rows longer than this get a (row, column) → first entry map: a linear scan per half-edge is
+        // quadratic in the valence (a million-gon refined once has a valence-10⁶ vertex: hours).
+        const SCAN_MAX: u32 = 64;
+        let mut first_of_long: std::collections::HashMap<(u32, u32), u32> = Default::default();
+        for i in 0..n_verts {
+            let (a, b) = (ptr[i as usize], ptr[i as usize + 1]);
+            if b - a > SCAN_MAX {
+                for k in a..b {
+                    first_of_long.entry((i, col[k as usize])).or_insert(k);
+                }
+            }
+        }
+        // First entry of `row` with column `target` before `end` (both callers pass an `end` past that
+        // first entry whenever one exists, so the map's answer is the same as the scan's).
         let first_in_row = |row: u32, target: u32, end: u32| -> u32 {
             let a = ptr[row as usize];
+            if ptr[row as usize + 1] - a > SCAN_MAX {
+                return first_of_long
+                    .get(&(row, target))
+                    .copied()
+                    .filter(|&k| k < end)
+                    .unwrap_or(NONE);
+            }
             col[a as usize..end as usize]
                 .iter()
                 .position(|&c| c == target)

@@ -13,7 +13,6 @@
 use crate::error::{Error, Result};
 use glam::DVec3;
 use std::collections::HashMap;
-use std::io::Write;
 use std::path::Path;
 
 /// A polygon mesh as read from a file: positions and faces as offsets into one index array.
@@ -149,12 +148,23 @@ fn check_face(face: &[u32], n_verts: usize) -> Option<String> {
             ));
         }
     }
-    for (a, &v) in face.iter().enumerate() {
-        if face[..a].contains(&v) {
-            return Some(format!("vertex {} appears twice in one face", v as u64 + 1));
-        }
+    first_repeated(face).map(|v| format!("vertex {} appears twice in one face", v as u64 + 1))
+}
+
+/// A vertex that appears more than once in `face`, if any. A quadratic scan for ordinary faces (no
+/// allocation); sorting for long ones, where the scan would take hours (a million-vertex face is 5·10¹¹
+/// comparisons).
+pub(crate) fn first_repeated(face: &[u32]) -> Option<u32> {
+    if face.len() <= 32 {
+        face.iter()
+            .enumerate()
+            .find(|&(a, v)| face[..a].contains(v))
+            .map(|(_, &v)| v)
+    } else {
+        let mut sorted = face.to_vec();
+        sorted.sort_unstable();
+        sorted.windows(2).find(|w| w[0] == w[1]).map(|w| w[0])
     }
-    None
 }
 
 /// Reads an OBJ file (see the module invariants).
@@ -330,17 +340,7 @@ fn parse_obj_bytes(bytes: &[u8], path: &Path) -> Result<Mesh> {
 /// assert_eq!(load_obj(&path).unwrap(), m); // exact round trip
 /// ```
 pub fn write_obj(path: impl AsRef<Path>, mesh: &Mesh) -> Result<()> {
-    let path = path.as_ref();
-    let file_name = path
-        .file_name()
-        .ok_or_else(|| Error::Invalid(format!("{}: not a file path", path.display())))?;
-    let mut tmp_name = std::ffi::OsString::from(".");
-    tmp_name.push(file_name);
-    tmp_name.push(format!(".{}.tmp", std::process::id()));
-    let tmp = path.with_file_name(tmp_name);
-    let result = (|| -> std::io::Result<()> {
-        let file = std::fs::File::create(&tmp)?;
-        let mut w = std::io::BufWriter::new(file);
+    crate::io::write_atomic(path.as_ref(), |w| {
         for p in &mesh.positions {
             writeln!(w, "v {:?} {:?} {:?}", p.x, p.y, p.z)?;
         }
@@ -351,16 +351,7 @@ pub fn write_obj(path: impl AsRef<Path>, mesh: &Mesh) -> Result<()> {
             }
             w.write_all(b"\n")?;
         }
-        w.into_inner().map_err(|e| e.into_error())?.sync_all()?;
         Ok(())
-    })();
-    if let Err(e) = result {
-        let _ = std::fs::remove_file(&tmp);
-        return Err(Error::io(path, e));
-    }
-    std::fs::rename(&tmp, path).map_err(|e| {
-        let _ = std::fs::remove_file(&tmp);
-        Error::io(path, e)
     })
 }
 

@@ -2,33 +2,19 @@
 //! (uint8), `.raw` (packed bits) with a `.json` sidecar, `.vox` (MagicaVoxel, multi-model scene graph). Every
 //! header or sidecar records origin and pitch (`.vox` has no place for them: the `.json` sidecar holds them).
 //!
-//! Invariants: files are written to `NAME.tmp` and renamed, so an interrupted run never leaves a truncated
+//! Invariants: files are written through `crate::io::write_atomic` (a temporary file and a rename), so an interrupted run never leaves a truncated
 //! output; index conventions are those of each format (binvox: x slowest, then z, y fastest).
 use super::grid::{Axis, VoxelGrid};
 use crate::error::{Error, Result};
 use std::io::Write;
 use std::path::Path;
 
-/// Writes `bytes` to `path` through a temporary file and a rename.
+/// Writes an output through [`crate::io::write_atomic`] (temporary file + rename; devices written directly).
 pub fn write_atomically(
     path: &Path,
     write: impl FnOnce(&mut dyn Write) -> std::io::Result<()>,
 ) -> Result<()> {
-    let mut tmp = path.as_os_str().to_owned();
-    tmp.push(".tmp");
-    let tmp = std::path::PathBuf::from(tmp);
-    let result = (|| {
-        let file = std::fs::File::create(&tmp)?;
-        let mut w = std::io::BufWriter::new(file);
-        write(&mut w)?;
-        w.flush()?;
-        w.into_inner().map_err(|e| e.into_error())?.sync_all()?;
-        std::fs::rename(&tmp, path)
-    })();
-    result.map_err(|e| {
-        let _ = std::fs::remove_file(&tmp);
-        Error::io(path, e)
-    })
+    crate::io::write_atomic(path, write)
 }
 
 /// The binvox bytes of `grid` (header + run-length data, values 0/1, runs of at most 255 crossing rows).
