@@ -49,10 +49,14 @@ fn shading() -> RayShading {
 fn cameras(frame: &GridFrame, aspect: f32) -> Vec<RayCamera> {
     let side = frame.side as f32;
     let c = Vec3::from_array(frame.origin.map(|x| x as f32)) + Vec3::splat(0.5 * side);
-    [Vec3::new(0.8, -0.55, 0.45), Vec3::new(-0.3, 0.7, -0.6)]
-        .iter()
-        .map(|d| RayCamera::look_at(c + 2.2 * side * d.normalize(), c, Vec3::Z, 0.8, aspect))
-        .collect()
+    [
+        Vec3::new(0.8, -0.55, 0.45),
+        Vec3::new(-0.3, 0.7, -0.6),
+        Vec3::new(0.0, -1.0, 0.0),
+    ]
+    .iter()
+    .map(|d| RayCamera::look_at(c + 2.2 * side * d.normalize(), c, Vec3::Z, 0.8, aspect))
+    .collect()
 }
 
 /// The GPU ray cast of `grid` (any bit axis; re-laid along z) as (voxel id, rgba) per pixel.
@@ -157,7 +161,7 @@ fn gregory_grid(ctx: &Context) -> VoxelGrid {
 #[test]
 fn the_compute_ray_caster_matches_the_cpu_3d_dda_on_fixed_grids() {
     with_gpu(|ctx| {
-        let (w, h) = (96, 64);
+        let (w, h) = (160, 120);
         let s = shading();
         let grids = [
             ("single voxel", single_voxel()),
@@ -211,6 +215,85 @@ fn the_compute_ray_caster_matches_the_cpu_3d_dda_on_fixed_grids() {
             }
         }
     });
+}
+
+/// Entry and exit of a ray with the unit cube cell `c` (grid units), or None.
+fn cell_interval(o: [f32; 3], d: [f32; 3], c: [u32; 3]) -> Option<(f64, f64)> {
+    let (mut t0, mut t1) = (f64::NEG_INFINITY, f64::INFINITY);
+    for a in 0..3 {
+        let (o, d) = (o[a] as f64, d[a] as f64);
+        let (lo, hi) = (c[a] as f64, c[a] as f64 + 1.0);
+        if d.abs() < 1e-300 {
+            if o < lo || o > hi {
+                return None;
+            }
+            continue;
+        }
+        let (a0, a1) = ((lo - o) / d, (hi - o) / d);
+        t0 = t0.max(a0.min(a1));
+        t1 = t1.min(a0.max(a1));
+    }
+    (t1 >= t0.max(0.0)).then_some((t0.max(0.0), t1))
+}
+
+#[test]
+fn the_cpu_dda_finds_the_nearest_solid_voxel_of_a_brute_force_search() {
+    // Oracle: intersect the ray with every solid voxel (f64 slab tests) and take the nearest entry. Rays that
+    // only graze the hit voxel (inside it for less than 1e-4 voxel) may legitimately go either way, and so may
+    // two voxels entered at the same distance (a shared face or edge): those are compared by entry distance.
+    let s = shading();
+    for (name, grid) in [
+        ("single voxel", single_voxel()),
+        ("sphere R=32", sphere()),
+        ("cube R=8", cube()),
+    ] {
+        let f = grid.frame;
+        let (w, h) = (40, 30);
+        let solid: Vec<[u32; 3]> = (0..f.res)
+            .flat_map(|k| (0..f.res).flat_map(move |j| (0..f.res).map(move |i| [i, j, k])))
+            .filter(|&[i, j, k]| grid.get(i, j, k))
+            .collect();
+        for cam in cameras(&f, w as f32 / h as f32) {
+            let hits = raycast_grid(&grid, &cam, w, h, &s);
+            let inv_pitch = 1.0 / f.pitch() as f32;
+            let o: [f32; 3] =
+                std::array::from_fn(|a| (cam.eye[a] - f.origin[a] as f32) * inv_pitch);
+            let mut grazing = 0;
+            for y in 0..h {
+                for x in 0..w {
+                    let d = gregvox::voxel::raycast::pixel_direction(&cam, x, y, w, h);
+                    let best = solid
+                        .iter()
+                        .filter_map(|&c| cell_interval(o, d, c).map(|iv| (iv, c)))
+                        .min_by(|a, b| a.0 .0.total_cmp(&b.0 .0));
+                    let got = hits[(y * w + x) as usize].voxel;
+                    match best {
+                        None => assert_eq!(got, MISS, "{name}: pixel ({x}, {y}) hits nothing"),
+                        Some(((t0, t1), c)) => {
+                            if got == MISS {
+                                assert!(
+                                    t1 - t0 < 1e-4,
+                                    "{name}: pixel ({x}, {y}) misses voxel {c:?}"
+                                );
+                                grazing += 1;
+                                continue;
+                            }
+                            let r = f.res;
+                            let g = [got % r, (got / r) % r, got / (r * r)];
+                            let (g0, _) =
+                                cell_interval(o, d, g).expect("the hit voxel meets the ray");
+                            assert!(grid.get(g[0], g[1], g[2]), "{name}: hit an empty voxel");
+                            assert!(
+                                (g0 - t0).abs() < 1e-4,
+                                "{name}: pixel ({x}, {y}) hit {g:?} at {g0}, nearest {c:?} at {t0}"
+                            );
+                        }
+                    }
+                }
+            }
+            assert!(grazing <= 2, "{name}: {grazing} grazing rays");
+        }
+    }
 }
 
 /// Colour and depth images standing in for one frame of the renderer.
