@@ -28,7 +28,7 @@ use gregvox::gpu::{
 use gregvox::passes::cage_deform::Deformation;
 use gregvox::passes::peel::PeelGeometry;
 use gregvox::passes::surface_draw::ShadingMode;
-use gregvox::passes::voxel_raycast::{ids_bytes, VoxelRaycastPass};
+use gregvox::passes::voxel_raycast::{bricks_bytes, ids_bytes, VoxelRaycastPass};
 use gregvox::surface::Tangents;
 use gregvox::voxel::cpu::FillRule;
 use gregvox::voxel::grid::{Axis, GridFrame, VoxelGrid};
@@ -78,6 +78,14 @@ fn gpu_raycast(
         )
         .unwrap();
     let image = VoxelRaycastPass::create_image(ctx, "test raycast", w, h).unwrap();
+    let bricks = ctx
+        .create_buffer(
+            "test bricks",
+            bricks_bytes(z.frame.res),
+            vk::BufferUsageFlags::STORAGE_BUFFER,
+            MemoryLocation::GpuOnly,
+        )
+        .unwrap();
     let ids = ctx
         .create_buffer(
             "test ids",
@@ -86,10 +94,23 @@ fn gpu_raycast(
             MemoryLocation::GpuOnly,
         )
         .unwrap();
-    ctx.one_shot(|cmd| pass.record(ctx, cmd, &buf, &z.frame, &image, Some(&ids), cam, s))
-        .unwrap();
+    ctx.one_shot(|cmd| {
+        pass.record(
+            ctx,
+            cmd,
+            &buf,
+            &bricks,
+            &z.frame,
+            &image,
+            Some(&ids),
+            cam,
+            s,
+        )
+    })
+    .unwrap();
     let words: Vec<u32> = ctx.read_pod(&ids).unwrap();
     ids.destroy(ctx);
+    bricks.destroy(ctx);
     image.destroy(ctx);
     buf.destroy(ctx);
     pass.destroy(ctx);

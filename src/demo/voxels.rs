@@ -13,13 +13,13 @@ use super::DemoArgs;
 use crate::cli::cage::{builtin_cage, cage_topology, load_cage_topology};
 use crate::engine::gregory::GregorySurface;
 use crate::engine::voxelize::{PeelVoxelizer, ResidentVoxelizer};
-use crate::gpu::{Context, Image, MemoryLocation, Profiler};
+use crate::gpu::{Buffer, Context, Image, MemoryLocation, Profiler};
 use crate::passes::bounds::{decode, BoundsPass};
 use crate::passes::cage_deform::{DeformParams, Deformation};
 use crate::passes::gregory_eval::vertex_count;
 use crate::passes::peel::PeelGeometry;
 use crate::passes::surface_draw::SurfaceDrawPass;
-use crate::passes::voxel_raycast::VoxelRaycastPass;
+use crate::passes::voxel_raycast::{bricks_bytes, VoxelRaycastPass};
 use crate::surface::Tangents;
 use crate::voxel::cpu::FillRule;
 use crate::voxel::grid::{Axis, GridFrame};
@@ -64,6 +64,7 @@ pub struct VoxelsScene {
     draw: SurfaceDrawPass,
     voxelizer: ResidentVoxelizer,
     raycast: VoxelRaycastPass,
+    bricks: Buffer,
     images: Vec<Option<Image>>,
     pub options: VoxelsOptions,
     frames: u64,
@@ -206,11 +207,27 @@ impl VoxelsScene {
                 return Err(e.into());
             }
         };
+        let bricks = match ctx.create_buffer(
+            "voxel bricks",
+            bricks_bytes(frame.res),
+            vk::BufferUsageFlags::STORAGE_BUFFER,
+            MemoryLocation::GpuOnly,
+        ) {
+            Ok(b) => b,
+            Err(e) => {
+                raycast.destroy(ctx);
+                draw.destroy(ctx);
+                voxelizer.destroy(ctx);
+                surface.destroy(ctx);
+                return Err(e.into());
+            }
+        };
         Ok(VoxelsScene {
             surface,
             draw,
             voxelizer,
             raycast,
+            bricks,
             images: (0..super::FRAMES_IN_FLIGHT).map(|_| None).collect(),
             options: VoxelsOptions {
                 every: options.every.max(1),
@@ -355,9 +372,14 @@ impl Scene for VoxelsScene {
         let (cam, shading) = Self::ray_setup(view, right.width, right.height);
         self.image(ctx, targets.slot, right)?;
         let image = self.images[targets.slot].as_ref().unwrap();
-        let (raycast, grid, frame) = (&self.raycast, self.voxelizer.grid(), &self.voxelizer.frame);
+        let (raycast, grid, bricks, frame) = (
+            &self.raycast,
+            self.voxelizer.grid(),
+            &self.bricks,
+            &self.voxelizer.frame,
+        );
         profiler.scope(ctx, cmd, targets.slot, "voxel raycast", || {
-            raycast.record(ctx, cmd, grid, frame, image, None, &cam, &shading)
+            raycast.record(ctx, cmd, grid, bricks, frame, image, None, &cam, &shading)
         })?;
         profiler.scope(ctx, cmd, targets.slot, "voxel show", || {
             raycast.record_show(
@@ -387,6 +409,7 @@ impl Scene for VoxelsScene {
         for i in self.images.into_iter().flatten() {
             i.destroy(ctx);
         }
+        self.bricks.destroy(ctx);
         self.raycast.destroy(ctx);
         self.draw.destroy(ctx);
         self.voxelizer.destroy(ctx);

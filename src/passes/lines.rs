@@ -72,6 +72,7 @@ impl LinesPass {
 
     /// Draws the first `vertex_count` vertices of `vertices` as segments (pairs), clearing the target first
     /// when `clear` is given.
+    #[allow(clippy::too_many_arguments)]
     pub fn record(
         &self,
         ctx: &Context,

@@ -1,5 +1,6 @@
-//! `VoxelRaycastPass`: ray casts a bit-packed voxel grid in a compute shader (glsl/voxel_raycast.comp, a 3D
-//! DDA with Lambert + ambient shading; CPU reference `voxel::raycast`) into an RGBA8 storage image, and shows
+//! `VoxelRaycastPass`: ray casts a bit-packed voxel grid in a compute shader (glsl/voxel_raycast.comp, a
+//! two-level 3D DDA over 4³ bricks (occupancy from glsl/voxel_raycast_bricks.comp) and voxels, Lambert + ambient
+//! shading; CPU reference `voxel::raycast`) into an RGBA8 storage image, and shows
 //! that image in a region of a colour target with a full-viewport textured triangle
 //! (glsl/voxel_raycast_blit.*).
 //!
@@ -7,8 +8,9 @@
 //! (gpu/present.rs), and scenes receive the target's view, not its image, so the one operation that works on
 //! both the offscreen ring and a swapchain is rendering into the colour attachment.
 //!
-//! Invariants: the pass owns its pipelines and its nearest sampler; grid, image and id buffer are the
-//! caller's. `record` expects the grid's writes to be visible to compute shaders, leaves the image in
+//! Invariants: the pass owns its pipelines and its nearest sampler; grid, brick buffer, image and id buffer
+//! are the caller's; the bricks are rebuilt from the grid by every `record`. `record` expects the grid's
+//! writes to be visible to compute shaders, leaves the image in
 //! `SHADER_READ_ONLY_OPTIMAL` for the fragment stage and the optional per-pixel `(voxel id, rgba8)` words
 //! visible to transfers. `record_show` expects the colour target in `COLOR_ATTACHMENT_OPTIMAL` and leaves it so.
 //! The grid's bit axis is z (the resident voxelizer's peel axis).
@@ -19,7 +21,7 @@ use crate::gpu::pipeline::{
 use crate::gpu::resources::{image_barrier, memory_barrier};
 use crate::gpu::{shaders, Buffer, Context, Image, ImageDesc};
 use crate::voxel::grid::GridFrame;
-use crate::voxel::raycast::{RayCamera, RayShading};
+use crate::voxel::raycast::{RayCamera, RayShading, BRICK};
 use ash::vk;
 
 /// The image format the ray caster writes.
@@ -40,9 +42,15 @@ struct Push {
 
 /// The ray casting pass.
 pub struct VoxelRaycastPass {
+    bricks: ComputePipeline,
     cast: ComputePipeline,
     show: GraphicsPipeline,
     sampler: vk::Sampler,
+}
+
+/// Bytes of the brick occupancy buffer of a grid of `res` voxels per side (one u32 per 4³ brick).
+pub fn bricks_bytes(res: u32) -> u64 {
+    (res.div_ceil(BRICK) as u64).pow(3) * 4
 }
 
 /// Bytes of the optional per-pixel output: `(voxel id, packed rgba8)` per pixel.
@@ -53,19 +61,45 @@ pub fn ids_bytes(width: u32, height: u32) -> u64 {
 impl VoxelRaycastPass {
     /// Builds the compute pipeline and the display pipeline for `color` targets.
     pub fn new(ctx: &Context, color: vk::Format) -> Result<Self> {
-        let layout = DescriptorSetLayoutBuilder::new()
+        let blayout = DescriptorSetLayoutBuilder::new()
+            .storage_buffer(0, vk::ShaderStageFlags::COMPUTE)
+            .storage_buffer(1, vk::ShaderStageFlags::COMPUTE)
+            .build(ctx, "voxel bricks set")?;
+        let bricks = ComputePipeline::new(
+            ctx,
+            "voxel bricks",
+            shaders::VOXEL_RAYCAST_BRICKS_COMP,
+            vec![blayout],
+            8,
+            64,
+        )?;
+        let layout = match DescriptorSetLayoutBuilder::new()
             .storage_image(0, vk::ShaderStageFlags::COMPUTE)
             .storage_buffer(1, vk::ShaderStageFlags::COMPUTE)
             .storage_buffer(2, vk::ShaderStageFlags::COMPUTE)
-            .build(ctx, "voxel raycast set")?;
-        let cast = ComputePipeline::new(
+            .storage_buffer(3, vk::ShaderStageFlags::COMPUTE)
+            .build(ctx, "voxel raycast set")
+        {
+            Ok(l) => l,
+            Err(e) => {
+                bricks.destroy(ctx);
+                return Err(e);
+            }
+        };
+        let cast = match ComputePipeline::new(
             ctx,
             "voxel raycast",
             shaders::VOXEL_RAYCAST_COMP,
             vec![layout],
             std::mem::size_of::<Push>() as u32,
             64,
-        )?;
+        ) {
+            Ok(c) => c,
+            Err(e) => {
+                bricks.destroy(ctx);
+                return Err(e);
+            }
+        };
         let show_layout = match DescriptorSetLayoutBuilder::new()
             .sampled_image(0, vk::ShaderStageFlags::FRAGMENT)
             .build(ctx, "voxel raycast show set")
@@ -73,6 +107,7 @@ impl VoxelRaycastPass {
             Ok(l) => l,
             Err(e) => {
                 cast.destroy(ctx);
+                bricks.destroy(ctx);
                 return Err(e);
             }
         };
@@ -89,6 +124,7 @@ impl VoxelRaycastPass {
             Ok(p) => p,
             Err(e) => {
                 cast.destroy(ctx);
+                bricks.destroy(ctx);
                 return Err(e);
             }
         };
@@ -105,12 +141,14 @@ impl VoxelRaycastPass {
             Ok(s) => s,
             Err(e) => {
                 cast.destroy(ctx);
+                bricks.destroy(ctx);
                 show.destroy(ctx);
                 return Err(e);
             }
         };
         ctx.set_name(sampler, "voxel raycast sampler");
         Ok(VoxelRaycastPass {
+            bricks,
             cast,
             show,
             sampler,
@@ -130,14 +168,16 @@ impl VoxelRaycastPass {
         )
     }
 
-    /// Records the ray cast of `grid` (placed by `frame`, bit axis z) into `image` (whole image, previous
-    /// contents discarded); with `ids` (≥ [`ids_bytes`]) also the per-pixel voxel index and colour.
+    /// Records the brick occupancy of `grid` into `bricks` (≥ [`bricks_bytes`]) and the ray cast of `grid`
+    /// (placed by `frame`, bit axis z) into `image` (whole image, previous contents discarded); with `ids`
+    /// (≥ [`ids_bytes`]) also the per-pixel voxel index and colour.
     #[allow(clippy::too_many_arguments)]
     pub fn record(
         &self,
         ctx: &Context,
         cmd: vk::CommandBuffer,
         grid: &Buffer,
+        bricks: &Buffer,
         frame: &GridFrame,
         image: &Image,
         ids: Option<&Buffer>,
@@ -158,6 +198,50 @@ impl VoxelRaycastPass {
                 )));
             }
         }
+        if bricks.size < bricks_bytes(frame.res) {
+            return Err(crate::Error::Invalid(format!(
+                "voxel raycast: the brick buffer '{}' holds {} bytes, {} needed",
+                bricks.name,
+                bricks.size,
+                bricks_bytes(frame.res)
+            )));
+        }
+        // The previous ray cast's reads of the bricks are done before they are rewritten.
+        memory_barrier(
+            ctx,
+            cmd,
+            (
+                vk::PipelineStageFlags2::COMPUTE_SHADER,
+                vk::AccessFlags2::NONE,
+            ),
+            (
+                vk::PipelineStageFlags2::COMPUTE_SHADER,
+                vk::AccessFlags2::SHADER_STORAGE_WRITE,
+            ),
+        );
+        let nb = frame.res.div_ceil(BRICK);
+        self.bricks.bind(
+            ctx,
+            cmd,
+            &[
+                (0, Binding::Storage(grid.raw)),
+                (1, Binding::Storage(bricks.raw)),
+            ],
+            bytemuck::cast_slice(&[frame.res, nb]),
+        );
+        self.bricks.dispatch_linear(ctx, cmd, (nb as u64).pow(3))?;
+        memory_barrier(
+            ctx,
+            cmd,
+            (
+                vk::PipelineStageFlags2::COMPUTE_SHADER,
+                vk::AccessFlags2::SHADER_STORAGE_WRITE,
+            ),
+            (
+                vk::PipelineStageFlags2::COMPUTE_SHADER,
+                vk::AccessFlags2::SHADER_STORAGE_READ,
+            ),
+        );
         let inv_pitch = 1.0 / frame.pitch() as f32;
         let v4 = |v: [f32; 3], w: f32| [v[0], v[1], v[2], w];
         let bg = shading.background;
@@ -203,6 +287,7 @@ impl VoxelRaycastPass {
                 ),
                 (1, Binding::Storage(grid.raw)),
                 (2, Binding::Storage(id_buffer)),
+                (3, Binding::Storage(bricks.raw)),
             ],
             bytemuck::bytes_of(&push),
         );
@@ -303,6 +388,7 @@ impl VoxelRaycastPass {
 
     /// Destroys the pipelines and the sampler.
     pub fn destroy(self, ctx: &Context) {
+        self.bricks.destroy(ctx);
         self.cast.destroy(ctx);
         self.show.destroy(ctx);
         // SAFETY: no command using the sampler is pending (caller's guarantee).
