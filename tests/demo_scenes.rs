@@ -402,6 +402,7 @@ fn the_voxels_scene_grid_after_one_frame_equals_the_one_shot_gpu_voxelizer() {
                 deformation: Deformation::Twist,
                 res: 48,
                 every: 1,
+                scale: 1,
             },
             "built-in cage".into(),
         )
@@ -572,4 +573,54 @@ fn every_new_scene_renders_offscreen_not_blank_and_animated_scenes_change() {
             }
         }
     });
+}
+
+/// Runs the binary with `args`; returns (success, stderr).
+fn gregvox(args: &[&str]) -> (bool, String) {
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_gregvox"))
+        .args(args)
+        .output()
+        .expect("the gregvox binary runs");
+    (
+        out.status.success(),
+        String::from_utf8_lossy(&out.stderr).into_owned(),
+    )
+}
+
+#[test]
+fn bad_scene_input_gives_one_clear_message_and_a_failing_exit() {
+    let out = std::env::temp_dir().join("gregvox_demo_scenes_bad_input");
+    let out = out.to_str().unwrap();
+    let missing = std::env::temp_dir().join("gregvox_no_such_model.gzjson");
+    let cases: [(&[&str], &str); 3] = [
+        (&["--scene", "voxels", "--voxel-res", "1"], "--voxel-res 1"),
+        (
+            &["--scene", "voxels", "--voxel-scale", "0"],
+            "--voxel-scale 0",
+        ),
+        (
+            &["--scene", "beziex", "--model", missing.to_str().unwrap()],
+            "gregvox_no_such_model.gzjson",
+        ),
+    ];
+    for (args, needle) in cases {
+        let mut argv = vec![
+            "demo",
+            "--offscreen",
+            "--frames",
+            "1",
+            "--size",
+            "32x32",
+            "--out",
+            out,
+        ];
+        argv.extend_from_slice(args);
+        let (ok, stderr) = gregvox(&argv);
+        assert!(!ok, "{args:?} succeeded");
+        assert!(!stderr.contains("panicked"), "{args:?} panicked: {stderr}");
+        assert!(
+            stderr.contains(needle),
+            "{args:?}: the message does not name the input: {stderr}"
+        );
+    }
 }

@@ -74,6 +74,9 @@ pub struct DemoArgs {
     /// Voxels: voxelize every K-th frame (the ray caster shows the last grid in between).
     #[arg(long, default_value_t = 1)]
     pub voxel_every: u32,
+    /// Voxels: ray cast at 1/S of the window's resolution in each direction (1–8; 1 = every pixel).
+    #[arg(long, default_value_t = 2)]
+    pub voxel_scale: u32,
     #[command(flatten)]
     pub profile: ProfileArgs,
 }

@@ -118,7 +118,7 @@ impl VoxelRaycastPass {
             vk::Format::UNDEFINED,
         );
         desc.set_layouts = vec![show_layout];
-        desc.push_constant_bytes = 8;
+        desc.push_constant_bytes = 12;
         desc.push_constant_stages = vk::ShaderStageFlags::FRAGMENT;
         let show = match GraphicsPipeline::new(ctx, "voxel raycast show", desc) {
             Ok(p) => p,
@@ -330,7 +330,9 @@ impl VoxelRaycastPass {
         Ok(())
     }
 
-    /// Draws `image` into the colour target `color` at `offset` (the image's size), loading the rest.
+    /// Draws `image` into the `region` of the colour target `color` starting at `offset`, each image texel
+    /// covering `scale`×`scale` pixels (nearest; the image is at least `ceil(region / scale)`), loading the
+    /// rest of the target.
     pub fn record_show(
         &self,
         ctx: &Context,
@@ -338,8 +340,10 @@ impl VoxelRaycastPass {
         image: &Image,
         color: vk::ImageView,
         offset: vk::Offset2D,
+        region: vk::Extent2D,
+        scale: u32,
     ) {
-        let extent = image.extent2d();
+        let extent = region;
         let att = [vk::RenderingAttachmentInfo::default()
             .image_view(color)
             .image_layout(vk::ImageLayout::COLOR_ATTACHMENT_OPTIMAL)
@@ -351,7 +355,7 @@ impl VoxelRaycastPass {
             .layer_count(1)
             .color_attachments(&att);
         ctx.cmd_begin_rendering(cmd, &info);
-        let push = [offset.x, offset.y];
+        let push = [offset.x, offset.y, scale.max(1) as i32];
         self.show.bind(
             ctx,
             cmd,
