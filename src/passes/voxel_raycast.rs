@@ -333,6 +333,7 @@ impl VoxelRaycastPass {
     /// Draws `image` into the `region` of the colour target `color` starting at `offset`, each image texel
     /// covering `scale`×`scale` pixels (nearest; the image is at least `ceil(region / scale)`), loading the
     /// rest of the target.
+    #[allow(clippy::too_many_arguments)]
     pub fn record_show(
         &self,
         ctx: &Context,
