@@ -443,6 +443,40 @@ fn the_voxels_scene_grid_after_one_frame_equals_the_one_shot_gpu_voxelizer() {
 }
 
 #[test]
+fn with_voxel_every_2_the_grid_is_kept_on_the_odd_frames() {
+    with_gpu(|ctx| {
+        let surface = builtin_surface(ctx, 4);
+        let mut scene = VoxelsScene::new(
+            ctx,
+            FORMAT,
+            surface,
+            VoxelsOptions {
+                deformation: Deformation::Bend,
+                res: 32,
+                every: 2,
+                scale: 2,
+            },
+            "built-in cage".into(),
+        )
+        .unwrap();
+        let grids: Vec<VoxelGrid> = [0.0, 1.5, 1.5]
+            .iter()
+            .map(|&t| {
+                one_frame(ctx, &mut scene, t);
+                scene.voxelizer().read_grid(ctx).unwrap()
+            })
+            .collect();
+        // Frame 1 (bent) shows frame 0's grid (rest pose); frame 2 voxelizes the bent pose.
+        assert_eq!(grids[0], grids[1]);
+        assert!(
+            grids[2].count_differences(&grids[0]) > 100,
+            "the bend changes the grid"
+        );
+        Box::new(scene).destroy(ctx);
+    });
+}
+
+#[test]
 fn the_curves_scene_draws_the_predicted_segments_from_the_geometry_core() {
     // The count is fixed by construction, whatever the time.
     for t in [0.0, 0.8, 2.5, 7.1] {
