@@ -140,12 +140,12 @@ fn argmin(t: &[f32; 3]) -> usize {
 /// use gregvox::voxel::raycast::{cast_ray, RayShading, MISS};
 /// let shading = RayShading { light: [0.0, 0.0, 1.0], ambient: 0.25, color: [1.0; 3], background: [0.0; 3] };
 /// // A 2³ grid with only voxel (1, 1, 1) solid, seen from straight above: entered through its top face (+z),
-/// // which faces the light, so it is fully lit.
+/// // which faces the light, so it is fully lit, times the checker's 0.9 for odd i + j + k: 0.9 · 255 → 230.
 /// let solid = |i: u32, j: u32, k: u32| (i, j, k) == (1, 1, 1);
 /// let all = |_: u32, _: u32, _: u32| true;
 /// let hit = cast_ray(&solid, &all, 2, [0.0; 3], 1.0, [1.5, 1.5, 5.0], [0.0, 0.0, -1.0], &shading);
 /// assert_eq!(hit.voxel, (1 * 2 + 1) * 2 + 1);
-/// assert_eq!(hit.rgba, [255, 255, 255, 255]);
+/// assert_eq!(hit.rgba, [230, 230, 230, 255]);
 /// // Beside the voxel the ray passes through empty cells and leaves the grid.
 /// let miss = cast_ray(&solid, &all, 2, [0.0; 3], 1.0, [0.5, 0.5, 5.0], [0.0, 0.0, -1.0], &shading);
 /// assert_eq!(miss.voxel, MISS);
