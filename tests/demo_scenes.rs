@@ -438,6 +438,32 @@ fn the_voxels_scene_grid_after_one_frame_equals_the_one_shot_gpu_voxelizer() {
         assert!(stats.layers <= scene.voxelizer().layers);
         assert!(resident.count() > 1000, "the grid is nearly empty");
         assert_eq!(resident.count_differences(&reference), 0);
+
+        // Key D switches to the bend, replanning the grid; the next frame's grid again equals the one-shot one.
+        assert!(scene.key(ctx, "d").unwrap());
+        assert_eq!(scene.options.deformation, Deformation::Bend);
+        one_frame(ctx, &mut scene, 1.3);
+        let resident = scene.voxelizer().read_grid(ctx).unwrap();
+        let s = scene.surface();
+        let geom = PeelGeometry {
+            vertices: s.vertices(),
+            indices: s.indices(),
+            index_count: s.index_count(),
+        };
+        let one_shot = PeelVoxelizer::new(ctx, 32).unwrap();
+        let (reference, _) = one_shot
+            .voxelize_axis(
+                ctx,
+                &geom,
+                &scene.voxelizer().frame,
+                Axis::Z,
+                FillRule::Winding,
+                None,
+            )
+            .unwrap();
+        one_shot.destroy(ctx);
+        assert!(resident.count() > 1000);
+        assert_eq!(resident.count_differences(&reference), 0);
         Box::new(scene).destroy(ctx);
     });
 }

@@ -410,6 +410,29 @@ impl Scene for VoxelsScene {
         Ok(())
     }
 
+    fn key(&mut self, ctx: &Context, key: &str) -> anyhow::Result<bool> {
+        if !key.eq_ignore_ascii_case("d") {
+            return Ok(false);
+        }
+        // D cycles the deformation as in the cage scene. The grid frame and peeling depth belong to one
+        // deformation, so they are planned again; the device is idled first because frames in flight still
+        // use the old voxelizer (a key press may take that pause).
+        ctx.wait_idle()?;
+        let mode = match self.options.deformation {
+            Deformation::None => Deformation::Twist,
+            Deformation::Twist => Deformation::Bend,
+            Deformation::Bend => Deformation::Wave,
+            Deformation::Wave => Deformation::None,
+        };
+        let (frame, layers) = plan_grid(ctx, &self.surface, mode, self.voxelizer.frame.res)?;
+        let voxelizer = ResidentVoxelizer::new(ctx, 32, frame, layers, FillRule::Winding)?;
+        std::mem::replace(&mut self.voxelizer, voxelizer).destroy(ctx);
+        self.options.deformation = mode;
+        // The next frame voxelizes whatever --voxel-every says.
+        self.frames = 0;
+        Ok(true)
+    }
+
     fn framing(&self) -> Orbit {
         let [x, y, z] = self.surface.box_min;
         let [w, h, d] = self.surface.box_size;
