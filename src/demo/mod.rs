@@ -19,8 +19,11 @@ use clap::Args;
 use scene::{FlagScene, FrameTargets, Scene, SpinnerScene, ViewState, DEPTH_FORMAT};
 use std::path::PathBuf;
 
+pub mod beziex;
 pub mod cage;
+pub mod curves;
 pub mod scene;
+pub mod voxels;
 mod window;
 
 /// Frames in flight.
@@ -68,6 +71,15 @@ pub struct DemoArgs {
     /// Soak testing (hidden): print the resident set size after this many frames and again at the end.
     #[arg(long, hide = true, value_name = "FRAME")]
     pub soak_report: Option<u64>,
+    /// Voxels: grid resolution (voxels per side, 2–512).
+    #[arg(long, default_value_t = 64)]
+    pub voxel_res: u32,
+    /// Voxels: voxelize every K-th frame (the ray caster shows the last grid in between).
+    #[arg(long, default_value_t = 1)]
+    pub voxel_every: u32,
+    /// Voxels: ray cast at 1/S of the window's resolution in each direction (1–8; 1 = every pixel).
+    #[arg(long, default_value_t = 2)]
+    pub voxel_scale: u32,
     #[command(flatten)]
     pub profile: ProfileArgs,
 }
@@ -269,6 +281,12 @@ pub enum SceneKind {
     Cage,
     /// The minimal compute → raster smoke scene.
     Spinner,
+    /// The deforming cage surface voxelized on the GPU every frame, ray cast beside the surface.
+    Voxels,
+    /// Bézier, B-spline and NURBS curves: control polygons, de Casteljau at a moving t, curvature.
+    Curves,
+    /// A Beziex `.gzjson` model (`--model`) drawn by the vertex-pull path.
+    Beziex,
 }
 
 /// Builds the scene `args` asks for, drawing into `format` targets.
@@ -290,6 +308,9 @@ pub fn build_scene(
             Box::new(s)
         }
         SceneKind::Cage => cage::build(ctx, args, format)?,
+        SceneKind::Voxels => voxels::build(ctx, args, format)?,
+        SceneKind::Curves => curves::build(ctx, format)?,
+        SceneKind::Beziex => beziex::build(ctx, args, format)?,
     })
 }
 

@@ -99,7 +99,7 @@ pub trait Scene {
     fn destroy(self: Box<Self>, ctx: &Context);
 }
 
-fn surface_push(
+pub(crate) fn surface_push(
     view: &ViewState,
     targets: &FrameTargets,
     color: [f32; 3],
@@ -130,7 +130,7 @@ fn scoped<T>(
 
 /// Draws a surface vertex/index buffer pair (with its tessellation level) in the scene's shading, timed.
 #[allow(clippy::too_many_arguments)]
-fn draw_surface(
+pub(crate) fn draw_surface(
     draw: &SurfaceDrawPass,
     ctx: &Context,
     cmd: vk::CommandBuffer,

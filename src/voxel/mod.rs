@@ -4,3 +4,4 @@ pub mod cpu;
 pub mod export;
 pub mod grid;
 pub mod mesh;
+pub mod raycast;

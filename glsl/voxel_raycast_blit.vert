@@ -1,0 +1,6 @@
+#version 460
+// One full-viewport triangle; the fragment shader copies the ray caster's image texel for texel.
+void main() {
+    vec2 p = vec2(float((gl_VertexIndex << 1) & 2), float(gl_VertexIndex & 2));
+    gl_Position = vec4(p * 2.0 - 1.0, 0.0, 1.0);
+}

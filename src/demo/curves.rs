@@ -1,0 +1,324 @@
+//! The `curves` scene: a Bézier, a B-spline and a NURBS curve side by side in the world's x–z plane, each with
+//! its control polygon; the de Casteljau construction of the Bézier curve at a moving t (every intermediate
+//! polygon); curvature combs on the Bézier and B-spline curves; the circle of curvature at a moving point of the
+//! NURBS curve (one of whose weights breathes). Every point, derivative and curvature comes from src/geom
+//! (`Bezier`, `BSplineCurve`, `NurbsCurve`, `plane_curvature`, `circle_of_curvature`); the engine only draws
+//! the segments (passes/lines.rs).
+//!
+//! Invariants: [`curve_lines`] is a pure function of the time, so a frame's vertex list is reproducible and
+//! its segment count is known in advance ([`expected_vertices`]); the vertices go to the frame slot's own
+//! host-visible buffer (`LineRing`), never to one a frame in flight reads.
+use super::scene::{FrameTargets, Orbit, Scene, ViewState, DEPTH_FORMAT};
+use crate::geom::bezier::Bezier;
+use crate::geom::bspline::BSplineCurve;
+use crate::geom::curvature::{circle_of_curvature, plane_curvature};
+use crate::geom::nurbs::NurbsCurve;
+use crate::gpu::{Context, Profiler};
+use crate::passes::lines::{LineRing, LineVertex, LinesPass};
+use crate::passes::surface_draw::DrawTarget;
+use ash::vk;
+use glam::{DVec2, Vec3};
+
+/// Segments per drawn curve.
+pub const CURVE_SEGMENTS: u32 = 96;
+/// Teeth of a curvature comb.
+pub const COMB_TEETH: u32 = 40;
+/// Segments of the circle of curvature.
+pub const CIRCLE_SEGMENTS: u32 = 64;
+/// Control points of the three curves.
+pub const BEZIER_POINTS: u32 = 5;
+pub const BSPLINE_POINTS: u32 = 8;
+pub const NURBS_POINTS: u32 = 5;
+/// Longest comb tooth (world units).
+const COMB_LENGTH: f64 = 0.7;
+/// Half the size of a point marker (a cross).
+const MARK: f64 = 0.06;
+
+const CURVE: [f32; 3] = [0.1, 0.2, 0.6];
+const POLYGON: [f32; 3] = [0.45, 0.45, 0.5];
+const COMB: [f32; 3] = [0.95, 0.5, 0.1];
+const CIRCLE: [f32; 3] = [0.1, 0.6, 0.25];
+const POINT: [f32; 3] = [0.85, 0.1, 0.1];
+
+/// One frame's segments: vertex pairs and how many segments each named part contributed.
+#[derive(Clone, Debug, Default)]
+pub struct CurveLines {
+    pub vertices: Vec<LineVertex>,
+    pub parts: Vec<(&'static str, u32)>,
+}
+
+impl CurveLines {
+    fn part(&mut self, name: &'static str, f: impl FnOnce(&mut Vec<LineVertex>)) {
+        let before = self.vertices.len();
+        f(&mut self.vertices);
+        let added = self.vertices.len() - before;
+        debug_assert!(added % 2 == 0, "{name}: odd vertex count");
+        self.parts.push((name, (added / 2) as u32));
+    }
+}
+
+/// A point of the plane drawn at (x, 0, y).
+fn at(p: DVec2) -> [f32; 3] {
+    [p.x as f32, 0.0, p.y as f32]
+}
+
+fn segment(out: &mut Vec<LineVertex>, a: DVec2, b: DVec2, c: [f32; 3]) {
+    out.push(LineVertex::new(at(a), c));
+    out.push(LineVertex::new(at(b), c));
+}
+
+fn polyline(out: &mut Vec<LineVertex>, pts: &[DVec2], c: [f32; 3]) {
+    for w in pts.windows(2) {
+        segment(out, w[0], w[1], c);
+    }
+}
+
+fn cross(out: &mut Vec<LineVertex>, p: DVec2, c: [f32; 3]) {
+    segment(
+        out,
+        p - DVec2::new(MARK, MARK),
+        p + DVec2::new(MARK, MARK),
+        c,
+    );
+    segment(
+        out,
+        p - DVec2::new(MARK, -MARK),
+        p + DVec2::new(MARK, -MARK),
+        c,
+    );
+}
+
+/// Samples `f(u)` = (point, first, second derivative) at `COMB_TEETH` parameters of `[a, b]` and draws the
+/// curvature comb: teeth along −κ·n (n the left normal), scaled so the longest is `COMB_LENGTH`, and the
+/// envelope through the tooth tips.
+fn comb(out: &mut Vec<LineVertex>, a: f64, b: f64, f: impl Fn(f64) -> [DVec2; 3]) {
+    let samples: Vec<(DVec2, DVec2, f64)> = (0..COMB_TEETH)
+        .map(|i| {
+            let u = a + (b - a) * i as f64 / (COMB_TEETH - 1) as f64;
+            let [p, d1, d2] = f(u);
+            let k = plane_curvature(d1, d2).unwrap_or(0.0);
+            let n = d1.perp().normalize_or_zero();
+            (p, n, k)
+        })
+        .collect();
+    let kmax = samples.iter().fold(0.0f64, |m, s| m.max(s.2.abs()));
+    let scale = if kmax > 0.0 { COMB_LENGTH / kmax } else { 0.0 };
+    let tips: Vec<DVec2> = samples.iter().map(|&(p, n, k)| p - n * k * scale).collect();
+    for (s, &tip) in samples.iter().zip(&tips) {
+        segment(out, s.0, tip, COMB);
+    }
+    polyline(out, &tips, COMB);
+}
+
+fn sampled(a: f64, b: f64, f: impl Fn(f64) -> DVec2) -> Vec<DVec2> {
+    (0..=CURVE_SEGMENTS)
+        .map(|i| f(a + (b - a) * i as f64 / CURVE_SEGMENTS as f64))
+        .collect()
+}
+
+/// The de Casteljau parameter at time `t`.
+pub fn casteljau_t(t: f32) -> f64 {
+    0.5 + 0.45 * (0.8 * t as f64).sin()
+}
+
+/// Builds every segment of the frame at time `t`.
+pub fn curve_lines(t: f32) -> crate::Result<CurveLines> {
+    let time = t as f64;
+    let mut out = CurveLines::default();
+
+    // Bézier, degree 4, in x ∈ [0, 3].
+    let ctrl = vec![
+        DVec2::new(0.0, 0.0),
+        DVec2::new(0.4, 1.8),
+        DVec2::new(1.5, 2.2 + 0.3 * (0.7 * time).sin()),
+        DVec2::new(2.4, 0.2),
+        DVec2::new(3.0, 1.4),
+    ];
+    let bez = Bezier::new(ctrl.clone())?;
+    out.part("bezier curve", |o| {
+        polyline(o, &sampled(0.0, 1.0, |u| bez.eval(u)), CURVE)
+    });
+    out.part("bezier polygon", |o| polyline(o, &ctrl, POLYGON));
+    let s = casteljau_t(t);
+    out.part("de casteljau", |o| {
+        let mut level = ctrl.clone();
+        let mut shade = 0.0f32;
+        while level.len() > 1 {
+            level = level.windows(2).map(|w| w[0].lerp(w[1], s)).collect();
+            shade += 1.0 / (BEZIER_POINTS - 1) as f32;
+            if level.len() > 1 {
+                polyline(
+                    o,
+                    &level,
+                    [0.2 + 0.6 * shade, 0.7 - 0.5 * shade, 0.9 - 0.6 * shade],
+                );
+            }
+        }
+        // The construction's last point is the curve point (checked against the Bernstein form in tests).
+        cross(o, level[0], POINT);
+    });
+    out.part("bezier comb", |o| {
+        comb(o, 0.0, 1.0, |u| {
+            let d = bez.derivs(u, 2);
+            [d[0], d[1], d[2]]
+        })
+    });
+
+    // Cubic B-spline with a clamped uniform knot vector, in x ∈ [3.6, 6.6]; one control point circles, which
+    // moves only the spans it supports.
+    let wobble = DVec2::new((1.1 * time).cos(), (1.1 * time).sin()) * 0.35;
+    let bctrl: Vec<DVec2> = [
+        (3.6, 0.2),
+        (3.9, 1.6),
+        (4.5, 2.3),
+        (5.0, 0.6),
+        (5.5, 0.9),
+        (5.9, 2.2),
+        (6.3, 1.9),
+        (6.6, 0.4),
+    ]
+    .iter()
+    .enumerate()
+    .map(|(i, &(x, y))| DVec2::new(x, y) + if i == 3 { wobble } else { DVec2::ZERO })
+    .collect();
+    let bs = BSplineCurve::clamped_uniform(3, bctrl.clone())?;
+    let (a, b) = bs.domain();
+    out.part("bspline curve", |o| {
+        polyline(o, &sampled(a, b, |u| bs.eval(u)), CURVE)
+    });
+    out.part("bspline polygon", |o| polyline(o, &bctrl, POLYGON));
+    out.part("bspline comb", |o| {
+        comb(o, a, b, |u| {
+            let d = bs.derivs(u, 2);
+            [d[0], d[1], d[2]]
+        })
+    });
+
+    // Quadratic NURBS over a convex polygon (so its curvature never vanishes) in x ∈ [7.2, 10.2]; the middle
+    // weight breathes between 0.4 and 3.6.
+    let nctrl = vec![
+        DVec2::new(7.2, 0.2),
+        DVec2::new(7.4, 2.0),
+        DVec2::new(8.7, 2.6),
+        DVec2::new(10.0, 2.0),
+        DVec2::new(10.2, 0.2),
+    ];
+    let w = 2.0 + 1.6 * (0.6 * time).sin();
+    let nurbs = NurbsCurve::new(
+        2,
+        vec![0.0, 0.0, 0.0, 1.0 / 3.0, 2.0 / 3.0, 1.0, 1.0, 1.0],
+        nctrl.clone(),
+        vec![1.0, 1.0, w, 1.0, 1.0],
+    )?;
+    out.part("nurbs curve", |o| {
+        polyline(o, &sampled(0.0, 1.0, |u| nurbs.eval(u)), CURVE)
+    });
+    out.part("nurbs polygon", |o| polyline(o, &nctrl, POLYGON));
+    let u = 0.5 + 0.45 * (0.5 * time).cos();
+    let d = nurbs.derivs(u, 2);
+    out.part("circle of curvature", |o| {
+        if let Some((c, r)) = circle_of_curvature(d[0], d[1], d[2]) {
+            let pts: Vec<DVec2> = (0..=CIRCLE_SEGMENTS)
+                .map(|i| {
+                    let a = std::f64::consts::TAU * i as f64 / CIRCLE_SEGMENTS as f64;
+                    c + r * DVec2::new(a.cos(), a.sin())
+                })
+                .collect();
+            polyline(o, &pts, CIRCLE);
+            segment(o, d[0], c, CIRCLE);
+        }
+        cross(o, d[0], POINT);
+    });
+    Ok(out)
+}
+
+/// The vertex count of every frame (all three curves have non-vanishing curvature where the circle is drawn).
+pub fn expected_vertices() -> u32 {
+    let n = BEZIER_POINTS - 1;
+    let segments = 3 * CURVE_SEGMENTS                       // the three curves
+        + (BEZIER_POINTS - 1) + (BSPLINE_POINTS - 1) + (NURBS_POINTS - 1) // control polygons
+        + n * (n - 1) / 2 + 2                               // de Casteljau polygons + the point's cross
+        + 2 * (2 * COMB_TEETH - 1)                          // two combs: teeth + envelope
+        + CIRCLE_SEGMENTS + 1 + 2; // circle, radius, point's cross
+    2 * segments
+}
+
+/// The curves scene.
+pub struct CurvesScene {
+    lines: LinesPass,
+    ring: LineRing,
+    /// Vertices drawn in the last recorded frame.
+    pub drawn: u32,
+}
+
+impl CurvesScene {
+    /// Builds the line pipeline for `format` targets.
+    pub fn new(ctx: &Context, format: vk::Format) -> anyhow::Result<Self> {
+        Ok(CurvesScene {
+            lines: LinesPass::new(ctx, format, DEPTH_FORMAT)?,
+            ring: LineRing::new(super::FRAMES_IN_FLIGHT),
+            drawn: 0,
+        })
+    }
+}
+
+impl Scene for CurvesScene {
+    fn name(&self) -> String {
+        "curves: Bézier (de Casteljau, comb), B-spline (comb), NURBS (circle of curvature)".into()
+    }
+
+    fn record(
+        &mut self,
+        ctx: &Context,
+        cmd: vk::CommandBuffer,
+        targets: &FrameTargets,
+        t: f32,
+        view: &ViewState,
+        profiler: &mut Profiler,
+    ) -> anyhow::Result<()> {
+        let time = if view.animate { t } else { 0.0 };
+        let frame = curve_lines(time)?;
+        let count = frame.vertices.len() as u32;
+        let buf = self.ring.upload(ctx, targets.slot, &frame.vertices)?;
+        let aspect = targets.extent.width as f32 / targets.extent.height.max(1) as f32;
+        let target = DrawTarget {
+            color: targets.color,
+            depth: targets.depth,
+            extent: targets.extent,
+        };
+        let lines = &self.lines;
+        profiler.scope(ctx, cmd, targets.slot, "lines", || {
+            lines.record(
+                ctx,
+                cmd,
+                &target,
+                Some([0.97, 0.97, 0.98, 1.0]),
+                buf,
+                count,
+                &view.orbit.view_proj(aspect),
+            )
+        })?;
+        self.drawn = count;
+        Ok(())
+    }
+
+    fn framing(&self) -> Orbit {
+        // Face the x–z plane head on (eye on −y, z up) with the three panels in view.
+        Orbit {
+            target: Vec3::new(5.1, 0.0, 1.3),
+            yaw: -std::f32::consts::FRAC_PI_2,
+            pitch: 0.0,
+            distance: 9.5,
+        }
+    }
+
+    fn destroy(self: Box<Self>, ctx: &Context) {
+        self.ring.destroy(ctx);
+        self.lines.destroy(ctx);
+    }
+}
+
+/// Builds the curves scene.
+pub fn build(ctx: &Context, format: vk::Format) -> anyhow::Result<Box<dyn super::scene::Scene>> {
+    Ok(Box::new(CurvesScene::new(ctx, format)?))
+}
