@@ -34,15 +34,17 @@ pub struct LightUniform {
 }
 
 /// An orthographic light looking along `-dir` (dir points towards the light) at a sphere (`centre`,
-/// `radius`): everything inside the sphere lands inside the map, depth 0 near the light and 1 far.
+/// `radius`): everything inside the sphere lands inside the map, depth 0 on the sphere's light side; depth
+/// runs on to 1 at 2·radius beyond the centre, so a ground plane under the sphere still receives shadow.
 ///
 /// ```
 /// use gregvox::passes::shadow_map::light_view_proj;
 /// use glam::Vec3;
 /// let m = light_view_proj(Vec3::Z, Vec3::ZERO, 2.0);
 /// let top = m.project_point3(Vec3::new(0.0, 0.0, 2.0));
-/// let bottom = m.project_point3(Vec3::new(0.0, 0.0, -2.0));
-/// assert!(top.z.abs() < 1e-6 && (bottom.z - 1.0).abs() < 1e-6);
+/// let below = m.project_point3(Vec3::new(1.0, -1.0, -4.0));
+/// assert!(top.z.abs() < 1e-6 && (below.z - 1.0).abs() < 1e-6);
+/// assert!(below.x.abs() <= 1.0 && below.y.abs() <= 1.0);
 /// ```
 pub fn light_view_proj(dir: Vec3, centre: Vec3, radius: f32) -> Mat4 {
     let dir = dir.normalize_or(Vec3::Z);
@@ -51,7 +53,7 @@ pub fn light_view_proj(dir: Vec3, centre: Vec3, radius: f32) -> Mat4 {
     // Any up vector not parallel to the light direction.
     let up = if dir.z.abs() > 0.99 { Vec3::Y } else { Vec3::Z };
     let view = Mat4::look_at_rh(eye, centre, up);
-    let proj = Mat4::orthographic_rh(-radius, radius, -radius, radius, 0.0, 2.0 * radius);
+    let proj = Mat4::orthographic_rh(-radius, radius, -radius, radius, 0.0, 3.0 * radius);
     proj * view
 }
 
