@@ -41,7 +41,11 @@ fn the_current_scenes_number_and_numbers_past_the_table_do_nothing() {
 fn plus_and_minus_step_the_level_within_1_to_max() {
     let mut c = state();
     assert_eq!(key_action("+", &c), Some(Action::SetLevel(11)));
-    assert_eq!(key_action("=", &c), Some(Action::SetLevel(11)), "+ without shift");
+    assert_eq!(
+        key_action("=", &c),
+        Some(Action::SetLevel(11)),
+        "+ without shift"
+    );
     assert_eq!(key_action("-", &c), Some(Action::SetLevel(9)));
     c.level = Some(1);
     assert_eq!(key_action("-", &c), None, "level 1 is the lowest");
@@ -67,7 +71,10 @@ fn v_toggles_between_the_compute_and_the_vertex_pull_path() {
         Some(Action::SetPath(DrawPath::VertexPull))
     );
     c.path = DrawPath::VertexPull;
-    assert_eq!(key_action("V", &c), Some(Action::SetPath(DrawPath::Compute)));
+    assert_eq!(
+        key_action("V", &c),
+        Some(Action::SetPath(DrawPath::Compute))
+    );
 }
 
 #[test]
@@ -110,9 +117,15 @@ fn dragging_orbits_and_the_wheel_zooms() {
     assert_eq!(d.distance, o.distance, "dragging keeps the distance");
     assert_eq!(o.dragged(0.0, -1e5).pitch, -1.5, "never over the pole");
     let z = o.zoomed(2.0);
-    assert!((z.distance - o.distance * 0.81).abs() < 1e-5, "10 % per step");
+    assert!(
+        (z.distance - o.distance * 0.81).abs() < 1e-5,
+        "10 % per step"
+    );
     assert!((o.zoomed(-1.0).distance - o.distance / 0.9).abs() < 1e-5);
-    assert!(o.zoomed(1e6).distance > 0.0, "zoom never reaches the target");
+    assert!(
+        o.zoomed(1e6).distance > 0.0,
+        "zoom never reaches the target"
+    );
 }
 
 #[test]

@@ -35,10 +35,18 @@ use std::path::PathBuf;
 /// The golden table: (name, `gregvox demo` arguments, animated?). A new scene is one line here.
 const FRAMES: &[(&str, &[&str], bool)] = &[
     ("flag", &["--scene", "flag"], true),
-    ("flag_zebra", &["--scene", "flag", "--shading", "zebra"], true),
+    (
+        "flag_zebra",
+        &["--scene", "flag", "--shading", "zebra"],
+        true,
+    ),
     ("cage", &["--scene", "cage"], true),
     ("cage_mean", &["--scene", "cage", "--shading", "mean"], true),
-    ("cage_gaussian", &["--scene", "cage", "--shading", "gaussian"], true),
+    (
+        "cage_gaussian",
+        &["--scene", "cage", "--shading", "gaussian"],
+        true,
+    ),
     (
         "cage_wireframe_pull",
         &["--scene", "cage", "--shading", "wireframe", "--vertex-pull"],
@@ -69,7 +77,9 @@ fn demo_args(extra: &[&str]) -> DemoArgs {
     let size = format!("{}x{}", SIZE.0, SIZE.1);
     let mut argv = vec!["demo", "--offscreen", "--size", &size];
     argv.extend_from_slice(extra);
-    Cli::try_parse_from(argv).expect("valid demo arguments").demo
+    Cli::try_parse_from(argv)
+        .expect("valid demo arguments")
+        .demo
 }
 
 /// Renders frames 0..=max(wanted) at the fixed time step (`--time-step`, else [`TIME_STEP`]); returns the RGBA8 pixels of the wanted frames.
@@ -83,9 +93,7 @@ fn render(ctx: &Context, args: &DemoArgs, wanted: &[u64]) -> Vec<Vec<u8>> {
     for f in 0..=*wanted.iter().max().unwrap() {
         let begun = r.begin_frame(ctx).unwrap();
         let slot = begun.0;
-        assert!(r
-            .draw(ctx, begun, &mut target, f as f32 * dt)
-            .unwrap());
+        assert!(r.draw(ctx, begun, &mut target, f as f32 * dt).unwrap());
         if wanted.contains(&f) {
             r.frames.wait_all(ctx).unwrap();
             out.push(target.read_rgba(slot).unwrap());
@@ -195,8 +203,15 @@ fn golden_frames_of_every_scene_match_within_tolerance() {
 fn a_paused_scene_renders_the_same_frame_at_every_time() {
     // --time-step 0 freezes time: the fixed-time mode is what makes the golden frames reproducible.
     common::with_gpu(|ctx| {
-        let frames = render(ctx, &demo_args(&["--scene", "flag", "--time-step", "0"]), &[0, 1, 5]);
-        assert!(frames[0] == frames[1] && frames[1] == frames[2], "same time, same pixels (bit for bit)");
+        let frames = render(
+            ctx,
+            &demo_args(&["--scene", "flag", "--time-step", "0"]),
+            &[0, 1, 5],
+        );
+        assert!(
+            frames[0] == frames[1] && frames[1] == frames[2],
+            "same time, same pixels (bit for bit)"
+        );
     });
 }
 
@@ -306,7 +321,9 @@ fn curvature_pass_matches_the_cpu_fundamental_forms_at_every_grid_vertex() {
         }
     }
     assert!(checked > 0);
-    eprintln!("curvature: {checked} vertices, {singular} singular, worst relative error {worst:.2e}");
+    eprintln!(
+        "curvature: {checked} vertices, {singular} singular, worst relative error {worst:.2e}"
+    );
 }
 
 /// The shadow scene: a unit square occluder at z = 1 over a 4 × 4 ground at z = 0, a directional light
@@ -481,5 +498,8 @@ fn shadow_map_darkens_exactly_the_ground_the_cpu_ray_cast_puts_in_shadow() {
         }
     }
     // The shadow is the square shifted by 0.5 in x: half of it shows beside the occluder.
-    assert!(shadowed > 300 && lit > 5000, "shadowed {shadowed}, lit {lit}");
+    assert!(
+        shadowed > 300 && lit > 5000,
+        "shadowed {shadowed}, lit {lit}"
+    );
 }

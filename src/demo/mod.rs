@@ -70,6 +70,10 @@ pub struct DemoArgs {
     /// Draw the surface with the vertex-pull path instead of the compute evaluation (key V).
     #[arg(long)]
     pub vertex_pull: bool,
+    /// Windowed: press these keys (comma-separated names as in the key list: `s,+,v,Space,2,p,t`), one every
+    /// 5 frames, as if typed: lets CI exercise every control under Xvfb.
+    #[arg(long, value_name = "KEYS", value_delimiter = ',')]
+    pub keys: Vec<String>,
     /// Number of triangles in the spinner scene.
     #[arg(long, default_value_t = 48)]
     pub triangles: u32,

@@ -125,6 +125,8 @@ struct App<'a> {
     /// Where the next screenshot goes, once its frame has been captured.
     screenshot: Option<PathBuf>,
     screenshots_taken: u32,
+    /// Keys still to press (--keys).
+    scripted: std::collections::VecDeque<String>,
     error: Option<anyhow::Error>,
 }
 
@@ -192,10 +194,17 @@ impl App<'_> {
     }
 
     fn key(&mut self, event_loop: &ActiveEventLoop, key: &Key) -> anyhow::Result<()> {
-        let (Some(name), Some(controls)) = (key_name(key), self.controls()) else {
+        match key_name(key) {
+            Some(name) => self.key_named(event_loop, &name),
+            None => Ok(()),
+        }
+    }
+
+    fn key_named(&mut self, event_loop: &ActiveEventLoop, name: &str) -> anyhow::Result<()> {
+        let Some(controls) = self.controls() else {
             return Ok(());
         };
-        if let Some(action) = key_action(&name, &controls) {
+        if let Some(action) = key_action(name, &controls) {
             self.apply(event_loop, action)?;
         }
         Ok(())
@@ -296,6 +305,13 @@ impl App<'_> {
             }
             if let Some(w) = &self.window {
                 w.set_title(&title);
+            }
+        }
+        // Scripted keys (--keys): one every 5 frames, after the frame that was just drawn.
+        if self.frames_drawn % 5 == 0 && self.frames_drawn > 0 {
+            if let Some(k) = self.scripted.pop_front() {
+                eprintln!("gregvox demo: key {k}");
+                self.key_named(event_loop, &k)?;
             }
         }
         if self.args.frames.is_some_and(|n| self.frames_drawn >= n) {
@@ -427,6 +443,7 @@ pub fn run_windowed(args: &DemoArgs) -> anyhow::Result<()> {
         left_down: false,
         screenshot: None,
         screenshots_taken: 0,
+        scripted: args.keys.iter().map(|k| k.trim().to_string()).collect(),
         error: None,
     };
     let run = event_loop.run_app(&mut app);
