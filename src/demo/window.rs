@@ -250,6 +250,9 @@ impl App<'_> {
             Action::Screenshot => {
                 target.request_capture(ctx)?;
                 let dir = self.args.out.clone().unwrap_or_else(|| PathBuf::from("."));
+                std::fs::create_dir_all(&dir).with_context(|| {
+                    format!("cannot create the screenshot folder {}", dir.display())
+                })?;
                 self.screenshots_taken += 1;
                 self.screenshot = Some(dir.join(format!(
                     "gregvox-screenshot-{:03}.png",
