@@ -242,6 +242,49 @@ fn a_thousand_frames_keep_gpu_memory_flat() {
     });
 }
 
+#[test]
+fn resize_minimise_and_restore_between_frames() {
+    // The window's events through the same renderer and a target that is resized like a swapchain: a new
+    // size, 0×0 (minimised: frames are skipped, nothing drawn), then the first size again.
+    common::with_gpu(|ctx| {
+        let args = demo_args(&["--scene", "cage"]);
+        let mut target = OffscreenTarget::new(ctx, 64, 48, FRAMES_IN_FLIGHT).unwrap();
+        let scene = build_scene(ctx, &args, target.format()).unwrap();
+        let mut r = Renderer::new(ctx, scene, args.shading, draw_path(&args)).unwrap();
+        let mut t = 0.0;
+        let mut frame = |r: &mut Renderer, target: &mut OffscreenTarget| -> bool {
+            t += 1.0 / 60.0;
+            let begun = r.begin_frame(ctx).unwrap();
+            r.draw(ctx, begun, target, t).unwrap()
+        };
+        for _ in 0..4 {
+            assert!(frame(&mut r, &mut target));
+        }
+        r.finish(ctx).unwrap();
+        let before = ctx.allocated_bytes();
+        let steps: [((u32, u32), bool); 3] = [((96, 40), true), ((0, 0), false), ((64, 48), true)];
+        for ((w, h), drawn) in steps {
+            target.resize(vk::Extent2D {
+                width: w,
+                height: h,
+            });
+            for _ in 0..4 {
+                assert_eq!(frame(&mut r, &mut target), drawn, "{w}×{h}");
+            }
+            assert_eq!(target.extent(), vk::Extent2D { width: w, height: h });
+        }
+        r.finish(ctx).unwrap();
+        // Depth images follow the target lazily, one slot at a time: after a full round at the first size
+        // every buffer and image is back to its old size.
+        assert_eq!(ctx.allocated_bytes(), before, "bytes after restoring the size");
+        let px = target.read_rgba(0).unwrap();
+        assert_eq!(px.len(), 64 * 48 * 4);
+        assert!(non_background(&px) > 0.05, "the restored frame shows the scene");
+        r.destroy(ctx);
+        Box::new(target).destroy(ctx);
+    });
+}
+
 // ---------------------------------------------------------------------------------------------------------
 // The passes behind the frames
 // ---------------------------------------------------------------------------------------------------------
