@@ -271,15 +271,65 @@ fn resize_minimise_and_restore_between_frames() {
             for _ in 0..4 {
                 assert_eq!(frame(&mut r, &mut target), drawn, "{w}×{h}");
             }
-            assert_eq!(target.extent(), vk::Extent2D { width: w, height: h });
+            assert_eq!(
+                target.extent(),
+                vk::Extent2D {
+                    width: w,
+                    height: h
+                }
+            );
         }
         r.finish(ctx).unwrap();
         // Depth images follow the target lazily, one slot at a time: after a full round at the first size
         // every buffer and image is back to its old size.
-        assert_eq!(ctx.allocated_bytes(), before, "bytes after restoring the size");
+        assert_eq!(
+            ctx.allocated_bytes(),
+            before,
+            "bytes after restoring the size"
+        );
         let px = target.read_rgba(0).unwrap();
         assert_eq!(px.len(), 64 * 48 * 4);
-        assert!(non_background(&px) > 0.05, "the restored frame shows the scene");
+        assert!(
+            non_background(&px) > 0.05,
+            "the restored frame shows the scene"
+        );
+        r.destroy(ctx);
+        Box::new(target).destroy(ctx);
+    });
+}
+
+#[test]
+fn level_changes_and_scene_switches_rebuild_in_place() {
+    // What the +/− and number keys do in the window, through the renderer: the level changes the surface's
+    // buffers (device idle), a scene switch replaces the scene; frames keep coming, with no validation message.
+    common::with_gpu(|ctx| {
+        let args = demo_args(&["--scene", "flag"]);
+        let mut target = OffscreenTarget::new(ctx, 64, 48, FRAMES_IN_FLIGHT).unwrap();
+        let scene = build_scene(ctx, &args, target.format()).unwrap();
+        let mut r = Renderer::new(ctx, scene, args.shading, draw_path(&args)).unwrap();
+        let mut frames = |r: &mut Renderer, target: &mut OffscreenTarget| {
+            for f in 0..3 {
+                let begun = r.begin_frame(ctx).unwrap();
+                assert!(r.draw(ctx, begun, target, f as f32 / 60.0).unwrap());
+            }
+        };
+        frames(&mut r, &mut target);
+        for scene in ["flag", "cage"] {
+            if scene != "flag" {
+                let next = build_scene(ctx, &demo_args(&["--scene", scene]), target.format());
+                r.replace_scene(ctx, next.unwrap()).unwrap();
+                frames(&mut r, &mut target);
+            }
+            let level = r.scene.level().expect("Gregory scenes have a level");
+            assert!(r.set_level(ctx, level + 1).unwrap(), "{scene}");
+            assert_eq!(r.scene.level(), Some(level + 1), "{scene}");
+            frames(&mut r, &mut target);
+            assert!(r.set_level(ctx, 1).unwrap(), "{scene}");
+            frames(&mut r, &mut target);
+        }
+        r.finish(ctx).unwrap();
+        let px = target.read_rgba(0).unwrap();
+        assert!(non_background(&px) > 0.05, "the cage at level 1 shows");
         r.destroy(ctx);
         Box::new(target).destroy(ctx);
     });

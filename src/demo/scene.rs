@@ -574,7 +574,7 @@ impl Scene for SpinnerScene {
 
 /// The thesis's flag: 2×3 Gregory patches from animated boundary curves, Chiyokura–Kimura on/off (key C).
 /// (`FlagSurface` does not expose its patch layout, so the curvature modes show Phong and V keeps the compute
-/// path here.)
+/// path here; +/− rebuild the flag at the new level.)
 pub struct FlagScene {
     flag: FlagSurface,
     look: SurfaceLook,
@@ -667,6 +667,13 @@ impl Scene for FlagScene {
 
     fn level(&self) -> Option<u32> {
         Some(self.flag.level)
+    }
+
+    fn set_level(&mut self, ctx: &Context, level: u32) -> anyhow::Result<bool> {
+        // The device is idle (trait contract); the flag's buffers are sized per level, so rebuild it.
+        let flag = FlagSurface::new(ctx, self.flag.columns, self.flag.rows, level)?;
+        std::mem::replace(&mut self.flag, flag).destroy(ctx);
+        Ok(true)
     }
 
     fn destroy(self: Box<Self>, ctx: &Context) {
