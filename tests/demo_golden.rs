@@ -307,7 +307,7 @@ fn level_changes_and_scene_switches_rebuild_in_place() {
         let mut target = OffscreenTarget::new(ctx, 64, 48, FRAMES_IN_FLIGHT).unwrap();
         let scene = build_scene(ctx, &args, target.format()).unwrap();
         let mut r = Renderer::new(ctx, scene, args.shading, draw_path(&args)).unwrap();
-        let mut frames = |r: &mut Renderer, target: &mut OffscreenTarget| {
+        let frames = |r: &mut Renderer, target: &mut OffscreenTarget| {
             for f in 0..3 {
                 let begun = r.begin_frame(ctx).unwrap();
                 assert!(r.draw(ctx, begun, target, f as f32 / 60.0).unwrap());
