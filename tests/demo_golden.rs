@@ -6,7 +6,8 @@
 //! - Golden frames: a few fixed-time offscreen frames of every entry of [`FRAMES`] against PNGs in
 //!   tests/fixtures/demo/ (regenerate with `BLESS=1 cargo test --test demo_golden`), plus: frames are not
 //!   blank, and animated scenes change between the sampled frames.
-//! - 1,000 frames with flat GPU memory.
+//! - 1,000 frames with flat GPU memory; resize / minimise / restore; level changes and scene switches.
+//! - The window under Xvfb with every key typed (`--keys`), no validation message, a screenshot written.
 mod common;
 
 use ash::vk;
@@ -333,6 +334,56 @@ fn level_changes_and_scene_switches_rebuild_in_place() {
         r.destroy(ctx);
         Box::new(target).destroy(ctx);
     });
+}
+
+#[test]
+fn every_key_works_in_a_window_under_xvfb() {
+    // The windowed path end to end: the binary under Xvfb (a system package, see .ci/run) types every
+    // control with --keys, one every 5 frames; the scripted keys go through the same `key_action` as real ones.
+    let dir = std::env::temp_dir().join(format!("gregvox-window-keys-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    let keys = "s,s,s,s,s,+,-,v,Space,p,t,d,v,Space,1,c,3,2";
+    let out = std::process::Command::new("xvfb-run")
+        .args([
+            "-a",
+            env!("CARGO_BIN_EXE_gregvox"),
+            "demo",
+            "--frames",
+            "100",
+        ])
+        .args(["--size", "160x120", "--scene", "cage", "--keys", keys])
+        .arg("--out")
+        .arg(&dir)
+        .env("GREGVOX_VALIDATION", "1")
+        .output()
+        .expect("xvfb-run (apt-get install xvfb xauth; scripts/setup.sh installs it)");
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{err}");
+    assert!(
+        !err.contains("vulkan validation"),
+        "validation messages:\n{err}"
+    );
+    assert!(!err.contains("panicked"), "{err}");
+    for said in [
+        "shading Normals",
+        "shading Gaussian",
+        "level 9",
+        "level 8",
+        "VertexPull path",
+        "screenshot",
+        "| pass |",
+        "scene flag",
+        "scene spinner",
+        "scene built-in box cage",
+        "100 frames presented",
+    ] {
+        assert!(err.contains(said), "no '{said}' in:\n{err}");
+    }
+    let shot = dir.join("gregvox-screenshot-001.png");
+    let (w, h, px) = read_png(&shot);
+    assert_eq!((w, h), (160, 120));
+    assert!(non_background(&px) > 0.05, "the screenshot shows the scene");
+    let _ = std::fs::remove_dir_all(&dir);
 }
 
 // ---------------------------------------------------------------------------------------------------------
