@@ -175,7 +175,8 @@ fn golden_frames_of_every_scene_match_within_tolerance() {
                 assert_eq!((w, h), SIZE, "{}", path.display());
                 let d = differing(px, &golden, CHANNEL_SLACK);
                 if d > MAX_DIFFERING {
-                    let got = path.with_extension("got.png");
+                    // Beside the test's temporary files, not the fixtures: a failure leaves the tree clean.
+                    let got = std::env::temp_dir().join(format!("gregvox-{name}_f{f:03}.got.png"));
                     let _ = gregvox::gpu::present::write_png_rgba(&got, w, h, px);
                     failures.push(format!(
                         "{name} frame {f}: {:.2} % of the pixels differ (> {} %); see {}",
