@@ -4,7 +4,9 @@
 //! Invariants: the context outlives everything here; at exit the frame loop waits for the device, then the
 //! renderer, the present target and the window are destroyed, in that order, before the context drops.
 //! The offscreen ring has one image per frame slot, so a frame's PNG is written when its slot comes round
-//! again (after that slot's fence) or at the end.
+//! again (after that slot's fence) or at the end. Time is `frame × --time-step` offscreen (default 1/60 s,
+//! so frames are reproducible whatever the machine's speed) and in a window when `--time-step` is given;
+//! otherwise the window uses wall-clock time. Scene switches and level changes wait for the device first.
 use crate::cli::profile::ProfileArgs;
 use crate::gpu::present::begin_color_target;
 use crate::gpu::resources::image_barrier;
@@ -16,7 +18,7 @@ use crate::passes::surface_draw::ShadingMode;
 use anyhow::{bail, Context as _};
 use ash::vk;
 use clap::Args;
-use scene::{FlagScene, FrameTargets, Scene, SpinnerScene, ViewState, DEPTH_FORMAT};
+use scene::{DrawPath, FlagScene, FrameTargets, Scene, SpinnerScene, ViewState, DEPTH_FORMAT};
 use std::path::PathBuf;
 
 pub mod beziex;
@@ -24,13 +26,13 @@ pub mod cage;
 pub mod curves;
 pub mod scene;
 pub mod voxels;
-mod window;
+pub mod window;
 
 /// Frames in flight.
 pub const FRAMES_IN_FLIGHT: usize = 2;
 
 /// Arguments of `gregvox demo`.
-#[derive(Debug, Args)]
+#[derive(Clone, Debug, Args)]
 pub struct DemoArgs {
     /// Render through the offscreen target and write PNG frames instead of opening a window.
     #[arg(long)]
@@ -65,6 +67,16 @@ pub struct DemoArgs {
     /// Cage: the deformation.
     #[arg(long, value_enum, default_value = "twist")]
     pub deform: Deformation,
+    /// Fixed time step in seconds per frame (offscreen default 1/60; windowed default: wall-clock time).
+    #[arg(long, value_name = "SECONDS", value_parser = parse_time_step)]
+    pub time_step: Option<f32>,
+    /// Draw the surface with the vertex-pull path instead of the compute evaluation (key V).
+    #[arg(long)]
+    pub vertex_pull: bool,
+    /// Windowed: press these keys (comma-separated names as in the key list: `s,+,v,Space,2,p,t`), one every
+    /// 5 frames, as if typed: lets CI exercise every control under Xvfb.
+    #[arg(long, value_name = "KEYS", value_delimiter = ',')]
+    pub keys: Vec<String>,
     /// Number of triangles in the spinner scene.
     #[arg(long, default_value_t = 48)]
     pub triangles: u32,
@@ -118,6 +130,16 @@ pub fn parse_size(s: &str) -> Result<(u32, u32), String> {
     Ok((w, h))
 }
 
+/// Parses a `--time-step`: a finite number of seconds ≥ 0.
+pub fn parse_time_step(s: &str) -> Result<f32, String> {
+    match s.trim().parse::<f32>() {
+        Ok(v) if v.is_finite() && v >= 0.0 => Ok(v),
+        _ => Err(format!(
+            "time step '{s}' is not a number of seconds ≥ 0 (e.g. 0.0166)"
+        )),
+    }
+}
+
 /// The demo's renderer: frames in flight, the profiler, per-slot depth images and the current scene.
 pub struct Renderer {
     pub frames: Frames,
@@ -129,7 +151,12 @@ pub struct Renderer {
 
 impl Renderer {
     /// Builds the renderer around `scene`.
-    pub fn new(ctx: &Context, scene: Box<dyn Scene>, shading: ShadingMode) -> anyhow::Result<Self> {
+    pub fn new(
+        ctx: &Context,
+        scene: Box<dyn Scene>,
+        shading: ShadingMode,
+        path: DrawPath,
+    ) -> anyhow::Result<Self> {
         let frames = match Frames::new(ctx, FRAMES_IN_FLIGHT) {
             Ok(f) => f,
             Err(e) => {
@@ -149,6 +176,7 @@ impl Renderer {
             orbit: scene.framing(),
             shading,
             animate: true,
+            path,
         };
         Ok(Renderer {
             frames,
@@ -251,6 +279,21 @@ impl Renderer {
         Ok(true)
     }
 
+    /// Replaces the scene (waits for the device: the old scene's buffers may be in use) and frames it.
+    pub fn replace_scene(&mut self, ctx: &Context, scene: Box<dyn Scene>) -> anyhow::Result<()> {
+        self.finish(ctx)?;
+        let old = std::mem::replace(&mut self.scene, scene);
+        old.destroy(ctx);
+        self.view.orbit = self.scene.framing();
+        Ok(())
+    }
+
+    /// Sets the scene's tessellation level (waits for the device first); false if it has none.
+    pub fn set_level(&mut self, ctx: &Context, level: u32) -> anyhow::Result<bool> {
+        self.finish(ctx)?;
+        self.scene.set_level(ctx, level)
+    }
+
     /// Waits for all frames and collects their timings.
     pub fn finish(&mut self, ctx: &Context) -> anyhow::Result<()> {
         self.frames.wait_all(ctx)?;
@@ -272,7 +315,8 @@ impl Renderer {
     }
 }
 
-/// The scenes of `gregvox demo`.
+/// The scenes of `gregvox demo`, in the order of the number keys (1 = the first). Adding a scene is a
+/// variant here and an arm in [`build_scene`]; keys, golden tests and docs follow [`SceneKind::all`].
 #[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
 pub enum SceneKind {
     /// The thesis flag: 2×3 Gregory patches from animated boundary curves (C toggles the correction).
@@ -287,6 +331,29 @@ pub enum SceneKind {
     Curves,
     /// A Beziex `.gzjson` model (`--model`) drawn by the vertex-pull path.
     Beziex,
+}
+
+impl SceneKind {
+    /// Every scene, in declaration order.
+    pub fn all() -> &'static [SceneKind] {
+        <SceneKind as clap::ValueEnum>::value_variants()
+    }
+
+    /// The scene's `--scene` name.
+    pub fn name(self) -> String {
+        clap::ValueEnum::to_possible_value(&self)
+            .map(|v| v.get_name().to_string())
+            .unwrap_or_default()
+    }
+}
+
+/// The draw path `args` asks for.
+pub fn draw_path(args: &DemoArgs) -> DrawPath {
+    if args.vertex_pull {
+        DrawPath::VertexPull
+    } else {
+        DrawPath::Compute
+    }
 }
 
 /// Builds the scene `args` asks for, drawing into `format` targets.
@@ -338,7 +405,7 @@ fn run_offscreen(args: &DemoArgs) -> anyhow::Result<()> {
     let (w, h) = args.size;
     let mut target = OffscreenTarget::new(&ctx, w, h, FRAMES_IN_FLIGHT)?;
     let mut renderer = match build_scene(&ctx, args, target.format())
-        .and_then(|scene| Renderer::new(&ctx, scene, args.shading))
+        .and_then(|scene| Renderer::new(&ctx, scene, args.shading, draw_path(args)))
     {
         Ok(r) => r,
         Err(e) => {
@@ -346,11 +413,12 @@ fn run_offscreen(args: &DemoArgs) -> anyhow::Result<()> {
             return Err(e);
         }
     };
+    let dt = args.time_step.unwrap_or(1.0 / 60.0);
     let result = offscreen_loop(
         &ctx,
         &mut renderer,
         &mut target,
-        (frames, args.soak_report),
+        (frames, dt, args.soak_report),
         args.every,
         &out,
     );
@@ -371,7 +439,7 @@ fn offscreen_loop(
     ctx: &Context,
     renderer: &mut Renderer,
     target: &mut OffscreenTarget,
-    (frames, soak_at): (u64, Option<u64>),
+    (frames, dt, soak_at): (u64, f32, Option<u64>),
     every: u64,
     out: &std::path::Path,
 ) -> anyhow::Result<u64> {
@@ -391,7 +459,7 @@ fn offscreen_loop(
     };
     for f in 0..frames {
         // Fixed time step: offscreen frames are reproducible whatever the machine's speed.
-        let t = f as f32 / 60.0;
+        let t = f as f32 * dt;
         let begun = renderer.begin_frame(ctx)?;
         save(target, begun.0, &mut pending)?;
         renderer.draw(ctx, begun, target, t)?;

@@ -3,13 +3,22 @@
 //!
 //! Invariants: on entry to `Scene::record` the color target is in `COLOR_ATTACHMENT_OPTIMAL` (contents
 //! undefined) and the depth target in `DEPTH_ATTACHMENT_OPTIMAL`; the scene clears and draws both and leaves
-//! the layouts unchanged. A scene's `destroy` runs with the device idle.
+//! the layouts unchanged. A scene's `destroy` and `set_level` run with the device idle (the renderer waits),
+//! so they may free buffers that earlier frames used. Every GPU pass a scene records is in a profiler scope.
+//! Surface scenes draw through [`SurfaceLook`]: shadow map → [curvature] → ground + surface (lit path), or the
+//! vertex-pull path for the surface when `ViewState::path` asks for it and the scene has control points.
 use crate::engine::flag::FlagSurface;
 use crate::engine::gregory::GregorySurface;
 use crate::gpu::{Buffer, Context, MemoryLocation, Profiler};
 use crate::passes::cage_deform::{DeformParams, Deformation};
+use crate::passes::gregory_eval::{grid_indices, vertex_count};
+use crate::passes::patch_pull::{PatchKind, PatchPullPass};
+use crate::passes::shadow_map::{light_view_proj, ShadowMap};
 use crate::passes::spinner::SpinnerPass;
-use crate::passes::surface_draw::{DrawTarget, ShadingMode, SurfaceDrawPass, SurfacePush};
+use crate::passes::surface_curvature::{SurfaceCurvaturePass, CURVATURE_STRIDE};
+use crate::passes::surface_draw::{
+    DrawTarget, LitDraw, ShadingMode, SurfaceDrawPass, SurfacePush, FLAG_GROUND, FLAG_SHADOWS,
+};
 use crate::passes::triangles::TrianglesPass;
 use ash::vk;
 use glam::{Mat4, Vec3};
@@ -46,6 +55,32 @@ impl Orbit {
         }
     }
 
+    /// The camera after a mouse drag of (dx, dy) pixels: 0.01 rad per pixel, pitch kept inside ±1.5 rad so
+    /// the camera never flips over the pole.
+    ///
+    /// ```
+    /// use gregvox::demo::scene::Orbit;
+    /// let o = Orbit::framing(glam::Vec3::ZERO, 1.0).dragged(100.0, 1e4);
+    /// assert!((o.yaw - (-1.6)).abs() < 1e-6 && o.pitch == 1.5);
+    /// ```
+    pub fn dragged(mut self, dx: f32, dy: f32) -> Self {
+        self.yaw -= 0.01 * dx;
+        self.pitch = (self.pitch + 0.01 * dy).clamp(-1.5, 1.5);
+        self
+    }
+
+    /// The camera after `lines` wheel steps (positive: closer), 10 % per step, distance kept positive.
+    ///
+    /// ```
+    /// use gregvox::demo::scene::Orbit;
+    /// let o = Orbit::framing(glam::Vec3::ZERO, 1.0);
+    /// assert!((o.zoomed(1.0).distance - 0.9 * o.distance).abs() < 1e-6);
+    /// ```
+    pub fn zoomed(mut self, lines: f32) -> Self {
+        self.distance = (self.distance * 0.9f32.powf(lines)).clamp(1e-3, 1e6);
+        self
+    }
+
     /// The eye position.
     pub fn eye(&self) -> Vec3 {
         let (sy, cy) = self.yaw.sin_cos();
@@ -67,12 +102,22 @@ impl Orbit {
     }
 }
 
+/// How a surface is turned into triangles for drawing.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum DrawPath {
+    /// The compute evaluation pass writes a vertex buffer that the raster pipeline draws (default).
+    Compute,
+    /// The vertex shader evaluates the patches from the control points (`PatchPullPass`).
+    VertexPull,
+}
+
 /// Viewer state shared by scenes (camera, shading mode, toggles).
 #[derive(Clone, Copy, Debug)]
 pub struct ViewState {
     pub orbit: Orbit,
     pub shading: ShadingMode,
     pub animate: bool,
+    pub path: DrawPath,
 }
 
 /// A demo scene.
@@ -95,9 +140,20 @@ pub trait Scene {
     }
     /// The camera that frames the scene.
     fn framing(&self) -> Orbit;
+    /// The tessellation level, for scenes that have one.
+    fn level(&self) -> Option<u32> {
+        None
+    }
+    /// Switches the tessellation level (called with the device idle); returns whether the scene has one.
+    fn set_level(&mut self, _ctx: &Context, _level: u32) -> anyhow::Result<bool> {
+        Ok(false)
+    }
     /// Destroys the scene's resources (device idle).
     fn destroy(self: Box<Self>, ctx: &Context);
 }
+
+/// The light direction (towards the light) of every surface scene.
+pub const LIGHT_DIR: Vec3 = Vec3::new(0.4, -0.5, 0.8);
 
 pub(crate) fn surface_push(
     view: &ViewState,
@@ -107,7 +163,7 @@ pub(crate) fn surface_push(
 ) -> SurfacePush {
     let aspect = targets.extent.width as f32 / targets.extent.height.max(1) as f32;
     let eye = view.orbit.eye();
-    let light = Vec3::new(0.4, -0.5, 0.8).normalize();
+    let light = LIGHT_DIR.normalize();
     SurfacePush {
         view_proj: view.orbit.view_proj(aspect).to_cols_array_2d(),
         eye: [eye.x, eye.y, eye.z, 1.0],
@@ -158,6 +214,285 @@ pub(crate) fn draw_surface(
             &push,
         )
     });
+}
+
+/// The control points of a surface, for the curvature pass and the vertex-pull path.
+#[derive(Clone, Copy)]
+pub struct PatchSource<'a> {
+    pub points: &'a Buffer,
+    pub patch_points: &'a Buffer,
+    pub patch_count: u32,
+}
+
+/// One frame's surface for [`SurfaceLook::record`].
+#[derive(Clone, Copy)]
+pub struct SurfaceFrame<'a> {
+    pub vertices: &'a Buffer,
+    pub indices: &'a Buffer,
+    pub index_count: u32,
+    pub level: u32,
+    /// `None`: no curvature modes (Phong instead) and no vertex-pull path.
+    pub patches: Option<PatchSource<'a>>,
+    pub color: [f32; 3],
+}
+
+/// Where a surface scene sits: a sphere around the (animated) surface and the ground plane under it.
+#[derive(Clone, Copy, Debug)]
+pub struct Stage {
+    pub centre: Vec3,
+    pub radius: f32,
+    pub ground_z: f32,
+}
+
+/// How the demo draws a surface: the lit draw pass, the shadow map, the ground plane that receives the
+/// shadow, the curvature pass and its (H, K) buffer, and the vertex-pull path. One per surface scene.
+pub struct SurfaceLook {
+    draw: SurfaceDrawPass,
+    shadow: ShadowMap,
+    curvature_pass: SurfaceCurvaturePass,
+    pull: PatchPullPass,
+    /// (H, K) per vertex of the current level; sized by [`SurfaceLook::resize`].
+    curvature: Option<Buffer>,
+    /// One patch's (L+1)² grid indices for the vertex-pull path, and its level.
+    pull_indices: Option<(Buffer, u32)>,
+    ground: Vec<Buffer>,
+    stage: Stage,
+}
+
+/// Side of the demo's shadow map: 1024² keeps the shadow edges of a 1280×720 frame sharp.
+const SHADOW_SIZE: u32 = 1024;
+
+impl SurfaceLook {
+    /// Builds the passes for targets of `format` and the ground plane of `stage`.
+    pub fn new(ctx: &Context, format: vk::Format, stage: Stage) -> anyhow::Result<Self> {
+        let draw = SurfaceDrawPass::new(ctx, format, DEPTH_FORMAT)?;
+        let shadow = match ShadowMap::new(ctx, SHADOW_SIZE) {
+            Ok(s) => s,
+            Err(e) => {
+                draw.destroy(ctx);
+                return Err(e.into());
+            }
+        };
+        let curvature_pass = match SurfaceCurvaturePass::new(ctx) {
+            Ok(c) => c,
+            Err(e) => {
+                draw.destroy(ctx);
+                shadow.destroy(ctx);
+                return Err(e.into());
+            }
+        };
+        let pull = match PatchPullPass::new(ctx, format, DEPTH_FORMAT, false) {
+            Ok(p) => p,
+            Err(e) => {
+                draw.destroy(ctx);
+                shadow.destroy(ctx);
+                curvature_pass.destroy(ctx);
+                return Err(e.into());
+            }
+        };
+        let mut look = SurfaceLook {
+            draw,
+            shadow,
+            curvature_pass,
+            pull,
+            curvature: None,
+            pull_indices: None,
+            ground: Vec::new(),
+            stage,
+        };
+        // The ground: a square of 3.2 radii under the stage, normal +Z (SurfaceVertex layout).
+        let (c, h) = (stage.centre, 1.6 * stage.radius);
+        let corners = [(-h, -h), (h, -h), (h, h), (-h, h)];
+        let vertices: Vec<[f32; 8]> = corners
+            .iter()
+            .map(|&(x, y)| [c.x + x, c.y + y, stage.ground_z, 1.0, 0.0, 0.0, 1.0, 0.0])
+            .collect();
+        let indices: [u32; 6] = [0, 1, 2, 0, 2, 3];
+        let made = ctx
+            .upload_buffer(
+                "ground vertices",
+                bytemuck::cast_slice(&vertices),
+                vk::BufferUsageFlags::VERTEX_BUFFER,
+            )
+            .and_then(|v| {
+                look.ground.push(v);
+                ctx.upload_buffer(
+                    "ground indices",
+                    bytemuck::cast_slice(&indices),
+                    vk::BufferUsageFlags::INDEX_BUFFER,
+                )
+            });
+        match made {
+            Ok(i) => {
+                look.ground.push(i);
+                Ok(look)
+            }
+            Err(e) => {
+                look.destroy(ctx);
+                Err(e.into())
+            }
+        }
+    }
+
+    /// Sizes the curvature buffer and the vertex-pull grid for `patches` patches at `level` (device idle:
+    /// the old buffers may have been used by earlier frames).
+    pub fn resize(&mut self, ctx: &Context, patches: u32, level: u32) -> anyhow::Result<()> {
+        let bytes = vertex_count(patches, level) * CURVATURE_STRIDE;
+        if self.curvature.as_ref().is_none_or(|b| b.size < bytes) {
+            if let Some(old) = self.curvature.take() {
+                old.destroy(ctx);
+            }
+            self.curvature = Some(ctx.create_buffer(
+                "surface curvature",
+                bytes.max(CURVATURE_STRIDE),
+                vk::BufferUsageFlags::STORAGE_BUFFER | vk::BufferUsageFlags::VERTEX_BUFFER,
+                crate::gpu::MemoryLocation::GpuOnly,
+            )?);
+        }
+        if self.pull_indices.as_ref().is_none_or(|(_, l)| *l != level) {
+            if let Some((old, _)) = self.pull_indices.take() {
+                old.destroy(ctx);
+            }
+            let idx = grid_indices(1, level);
+            self.pull_indices = Some((
+                ctx.upload_buffer(
+                    "patch pull grid",
+                    bytemuck::cast_slice(&idx),
+                    vk::BufferUsageFlags::INDEX_BUFFER,
+                )?,
+                level,
+            ));
+        }
+        Ok(())
+    }
+
+    /// Records shadow map → [curvature] → ground + surface for `surface` (its compute passes already
+    /// recorded), each in a profiler scope.
+    #[allow(clippy::too_many_arguments)]
+    pub fn record(
+        &self,
+        ctx: &Context,
+        cmd: vk::CommandBuffer,
+        targets: &FrameTargets,
+        view: &ViewState,
+        profiler: &mut Profiler,
+        surface: &SurfaceFrame<'_>,
+    ) -> anyhow::Result<()> {
+        let slot = targets.slot;
+        let light = light_view_proj(LIGHT_DIR, self.stage.centre, self.stage.radius);
+        scoped(profiler, ctx, cmd, slot, "shadow map", || {
+            self.shadow.record(
+                ctx,
+                cmd,
+                light,
+                &[(surface.vertices, surface.indices, surface.index_count)],
+            )
+        });
+        let mut shading = view.shading;
+        let mut curvature = None;
+        match (surface.patches, &self.curvature) {
+            (Some(p), Some(buf)) if shading.needs_curvature() => {
+                scoped(profiler, ctx, cmd, slot, "surface curvature", || {
+                    self.curvature_pass.record(
+                        ctx,
+                        cmd,
+                        p.points,
+                        p.patch_points,
+                        p.patch_count,
+                        surface.level,
+                        buf,
+                    )
+                })?;
+                curvature = Some(buf);
+            }
+            // Without control points there is no curvature to show: Phong instead.
+            _ if shading.needs_curvature() => shading = ShadingMode::Phong,
+            _ => {}
+        }
+        let view = ViewState { shading, ..*view };
+        let mut push = surface_push(&view, targets, surface.color, surface.level);
+        // Curvature colour scale: H = 2/radius (a sphere half the stage's size) maps to tanh(1).
+        push.mode[2] = (0.5 * self.stage.radius).to_bits();
+        push.mode[3] = FLAG_SHADOWS;
+        let mut ground_push = surface_push(&view, targets, [0.78, 0.76, 0.72], 1);
+        ground_push.mode[3] = FLAG_SHADOWS | FLAG_GROUND;
+        let target = DrawTarget {
+            color: targets.color,
+            depth: targets.depth,
+            extent: targets.extent,
+        };
+        let ground = LitDraw {
+            vertices: &self.ground[0],
+            curvature: None,
+            indices: &self.ground[1],
+            index_count: 6,
+        };
+        let lit = LitDraw {
+            vertices: surface.vertices,
+            curvature,
+            indices: surface.indices,
+            index_count: surface.index_count,
+        };
+        let clear = Some([0.92, 0.93, 0.95, 1.0]);
+        match (view.path, surface.patches, &self.pull_indices) {
+            (DrawPath::VertexPull, Some(p), Some((grid, level))) if *level == surface.level => {
+                scoped(profiler, ctx, cmd, slot, "surface draw", || {
+                    self.draw.record_lit(
+                        ctx,
+                        cmd,
+                        &target,
+                        clear,
+                        &self.shadow,
+                        &[(ground, ground_push)],
+                    )
+                });
+                scoped(profiler, ctx, cmd, slot, "patch pull draw", || {
+                    self.pull.record(
+                        ctx,
+                        cmd,
+                        &target,
+                        None,
+                        PatchKind::Gregory,
+                        p.points,
+                        p.patch_points,
+                        p.patch_count,
+                        surface.level,
+                        grid,
+                        None,
+                        &push,
+                    )
+                })?;
+            }
+            _ => scoped(profiler, ctx, cmd, slot, "surface draw", || {
+                self.draw.record_lit(
+                    ctx,
+                    cmd,
+                    &target,
+                    clear,
+                    &self.shadow,
+                    &[(ground, ground_push), (lit, push)],
+                )
+            }),
+        }
+        Ok(())
+    }
+
+    /// Destroys everything (device idle).
+    pub fn destroy(self, ctx: &Context) {
+        for b in self.ground {
+            b.destroy(ctx);
+        }
+        if let Some(b) = self.curvature {
+            b.destroy(ctx);
+        }
+        if let Some((b, _)) = self.pull_indices {
+            b.destroy(ctx);
+        }
+        self.draw.destroy(ctx);
+        self.shadow.destroy(ctx);
+        self.curvature_pass.destroy(ctx);
+        self.pull.destroy(ctx);
+    }
 }
 
 /// The minimal compute → raster scene: a ring of triangles written by a compute shader.
@@ -270,9 +605,11 @@ impl Scene for SpinnerScene {
 }
 
 /// The thesis's flag: 2×3 Gregory patches from animated boundary curves, Chiyokura–Kimura on/off (key C).
+/// (`FlagSurface` does not expose its patch layout, so the curvature modes show Phong and V keeps the compute
+/// path here; +/− rebuild the flag at the new level.)
 pub struct FlagScene {
     flag: FlagSurface,
-    draw: SurfaceDrawPass,
+    look: SurfaceLook,
     pub correct: bool,
 }
 
@@ -286,15 +623,22 @@ impl FlagScene {
         level: u32,
     ) -> anyhow::Result<Self> {
         let flag = FlagSurface::new(ctx, columns, rows, level)?;
-        match SurfaceDrawPass::new(ctx, format, DEPTH_FORMAT) {
-            Ok(draw) => Ok(FlagScene {
+        let (w, h) = (columns as f32, rows as f32);
+        // The flag waves by about ±0.35 around z = 0 (FlagScene::record's amplitude).
+        let stage = Stage {
+            centre: Vec3::new(0.5 * w, 0.5 * h, 0.0),
+            radius: 0.5 * (w * w + h * h + 1.0).sqrt(),
+            ground_z: -0.6 * w.max(h) * 0.5,
+        };
+        match SurfaceLook::new(ctx, format, stage) {
+            Ok(look) => Ok(FlagScene {
                 flag,
-                draw,
+                look,
                 correct: true,
             }),
             Err(e) => {
                 flag.destroy(ctx);
-                Err(e.into())
+                Err(e)
             }
         }
     }
@@ -328,22 +672,16 @@ impl Scene for FlagScene {
             self.correct,
             Some((profiler, targets.slot)),
         )?;
-        draw_surface(
-            &self.draw,
-            ctx,
-            cmd,
-            targets,
-            view,
-            profiler,
-            [0.85, 0.25, 0.2],
-            (
-                self.flag.vertices(),
-                self.flag.indices(),
-                self.flag.index_count(),
-                self.flag.level,
-            ),
-        );
-        Ok(())
+        let surface = SurfaceFrame {
+            vertices: self.flag.vertices(),
+            indices: self.flag.indices(),
+            index_count: self.flag.index_count(),
+            level: self.flag.level,
+            patches: None,
+            color: [0.85, 0.25, 0.2],
+        };
+        self.look
+            .record(ctx, cmd, targets, view, profiler, &surface)
     }
 
     fn key(&mut self, _ctx: &Context, key: &str) -> anyhow::Result<bool> {
@@ -359,16 +697,27 @@ impl Scene for FlagScene {
         Orbit::framing(Vec3::new(0.5 * w, 0.5 * h, 0.0), w.max(h))
     }
 
+    fn level(&self) -> Option<u32> {
+        Some(self.flag.level)
+    }
+
+    fn set_level(&mut self, ctx: &Context, level: u32) -> anyhow::Result<bool> {
+        // The device is idle (trait contract); the flag's buffers are sized per level, so rebuild it.
+        let flag = FlagSurface::new(ctx, self.flag.columns, self.flag.rows, level)?;
+        std::mem::replace(&mut self.flag, flag).destroy(ctx);
+        Ok(true)
+    }
+
     fn destroy(self: Box<Self>, ctx: &Context) {
         self.flag.destroy(ctx);
-        self.draw.destroy(ctx);
+        self.look.destroy(ctx);
     }
 }
 
 /// A quad cage as Gregory patches, deformed every frame on the GPU.
 pub struct CageScene {
     surface: GregorySurface,
-    draw: SurfaceDrawPass,
+    look: SurfaceLook,
     pub deformation: Deformation,
     name: String,
 }
@@ -382,16 +731,33 @@ impl CageScene {
         deformation: Deformation,
         name: String,
     ) -> anyhow::Result<Self> {
-        match SurfaceDrawPass::new(ctx, format, DEPTH_FORMAT) {
-            Ok(draw) => Ok(CageScene {
+        let lo = Vec3::from(surface.box_min);
+        let size = Vec3::from(surface.box_size);
+        // Twist, bend and wave move points by up to the amplitude (0.6) times the box: a generous sphere.
+        let stage = Stage {
+            centre: lo + 0.5 * size,
+            radius: 0.75 * size.length().max(1e-3),
+            ground_z: lo.z - 0.35 * size.max_element(),
+        };
+        let made = SurfaceLook::new(ctx, format, stage).and_then(|mut look| {
+            match look.resize(ctx, surface.patch_count, surface.level) {
+                Ok(()) => Ok(look),
+                Err(e) => {
+                    look.destroy(ctx);
+                    Err(e)
+                }
+            }
+        });
+        match made {
+            Ok(look) => Ok(CageScene {
                 surface,
-                draw,
+                look,
                 deformation,
                 name,
             }),
             Err(e) => {
                 surface.destroy(ctx);
-                Err(e.into())
+                Err(e)
             }
         }
     }
@@ -427,22 +793,20 @@ impl Scene for CageScene {
         };
         self.surface
             .record(ctx, cmd, Some(&deform), Some((profiler, targets.slot)))?;
-        draw_surface(
-            &self.draw,
-            ctx,
-            cmd,
-            targets,
-            view,
-            profiler,
-            [0.3, 0.55, 0.85],
-            (
-                self.surface.vertices(),
-                self.surface.indices(),
-                self.surface.index_count(),
-                self.surface.level,
-            ),
-        );
-        Ok(())
+        let surface = SurfaceFrame {
+            vertices: self.surface.vertices(),
+            indices: self.surface.indices(),
+            index_count: self.surface.index_count(),
+            level: self.surface.level,
+            patches: Some(PatchSource {
+                points: self.surface.points(),
+                patch_points: self.surface.patch_points(),
+                patch_count: self.surface.patch_count,
+            }),
+            color: [0.3, 0.55, 0.85],
+        };
+        self.look
+            .record(ctx, cmd, targets, view, profiler, &surface)
     }
 
     fn key(&mut self, _ctx: &Context, key: &str) -> anyhow::Result<bool> {
@@ -467,8 +831,22 @@ impl Scene for CageScene {
         )
     }
 
+    fn level(&self) -> Option<u32> {
+        Some(self.surface.level)
+    }
+
+    fn set_level(&mut self, ctx: &Context, level: u32) -> anyhow::Result<bool> {
+        // The device is idle (trait contract): the old buffers can go at once.
+        for b in self.surface.set_level(ctx, level)? {
+            b.destroy(ctx);
+        }
+        self.look
+            .resize(ctx, self.surface.patch_count, self.surface.level)?;
+        Ok(true)
+    }
+
     fn destroy(self: Box<Self>, ctx: &Context) {
         self.surface.destroy(ctx);
-        self.draw.destroy(ctx);
+        self.look.destroy(ctx);
     }
 }

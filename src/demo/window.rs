@@ -1,25 +1,116 @@
-//! The windowed demo loop (winit 0.30 `ApplicationHandler` + [`SwapchainTarget`]).
+//! The windowed demo loop (winit 0.30 `ApplicationHandler` + [`SwapchainTarget`]) and its controls.
 //!
 //! Invariants: the context is created before the event loop runs, with the surface extensions the display
 //! needs; the window and swapchain are created in `resumed`; resize and minimise go to the target, which
 //! rebuilds or skips frames; after the loop ends, renderer → swapchain → window are destroyed before the
 //! context. An error inside the loop stops it and is returned from [`run_windowed`].
-use super::{DemoArgs, Renderer};
+//! Keys are handled in two steps so the mapping is testable without a window: [`key_action`] is a pure
+//! function of (key name, [`Controls`]) → [`Action`], and `App::apply` carries the action out. Adding a key
+//! (e.g. the adaptive level, A) is one arm in `key_action` plus, for a new kind of action, one arm in `apply`.
+use super::scene::DrawPath;
+use super::{DemoArgs, Renderer, SceneKind};
 use crate::gpu::{Context, ContextDesc, PresentTarget, SwapchainTarget};
+use crate::passes::gregory_eval::MAX_LEVEL;
+use crate::passes::surface_draw::ShadingMode;
 use anyhow::Context as _;
 use ash::vk;
 use std::ffi::CStr;
+use std::path::PathBuf;
 use std::time::Instant;
 use winit::application::ApplicationHandler;
-use winit::event::{ElementState, KeyEvent, WindowEvent};
+use winit::event::{ElementState, KeyEvent, MouseButton, MouseScrollDelta, WindowEvent};
 use winit::event_loop::{ActiveEventLoop, ControlFlow, EventLoop};
 use winit::keyboard::{Key, NamedKey};
 use winit::raw_window_handle::{HasDisplayHandle, HasWindowHandle};
 use winit::window::{Window, WindowId};
 
+/// What the key handler needs to know of the viewer's state.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Controls {
+    pub scene: SceneKind,
+    /// The scene's tessellation level, if it has one.
+    pub level: Option<u32>,
+    pub shading: ShadingMode,
+    pub animate: bool,
+    pub path: DrawPath,
+}
+
+/// What a key asks for.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Action {
+    Quit,
+    /// Rebuild the scene in place (number keys, in [`SceneKind::all`] order).
+    SwitchScene(SceneKind),
+    /// Tessellation level (+/−).
+    SetLevel(u32),
+    /// Deformation / animation on or off (space).
+    SetAnimate(bool),
+    /// Compute evaluation or vertex pull (V).
+    SetPath(DrawPath),
+    /// Next shading mode (S).
+    SetShading(ShadingMode),
+    /// Write the next frame as a PNG (P).
+    Screenshot,
+    /// Print the per-pass GPU time table (T).
+    PrintProfile,
+    /// A key the scene itself may use (C: flag correction, D: cage deformation, …), lower case.
+    SceneKey(String),
+}
+
+/// The action of `key` (a logical key name: the character typed, "Space" or "Escape") in state `c`;
+/// `None` when the key does nothing there (a level already at its bound, the current scene's number).
+///
+/// ```
+/// use gregvox::demo::window::{key_action, Action, Controls};
+/// use gregvox::demo::{scene::DrawPath, SceneKind};
+/// use gregvox::passes::surface_draw::ShadingMode;
+/// let c = Controls { scene: SceneKind::Flag, level: Some(10), shading: ShadingMode::Phong,
+///                    animate: true, path: DrawPath::Compute };
+/// assert_eq!(key_action("+", &c), Some(Action::SetLevel(11)));
+/// assert_eq!(key_action("s", &c), Some(Action::SetShading(ShadingMode::Normals)));
+/// ```
+pub fn key_action(key: &str, c: &Controls) -> Option<Action> {
+    let lower = key.to_lowercase();
+    match lower.as_str() {
+        "escape" | "q" => Some(Action::Quit),
+        "+" | "=" => c
+            .level
+            .filter(|&l| l < MAX_LEVEL)
+            .map(|l| Action::SetLevel(l + 1)),
+        "-" | "_" => c.level.filter(|&l| l > 1).map(|l| Action::SetLevel(l - 1)),
+        "space" | " " => Some(Action::SetAnimate(!c.animate)),
+        "v" => Some(Action::SetPath(match c.path {
+            DrawPath::Compute => DrawPath::VertexPull,
+            DrawPath::VertexPull => DrawPath::Compute,
+        })),
+        "s" => Some(Action::SetShading(c.shading.next())),
+        "p" => Some(Action::Screenshot),
+        "t" => Some(Action::PrintProfile),
+        k if k.len() == 1 && k.as_bytes()[0].is_ascii_digit() => {
+            let n = (k.as_bytes()[0] - b'0') as usize;
+            let kind = *SceneKind::all().get(n.checked_sub(1)?)?;
+            (kind != c.scene).then_some(Action::SwitchScene(kind))
+        }
+        k if k.chars().count() == 1 && k.chars().all(|ch| ch.is_alphabetic()) => {
+            Some(Action::SceneKey(k.to_string()))
+        }
+        _ => None,
+    }
+}
+
+/// The name [`key_action`] expects for a winit logical key.
+fn key_name(key: &Key) -> Option<String> {
+    match key {
+        Key::Character(s) => Some(s.to_string()),
+        Key::Named(NamedKey::Space) => Some("Space".into()),
+        Key::Named(NamedKey::Escape) => Some("Escape".into()),
+        _ => None,
+    }
+}
+
 struct App<'a> {
     ctx: &'a Context,
-    args: &'a DemoArgs,
+    args: DemoArgs,
     window: Option<Window>,
     target: Option<SwapchainTarget>,
     renderer: Option<Renderer>,
@@ -28,6 +119,14 @@ struct App<'a> {
     last_title: Instant,
     last_frame: Instant,
     frame_ms: f64,
+    /// Left button held: the last cursor position.
+    drag: Option<(f64, f64)>,
+    left_down: bool,
+    /// Where the next screenshot goes, once its frame has been captured.
+    screenshot: Option<PathBuf>,
+    screenshots_taken: u32,
+    /// Keys still to press (--keys).
+    scripted: std::collections::VecDeque<String>,
     error: Option<anyhow::Error>,
 }
 
@@ -62,18 +161,109 @@ impl App<'_> {
             super::FRAMES_IN_FLIGHT,
             true,
         )?;
-        let renderer = match super::build_scene(self.ctx, self.args, target.format())
-            .and_then(|scene| Renderer::new(self.ctx, scene, self.args.shading))
-        {
-            Ok(r) => r,
-            Err(e) => {
-                Box::new(target).destroy(self.ctx);
-                return Err(e);
-            }
-        };
+        let renderer =
+            match super::build_scene(self.ctx, &self.args, target.format()).and_then(|scene| {
+                Renderer::new(
+                    self.ctx,
+                    scene,
+                    self.args.shading,
+                    super::draw_path(&self.args),
+                )
+            }) {
+                Ok(r) => r,
+                Err(e) => {
+                    Box::new(target).destroy(self.ctx);
+                    return Err(e);
+                }
+            };
         self.window = Some(window);
         self.target = Some(target);
         self.renderer = Some(renderer);
+        Ok(())
+    }
+
+    fn controls(&self) -> Option<Controls> {
+        let r = self.renderer.as_ref()?;
+        Some(Controls {
+            scene: self.args.scene,
+            level: r.scene.level(),
+            shading: r.view.shading,
+            animate: r.view.animate,
+            path: r.view.path,
+        })
+    }
+
+    fn key(&mut self, event_loop: &ActiveEventLoop, key: &Key) -> anyhow::Result<()> {
+        match key_name(key) {
+            Some(name) => self.key_named(event_loop, &name),
+            None => Ok(()),
+        }
+    }
+
+    fn key_named(&mut self, event_loop: &ActiveEventLoop, name: &str) -> anyhow::Result<()> {
+        let Some(controls) = self.controls() else {
+            return Ok(());
+        };
+        if let Some(action) = key_action(name, &controls) {
+            self.apply(event_loop, action)?;
+        }
+        Ok(())
+    }
+
+    fn apply(&mut self, event_loop: &ActiveEventLoop, action: Action) -> anyhow::Result<()> {
+        let ctx = self.ctx;
+        let (Some(renderer), Some(target)) = (self.renderer.as_mut(), self.target.as_mut()) else {
+            return Ok(());
+        };
+        match action {
+            Action::Quit => event_loop.exit(),
+            Action::SwitchScene(kind) => {
+                let mut args = self.args.clone();
+                args.scene = kind;
+                // Levels and models are per scene: a new scene starts from its own defaults.
+                args.level = None;
+                renderer.finish(ctx)?;
+                // A scene that cannot be built (e.g. one that needs --model) leaves the current one on.
+                match super::build_scene(ctx, &args, target.format()) {
+                    Ok(scene) => {
+                        renderer.replace_scene(ctx, scene)?;
+                        self.args.scene = kind;
+                        eprintln!("gregvox demo: scene {}", renderer.scene.name());
+                    }
+                    Err(e) => eprintln!("gregvox demo: cannot switch to {}: {e:#}", kind.name()),
+                }
+            }
+            Action::SetLevel(level) => {
+                if renderer.set_level(ctx, level)? {
+                    eprintln!("gregvox demo: level {level}");
+                }
+            }
+            Action::SetAnimate(on) => renderer.view.animate = on,
+            Action::SetPath(path) => {
+                renderer.view.path = path;
+                eprintln!("gregvox demo: {path:?} path");
+            }
+            Action::SetShading(mode) => {
+                renderer.view.shading = mode;
+                eprintln!("gregvox demo: shading {mode:?}");
+            }
+            Action::Screenshot => {
+                target.request_capture(ctx)?;
+                let dir = self.args.out.clone().unwrap_or_else(|| PathBuf::from("."));
+                std::fs::create_dir_all(&dir).with_context(|| {
+                    format!("cannot create the screenshot folder {}", dir.display())
+                })?;
+                self.screenshots_taken += 1;
+                self.screenshot = Some(dir.join(format!(
+                    "gregvox-screenshot-{:03}.png",
+                    self.screenshots_taken
+                )));
+            }
+            Action::PrintProfile => eprint!("{}", renderer.profiler.table()),
+            Action::SceneKey(k) => {
+                renderer.scene.key(ctx, &k)?;
+            }
+        }
         Ok(())
     }
 
@@ -81,10 +271,22 @@ impl App<'_> {
         let (Some(renderer), Some(target)) = (self.renderer.as_mut(), self.target.as_mut()) else {
             return Ok(());
         };
-        let t = self.start.elapsed().as_secs_f32();
+        let t = match self.args.time_step {
+            Some(dt) => self.frames_drawn as f32 * dt,
+            None => self.start.elapsed().as_secs_f32(),
+        };
         let begun = renderer.begin_frame(self.ctx)?;
         if renderer.draw(self.ctx, begun, target, t)? {
             self.frames_drawn += 1;
+        }
+        if self.screenshot.is_some() {
+            // Rare: waiting for the frame here keeps the capture simple.
+            renderer.finish(self.ctx)?;
+            if let Some((w, h, rgba)) = target.take_capture(self.ctx)? {
+                let path = self.screenshot.take().expect("checked above");
+                crate::gpu::present::write_png_rgba(&path, w, h, &rgba)?;
+                eprintln!("gregvox demo: screenshot {}", path.display());
+            }
         }
         let now = Instant::now();
         let dt = now.duration_since(self.last_frame).as_secs_f64() * 1e3;
@@ -96,12 +298,23 @@ impl App<'_> {
         };
         if now.duration_since(self.last_title).as_secs_f64() > 0.5 {
             self.last_title = now;
-            let mut title = format!("gregvox — {:.2} ms/frame", self.frame_ms);
+            let mut title = format!(
+                "gregvox — {} — {:.2} ms/frame",
+                renderer.scene.name(),
+                self.frame_ms
+            );
             for p in renderer.profiler.stats() {
                 title.push_str(&format!(" | {} {:.3} ms", p.name, p.median_ms));
             }
             if let Some(w) = &self.window {
                 w.set_title(&title);
+            }
+        }
+        // Scripted keys (--keys): one every 5 frames, after the frame that was just drawn.
+        if self.frames_drawn % 5 == 0 && self.frames_drawn > 0 {
+            if let Some(k) = self.scripted.pop_front() {
+                eprintln!("gregvox demo: key {k}");
+                self.key_named(event_loop, &k)?;
             }
         }
         if self.args.frames.is_some_and(|n| self.frames_drawn >= n) {
@@ -121,17 +334,54 @@ impl ApplicationHandler for App<'_> {
     }
 
     fn window_event(&mut self, event_loop: &ActiveEventLoop, _id: WindowId, event: WindowEvent) {
-        match event {
-            WindowEvent::CloseRequested => event_loop.exit(),
+        let result = match event {
+            WindowEvent::CloseRequested => {
+                event_loop.exit();
+                Ok(())
+            }
             WindowEvent::KeyboardInput {
                 event:
                     KeyEvent {
-                        logical_key: Key::Named(NamedKey::Escape),
+                        logical_key,
                         state: ElementState::Pressed,
                         ..
                     },
                 ..
-            } => event_loop.exit(),
+            } => self.key(event_loop, &logical_key),
+            WindowEvent::MouseInput {
+                state,
+                button: MouseButton::Left,
+                ..
+            } => {
+                self.left_down = state == ElementState::Pressed;
+                if !self.left_down {
+                    self.drag = None;
+                }
+                Ok(())
+            }
+            WindowEvent::CursorMoved { position, .. } => {
+                if self.left_down {
+                    if let (Some((x, y)), Some(r)) = (self.drag, self.renderer.as_mut()) {
+                        r.view.orbit = r
+                            .view
+                            .orbit
+                            .dragged((position.x - x) as f32, (position.y - y) as f32);
+                    }
+                    self.drag = Some((position.x, position.y));
+                }
+                Ok(())
+            }
+            WindowEvent::MouseWheel { delta, .. } => {
+                let lines = match delta {
+                    MouseScrollDelta::LineDelta(_, y) => y,
+                    // About 40 pixels per wheel notch.
+                    MouseScrollDelta::PixelDelta(p) => (p.y / 40.0) as f32,
+                };
+                if let Some(r) = self.renderer.as_mut() {
+                    r.view.orbit = r.view.orbit.zoomed(lines);
+                }
+                Ok(())
+            }
             WindowEvent::Resized(size) => {
                 if let Some(t) = self.target.as_mut() {
                     t.resize(vk::Extent2D {
@@ -139,13 +389,13 @@ impl ApplicationHandler for App<'_> {
                         height: size.height,
                     });
                 }
+                Ok(())
             }
-            WindowEvent::RedrawRequested => {
-                if let Err(e) = self.redraw(event_loop) {
-                    self.fail(event_loop, e);
-                }
-            }
-            _ => {}
+            WindowEvent::RedrawRequested => self.redraw(event_loop),
+            _ => Ok(()),
+        };
+        if let Err(e) = result {
+            self.fail(event_loop, e);
         }
     }
 
@@ -183,7 +433,7 @@ pub fn run_windowed(args: &DemoArgs) -> anyhow::Result<()> {
     let now = Instant::now();
     let mut app = App {
         ctx: &ctx,
-        args,
+        args: args.clone(),
         window: None,
         target: None,
         renderer: None,
@@ -192,6 +442,11 @@ pub fn run_windowed(args: &DemoArgs) -> anyhow::Result<()> {
         last_title: now,
         last_frame: now,
         frame_ms: 0.0,
+        drag: None,
+        left_down: false,
+        screenshot: None,
+        screenshots_taken: 0,
+        scripted: args.keys.iter().map(|k| k.trim().to_string()).collect(),
         error: None,
     };
     let run = event_loop.run_app(&mut app);

@@ -519,6 +519,11 @@ impl GregorySurface {
         &self.points
     }
 
+    /// The 20 control point indices per patch (u32, GREGORY_BASIS order), e.g. for the demo's curvature pass.
+    pub fn patch_points(&self) -> &Buffer {
+        &self.patch_points
+    }
+
     /// Records a whole update: [deform] → W·cage → evaluate. `deform` = None evaluates the rest cage.
     pub fn record(
         &self,

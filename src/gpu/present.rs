@@ -304,6 +304,8 @@ pub struct SwapchainTarget {
     wanted: vk::Extent2D,
     needs_rebuild: bool,
     present_mode: vk::PresentModeKHR,
+    /// A screenshot readback (buffer, its extent, whether the copy was recorded); see `request_capture`.
+    capture: Option<(Buffer, vk::Extent2D, bool)>,
 }
 
 impl SwapchainTarget {
@@ -381,6 +383,7 @@ impl SwapchainTarget {
             extent: vk::Extent2D { width, height },
             wanted: vk::Extent2D { width, height },
             needs_rebuild: true,
+            capture: None,
             present_mode,
         };
         for i in 0..slots.max(1) {
@@ -504,6 +507,52 @@ impl SwapchainTarget {
     }
 }
 
+impl SwapchainTarget {
+    /// Asks for the next presented frame to be copied to a readback buffer as well (screenshot).
+    pub fn request_capture(&mut self, ctx: &Context) -> Result<()> {
+        if self.capture.is_none() {
+            let e = self.extent;
+            let buf = ctx.create_buffer(
+                "screenshot readback",
+                e.width.max(1) as u64 * e.height.max(1) as u64 * 4,
+                vk::BufferUsageFlags::TRANSFER_DST,
+                MemoryLocation::GpuToCpu,
+            )?;
+            self.capture = Some((buf, e, false));
+        }
+        Ok(())
+    }
+
+    /// The captured frame as (width, height, RGBA8 rows top to bottom) once its copy was recorded; call after
+    /// that frame's fence (e.g. after `Frames::wait_all`). Frees the readback buffer.
+    pub fn take_capture(&mut self, ctx: &Context) -> Result<Option<(u32, u32, Vec<u8>)>> {
+        if !self.capture.as_ref().is_some_and(|c| c.2) {
+            return Ok(None);
+        }
+        let (buf, e, _) = self.capture.take().expect("checked above");
+        let mut px = buf.mapped().map(|m| m.to_vec());
+        if let Ok(px) = px.as_mut() {
+            if matches!(
+                self.format.format,
+                vk::Format::B8G8R8A8_UNORM | vk::Format::B8G8R8A8_SRGB
+            ) {
+                for p in px.chunks_exact_mut(4) {
+                    p.swap(0, 2);
+                }
+            }
+        }
+        buf.destroy(ctx);
+        Ok(Some((e.width, e.height, px?)))
+    }
+
+    /// Releases a pending capture (device idle).
+    fn release_capture(&mut self, ctx: &Context) {
+        if let Some((b, _, _)) = self.capture.take() {
+            b.destroy(ctx);
+        }
+    }
+}
+
 impl PresentTarget for SwapchainTarget {
     fn format(&self) -> vk::Format {
         self.format.format
@@ -556,17 +605,74 @@ impl PresentTarget for SwapchainTarget {
     }
 
     fn record_finish(&mut self, ctx: &Context, cmd: vk::CommandBuffer, img: &TargetImage) {
+        let mut layout = vk::ImageLayout::COLOR_ATTACHMENT_OPTIMAL;
+        let mut src = (
+            vk::PipelineStageFlags2::COLOR_ATTACHMENT_OUTPUT,
+            vk::AccessFlags2::COLOR_ATTACHMENT_WRITE,
+        );
+        if let Some((buf, e, recorded)) = self.capture.as_mut() {
+            // Only a frame of the size the buffer was made for (a resize in between drops nothing: the
+            // request stays until a frame of that size comes, or a new request replaces it at its size).
+            if !*recorded && *e == img.extent {
+                image_barrier(
+                    ctx,
+                    cmd,
+                    img.image,
+                    color_range(),
+                    layout,
+                    vk::ImageLayout::TRANSFER_SRC_OPTIMAL,
+                    src,
+                    (
+                        vk::PipelineStageFlags2::COPY,
+                        vk::AccessFlags2::TRANSFER_READ,
+                    ),
+                );
+                let region = vk::BufferImageCopy {
+                    image_subresource: vk::ImageSubresourceLayers {
+                        aspect_mask: vk::ImageAspectFlags::COLOR,
+                        mip_level: 0,
+                        base_array_layer: 0,
+                        layer_count: 1,
+                    },
+                    image_extent: vk::Extent3D {
+                        width: e.width,
+                        height: e.height,
+                        depth: 1,
+                    },
+                    ..Default::default()
+                };
+                // SAFETY: recording; image in TRANSFER_SRC layout; buffer sized for the extent.
+                unsafe {
+                    ctx.device.cmd_copy_image_to_buffer(
+                        cmd,
+                        img.image,
+                        vk::ImageLayout::TRANSFER_SRC_OPTIMAL,
+                        buf.raw,
+                        &[region],
+                    )
+                };
+                let host = [vk::MemoryBarrier2::default()
+                    .src_stage_mask(vk::PipelineStageFlags2::COPY)
+                    .src_access_mask(vk::AccessFlags2::TRANSFER_WRITE)
+                    .dst_stage_mask(vk::PipelineStageFlags2::HOST)
+                    .dst_access_mask(vk::AccessFlags2::HOST_READ)];
+                ctx.cmd_pipeline_barrier2(
+                    cmd,
+                    &vk::DependencyInfo::default().memory_barriers(&host),
+                );
+                *recorded = true;
+                layout = vk::ImageLayout::TRANSFER_SRC_OPTIMAL;
+                src = (vk::PipelineStageFlags2::COPY, vk::AccessFlags2::NONE);
+            }
+        }
         image_barrier(
             ctx,
             cmd,
             img.image,
             color_range(),
-            vk::ImageLayout::COLOR_ATTACHMENT_OPTIMAL,
+            layout,
             vk::ImageLayout::PRESENT_SRC_KHR,
-            (
-                vk::PipelineStageFlags2::COLOR_ATTACHMENT_OUTPUT,
-                vk::AccessFlags2::COLOR_ATTACHMENT_WRITE,
-            ),
+            src,
             (vk::PipelineStageFlags2::NONE, vk::AccessFlags2::NONE),
         );
     }
@@ -603,6 +709,7 @@ impl PresentTarget for SwapchainTarget {
 
     fn destroy(mut self: Box<Self>, ctx: &Context) {
         let _ = ctx.wait_idle();
+        self.release_capture(ctx);
         self.release_images(ctx);
         for s in self.acquired.drain(..) {
             // SAFETY: idle device.

@@ -1,21 +1,82 @@
 //! `SurfaceDrawPass`: draws a surface vertex buffer (`SurfaceVertex`, stride 32) with the lecture's shading
-//! model (glsl/surface.{vert,frag}) into a color + depth target with dynamic rendering.
+//! model into a color + depth target with dynamic rendering, on one of two paths:
+//! - plain (`record`, glsl/surface.{vert,frag}): no descriptors; Phong, normals, zebra, wireframe;
+//! - lit (`record_lit`, glsl/shadowed_surface.{vert,frag}): every [`ShadingMode`], with hard shadows from a
+//!   [`ShadowMap`] and the curvature modes read from a second vertex stream of (H, K) per vertex
+//!   ([`crate::passes::surface_curvature`]); also draws the ground plane (push flag).
 //!
-//! Invariants: the pass owns its pipeline; vertex, index and target resources are the caller's. The color
-//! target is in `COLOR_ATTACHMENT_OPTIMAL` and the depth target in `DEPTH_ATTACHMENT_OPTIMAL` on entry and
-//! exit. `clear = true` clears both; otherwise both are loaded (several draws into one frame).
+//! Invariants: the pass owns its two pipelines; vertex, index, curvature, shadow and target resources are the
+//! caller's. The color target is in `COLOR_ATTACHMENT_OPTIMAL` and the depth target in
+//! `DEPTH_ATTACHMENT_OPTIMAL` on entry and exit. `clear = Some(colour)` clears both; otherwise both are loaded
+//! (several draws into one frame). The shadow map must have been recorded earlier in the command buffer.
 use crate::error::Result;
-use crate::gpu::pipeline::{GraphicsDesc, GraphicsPipeline};
+use crate::gpu::pipeline::{DescriptorSetLayoutBuilder, GraphicsDesc, GraphicsPipeline};
 use crate::gpu::{shaders, Buffer, Context};
+use crate::passes::shadow_map::ShadowMap;
 use ash::vk;
 
-/// The shading modes.
+/// The shading modes (`mode.x` of the surface shaders).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
 pub enum ShadingMode {
+    /// Lambert + ambient + Phong (the lecture model), with shadows on the lit path.
     Phong = 0,
+    /// Unit normals as colours.
     Normals = 1,
+    /// Zebra stripes of the reflected view direction (G1 across patch edges).
     Zebra = 2,
-    Grid = 3,
+    /// Phong with the patch boundaries drawn as lines.
+    #[value(alias = "grid")]
+    Wireframe = 3,
+    /// Mean curvature H, diverging colours (lit path only; Phong on the plain path).
+    Mean = 4,
+    /// Gaussian curvature K, diverging colours (lit path only; Phong on the plain path).
+    Gaussian = 5,
+}
+
+impl ShadingMode {
+    /// Every mode, in the order the S key cycles through them.
+    pub const ALL: [ShadingMode; 6] = [
+        ShadingMode::Phong,
+        ShadingMode::Normals,
+        ShadingMode::Zebra,
+        ShadingMode::Wireframe,
+        ShadingMode::Mean,
+        ShadingMode::Gaussian,
+    ];
+
+    /// The next mode (wrapping).
+    ///
+    /// ```
+    /// use gregvox::passes::surface_draw::ShadingMode;
+    /// assert_eq!(ShadingMode::Gaussian.next(), ShadingMode::Phong);
+    /// ```
+    pub fn next(self) -> ShadingMode {
+        Self::ALL[(self as usize + 1) % Self::ALL.len()]
+    }
+
+    /// Whether the mode reads the curvature stream.
+    pub fn needs_curvature(self) -> bool {
+        matches!(self, ShadingMode::Mean | ShadingMode::Gaussian)
+    }
+}
+
+/// `mode.w` flag: the draw is the ground plane (always shadowed Phong, no patch grid).
+pub const FLAG_GROUND: u32 = 1;
+/// `mode.w` flag: sample the shadow map.
+pub const FLAG_SHADOWS: u32 = 2;
+
+/// One indexed surface draw of the lit path.
+#[derive(Clone, Copy)]
+pub struct LitDraw<'a> {
+    /// Stride-32 `SurfaceVertex` buffer.
+    pub vertices: &'a Buffer,
+    /// (H, K) per vertex (stride 8), or `None` when the draw has no curvature: then the vertex buffer is
+    /// bound again in its place (a valid stream the shader reads but the non-curvature modes ignore), so one
+    /// pipeline serves both.
+    pub curvature: Option<&'a Buffer>,
+    /// u32 triangle-list indices.
+    pub indices: &'a Buffer,
+    pub index_count: u32,
 }
 
 /// Push constants of the surface shaders (`SurfacePush` in glsl/include/surface_common.glsl).
@@ -77,6 +138,7 @@ pub fn begin_color_depth(
 /// The surface draw pass.
 pub struct SurfaceDrawPass {
     pipeline: GraphicsPipeline,
+    lit: GraphicsPipeline,
     pub color_format: vk::Format,
     pub depth_format: vk::Format,
 }
@@ -115,11 +177,97 @@ impl SurfaceDrawPass {
         ];
         desc.push_constant_bytes = std::mem::size_of::<SurfacePush>() as u32;
         desc.push_constant_stages = vk::ShaderStageFlags::VERTEX | vk::ShaderStageFlags::FRAGMENT;
-        Ok(SurfaceDrawPass {
-            pipeline: GraphicsPipeline::new(ctx, "surface draw", desc)?,
-            color_format: color,
-            depth_format: depth,
-        })
+        let mut lit_desc = GraphicsDesc::new(
+            shaders::SHADOWED_SURFACE_VERT,
+            shaders::SHADOWED_SURFACE_FRAG,
+            color,
+            depth,
+        );
+        lit_desc.vertex_bindings = desc.vertex_bindings.clone();
+        lit_desc
+            .vertex_bindings
+            .push(vk::VertexInputBindingDescription {
+                binding: 1,
+                stride: 8,
+                input_rate: vk::VertexInputRate::VERTEX,
+            });
+        lit_desc.vertex_attributes = desc.vertex_attributes.clone();
+        lit_desc
+            .vertex_attributes
+            .push(vk::VertexInputAttributeDescription {
+                location: 2,
+                binding: 1,
+                format: vk::Format::R32G32_SFLOAT,
+                offset: 0,
+            });
+        lit_desc.push_constant_bytes = desc.push_constant_bytes;
+        lit_desc.push_constant_stages = desc.push_constant_stages;
+        let pipeline = GraphicsPipeline::new(ctx, "surface draw", desc)?;
+        let lit = DescriptorSetLayoutBuilder::new()
+            .uniform_buffer(0, vk::ShaderStageFlags::FRAGMENT)
+            .sampled_image(1, vk::ShaderStageFlags::FRAGMENT)
+            .build(ctx, "lit surface set")
+            .and_then(|layout| {
+                lit_desc.set_layouts = vec![layout];
+                GraphicsPipeline::new(ctx, "lit surface draw", lit_desc)
+            });
+        match lit {
+            Ok(lit) => Ok(SurfaceDrawPass {
+                pipeline,
+                lit,
+                color_format: color,
+                depth_format: depth,
+            }),
+            Err(e) => {
+                pipeline.destroy(ctx);
+                Err(e)
+            }
+        }
+    }
+
+    /// Records `draws` on the lit path (shadows from `shadow`, curvature stream) in one render pass.
+    pub fn record_lit(
+        &self,
+        ctx: &Context,
+        cmd: vk::CommandBuffer,
+        target: &DrawTarget,
+        clear: Option<[f32; 4]>,
+        shadow: &ShadowMap,
+        draws: &[(LitDraw<'_>, SurfacePush)],
+    ) {
+        begin_color_depth(ctx, cmd, target, clear);
+        let bindings = shadow.bindings();
+        for (i, (d, push)) in draws.iter().enumerate() {
+            if i == 0 {
+                self.lit
+                    .bind(ctx, cmd, &bindings, bytemuck::bytes_of(push), target.extent);
+            } else {
+                // SAFETY: recording with the lit pipeline bound; the range matches its layout.
+                unsafe {
+                    ctx.device.cmd_push_constants(
+                        cmd,
+                        self.lit.layout,
+                        self.lit.push_constant_stages,
+                        0,
+                        bytemuck::bytes_of(push),
+                    )
+                };
+            }
+            let curvature = d.curvature.unwrap_or(d.vertices);
+            // SAFETY: inside the render pass with the pipeline bound; buffers have VERTEX/INDEX usage.
+            unsafe {
+                ctx.device.cmd_bind_vertex_buffers(
+                    cmd,
+                    0,
+                    &[d.vertices.raw, curvature.raw],
+                    &[0, 0],
+                );
+                ctx.device
+                    .cmd_bind_index_buffer(cmd, d.indices.raw, 0, vk::IndexType::UINT32);
+                ctx.device.cmd_draw_indexed(cmd, d.index_count, 1, 0, 0, 0);
+            }
+        }
+        ctx.cmd_end_rendering(cmd);
     }
 
     /// Records the draw of `index_count` indices of `vertices`/`indices`.
@@ -149,8 +297,9 @@ impl SurfaceDrawPass {
         ctx.cmd_end_rendering(cmd);
     }
 
-    /// Destroys the pipeline.
+    /// Destroys the pipelines.
     pub fn destroy(self, ctx: &Context) {
         self.pipeline.destroy(ctx);
+        self.lit.destroy(ctx);
     }
 }

@@ -1,0 +1,650 @@
+//! The demo's frames and the passes behind them, on lavapipe with validation (every test runs in
+//! `common::with_gpu`: any validation message or leaked allocation fails it).
+//!
+//! - The curvature pass against the CPU's fundamental forms (`geom::curvature` via `PatchF64::curvature`).
+//! - The shadow map against a CPU ray cast (`geom::shading::in_shadow_by`).
+//! - Golden frames: a few fixed-time offscreen frames of every entry of [`FRAMES`] against PNGs in
+//!   tests/fixtures/demo/ (regenerate with `BLESS=1 cargo test --test demo_golden`), plus: frames are not
+//!   blank, and animated scenes change between the sampled frames.
+//! - 1,000 frames with flat GPU memory; resize / minimise / restore; level changes and scene switches.
+//! - The window under Xvfb with every key typed (`--keys`), no validation message, a screenshot written.
+mod common;
+
+use ash::vk;
+use clap::Parser;
+use glam::{DVec3, Mat4, Vec3, Vec4};
+use gregvox::cli::cage::{builtin_cage, cage_topology};
+use gregvox::demo::{build_scene, draw_path, DemoArgs, Renderer, FRAMES_IN_FLIGHT};
+use gregvox::engine::gregory::GregorySurface;
+use gregvox::geom::gregory::PatchF64;
+use gregvox::geom::shading::in_shadow_by;
+use gregvox::gpu::present::begin_color_target;
+use gregvox::gpu::resources::image_barrier;
+use gregvox::gpu::{Context, ImageDesc, MemoryLocation, OffscreenTarget, PresentTarget};
+use gregvox::passes::shadow_map::{light_view_proj, ShadowMap};
+use gregvox::passes::surface_curvature::SurfaceCurvaturePass;
+use gregvox::passes::surface_draw::{
+    DrawTarget, LitDraw, ShadingMode, SurfaceDrawPass, SurfacePush, FLAG_GROUND, FLAG_SHADOWS,
+};
+use gregvox::surface::Tangents;
+use std::path::PathBuf;
+
+// ---------------------------------------------------------------------------------------------------------
+// Golden frames
+// ---------------------------------------------------------------------------------------------------------
+
+/// The golden table: (name, `gregvox demo` arguments, animated?). A new scene is one line here.
+const FRAMES: &[(&str, &[&str], bool)] = &[
+    ("flag", &["--scene", "flag"], true),
+    (
+        "flag_zebra",
+        &["--scene", "flag", "--shading", "zebra"],
+        true,
+    ),
+    ("cage", &["--scene", "cage"], true),
+    ("cage_mean", &["--scene", "cage", "--shading", "mean"], true),
+    (
+        "cage_gaussian",
+        &["--scene", "cage", "--shading", "gaussian"],
+        true,
+    ),
+    (
+        "cage_wireframe_pull",
+        &["--scene", "cage", "--shading", "wireframe", "--vertex-pull"],
+        true,
+    ),
+    ("spinner", &["--scene", "spinner"], true),
+];
+
+/// Frame size of the golden images: small enough to commit, large enough to show the shading.
+const SIZE: (u32, u32) = (160, 120);
+/// Fixed time step and the frames compared: t = 0 and t = 0.8 s.
+const TIME_STEP: f32 = 1.0 / 30.0;
+const SAMPLED: [u64; 2] = [0, 24];
+
+/// Tolerance: lavapipe renders the same frame bit for bit on one machine, but LLVM version, CPU features
+/// (vector width of the JIT) and f32 evaluation order may move a few edge pixels between machines: at most
+/// 0.5 % of the pixels may differ by more than 8/255 in some channel.
+const MAX_DIFFERING: f64 = 0.005;
+const CHANNEL_SLACK: u8 = 8;
+
+#[derive(Parser)]
+struct Cli {
+    #[command(flatten)]
+    demo: DemoArgs,
+}
+
+fn demo_args(extra: &[&str]) -> DemoArgs {
+    let size = format!("{}x{}", SIZE.0, SIZE.1);
+    let mut argv = vec!["demo", "--offscreen", "--size", &size];
+    argv.extend_from_slice(extra);
+    Cli::try_parse_from(argv)
+        .expect("valid demo arguments")
+        .demo
+}
+
+/// Renders frames 0..=max(wanted) at the fixed time step (`--time-step`, else [`TIME_STEP`]); returns the RGBA8 pixels of the wanted frames.
+fn render(ctx: &Context, args: &DemoArgs, wanted: &[u64]) -> Vec<Vec<u8>> {
+    let (w, h) = args.size;
+    let mut target = OffscreenTarget::new(ctx, w, h, FRAMES_IN_FLIGHT).unwrap();
+    let scene = build_scene(ctx, args, target.format()).unwrap();
+    let mut r = Renderer::new(ctx, scene, args.shading, draw_path(args)).unwrap();
+    let dt = args.time_step.unwrap_or(TIME_STEP);
+    let mut out = Vec::new();
+    for f in 0..=*wanted.iter().max().unwrap() {
+        let begun = r.begin_frame(ctx).unwrap();
+        let slot = begun.0;
+        assert!(r.draw(ctx, begun, &mut target, f as f32 * dt).unwrap());
+        if wanted.contains(&f) {
+            r.frames.wait_all(ctx).unwrap();
+            out.push(target.read_rgba(slot).unwrap());
+        }
+    }
+    r.destroy(ctx);
+    Box::new(target).destroy(ctx);
+    out
+}
+
+fn fixture(name: &str) -> PathBuf {
+    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+        .join("tests/fixtures/demo")
+        .join(name)
+}
+
+fn read_png(path: &PathBuf) -> (u32, u32, Vec<u8>) {
+    let file = std::fs::File::open(path).unwrap_or_else(|e| {
+        panic!(
+            "{}: {e} (generate the golden frames with BLESS=1)",
+            path.display()
+        )
+    });
+    let mut reader = png::Decoder::new(file).read_info().unwrap();
+    let mut buf = vec![0; reader.output_buffer_size()];
+    let info = reader.next_frame(&mut buf).unwrap();
+    assert_eq!(info.color_type, png::ColorType::Rgba, "{}", path.display());
+    buf.truncate(info.buffer_size());
+    (info.width, info.height, buf)
+}
+
+/// Fraction of pixels whose channels differ by more than `slack`.
+fn differing(a: &[u8], b: &[u8], slack: u8) -> f64 {
+    let n = a.len() / 4;
+    let count = a
+        .chunks_exact(4)
+        .zip(b.chunks_exact(4))
+        .filter(|(p, q)| p.iter().zip(q.iter()).any(|(x, y)| x.abs_diff(*y) > slack))
+        .count();
+    count as f64 / n as f64
+}
+
+/// Fraction of pixels that are not (within 8/255) the frame's most common colour.
+fn non_background(px: &[u8]) -> f64 {
+    let mut counts = std::collections::HashMap::new();
+    for p in px.chunks_exact(4) {
+        *counts.entry([p[0], p[1], p[2]]).or_insert(0usize) += 1;
+    }
+    let (mode, _) = counts.into_iter().max_by_key(|&(_, c)| c).unwrap();
+    let bg: Vec<u8> = px
+        .chunks_exact(4)
+        .flat_map(|_| [mode[0], mode[1], mode[2], 255])
+        .collect();
+    differing(px, &bg, CHANNEL_SLACK)
+}
+
+#[test]
+fn golden_frames_of_every_scene_match_within_tolerance() {
+    let bless = std::env::var("BLESS").is_ok_and(|v| v == "1");
+    let mut failures = Vec::new();
+    common::with_gpu(|ctx| {
+        for &(name, extra, animated) in FRAMES {
+            let frames = render(ctx, &demo_args(extra), &SAMPLED);
+            for (px, f) in frames.iter().zip(SAMPLED) {
+                let shown = non_background(px);
+                assert!(
+                    shown > 0.05,
+                    "{name} frame {f}: only {:.1} % of the pixels show anything",
+                    100.0 * shown
+                );
+                let path = fixture(&format!("{name}_f{f:03}.png"));
+                if bless {
+                    std::fs::create_dir_all(path.parent().unwrap()).unwrap();
+                    gregvox::gpu::present::write_png_rgba(&path, SIZE.0, SIZE.1, px).unwrap();
+                    continue;
+                }
+                let (w, h, golden) = read_png(&path);
+                assert_eq!((w, h), SIZE, "{}", path.display());
+                let d = differing(px, &golden, CHANNEL_SLACK);
+                if d > MAX_DIFFERING {
+                    // Beside the test's temporary files, not the fixtures: a failure leaves the tree clean.
+                    let got = std::env::temp_dir().join(format!("gregvox-{name}_f{f:03}.got.png"));
+                    let _ = gregvox::gpu::present::write_png_rgba(&got, w, h, px);
+                    failures.push(format!(
+                        "{name} frame {f}: {:.2} % of the pixels differ (> {} %); see {}",
+                        100.0 * d,
+                        100.0 * MAX_DIFFERING,
+                        got.display()
+                    ));
+                }
+            }
+            if animated {
+                let change = differing(&frames[0], &frames[1], CHANNEL_SLACK);
+                assert!(
+                    change > 0.01,
+                    "{name}: frames {} and {} differ in only {:.2} % of the pixels",
+                    SAMPLED[0],
+                    SAMPLED[1],
+                    100.0 * change
+                );
+            }
+        }
+    });
+    assert!(failures.is_empty(), "{}", failures.join("\n"));
+}
+
+#[test]
+fn a_paused_scene_renders_the_same_frame_at_every_time() {
+    // --time-step 0 freezes time: the fixed-time mode is what makes the golden frames reproducible.
+    common::with_gpu(|ctx| {
+        let frames = render(
+            ctx,
+            &demo_args(&["--scene", "flag", "--time-step", "0"]),
+            &[0, 1, 5],
+        );
+        assert!(
+            frames[0] == frames[1] && frames[1] == frames[2],
+            "same time, same pixels (bit for bit)"
+        );
+    });
+}
+
+#[test]
+fn a_thousand_frames_keep_gpu_memory_flat() {
+    common::with_gpu(|ctx| {
+        let args = demo_args(&["--scene", "cage", "--shading", "mean"]);
+        let mut target = OffscreenTarget::new(ctx, 64, 48, FRAMES_IN_FLIGHT).unwrap();
+        let scene = build_scene(ctx, &args, target.format()).unwrap();
+        let mut r = Renderer::new(ctx, scene, args.shading, draw_path(&args)).unwrap();
+        let mut after_warmup = None;
+        for f in 0..1000u64 {
+            let begun = r.begin_frame(ctx).unwrap();
+            r.draw(ctx, begun, &mut target, f as f32 / 60.0).unwrap();
+            if f == 10 {
+                after_warmup = Some((ctx.allocated_bytes(), ctx.live_allocations().len()));
+            }
+        }
+        r.finish(ctx).unwrap();
+        let end = (ctx.allocated_bytes(), ctx.live_allocations().len());
+        assert_eq!(
+            Some(end),
+            after_warmup,
+            "(bytes, allocations) after frame 10 and after frame 1000"
+        );
+        r.destroy(ctx);
+        Box::new(target).destroy(ctx);
+    });
+}
+
+#[test]
+fn resize_minimise_and_restore_between_frames() {
+    // The window's events through the same renderer and a target that is resized like a swapchain: a new
+    // size, 0×0 (minimised: frames are skipped, nothing drawn), then the first size again.
+    common::with_gpu(|ctx| {
+        let args = demo_args(&["--scene", "cage"]);
+        let mut target = OffscreenTarget::new(ctx, 64, 48, FRAMES_IN_FLIGHT).unwrap();
+        let scene = build_scene(ctx, &args, target.format()).unwrap();
+        let mut r = Renderer::new(ctx, scene, args.shading, draw_path(&args)).unwrap();
+        let mut t = 0.0;
+        let mut frame = |r: &mut Renderer, target: &mut OffscreenTarget| -> bool {
+            t += 1.0 / 60.0;
+            let begun = r.begin_frame(ctx).unwrap();
+            r.draw(ctx, begun, target, t).unwrap()
+        };
+        for _ in 0..4 {
+            assert!(frame(&mut r, &mut target));
+        }
+        r.finish(ctx).unwrap();
+        let before = ctx.allocated_bytes();
+        let steps: [((u32, u32), bool); 3] = [((96, 40), true), ((0, 0), false), ((64, 48), true)];
+        for ((w, h), drawn) in steps {
+            target.resize(vk::Extent2D {
+                width: w,
+                height: h,
+            });
+            for _ in 0..4 {
+                assert_eq!(frame(&mut r, &mut target), drawn, "{w}×{h}");
+            }
+            assert_eq!(
+                target.extent(),
+                vk::Extent2D {
+                    width: w,
+                    height: h
+                }
+            );
+        }
+        r.finish(ctx).unwrap();
+        // Depth images follow the target lazily, one slot at a time: after a full round at the first size
+        // every buffer and image is back to its old size.
+        assert_eq!(
+            ctx.allocated_bytes(),
+            before,
+            "bytes after restoring the size"
+        );
+        let px = target.read_rgba(0).unwrap();
+        assert_eq!(px.len(), 64 * 48 * 4);
+        assert!(
+            non_background(&px) > 0.05,
+            "the restored frame shows the scene"
+        );
+        r.destroy(ctx);
+        Box::new(target).destroy(ctx);
+    });
+}
+
+#[test]
+fn level_changes_and_scene_switches_rebuild_in_place() {
+    // What the +/− and number keys do in the window, through the renderer: the level changes the surface's
+    // buffers (device idle), a scene switch replaces the scene; frames keep coming, with no validation message.
+    common::with_gpu(|ctx| {
+        let args = demo_args(&["--scene", "flag"]);
+        let mut target = OffscreenTarget::new(ctx, 64, 48, FRAMES_IN_FLIGHT).unwrap();
+        let scene = build_scene(ctx, &args, target.format()).unwrap();
+        let mut r = Renderer::new(ctx, scene, args.shading, draw_path(&args)).unwrap();
+        let frames = |r: &mut Renderer, target: &mut OffscreenTarget| {
+            for f in 0..3 {
+                let begun = r.begin_frame(ctx).unwrap();
+                assert!(r.draw(ctx, begun, target, f as f32 / 60.0).unwrap());
+            }
+        };
+        frames(&mut r, &mut target);
+        for scene in ["flag", "cage"] {
+            if scene != "flag" {
+                let next = build_scene(ctx, &demo_args(&["--scene", scene]), target.format());
+                r.replace_scene(ctx, next.unwrap()).unwrap();
+                frames(&mut r, &mut target);
+            }
+            let level = r.scene.level().expect("Gregory scenes have a level");
+            assert!(r.set_level(ctx, level + 1).unwrap(), "{scene}");
+            assert_eq!(r.scene.level(), Some(level + 1), "{scene}");
+            frames(&mut r, &mut target);
+            assert!(r.set_level(ctx, 1).unwrap(), "{scene}");
+            frames(&mut r, &mut target);
+        }
+        r.finish(ctx).unwrap();
+        let px = target.read_rgba(0).unwrap();
+        assert!(non_background(&px) > 0.05, "the cage at level 1 shows");
+        r.destroy(ctx);
+        Box::new(target).destroy(ctx);
+    });
+}
+
+#[test]
+fn every_key_works_in_a_window_under_xvfb() {
+    // The windowed path end to end: the binary under Xvfb (a system package, see .ci/run) types every
+    // control with --keys, one every 5 frames; the scripted keys go through the same `key_action` as real ones.
+    let dir = std::env::temp_dir().join(format!("gregvox-window-keys-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    let keys = "s,s,s,s,s,+,-,v,Space,p,t,d,v,Space,1,c,3,2";
+    let out = std::process::Command::new("xvfb-run")
+        .args([
+            "-a",
+            env!("CARGO_BIN_EXE_gregvox"),
+            "demo",
+            "--frames",
+            "100",
+        ])
+        .args(["--size", "160x120", "--scene", "cage", "--keys", keys])
+        .arg("--out")
+        .arg(&dir)
+        .env("GREGVOX_VALIDATION", "1")
+        .output()
+        .expect("xvfb-run (apt-get install xvfb xauth; scripts/setup.sh installs it)");
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{err}");
+    assert!(
+        !err.contains("vulkan validation"),
+        "validation messages:\n{err}"
+    );
+    assert!(!err.contains("panicked"), "{err}");
+    for said in [
+        "shading Normals",
+        "shading Gaussian",
+        "level 9",
+        "level 8",
+        "VertexPull path",
+        "screenshot",
+        "| pass |",
+        "scene flag",
+        "scene spinner",
+        "scene built-in box cage",
+        "100 frames presented",
+    ] {
+        assert!(err.contains(said), "no '{said}' in:\n{err}");
+    }
+    let shot = dir.join("gregvox-screenshot-001.png");
+    let (w, h, px) = read_png(&shot);
+    assert_eq!((w, h), (160, 120));
+    assert!(non_background(&px) > 0.05, "the screenshot shows the scene");
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+// ---------------------------------------------------------------------------------------------------------
+// The passes behind the frames
+// ---------------------------------------------------------------------------------------------------------
+
+#[test]
+fn curvature_pass_matches_the_cpu_fundamental_forms_at_every_grid_vertex() {
+    const LEVEL: u32 = 6;
+    let mesh = builtin_cage(4, 2, 2);
+    let (topo, cage, _) = cage_topology(&mesh, Tangents::OpenSubdiv).unwrap();
+    let (gpu, points) = common::with_gpu(|ctx| {
+        let surface = GregorySurface::new(ctx, &topo, &cage, LEVEL).unwrap();
+        let pass = SurfaceCurvaturePass::new(ctx).unwrap();
+        let n = surface.patch_count as u64 * (LEVEL as u64 + 1).pow(2);
+        let out = ctx
+            .create_buffer(
+                "curvature",
+                n * 8,
+                vk::BufferUsageFlags::STORAGE_BUFFER | vk::BufferUsageFlags::TRANSFER_SRC,
+                MemoryLocation::GpuOnly,
+            )
+            .unwrap();
+        ctx.one_shot(|cmd| {
+            surface.record(ctx, cmd, None, None)?;
+            pass.record(
+                ctx,
+                cmd,
+                surface.points(),
+                surface.patch_points(),
+                surface.patch_count,
+                LEVEL,
+                &out,
+            )
+        })
+        .unwrap();
+        let hk: Vec<[f32; 2]> = ctx.read_pod(&out).unwrap();
+        let points = surface.read_points(ctx).unwrap();
+        out.destroy(ctx);
+        pass.destroy(ctx);
+        surface.destroy(ctx);
+        (hk, points)
+    });
+    let n1 = LEVEL as usize + 1;
+    assert_eq!(gpu.len(), topo.patch_points.len() * n1 * n1);
+    let (mut worst, mut checked, mut singular) = (0.0f64, 0, 0);
+    for (p, rows) in topo.patch_points.iter().enumerate() {
+        // The CPU evaluates the same f32 control points in f64.
+        let cv = rows.map(|r| {
+            let q = points[r as usize];
+            DVec3::new(q[0] as f64, q[1] as f64, q[2] as f64)
+        });
+        let patch = PatchF64 { cv };
+        for j in 0..n1 {
+            for i in 0..n1 {
+                let (u, v) = (i as f64 / LEVEL as f64, j as f64 / LEVEL as f64);
+                let [h, k] = gpu[p * n1 * n1 + j * n1 + i];
+                match patch.curvature(u, v) {
+                    Some((kc, hc)) => {
+                        // f32 evaluation of second derivatives and a 2×2 determinant: relative error of a
+                        // few 1e-5 on this cage (curvatures up to ~10 per unit); 1e-3 relative to
+                        // max(1, |value|) leaves margin without hiding a wrong term (a missing ∂²Q term
+                        // changes H by O(1) near the corners).
+                        let eh = (h as f64 - hc).abs() / hc.abs().max(1.0);
+                        let ek = (k as f64 - kc).abs() / kc.abs().max(1.0);
+                        worst = worst.max(eh).max(ek);
+                        assert!(
+                            eh < 1e-3 && ek < 1e-3,
+                            "patch {p} ({u}, {v}): GPU (H, K) = ({h}, {k}), CPU ({hc}, {kc})"
+                        );
+                        checked += 1;
+                    }
+                    None => {
+                        assert_eq!([h, k], [0.0, 0.0], "patch {p} ({u}, {v}) is singular");
+                        singular += 1;
+                    }
+                }
+            }
+        }
+    }
+    assert!(checked > 0);
+    eprintln!(
+        "curvature: {checked} vertices, {singular} singular, worst relative error {worst:.2e}"
+    );
+}
+
+/// The shadow scene: a unit square occluder at z = 1 over a 4 × 4 ground at z = 0, a directional light
+/// along (0.5, 0, 1), seen from straight above with an orthographic camera.
+#[test]
+fn shadow_map_darkens_exactly_the_ground_the_cpu_ray_cast_puts_in_shadow() {
+    const W: u32 = 128;
+    const H: u32 = 128;
+    let light_dir = Vec3::new(0.5, 0.0, 1.0).normalize();
+    let quad = |half: f32, z: f32| -> Vec<[f32; 8]> {
+        [(-half, -half), (half, -half), (half, half), (-half, half)]
+            .iter()
+            .map(|&(x, y)| [x, y, z, 1.0, 0.0, 0.0, 1.0, 0.0])
+            .collect()
+    };
+    let mut proj = Mat4::orthographic_rh(-2.0, 2.0, -2.0, 2.0, 0.1, 10.0);
+    proj.y_axis.y = -proj.y_axis.y;
+    let view_proj = proj * Mat4::look_at_rh(Vec3::new(0.0, 0.0, 5.0), Vec3::ZERO, Vec3::Y);
+    let pixels = common::with_gpu(|ctx| {
+        let mut target = OffscreenTarget::new(ctx, W, H, 1).unwrap();
+        let draw = SurfaceDrawPass::new(ctx, target.format(), vk::Format::D32_SFLOAT).unwrap();
+        let shadow = ShadowMap::new(ctx, 1024).unwrap();
+        let up = |name: &str, bytes: &[u8], usage| ctx.upload_buffer(name, bytes, usage).unwrap();
+        let idx: [u32; 6] = [0, 1, 2, 0, 2, 3];
+        let ground_v = up(
+            "ground",
+            bytemuck::cast_slice(&quad(2.0, 0.0)),
+            vk::BufferUsageFlags::VERTEX_BUFFER,
+        );
+        let occ_v = up(
+            "occluder",
+            bytemuck::cast_slice(&quad(0.5, 1.0)),
+            vk::BufferUsageFlags::VERTEX_BUFFER,
+        );
+        let ib = up(
+            "indices",
+            bytemuck::cast_slice(&idx),
+            vk::BufferUsageFlags::INDEX_BUFFER,
+        );
+        let depth = ctx
+            .create_image(
+                "depth",
+                &ImageDesc::d2(
+                    W,
+                    H,
+                    vk::Format::D32_SFLOAT,
+                    vk::ImageUsageFlags::DEPTH_STENCIL_ATTACHMENT,
+                ),
+            )
+            .unwrap();
+        let img = target.acquire(ctx, 0).unwrap().unwrap();
+        let push = |flags: u32| SurfacePush {
+            view_proj: view_proj.to_cols_array_2d(),
+            eye: [0.0, 0.0, 5.0, 1.0],
+            light: [light_dir.x, light_dir.y, light_dir.z, 0.35],
+            color: [0.8, 0.8, 0.8, 1.0],
+            mode: [ShadingMode::Phong as u32, 1, 0, flags],
+        };
+        ctx.one_shot(|cmd| {
+            begin_color_target(ctx, cmd, img.image);
+            image_barrier(
+                ctx,
+                cmd,
+                depth.raw,
+                depth.range(),
+                vk::ImageLayout::UNDEFINED,
+                vk::ImageLayout::DEPTH_ATTACHMENT_OPTIMAL,
+                (
+                    vk::PipelineStageFlags2::EARLY_FRAGMENT_TESTS,
+                    vk::AccessFlags2::NONE,
+                ),
+                (
+                    vk::PipelineStageFlags2::EARLY_FRAGMENT_TESTS
+                        | vk::PipelineStageFlags2::LATE_FRAGMENT_TESTS,
+                    vk::AccessFlags2::DEPTH_STENCIL_ATTACHMENT_READ
+                        | vk::AccessFlags2::DEPTH_STENCIL_ATTACHMENT_WRITE,
+                ),
+            );
+            shadow.record(
+                ctx,
+                cmd,
+                light_view_proj(light_dir, Vec3::ZERO, 2.5),
+                &[(&occ_v, &ib, 6)],
+            );
+            let lit = |v| LitDraw {
+                vertices: v,
+                curvature: None,
+                indices: &ib,
+                index_count: 6,
+            };
+            draw.record_lit(
+                ctx,
+                cmd,
+                &DrawTarget {
+                    color: img.view,
+                    depth: depth.view,
+                    extent: img.extent,
+                },
+                Some([0.0, 0.0, 0.0, 1.0]),
+                &shadow,
+                &[
+                    (lit(&ground_v), push(FLAG_GROUND | FLAG_SHADOWS)),
+                    (lit(&occ_v), push(FLAG_SHADOWS)),
+                ],
+            );
+            target.record_finish(ctx, cmd, &img);
+            Ok(())
+        })
+        .unwrap();
+        target.present(ctx, &img).unwrap();
+        let px = target.read_rgba(0).unwrap();
+        for b in [ground_v, occ_v, ib] {
+            b.destroy(ctx);
+        }
+        depth.destroy(ctx);
+        shadow.destroy(ctx);
+        draw.destroy(ctx);
+        Box::new(target).destroy(ctx);
+        px
+    });
+    let inv = view_proj.inverse();
+    let occluder_hit = |o: DVec3, d: DVec3| -> Vec<f64> {
+        // The occluder's plane z = 1, inside the unit square.
+        if d.z.abs() < 1e-12 {
+            return Vec::new();
+        }
+        let t = (1.0 - o.z) / d.z;
+        let p = o + d * t;
+        if p.x.abs() <= 0.5 && p.y.abs() <= 0.5 {
+            vec![t]
+        } else {
+            Vec::new()
+        }
+    };
+    // Margin around the shadow's edge: one pixel (4/128) plus two shadow texels (5/1024), rounded up.
+    let margin = 0.05;
+    let (mut shadowed, mut lit) = (0, 0);
+    for py in 0..H {
+        for px in 0..W {
+            let ndc = Vec4::new(
+                2.0 * (px as f32 + 0.5) / W as f32 - 1.0,
+                2.0 * (py as f32 + 0.5) / H as f32 - 1.0,
+                0.5,
+                1.0,
+            );
+            let w = inv * ndc;
+            let (x, y) = ((w.x / w.w) as f64, (w.y / w.w) as f64);
+            if x.abs() <= 0.5 + margin && y.abs() <= 0.5 + margin {
+                continue; // the occluder itself (and its edge)
+            }
+            // Where the light ray from this ground point crosses z = 1, relative to the square's edge.
+            let ld = light_dir.as_dvec3();
+            let (cx, cy) = (x + ld.x / ld.z, y + ld.y / ld.z);
+            let edge = (cx.abs() - 0.5).abs().min((cy.abs() - 0.5).abs());
+            if edge < margin {
+                continue;
+            }
+            let p = DVec3::new(x, y, 0.0);
+            let expect_shadow = in_shadow_by(p, DVec3::Z, p + ld * 1e3, 1e-4, occluder_hit);
+            let r = pixels[((py * W + px) * 4) as usize];
+            // Lit ground: 0.8·(ambient 0.0525 + 0.75·n·l + specular) ≈ 150/255; in shadow 0.8·0.0525 ≈ 11/255.
+            let dark = r < 70;
+            assert_eq!(
+                dark, expect_shadow,
+                "pixel ({px}, {py}) = ground ({x:.3}, {y:.3}): red {r}, CPU says shadow = {expect_shadow}"
+            );
+            if expect_shadow {
+                shadowed += 1;
+            } else {
+                lit += 1;
+            }
+        }
+    }
+    // The shadow is the square shifted by 0.5 in x: half of it shows beside the occluder.
+    assert!(
+        shadowed > 300 && lit > 5000,
+        "shadowed {shadowed}, lit {lit}"
+    );
+}
