@@ -79,7 +79,11 @@ pub fn time_path(
                 let r = (|| -> anyhow::Result<f64> {
                     let ids: Vec<u32> = topo.patch_points.iter().flatten().copied().collect();
                     let storage = vk::BufferUsageFlags::STORAGE_BUFFER;
-                    owned.push(ctx.upload_buffer("bench patch points", bytemuck::cast_slice(&ids), storage)?);
+                    owned.push(ctx.upload_buffer(
+                        "bench patch points",
+                        bytemuck::cast_slice(&ids),
+                        storage,
+                    )?);
                     owned.push(ctx.upload_buffer(
                         "bench patch flags",
                         bytemuck::cast_slice(&topo.patch_flags),
@@ -167,7 +171,12 @@ pub fn time_path(
 }
 
 /// Runs OpenSubdiv's evaluation of `cage_obj` at `levels`: level → median seconds.
-fn osd(cfg: &BenchConfig, cage_obj: &std::path::Path, levels: &[u32], repeats: usize) -> (Peer, Vec<(u32, f64)>) {
+fn osd(
+    cfg: &BenchConfig,
+    cage_obj: &std::path::Path,
+    levels: &[u32],
+    repeats: usize,
+) -> (Peer, Vec<(u32, f64)>) {
     let bin = cfg.peers.join("osd_eval_bench");
     let mut args = vec![cage_obj.display().to_string(), repeats.to_string()];
     args.extend(levels.iter().map(|l| l.to_string()));
@@ -204,16 +213,26 @@ pub fn run(
         "spot_quadrangulated".into(),
         spot.clone(),
         spot_path,
-        if cfg.quick { vec![4, 8] } else { vec![4, 8, 16, 32, 64] },
+        if cfg.quick {
+            vec![4, 8]
+        } else {
+            vec![4, 8, 16, 32, 64]
+        },
     )];
     let mut tmp_obj = None;
     if !cfg.quick {
         // The large cage: spot after one Catmull–Clark level (4× the patches), written for the OSD peer.
         let big = catmull_clark(&spot, 1);
-        let p = std::env::temp_dir().join(format!("gregvox-bench-spot-cc1-{}.obj", std::process::id()));
+        let p =
+            std::env::temp_dir().join(format!("gregvox-bench-spot-cc1-{}.obj", std::process::id()));
         crate::mesh::write_obj(&p, &big)?;
         tmp_obj = Some(p.clone());
-        cages.push(("spot_cc1 (large cage)".into(), big, p, vec![4, 8, 16, 32, 64]));
+        cages.push((
+            "spot_cc1 (large cage)".into(),
+            big,
+            p,
+            vec![4, 8, 16, 32, 64],
+        ));
     }
     let mut t = Table::new(
         "gregory_throughput",
@@ -245,58 +264,67 @@ pub fn run(
     let osd_repeats = if cfg.quick { 1 } else { 3 };
     let compute_ctx = super::compute_context()?;
     let r = (|| -> anyhow::Result<()> {
-    for (name, mesh, obj, levels) in &cages {
-        let (topo, cage) = topology(mesh)?;
-        let patches = topo.patch_points.len() as u32;
-        let fits: Vec<u32> = levels
-            .iter()
-            .copied()
-            .filter(|&l| vertex_count(patches, l) * 32 <= ctx.info.max_storage_buffer_range as u64)
-            .collect();
-        let (peer, osd_rows) = osd(cfg, obj, &fits, osd_repeats);
-        for &level in levels {
-            let n = vertex_count(patches, level) as f64;
-            let c = time_path(&compute_ctx, &topo, &cage, level, EvalPath::Compute, cfg.repeats)?;
-            let v = time_path(ctx, &topo, &cage, level, EvalPath::VertexPull, cfg.repeats)?;
-            let cell = |r: &Result<f64, String>| -> (Value, Value) {
-                match r {
-                    Ok(ms) => (num(*ms), num(n / (ms * 1e-3) / 1e6)),
-                    Err(_) => (
-                        "exceeds maxStorageBufferRange".into(),
-                        Value::Null,
-                    ),
-                }
-            };
-            let (cm, cr) = cell(&c);
-            let (vm, vr) = cell(&v);
-            let o = osd_rows.iter().find(|r| r.0 == level).map(|r| r.1 * 1e3);
-            let (om, or) = match (o, &peer) {
-                (Some(ms), _) => (num(ms), num(n / (ms * 1e-3) / 1e6)),
-                (None, Peer::Ran(_)) => ("not run (size past the GPU limit)".into(), Value::Null),
-                (None, p) => (p.status().into(), Value::Null),
-            };
-            let floor = peak.map(|p| p.floor_ms(n, EVAL_FLOPS_PER_VERTEX, EVAL_BYTES_PER_VERTEX));
-            t.push(vec![
-                name.clone().into(),
-                patches.into(),
-                level.into(),
-                (n as u64).into(),
-                cm,
-                cr,
-                vm,
-                vr,
-                om,
-                or,
-                c.as_ref().map(|&ms| speedup(o, ms)).unwrap_or(Value::Null),
-                floor.map(num).unwrap_or(Value::Null),
-                match (floor, &c) {
-                    (Some(f), Ok(ms)) => num(100.0 * f / ms),
-                    _ => Value::Null,
-                },
-            ]);
+        for (name, mesh, obj, levels) in &cages {
+            let (topo, cage) = topology(mesh)?;
+            let patches = topo.patch_points.len() as u32;
+            let fits: Vec<u32> = levels
+                .iter()
+                .copied()
+                .filter(|&l| {
+                    vertex_count(patches, l) * 32 <= ctx.info.max_storage_buffer_range as u64
+                })
+                .collect();
+            let (peer, osd_rows) = osd(cfg, obj, &fits, osd_repeats);
+            for &level in levels {
+                let n = vertex_count(patches, level) as f64;
+                let c = time_path(
+                    &compute_ctx,
+                    &topo,
+                    &cage,
+                    level,
+                    EvalPath::Compute,
+                    cfg.repeats,
+                )?;
+                let v = time_path(ctx, &topo, &cage, level, EvalPath::VertexPull, cfg.repeats)?;
+                let cell = |r: &Result<f64, String>| -> (Value, Value) {
+                    match r {
+                        Ok(ms) => (num(*ms), num(n / (ms * 1e-3) / 1e6)),
+                        Err(_) => ("exceeds maxStorageBufferRange".into(), Value::Null),
+                    }
+                };
+                let (cm, cr) = cell(&c);
+                let (vm, vr) = cell(&v);
+                let o = osd_rows.iter().find(|r| r.0 == level).map(|r| r.1 * 1e3);
+                let (om, or) = match (o, &peer) {
+                    (Some(ms), _) => (num(ms), num(n / (ms * 1e-3) / 1e6)),
+                    (None, Peer::Ran(_)) => {
+                        ("not run (size past the GPU limit)".into(), Value::Null)
+                    }
+                    (None, p) => (p.status().into(), Value::Null),
+                };
+                let floor =
+                    peak.map(|p| p.floor_ms(n, EVAL_FLOPS_PER_VERTEX, EVAL_BYTES_PER_VERTEX));
+                t.push(vec![
+                    name.clone().into(),
+                    patches.into(),
+                    level.into(),
+                    (n as u64).into(),
+                    cm,
+                    cr,
+                    vm,
+                    vr,
+                    om,
+                    or,
+                    c.as_ref().map(|&ms| speedup(o, ms)).unwrap_or(Value::Null),
+                    floor.map(num).unwrap_or(Value::Null),
+                    match (floor, &c) {
+                        (Some(f), Ok(ms)) => num(100.0 * f / ms),
+                        _ => Value::Null,
+                    },
+                ]);
+            }
         }
-    }
-    Ok(())
+        Ok(())
     })();
     super::finish_context(compute_ctx)?;
     if let Some(p) = tmp_obj {
@@ -322,7 +350,11 @@ pub fn scaling(ctx: &Context, cfg: &BenchConfig, report: &mut Report) -> anyhow:
     let compute_ctx = super::compute_context()?;
     let r = (|| -> anyhow::Result<()> {
         for path in EvalPath::ALL {
-            let c = if path == EvalPath::Compute { &compute_ctx } else { ctx };
+            let c = if path == EvalPath::Compute {
+                &compute_ctx
+            } else {
+                ctx
+            };
             let mut pts = Vec::new();
             for &l in levels {
                 if let Ok(ms) = time_path(c, &topo, &cage, l, path, cfg.repeats)? {
@@ -337,7 +369,12 @@ pub fn scaling(ctx: &Context, cfg: &BenchConfig, report: &mut Report) -> anyhow:
     r?;
     let pts = levels
         .iter()
-        .map(|&l| (l as f64, time_cpu(cfg.repeats.min(5), || tessellate(&patches, l))))
+        .map(|&l| {
+            (
+                l as f64,
+                time_cpu(cfg.repeats.min(5), || tessellate(&patches, l)),
+            )
+        })
         .collect();
     series.push(Series::new("CPU f64 (1 thread)", pts));
     report.curves.push(Curve {

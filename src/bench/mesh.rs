@@ -1,5 +1,5 @@
 //! Suite `mesh`: vertex normals and one subdivision level on the bunny (and, in the full run, the bunny after
-//! two Loop levels: 1.1 M triangles), gregvox (CPU, rayon) beside libigl and trimesh measured by
+//! two Loop levels: 1.1 M triangles), gregvox (CPU, one thread) beside libigl and trimesh measured by
 //! tests/oracle/bench_mesh_peers.py in the same run.
 //!
 //! Invariants: gregvox's figures are the same operations as benches/mesh.rs (`normals`, `loop_level`,
@@ -33,11 +33,19 @@ pub fn run(cfg: &BenchConfig, peak: Option<&Peak>, report: &mut Report) -> anyho
     let peer = if cfg.quick {
         Peer::Skipped("--quick (the peer script takes minutes)".into())
     } else {
-        let out = std::env::temp_dir().join(format!("gregvox-bench-mesh-peers-{}.json", std::process::id()));
+        let out = std::env::temp_dir().join(format!(
+            "gregvox-bench-mesh-peers-{}.json",
+            std::process::id()
+        ));
         eprintln!("gregvox bench: mesh peers (libigl, trimesh) …");
         let p = peers::python(
             &cfg.repo.join("tests/oracle/bench_mesh_peers.py"),
-            &["--repeat".into(), "3".into(), "--json".into(), out.display().to_string()],
+            &[
+                "--repeat".into(),
+                "3".into(),
+                "--json".into(),
+                out.display().to_string(),
+            ],
         );
         let p = match p {
             Peer::Ran(_) => match std::fs::read_to_string(&out)
@@ -66,7 +74,7 @@ pub fn run(cfg: &BenchConfig, peak: Option<&Peak>, report: &mut Report) -> anyho
         "mesh_peers",
         "Mesh kernels (CPU) vs libigl and trimesh",
         &format!(
-            "gregvox: median of {} runs (rayon); peers: tests/oracle/bench_mesh_peers.py (median of 3, one \
+            "gregvox: median of {} runs (single thread, as the peers); peers: tests/oracle/bench_mesh_peers.py (median of 3, one \
              process), same meshes (the peers drop the bunny's 1,113 unreferenced vertices). speed-up = peer / \
              gregvox. Floor = max(flops, bytes) at the measured peaks (normals: {NORMALS_FLOPS_PER_FACE} flops, \
              {NORMALS_BYTES_PER_FACE} B per face; S·P: {SPMV_FLOPS_PER_NNZ} flops, {SPMV_BYTES_PER_NNZ} B per \

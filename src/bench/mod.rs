@@ -171,6 +171,10 @@ pub fn fmt_cell(v: &Value) -> String {
                 return i.to_string();
             }
             let x = n.as_f64().unwrap_or(f64::NAN);
+            // Sizes stored as f64 (curve x values) print as integers.
+            if x.fract() == 0.0 && x.abs() >= 1.0 && x.abs() < 1e15 {
+                return format!("{x:.0}");
+            }
             fmt_num(x)
         }
         Value::String(s) => s.clone(),
@@ -602,7 +606,9 @@ pub fn run(cfg: &BenchConfig, command: &str) -> anyhow::Result<Report> {
     drop(ctx);
     result?;
     if !leaks.is_empty() {
-        anyhow::bail!("internal error: GPU allocations still alive after the benchmarks: {leaks:?}");
+        anyhow::bail!(
+            "internal error: GPU allocations still alive after the benchmarks: {leaks:?}"
+        );
     }
     report.duration_s = start.elapsed().as_secs_f64();
     Ok(report)

@@ -106,8 +106,16 @@ pub fn run(cfg: &BenchConfig, report: &mut Report) -> anyhow::Result<Peak> {
         ),
         &["kernel", "measured peak", "unit"],
     );
-    t.push(vec!["f32 FMA throughput".into(), num(peak.gflops), "GFLOP/s".into()]);
-    t.push(vec!["memory copy bandwidth".into(), num(peak.gbytes), "GB/s".into()]);
+    t.push(vec![
+        "f32 FMA throughput".into(),
+        num(peak.gflops),
+        "GFLOP/s".into(),
+    ]);
+    t.push(vec![
+        "memory copy bandwidth".into(),
+        num(peak.gbytes),
+        "GB/s".into(),
+    ]);
     report.tables.push(t);
     Ok(peak)
 }

@@ -36,7 +36,9 @@ pub fn grid_cage(nx: u32, ny: u32) -> Mesh {
     }
     let id = |i: u32, j: u32| j * (nx + 1) + i;
     let faces: Vec<Vec<u32>> = (0..ny)
-        .flat_map(|j| (0..nx).map(move |i| vec![id(i, j), id(i + 1, j), id(i + 1, j + 1), id(i, j + 1)]))
+        .flat_map(|j| {
+            (0..nx).map(move |i| vec![id(i, j), id(i + 1, j), id(i + 1, j + 1), id(i, j + 1)])
+        })
         .collect();
     Mesh::from_polygons(positions, &faces).expect("a valid quad grid")
 }
@@ -110,7 +112,12 @@ fn table_3_1(ctx: &Context, cfg: &BenchConfig) -> anyhow::Result<Table> {
                 flag_patches(&p).map(|ps| tessellate(&ps, level))
             });
             t.push(vec![
-                if correct { "with (CK on)" } else { "without (CK off)" }.into(),
+                if correct {
+                    "with (CK on)"
+                } else {
+                    "without (CK off)"
+                }
+                .into(),
                 num(g.total()),
                 num(g.wall_ms),
                 num(1e3 / g.wall_ms),
@@ -137,7 +144,12 @@ fn vec4s(p: &[DVec3]) -> Vec<[f32; 4]> {
 }
 
 /// GPU SpMV of `m` applied to `cage`: timestamp median of the pass.
-fn gpu_spmv_ms(ctx: &Context, m: &SparseMatrix<f64>, cage: &[DVec3], repeats: usize) -> anyhow::Result<f64> {
+fn gpu_spmv_ms(
+    ctx: &Context,
+    m: &SparseMatrix<f64>,
+    cage: &[DVec3],
+    repeats: usize,
+) -> anyhow::Result<f64> {
     let pass = SpmvPass::new(ctx)?;
     let mut owned: Vec<Buffer> = Vec::new();
     let mut sparse = None;
@@ -176,8 +188,7 @@ fn gpu_spmv_ms(ctx: &Context, m: &SparseMatrix<f64>, cage: &[DVec3], repeats: us
 fn table_3_2(ctx: &Context, cfg: &BenchConfig) -> anyhow::Result<Table> {
     let cage = grid_cage(3, 3);
     let m = MeshMatrix::from_mesh(&cage);
-    let (topo, positions, _) =
-        crate::cli::cage::cage_topology(&cage, Tangents::OpenSubdiv)?;
+    let (topo, positions, _) = crate::cli::cage::cage_topology(&cage, Tangents::OpenSubdiv)?;
     let stencils = GregoryStencils::from_mesh(&cage, Tangents::OpenSubdiv)?.stencils;
     let mut t = Table::new(
         "thesis_3_2_subdivision_vs_gregory",

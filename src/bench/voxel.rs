@@ -107,7 +107,14 @@ pub fn time_method(
         for _ in 0..repeats.max(1) {
             let mut p = Profiler::new(ctx, 1, 4096)?;
             let t = Instant::now();
-            let out = v.voxelize(ctx, &geom, &frame, &[Axis::Z], FillRule::Winding, Some(&mut p));
+            let out = v.voxelize(
+                ctx,
+                &geom,
+                &frame,
+                &[Axis::Z],
+                FillRule::Winding,
+                Some(&mut p),
+            );
             wall.push(t.elapsed().as_secs_f64() * 1e3);
             let stats = p.stats();
             p.destroy(ctx);
@@ -189,7 +196,10 @@ pub fn run(
         // The bunny after two Loop levels (Warren β): about 1.1 M triangles.
         let fine = loop_subdivide(&load_obj(&bunny_path)?, 2, LoopBeta::Warren)?;
         let tri = triangles_of(&fine).clean().0;
-        let obj = std::env::temp_dir().join(format!("gregvox-bench-bunny-loop2-{}.obj", std::process::id()));
+        let obj = std::env::temp_dir().join(format!(
+            "gregvox-bench-bunny-loop2-{}.obj",
+            std::process::id()
+        ));
         write_tri_obj(&tri, &obj)?;
         models.push(Model {
             name: "stanford-bunny loop ×2".into(),
@@ -198,7 +208,11 @@ pub fn run(
             temp: true,
         });
     }
-    let resolutions: &[u32] = if cfg.quick { &[64, 128] } else { &[128, 256, 512, 1024] };
+    let resolutions: &[u32] = if cfg.quick {
+        &[64, 128]
+    } else {
+        &[128, 256, 512, 1024]
+    };
     let mut t = Table::new(
         "hk_table1_voxelization",
         "Harada & Koshizuka Table 1: faces × resolution → peeling time and fill time",
@@ -251,14 +265,8 @@ pub fn run(
         let big = m.tri.triangles.len() >= 1_000_000;
         for &res in resolutions {
             let reps = if big || res >= 512 { 1 } else { cfg.repeats };
-            let mut peel_row = None;
             let mut row_of = |method: Method| -> anyhow::Result<VoxTime> {
-                eprintln!(
-                    "gregvox bench: voxel {} {}³ {}",
-                    m.name,
-                    res,
-                    method.name()
-                );
+                eprintln!("gregvox bench: voxel {} {}³ {}", m.name, res, method.name());
                 let v = time_method(ctx, &m.tri, res, method, reps)?;
                 let gpu = method != Method::Cpu;
                 t.push(vec![
@@ -277,7 +285,6 @@ pub fn run(
             let p = row_of(Method::Peel)?;
             let a = row_of(Method::Abuffer)?;
             let c = row_of(Method::Cpu)?;
-            peel_row.replace((p, a, c));
             // Peers at the resolutions they finish in reasonable time (libigl evaluates res³ points).
             let peer_res = if cfg.quick { 64 } else { 256 };
             let run_peers = res <= peer_res && (res <= 128 || !big);
@@ -288,14 +295,17 @@ pub fn run(
             let mut args = vec![m.obj.display().to_string(), res.to_string()];
             args.extend(frame.origin.iter().map(|o| format!("{o:.17e}")));
             args.push(format!("{:.17e}", frame.pitch()));
-            args.push(if cfg.quick { "1".into() } else { cfg.repeats.min(3).to_string() });
+            args.push(if cfg.quick {
+                "1".into()
+            } else {
+                cfg.repeats.min(3).to_string()
+            });
             if big {
                 // trimesh's subdivision voxelizer on 1.1 M faces takes many minutes: libigl only.
                 args.push("--no-trimesh".into());
             }
             eprintln!("gregvox bench: voxel peers {} {}³", m.name, res);
             let peer = peers::python(&cfg.repo.join("bench/peers/voxel_peers.py"), &args);
-            let (p, a, c) = peel_row.expect("measured above");
             let get = |k: &str| match &peer {
                 Peer::Ran(v) => v.first().and_then(|o| o[k].as_f64()),
                 _ => None,
@@ -316,8 +326,12 @@ pub fn run(
                 cell("trimesh_s", "not run (minutes at this size)"),
                 speedup(get("trimesh_s").map(|s| s * 1e3), p.wall_ms),
                 p.solid.into(),
-                get("igl_solid").map(|x| (x as u64).into()).unwrap_or(Value::Null),
-                get("trimesh_solid").map(|x| (x as u64).into()).unwrap_or(Value::Null),
+                get("igl_solid")
+                    .map(|x| (x as u64).into())
+                    .unwrap_or(Value::Null),
+                get("trimesh_solid")
+                    .map(|x| (x as u64).into())
+                    .unwrap_or(Value::Null),
             ]);
         }
     }
@@ -340,7 +354,11 @@ pub fn sphere_with(triangles: usize) -> TriMesh {
 /// The resolution and triangle-count curves.
 pub fn scaling(ctx: &Context, cfg: &BenchConfig, report: &mut Report) -> anyhow::Result<()> {
     let bunny = model_triangles(&cfg.model("stanford-bunny.obj")?)?;
-    let resolutions: &[u32] = if cfg.quick { &[32, 64] } else { &[64, 128, 256, 512, 1024] };
+    let resolutions: &[u32] = if cfg.quick {
+        &[32, 64]
+    } else {
+        &[64, 128, 256, 512, 1024]
+    };
     let mut series = Vec::new();
     for method in Method::ALL {
         let mut pts = Vec::new();
@@ -375,8 +393,16 @@ pub fn scaling(ctx: &Context, cfg: &BenchConfig, report: &mut Report) -> anyhow:
         let mut pts = Vec::new();
         for &n in counts {
             let tri = sphere_with(n);
-            let reps = if n >= 1_000_000 { 1 } else { cfg.repeats.min(3) };
-            eprintln!("gregvox bench: scaling {} triangles {}", tri.triangles.len(), method.name());
+            let reps = if n >= 1_000_000 {
+                1
+            } else {
+                cfg.repeats.min(3)
+            };
+            eprintln!(
+                "gregvox bench: scaling {} triangles {}",
+                tri.triangles.len(),
+                method.name()
+            );
             let v = time_method(ctx, &tri, res, method, reps)?;
             pts.push((tri.triangles.len() as f64, v.wall_ms));
         }
@@ -385,7 +411,8 @@ pub fn scaling(ctx: &Context, cfg: &BenchConfig, report: &mut Report) -> anyhow:
     report.curves.push(Curve {
         id: "scaling_triangles".into(),
         title: format!("Voxelization time vs triangle count (spheres, {res}³, wall)"),
-        note: "Procedural UV spheres (depth complexity 2 along z) from 5 k to 1.6 M triangles.".into(),
+        note: "Procedural UV spheres (depth complexity 2 along z) from 5 k to 1.6 M triangles."
+            .into(),
         x_label: "triangles".into(),
         y_label: "ms".into(),
         series,

@@ -42,9 +42,8 @@ pub fn run(args: &BenchArgs) -> anyhow::Result<()> {
         Some(path) => {
             let text = std::fs::read_to_string(path)
                 .with_context(|| format!("{}: cannot read", path.display()))?;
-            serde_json::from_str::<Report>(&text).with_context(|| {
-                format!("{}: not a gregvox bench results.json", path.display())
-            })?
+            serde_json::from_str::<Report>(&text)
+                .with_context(|| format!("{}: not a gregvox bench results.json", path.display()))?
         }
         None => measure(args)?,
     };
@@ -109,7 +108,10 @@ fn measure(args: &BenchArgs) -> anyhow::Result<Report> {
 
 /// Writes the document to `doc` and copies the plots from `out` into `bench/` beside it.
 fn write_doc(report: &Report, out: &Path, doc: &Path) -> anyhow::Result<()> {
-    let dir = doc.parent().filter(|p| !p.as_os_str().is_empty()).unwrap_or(Path::new("."));
+    let dir = doc
+        .parent()
+        .filter(|p| !p.as_os_str().is_empty())
+        .unwrap_or(Path::new("."));
     let images = dir.join("bench");
     std::fs::create_dir_all(&images).with_context(|| images.display().to_string())?;
     for c in &report.curves {
