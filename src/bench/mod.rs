@@ -341,6 +341,21 @@ impl Report {
             self.command
         ));
         s.push_str(
+            "Reproduce every table and plot (one command, from the repository root, on a quiet machine):\n\n\
+             ```sh\n\
+             bash bench/peers/install.sh && cargo build --release && \\\n  \
+             VK_DRIVER_FILES=/usr/share/vulkan/icd.d/lvp_icd.x86_64.json LP_NUM_THREADS=2 \\\n  \
+             ./target/release/gregvox bench --doc docs/benchmarks.md\n\
+             ```\n\n",
+        );
+        if m.build.starts_with("debug") {
+            s.push_str(
+                "**This run used a debug build**: gregvox's own CPU code (the CPU columns, the peak kernels) ran \
+                 unoptimised, so CPU figures and floors are not representative; GPU (lavapipe) figures are, as \
+                 the driver is optimised either way.\n\n",
+            );
+        }
+        s.push_str(
             "Conventions: times are medians of repeats measured in this run, in ms unless a column says \
              otherwise. GPU times are Vulkan timestamp queries; on lavapipe they measure the CPU driver \
              executing the commands on the same cores. \"speed-up\" = peer time / gregvox time (above 1: \

@@ -175,7 +175,7 @@ struct Model {
 pub fn run(
     ctx: &Context,
     cfg: &BenchConfig,
-    _peak: Option<&Peak>,
+    peak: Option<&Peak>,
     report: &mut Report,
 ) -> anyhow::Result<()> {
     let bunny_path = cfg.model("stanford-bunny.obj")?;
@@ -219,7 +219,8 @@ pub fn run(
         &format!(
             "Solid voxelization along z, winding rule. peeling = count pre-pass + peel layers (abuffer: count + \
              prefix sum + scatter), fill = fill pass (abuffer: sort + fill), GPU timestamps; wall = the whole \
-             call including uploads and the grid readback; cpu = the rayon scanline voxelizer (wall only). \
+             call including uploads and the grid readback; cpu = the rayon scanline voxelizer (wall only); fill \
+             floor = (res³/8 output bytes + layers·res²·4 depth bytes) at the measured copy bandwidth. \
              Median of {} repeats (one run at ≥ 512³ or ≥ 1 M faces). The paper (2006, GeForce 7800): peeling \
              time proportional to faces, fill time independent of faces.",
             cfg.repeats
@@ -232,6 +233,7 @@ pub fn run(
             "layers",
             "peeling ms",
             "fill ms",
+            "fill floor ms",
             "wall ms",
             "solid voxels",
         ],
@@ -277,6 +279,17 @@ pub fn run(
                     if gpu { v.layers.into() } else { Value::Null },
                     if gpu { num(v.peeling_ms) } else { Value::Null },
                     if gpu { num(v.fill_ms) } else { Value::Null },
+                    match (gpu, peak) {
+                        // The fill reads every layer's depths once and writes the bit grid: memory-bound
+                        // (a compare per layer and column, no arithmetic to speak of).
+                        (true, Some(p)) => num(p.floor_ms(
+                            1.0,
+                            0.0,
+                            (res as f64).powi(3) / 8.0
+                                + v.layers as f64 * (res as f64).powi(2) * 4.0,
+                        )),
+                        _ => Value::Null,
+                    },
                     num(v.wall_ms),
                     v.solid.into(),
                 ]);
