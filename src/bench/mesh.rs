@@ -42,7 +42,7 @@ pub fn run(cfg: &BenchConfig, peak: Option<&Peak>, report: &mut Report) -> anyho
             &cfg.repo.join("tests/oracle/bench_mesh_peers.py"),
             &[
                 "--repeat".into(),
-                "3".into(),
+                "1".into(),
                 "--json".into(),
                 out.display().to_string(),
             ],
@@ -74,8 +74,8 @@ pub fn run(cfg: &BenchConfig, peak: Option<&Peak>, report: &mut Report) -> anyho
         "mesh_peers",
         "Mesh kernels (CPU) vs libigl and trimesh",
         &format!(
-            "gregvox: median of {} runs (single thread, as the peers); peers: tests/oracle/bench_mesh_peers.py (median of 3, one \
-             process), same meshes (the peers drop the bunny's 1,113 unreferenced vertices). speed-up = peer / \
+            "gregvox: median of {} runs (single thread, as the peers); peers: tests/oracle/bench_mesh_peers.py (`--repeat 1`: one run after a warm-up on the bunny, median of 2 on 1.1 M faces; \
+             one process), same meshes (the peers drop the bunny's 1,113 unreferenced vertices). speed-up = peer / \
              gregvox. Floor = max(flops, bytes) at the measured peaks (normals: {NORMALS_FLOPS_PER_FACE} flops, \
              {NORMALS_BYTES_PER_FACE} B per face; S·P: {SPMV_FLOPS_PER_NNZ} flops, {SPMV_BYTES_PER_NNZ} B per \
              non-zero).",
