@@ -10,6 +10,7 @@ packages=(
   mesa-vulkan-drivers libvulkan-dev vulkan-tools vulkan-validationlayers  # loader, lavapipe, validation layer
   libshaderc-dev glslang-dev spirv-tools                                  # shaderc's static libraries (build.rs)
   xvfb xauth                                                              # the windowed demo without a screen
+  fonts-dejavu-core                                                       # labels of `gregvox bench`'s plots
 )
 missing=()
 for p in "${packages[@]}"; do

@@ -3,6 +3,7 @@
 //! Layering (nothing below imports from a row above it):
 //! `cli` → `demo` → `engine` → `passes` → `surface`, `voxel` → `mesh` → `geom`; `gpu` is the Vulkan foundation and knows no
 //! geometry; `error` is shared by all.
+pub mod bench;
 pub mod cli;
 pub mod demo;
 pub mod engine;

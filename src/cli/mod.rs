@@ -3,6 +3,7 @@
 use clap::{Parser, Subcommand};
 use std::process::ExitCode;
 
+pub mod bench;
 pub mod cage;
 pub mod info;
 pub mod mesh;
@@ -33,6 +34,8 @@ pub enum Command {
     Voxelize(voxelize::VoxelizeArgs),
     /// Run the live demo in a window, or offscreen writing PNG frames.
     Demo(crate::demo::DemoArgs),
+    /// Run the benchmark suites: tables (markdown, CSV, JSON) and scaling plots (PNG).
+    Bench(bench::BenchArgs),
 }
 
 /// Writes `text` to stdout; a closed pipe (`gregvox info | head`) is not an error.
@@ -58,6 +61,7 @@ pub fn main() -> ExitCode {
         Command::Demo(a) => crate::demo::run(&a),
         Command::Voxelize(a) => voxelize::run(&a),
         Command::Tessellate(a) => tessellate::run(&a),
+        Command::Bench(a) => bench::run(&a),
     };
     // Resource hygiene: every context of the run has been destroyed by now (each command owns its own). A
     // leaked allocation or any validation message (the layer reports undestroyed Vulkan objects when the

@@ -481,7 +481,7 @@ fn evaluate(
 /// Draws the patches through the capturing vertex-pull pipeline into a small offscreen target and returns
 /// the evaluated vertices (in the compute path's order).
 #[allow(clippy::too_many_arguments)]
-fn vertex_pull(
+pub fn vertex_pull(
     ctx: &Context,
     kind: PatchKind,
     points: &Buffer,

@@ -1,0 +1,393 @@
+//! Suite `gregory`: Gregory evaluation throughput (vertices/s from timestamps) on spot_quadrangulated and a
+//! large cage (spot after one Catmull–Clark level), compute path vs vertex-pull path, beside OpenSubdiv's
+//! single-thread CPU evaluation of the same samples (bench/peers/osd_eval_bench.cpp); and (suite `scaling`)
+//! time against the tessellation level 1…64.
+//!
+//! Invariants:
+//! - Both gregvox paths evaluate the same (level+1)² samples per patch with position and normal (from both
+//!   derivatives); OpenSubdiv evaluates the same samples with position and both derivatives. W·cage is not
+//!   in either figure (OpenSubdiv's local points are likewise computed before timing).
+//! - A size that exceeds a device limit (one storage binding ≤ maxStorageBufferRange) is a row that says so.
+//! - Uniform vs adaptive tessellation: when `GregorySurface` gains an adaptive mode, add one [`EvalPath`]
+//!   variant and its arm in [`time_path`]; the table, the OSD columns and the curves pick it up unchanged.
+use super::peak::Peak;
+use super::peers::{self, Peer};
+use super::{num, speedup, time_cpu, time_gpu, BenchConfig, Curve, Report, Series, Table};
+use crate::engine::gregory::{GregorySurface, GregoryTopology};
+use crate::gpu::{Buffer, Context, MemoryLocation, Profiler};
+use crate::mesh::{catmull_clark, load_obj, Mesh};
+use crate::passes::gregory_eval::{vertex_count, GregoryEvalPass};
+use crate::passes::patch_pull::PatchKind;
+use crate::surface::{tessellate, GregoryStencils, Tangents};
+use ash::vk;
+use glam::DVec3;
+use serde_json::Value;
+
+/// Estimated f32 operations per evaluated vertex in glsl/gregory_eval.comp: the four rational interior
+/// blends (~40), cubic Bernstein weights and their derivatives in u and v (~20), position and two
+/// derivatives as 16-point tensor sums (3 × 96), the normal (cross product + normalise, ~15). An operation
+/// count of the formulas, not a hardware counter.
+pub const EVAL_FLOPS_PER_VERTEX: f64 = 365.0;
+/// Bytes written per vertex (`SurfaceVertex`: position + normal, stride 32).
+pub const EVAL_BYTES_PER_VERTEX: f64 = 32.0;
+
+/// The evaluation paths compared.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum EvalPath {
+    /// Compute shader into the device-local vertex buffer (`gregory_eval`).
+    Compute,
+    /// Instanced grid, evaluation in the vertex shader, captured to a buffer (`vertex_pull`).
+    VertexPull,
+}
+
+impl EvalPath {
+    /// Every path measured.
+    pub const ALL: [EvalPath; 2] = [EvalPath::Compute, EvalPath::VertexPull];
+
+    /// Column / series name.
+    pub fn name(self) -> &'static str {
+        match self {
+            EvalPath::Compute => "compute",
+            EvalPath::VertexPull => "vertex pull",
+        }
+    }
+}
+
+/// Median evaluation ms of `path` at `level` (timestamps of the evaluation pass only), or the limit hit.
+pub fn time_path(
+    ctx: &Context,
+    topo: &GregoryTopology,
+    cage: &[DVec3],
+    level: u32,
+    path: EvalPath,
+    repeats: usize,
+) -> anyhow::Result<Result<f64, String>> {
+    let surface = match GregorySurface::new(ctx, topo, cage, level) {
+        Ok(s) => s,
+        Err(e @ crate::Error::Limit { .. }) => return Ok(Err(format!("{e}"))),
+        Err(e) => return Err(e.into()),
+    };
+    let r = (|| -> anyhow::Result<f64> {
+        match path {
+            EvalPath::Compute => {
+                // The evaluation pass alone in its own submission (the control points are computed once
+                // before): on lavapipe, consecutive timestamp scopes in one command buffer can attribute a
+                // dispatch's time to its neighbour, so the pass is timed by itself.
+                ctx.one_shot(|cmd| surface.record(ctx, cmd, None, None))?;
+                let eval = GregoryEvalPass::new(ctx)?;
+                let mut owned: Vec<Buffer> = Vec::new();
+                let r = (|| -> anyhow::Result<f64> {
+                    let ids: Vec<u32> = topo.patch_points.iter().flatten().copied().collect();
+                    let storage = vk::BufferUsageFlags::STORAGE_BUFFER;
+                    owned.push(ctx.upload_buffer(
+                        "bench patch points",
+                        bytemuck::cast_slice(&ids),
+                        storage,
+                    )?);
+                    owned.push(ctx.upload_buffer(
+                        "bench patch flags",
+                        bytemuck::cast_slice(&topo.patch_flags),
+                        storage,
+                    )?);
+                    owned.push(ctx.create_buffer(
+                        "bench vertices",
+                        vertex_count(surface.patch_count, level) * 32,
+                        storage,
+                        MemoryLocation::GpuOnly,
+                    )?);
+                    let g = time_gpu(ctx, 2, repeats, |cmd, prof| {
+                        let run = || {
+                            eval.record(
+                                ctx,
+                                cmd,
+                                surface.points(),
+                                &owned[0],
+                                &owned[1],
+                                surface.patch_count,
+                                level,
+                                true,
+                                &owned[2],
+                            )
+                        };
+                        match prof {
+                            Some((p, slot)) => p.scope(ctx, cmd, slot, "gregory_eval", run),
+                            None => run(),
+                        }
+                    })?;
+                    Ok(g.pass("gregory_eval"))
+                })();
+                for b in owned {
+                    b.destroy(ctx);
+                }
+                eval.destroy(ctx);
+                r
+            }
+            EvalPath::VertexPull => {
+                ctx.one_shot(|cmd| surface.record(ctx, cmd, None, None))?;
+                let ids: Vec<u32> = topo.patch_points.iter().flatten().copied().collect();
+                let pp = ctx.upload_buffer(
+                    "bench patch points",
+                    bytemuck::cast_slice(&ids),
+                    vk::BufferUsageFlags::STORAGE_BUFFER,
+                )?;
+                let mut profiler = Profiler::new(ctx, 1, repeats as u32 + 8)?;
+                // One untimed draw pays the pipeline JIT; the median of the next `repeats` is reported.
+                let r = crate::cli::tessellate::vertex_pull(
+                    ctx,
+                    PatchKind::Gregory,
+                    surface.points(),
+                    &pp,
+                    surface.patch_count,
+                    level,
+                    1 + repeats as u32,
+                    &mut profiler,
+                )
+                .map(|_| {
+                    let mut times: Vec<f64> = profiler
+                        .trace()
+                        .iter()
+                        .filter(|e| e.name == "vertex_pull")
+                        .map(|e| e.duration_ns * 1e-6)
+                        .collect();
+                    if times.len() > 1 {
+                        times.remove(0);
+                    }
+                    super::median(&times)
+                });
+                profiler.destroy(ctx);
+                pp.destroy(ctx);
+                r
+            }
+        }
+    })();
+    surface.destroy(ctx);
+    match r {
+        Ok(ms) => Ok(Ok(ms)),
+        Err(e) => match e.downcast_ref::<crate::Error>() {
+            Some(crate::Error::Limit { .. }) => Ok(Err(format!("{e}"))),
+            _ => Err(e),
+        },
+    }
+}
+
+/// Runs OpenSubdiv's evaluation of `cage_obj` at `levels`: level → median seconds.
+fn osd(
+    cfg: &BenchConfig,
+    cage_obj: &std::path::Path,
+    levels: &[u32],
+    repeats: usize,
+) -> (Peer, Vec<(u32, f64)>) {
+    let bin = cfg.peers.join("osd_eval_bench");
+    let mut args = vec![cage_obj.display().to_string(), repeats.to_string()];
+    args.extend(levels.iter().map(|l| l.to_string()));
+    let peer = if bin.is_file() {
+        peers::run(&bin, &args)
+    } else {
+        Peer::Missing(format!("{} not built", bin.display()))
+    };
+    let rows = match &peer {
+        Peer::Ran(v) => v
+            .iter()
+            .filter_map(|o| Some((o["level"].as_u64()? as u32, o["median_s"].as_f64()?)))
+            .collect(),
+        _ => Vec::new(),
+    };
+    (peer, rows)
+}
+
+fn topology(mesh: &Mesh) -> anyhow::Result<(GregoryTopology, Vec<DVec3>)> {
+    let (t, c, _) = crate::cli::cage::cage_topology(mesh, Tangents::OpenSubdiv)?;
+    Ok((t, c))
+}
+
+/// Runs the throughput table.
+pub fn run(
+    ctx: &Context,
+    cfg: &BenchConfig,
+    peak: Option<&Peak>,
+    report: &mut Report,
+) -> anyhow::Result<()> {
+    let spot_path = cfg.model("spot_quadrangulated.obj")?;
+    let spot = load_obj(&spot_path)?;
+    let mut cages: Vec<(String, Mesh, std::path::PathBuf, Vec<u32>)> = vec![(
+        "spot_quadrangulated".into(),
+        spot.clone(),
+        spot_path,
+        if cfg.quick {
+            vec![4, 8]
+        } else {
+            vec![4, 8, 16, 32, 64]
+        },
+    )];
+    let mut tmp_obj = None;
+    if !cfg.quick {
+        // The large cage: spot after one Catmull–Clark level (4× the patches), written for the OSD peer.
+        let big = catmull_clark(&spot, 1);
+        let p =
+            std::env::temp_dir().join(format!("gregvox-bench-spot-cc1-{}.obj", std::process::id()));
+        crate::mesh::write_obj(&p, &big)?;
+        tmp_obj = Some(p.clone());
+        cages.push((
+            "spot_cc1 (large cage)".into(),
+            big,
+            p,
+            vec![4, 8, 16, 32, 64],
+        ));
+    }
+    let mut t = Table::new(
+        "gregory_throughput",
+        "Gregory evaluation throughput: compute vs vertex pull vs OpenSubdiv (CPU, 1 thread)",
+        &format!(
+            "Vertices/s = patches·(level+1)² / median evaluation time ({} repeats; gregvox: timestamps of the \
+             evaluation pass; OpenSubdiv 3.5: FindPatch + EvaluateBasis + weighted sums for position and both \
+             derivatives, one thread, std::chrono). speed-up = OSD time / compute time (issue 6 aims at ≥ 2). \
+             Floor = max(flops, bytes) at the measured peaks with ≈{EVAL_FLOPS_PER_VERTEX} flops and \
+             {EVAL_BYTES_PER_VERTEX} B per vertex (operation-count estimate); floor % = floor / compute time.",
+            cfg.repeats
+        ),
+        &[
+            "cage",
+            "patches",
+            "level",
+            "vertices",
+            "compute ms",
+            "compute Mvert/s",
+            "vertex-pull ms",
+            "vertex-pull Mvert/s",
+            "OSD ms",
+            "OSD Mvert/s",
+            "speed-up vs OSD",
+            "floor ms",
+            "floor %",
+        ],
+    );
+    let osd_repeats = if cfg.quick { 1 } else { 3 };
+    let compute_ctx = super::compute_context()?;
+    let r = (|| -> anyhow::Result<()> {
+        for (name, mesh, obj, levels) in &cages {
+            let (topo, cage) = topology(mesh)?;
+            let patches = topo.patch_points.len() as u32;
+            let fits: Vec<u32> = levels
+                .iter()
+                .copied()
+                .filter(|&l| {
+                    vertex_count(patches, l) * 32 <= ctx.info.max_storage_buffer_range as u64
+                })
+                .collect();
+            let (peer, osd_rows) = osd(cfg, obj, &fits, osd_repeats);
+            for &level in levels {
+                let n = vertex_count(patches, level) as f64;
+                let c = time_path(
+                    &compute_ctx,
+                    &topo,
+                    &cage,
+                    level,
+                    EvalPath::Compute,
+                    cfg.repeats,
+                )?;
+                let v = time_path(ctx, &topo, &cage, level, EvalPath::VertexPull, cfg.repeats)?;
+                let cell = |r: &Result<f64, String>| -> (Value, Value) {
+                    match r {
+                        Ok(ms) => (num(*ms), num(n / (ms * 1e-3) / 1e6)),
+                        Err(_) => ("exceeds maxStorageBufferRange".into(), Value::Null),
+                    }
+                };
+                let (cm, cr) = cell(&c);
+                let (vm, vr) = cell(&v);
+                let o = osd_rows.iter().find(|r| r.0 == level).map(|r| r.1 * 1e3);
+                let (om, or) = match (o, &peer) {
+                    (Some(ms), _) => (num(ms), num(n / (ms * 1e-3) / 1e6)),
+                    (None, Peer::Ran(_)) => {
+                        ("not run (size past the GPU limit)".into(), Value::Null)
+                    }
+                    (None, p) => (p.status().into(), Value::Null),
+                };
+                let floor =
+                    peak.map(|p| p.floor_ms(n, EVAL_FLOPS_PER_VERTEX, EVAL_BYTES_PER_VERTEX));
+                t.push(vec![
+                    name.clone().into(),
+                    patches.into(),
+                    level.into(),
+                    (n as u64).into(),
+                    cm,
+                    cr,
+                    vm,
+                    vr,
+                    om,
+                    or,
+                    c.as_ref().map(|&ms| speedup(o, ms)).unwrap_or(Value::Null),
+                    floor.map(num).unwrap_or(Value::Null),
+                    match (floor, &c) {
+                        (Some(f), Ok(ms)) => num(100.0 * f / ms),
+                        _ => Value::Null,
+                    },
+                ]);
+            }
+        }
+        Ok(())
+    })();
+    super::finish_context(compute_ctx)?;
+    if let Some(p) = tmp_obj {
+        let _ = std::fs::remove_file(p);
+    }
+    r?;
+    report.tables.push(t);
+    Ok(())
+}
+
+/// The tessellation-level curve: compute, vertex pull and the f64 CPU evaluation on a 160-patch box cage.
+pub fn scaling(ctx: &Context, cfg: &BenchConfig, report: &mut Report) -> anyhow::Result<()> {
+    let mesh = crate::cli::cage::builtin_cage(8, 4, 4);
+    let (topo, cage) = topology(&mesh)?;
+    let stencils = GregoryStencils::from_mesh(&mesh, Tangents::OpenSubdiv)?.stencils;
+    let patches = stencils.patches_f64(&cage)?;
+    let levels: &[u32] = if cfg.quick {
+        &[1, 2, 4, 8]
+    } else {
+        &[1, 2, 4, 8, 16, 32, 64]
+    };
+    let mut series: Vec<Series> = Vec::new();
+    let compute_ctx = super::compute_context()?;
+    let r = (|| -> anyhow::Result<()> {
+        for path in EvalPath::ALL {
+            let c = if path == EvalPath::Compute {
+                &compute_ctx
+            } else {
+                ctx
+            };
+            let mut pts = Vec::new();
+            for &l in levels {
+                if let Ok(ms) = time_path(c, &topo, &cage, l, path, cfg.repeats)? {
+                    pts.push((l as f64, ms));
+                }
+            }
+            series.push(Series::new(path.name(), pts));
+        }
+        Ok(())
+    })();
+    super::finish_context(compute_ctx)?;
+    r?;
+    let pts = levels
+        .iter()
+        .map(|&l| {
+            (
+                l as f64,
+                time_cpu(cfg.repeats.min(5), || tessellate(&patches, l)),
+            )
+        })
+        .collect();
+    series.push(Series::new("CPU f64 (1 thread)", pts));
+    report.curves.push(Curve {
+        id: "scaling_level".into(),
+        title: "Gregory evaluation time vs tessellation level".into(),
+        note: format!(
+            "Box cage of {} patches (builtin_cage 8×4×4); (level+1)² vertices per patch, so the ideal growth \
+             is 2 once fixed costs are amortised.",
+            topo.patch_points.len()
+        ),
+        x_label: "level".into(),
+        y_label: "ms".into(),
+        series,
+    });
+    Ok(())
+}

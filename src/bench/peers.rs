@@ -1,0 +1,73 @@
+//! The peer programs, run as subprocesses in the same run as gregvox's measurements.
+//!
+//! Invariants: a peer that is not installed yields [`Peer::Missing`] with the one command that installs it
+//! (never an error and never a number); a peer that runs but fails yields [`Peer::Failed`] with its stderr
+//! tail. Peers are installed by `bash bench/peers/install.sh` (pip requirements + the OpenSubdiv program).
+use serde_json::Value;
+use std::path::Path;
+use std::process::Command;
+
+/// The install command every "peer not installed" row names.
+pub const INSTALL: &str = "bash bench/peers/install.sh";
+
+/// A peer's outcome.
+#[derive(Clone, Debug)]
+pub enum Peer {
+    /// Parsed JSON lines of stdout.
+    Ran(Vec<Value>),
+    /// Not installed: what is missing.
+    Missing(String),
+    /// Ran and failed.
+    Failed(String),
+    /// Deliberately not run in this configuration (why).
+    Skipped(String),
+}
+
+impl Peer {
+    /// The text for a table cell when there is no number.
+    pub fn status(&self) -> String {
+        match self {
+            Peer::Ran(_) => "ran".into(),
+            Peer::Missing(what) => format!("peer not installed ({what}): run `{INSTALL}`"),
+            Peer::Failed(e) => format!("peer failed: {e}"),
+            Peer::Skipped(why) => format!("peer not run: {why}"),
+        }
+    }
+}
+
+/// Runs `program args…` and parses every stdout line that is a JSON value.
+pub fn run(program: &Path, args: &[String]) -> Peer {
+    let out = match Command::new(program).args(args).output() {
+        Ok(o) => o,
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => {
+            return Peer::Missing(format!("{} not found", program.display()))
+        }
+        Err(e) => return Peer::Failed(format!("{}: {e}", program.display())),
+    };
+    if !out.status.success() {
+        let err = String::from_utf8_lossy(&out.stderr);
+        let tail: Vec<&str> = err.lines().rev().take(3).collect();
+        let tail: Vec<&str> = tail.into_iter().rev().collect();
+        // A Python peer whose module is absent is "not installed", not "failed".
+        if let Some(line) = tail.iter().find(|l| l.contains("ModuleNotFoundError")) {
+            return Peer::Missing(line.trim().to_string());
+        }
+        return Peer::Failed(format!("{} ({})", tail.join(" / "), out.status));
+    }
+    let values = String::from_utf8_lossy(&out.stdout)
+        .lines()
+        .filter_map(|l| serde_json::from_str::<Value>(l.trim()).ok())
+        .filter(|v| v.is_object() || v.is_array())
+        .collect();
+    Peer::Ran(values)
+}
+
+/// Runs a Python peer script with `python3`.
+pub fn python(script: &Path, args: &[String]) -> Peer {
+    if !script.is_file() {
+        return Peer::Missing(format!("{} not found", script.display()));
+    }
+    let mut all = vec![script.display().to_string()];
+    all.extend_from_slice(args);
+    run(Path::new("python3"), &all)
+}
