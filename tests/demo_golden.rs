@@ -54,6 +54,9 @@ const FRAMES: &[(&str, &[&str], bool)] = &[
         true,
     ),
     ("spinner", &["--scene", "spinner"], true),
+    ("voxels", &["--scene", "voxels", "--voxel-res", "32"], true),
+    ("curves", &["--scene", "curves"], true),
+    ("beziex", &["--scene", "beziex"], true),
 ];
 
 /// Frame size of the golden images: small enough to commit, large enough to show the shading.

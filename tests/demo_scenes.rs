@@ -14,7 +14,7 @@ use common::with_gpu;
 use glam::{DVec2, Vec3};
 use gregvox::cli::cage::{builtin_cage, cage_topology};
 use gregvox::demo::curves::{casteljau_t, curve_lines, expected_vertices, CurvesScene};
-use gregvox::demo::scene::{FrameTargets, Scene, ViewState};
+use gregvox::demo::scene::{DrawPath, FrameTargets, Scene, ViewState};
 use gregvox::demo::voxels::{VoxelsOptions, VoxelsScene};
 use gregvox::demo::{build_scene, DemoArgs, Renderer, FRAMES_IN_FLIGHT};
 use gregvox::engine::gregory::GregorySurface;
@@ -353,6 +353,7 @@ fn one_frame(ctx: &Context, scene: &mut dyn Scene, t: f32) {
         orbit: scene.framing(),
         shading: ShadingMode::Phong,
         animate: true,
+        path: DrawPath::Compute,
     };
     ctx.one_shot(|cmd| {
         begin_color_target(ctx, cmd, color.raw);
@@ -563,7 +564,7 @@ fn render(ctx: &Context, args: &[&str], frames: u32) -> (u32, u32, Vec<Vec<u8>>)
     let (w, h) = cli.demo.size;
     let mut target = OffscreenTarget::new(ctx, w, h, FRAMES_IN_FLIGHT).unwrap();
     let scene = build_scene(ctx, &cli.demo, FORMAT).unwrap();
-    let mut r = Renderer::new(ctx, scene, cli.demo.shading).unwrap();
+    let mut r = Renderer::new(ctx, scene, cli.demo.shading, DrawPath::Compute).unwrap();
     for f in 0..frames {
         let begun = r.begin_frame(ctx).unwrap();
         assert!(r.draw(ctx, begun, &mut target, f as f32 * 0.5).unwrap());

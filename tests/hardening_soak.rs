@@ -7,7 +7,7 @@
 //! To add a scene, add its name to SCENES.
 use std::process::Command;
 
-const SCENES: &[&str] = &["cage", "flag"];
+const SCENES: &[&str] = &["cage", "flag", "voxels"];
 /// Frames per scene in CI (about 10 s for the cage in the debug test profile on lavapipe).
 const FRAMES: u64 = 1000;
 /// Warm-up: pipelines JIT-compiled, allocator pools and the driver's caches filled.
