@@ -54,6 +54,20 @@ const FRAMES: &[(&str, &[&str], bool)] = &[
         true,
     ),
     ("spinner", &["--scene", "spinner"], true),
+    (
+        "cage_adaptive",
+        &[
+            "--scene",
+            "cage",
+            "--adaptive",
+            "4",
+            "--level",
+            "16",
+            "--shading",
+            "zebra",
+        ],
+        true,
+    ),
     ("voxels", &["--scene", "voxels", "--voxel-res", "32"], true),
     ("curves", &["--scene", "curves"], true),
     ("beziex", &["--scene", "beziex"], true),
@@ -554,13 +568,20 @@ fn shadow_map_darkens_exactly_the_ground_the_cpu_ray_cast_puts_in_shadow() {
                 ctx,
                 cmd,
                 light_view_proj(light_dir, Vec3::ZERO, 2.5),
-                &[(&occ_v, &ib, 6)],
+                &[LitDraw {
+                    vertices: &occ_v,
+                    curvature: None,
+                    indices: &ib,
+                    index_count: 6,
+                    indirect: None,
+                }],
             );
             let lit = |v| LitDraw {
                 vertices: v,
                 curvature: None,
                 indices: &ib,
                 index_count: 6,
+                indirect: None,
             };
             draw.record_lit(
                 ctx,

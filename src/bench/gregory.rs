@@ -8,8 +8,8 @@
 //!   derivatives); OpenSubdiv evaluates the same samples with position and both derivatives. W·cage is not
 //!   in either figure (OpenSubdiv's local points are likewise computed before timing).
 //! - A size that exceeds a device limit (one storage binding ≤ maxStorageBufferRange) is a row that says so.
-//! - Uniform vs adaptive tessellation: when `GregorySurface` gains an adaptive mode, add one [`EvalPath`]
-//!   variant and its arm in [`time_path`]; the table, the OSD columns and the curves pick it up unchanged.
+//! - Uniform vs adaptive tessellation ([`adaptive`], in suite `gregory`): the whole chain is timed (the
+//!   adaptive mode adds its level pass), and the vertices each mode produces are counted from the levels.
 use super::peak::Peak;
 use super::peers::{self, Peer};
 use super::{num, speedup, time_cpu, time_gpu, BenchConfig, Curve, Report, Series, Table};
@@ -389,5 +389,110 @@ pub fn scaling(ctx: &Context, cfg: &BenchConfig, report: &mut Report) -> anyhow:
         y_label: "ms".into(),
         series,
     });
+    Ok(())
+}
+
+/// Uniform vs screen-space adaptive tessellation of spot at the same maximum level: the GPU time of the
+/// whole chain (control points, [levels,] evaluation) and the vertices each actually produces, from a near
+/// view (the model fills a 1280×720 frame) and a far one (a tenth of the frame).
+pub fn adaptive(cfg: &BenchConfig, report: &mut Report) -> anyhow::Result<()> {
+    use crate::passes::adaptive_levels::AdaptiveParams;
+    use glam::{Mat4, Vec3};
+    let spot = load_obj(&cfg.model("spot_quadrangulated.obj")?)?;
+    let (topo, cage) = topology(&spot)?;
+    let (lo, hi) = cage.iter().fold(
+        (DVec3::splat(f64::MAX), DVec3::splat(f64::MIN)),
+        |(a, b), p| (a.min(*p), b.max(*p)),
+    );
+    let centre = (0.5 * (lo + hi)).as_vec3();
+    let radius = (0.5 * (hi - lo).length()) as f32;
+    let (w, h) = (1280.0f32, 720.0f32);
+    let view = |distance: f32| {
+        let eye = centre + Vec3::new(0.6, -1.0, 0.5).normalize() * distance * radius;
+        Mat4::perspective_rh(
+            45f32.to_radians(),
+            w / h,
+            0.01 * radius,
+            100.0 * distance * radius,
+        ) * Mat4::look_at_rh(eye, centre, Vec3::Z)
+    };
+    let views = [("near", view(2.5)), ("far", view(25.0))];
+    let levels: &[u32] = if cfg.quick { &[8] } else { &[8, 16, 24] };
+    let pixels = 4.0;
+    let mut t = Table::new(
+        "gregory_adaptive",
+        "Uniform vs screen-space adaptive tessellation (spot_quadrangulated, 1280×720)",
+        &format!(
+            "Adaptive: per-patch level = longest projected boundary control-polygon edge / {pixels} px, at most \
+             L_max; shared edges take the smaller level and boundary rows snap to it (crack-free). Time: median \
+             timestamps ({} repeats) of gregory_points + [adaptive_levels +] gregory_eval on a compute-only \
+             context. Vertices: the uniform grid, or Σ(L_p+1)² of the patches' own grids.",
+            cfg.repeats
+        ),
+        &[
+            "view",
+            "L_max",
+            "uniform ms",
+            "uniform vertices",
+            "adaptive ms",
+            "adaptive vertices",
+            "mean L_p",
+            "speed-up",
+        ],
+    );
+    let ctx = super::compute_context()?;
+    let r = (|| -> anyhow::Result<()> {
+        for &l_max in levels {
+            let mut surface = GregorySurface::new(&ctx, &topo, &cage, l_max)?;
+            let r = (|| -> anyhow::Result<()> {
+                let chain = |s: &GregorySurface| {
+                    time_gpu(&ctx, 2, cfg.repeats, |cmd, prof| {
+                        s.record(&ctx, cmd, None, prof)
+                    })
+                    .map(|g| {
+                        ["gregory_points", "adaptive_levels", "gregory_eval"]
+                            .iter()
+                            .map(|n| g.pass(n))
+                            .filter(|ms| ms.is_finite())
+                            .sum::<f64>()
+                    })
+                };
+                let uniform_ms = chain(&surface)?;
+                let uniform_n = vertex_count(surface.patch_count, l_max);
+                for (name, vp) in &views {
+                    surface.set_adaptive(
+                        &ctx,
+                        Some(AdaptiveParams {
+                            view_proj: *vp,
+                            viewport: [w, h],
+                            pixels_per_segment: pixels,
+                        }),
+                    )?;
+                    let ms = chain(&surface)?;
+                    let lv = surface.read_levels(&ctx)?;
+                    let n: u64 = lv.iter().map(|&l| ((l + 1) * (l + 1)) as u64).sum();
+                    let mean = lv.iter().map(|&l| l as f64).sum::<f64>() / lv.len().max(1) as f64;
+                    t.push(vec![
+                        (*name).into(),
+                        l_max.into(),
+                        num(uniform_ms),
+                        uniform_n.into(),
+                        num(ms),
+                        n.into(),
+                        num(mean),
+                        speedup(Some(uniform_ms), ms),
+                    ]);
+                    surface.set_adaptive(&ctx, None)?;
+                }
+                Ok(())
+            })();
+            surface.destroy(&ctx);
+            r?;
+        }
+        Ok(())
+    })();
+    super::finish_context(ctx)?;
+    r?;
+    report.tables.push(t);
     Ok(())
 }

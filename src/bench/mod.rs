@@ -601,7 +601,10 @@ pub fn run(cfg: &BenchConfig, command: &str) -> anyhow::Result<Report> {
                     finish_context(c)?;
                     r?
                 }
-                "gregory" => gregory::run(&ctx, cfg, peak.as_ref(), &mut report)?,
+                "gregory" => {
+                    gregory::run(&ctx, cfg, peak.as_ref(), &mut report)?;
+                    gregory::adaptive(cfg, &mut report)?;
+                }
                 "voxel" => voxel::run(&ctx, cfg, peak.as_ref(), &mut report)?,
                 "mesh" => mesh::run(cfg, peak.as_ref(), &mut report)?,
                 "scaling" => {

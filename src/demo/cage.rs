@@ -30,11 +30,7 @@ pub fn build(ctx: &Context, args: &DemoArgs, format: vk::Format) -> anyhow::Resu
         eprintln!("gregvox demo: {n}");
     }
     let surface = GregorySurface::new(ctx, &topo, &cage, args.level.unwrap_or(8))?;
-    Ok(Box::new(CageScene::new(
-        ctx,
-        format,
-        surface,
-        args.deform,
-        name,
-    )?))
+    let mut scene = CageScene::new(ctx, format, surface, args.deform, name)?;
+    scene.adaptive = args.adaptive;
+    Ok(Box::new(scene))
 }

@@ -64,6 +64,10 @@ pub struct DemoArgs {
     /// Cage: the OBJ quad cage (default: a cage built into the binary).
     #[arg(long)]
     pub model: Option<PathBuf>,
+    /// Cage: screen-space adaptive tessellation at this many pixels per segment, the level as the maximum
+    /// (key A toggles it at 8 px).
+    #[arg(long, value_name = "PIXELS", value_parser = parse_pixels)]
+    pub adaptive: Option<f32>,
     /// Cage: the deformation.
     #[arg(long, value_enum, default_value = "twist")]
     pub deform: Deformation,
@@ -108,6 +112,14 @@ fn soak_report(frame: &str) {
     match rss {
         Some(kib) => eprintln!("gregvox demo: soak rss_kib {frame} {kib}"),
         None => eprintln!("gregvox demo: soak rss_kib {frame} unavailable"),
+    }
+}
+
+/// Parses a positive, finite pixel count.
+fn parse_pixels(s: &str) -> Result<f32, String> {
+    match s.trim().parse::<f32>() {
+        Ok(p) if p.is_finite() && p > 0.0 => Ok(p),
+        _ => Err(format!("'{s}' is not a positive number of pixels")),
     }
 }
 

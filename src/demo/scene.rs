@@ -10,6 +10,7 @@
 use crate::engine::flag::FlagSurface;
 use crate::engine::gregory::GregorySurface;
 use crate::gpu::{Buffer, Context, MemoryLocation, Profiler};
+use crate::passes::adaptive_levels::AdaptiveParams;
 use crate::passes::cage_deform::{DeformParams, Deformation};
 use crate::passes::gregory_eval::{grid_indices, vertex_count};
 use crate::passes::patch_pull::{PatchKind, PatchPullPass};
@@ -17,7 +18,8 @@ use crate::passes::shadow_map::{light_view_proj, ShadowMap};
 use crate::passes::spinner::SpinnerPass;
 use crate::passes::surface_curvature::{SurfaceCurvaturePass, CURVATURE_STRIDE};
 use crate::passes::surface_draw::{
-    DrawTarget, LitDraw, ShadingMode, SurfaceDrawPass, SurfacePush, FLAG_GROUND, FLAG_SHADOWS,
+    DrawTarget, IndirectDraw, LitDraw, ShadingMode, SurfaceDrawPass, SurfacePush, FLAG_GROUND,
+    FLAG_SHADOWS,
 };
 use crate::passes::triangles::TrianglesPass;
 use ash::vk;
@@ -234,6 +236,10 @@ pub struct SurfaceFrame<'a> {
     /// `None`: no curvature modes (Phong instead) and no vertex-pull path.
     pub patches: Option<PatchSource<'a>>,
     pub color: [f32; 3],
+    /// Adaptive tessellation: `indices` holds every level's grid and each patch draws its own through these
+    /// commands. The curvature modes and the vertex-pull path work on uniform grids only (Phong and the
+    /// compute path instead).
+    pub indirect: Option<IndirectDraw<'a>>,
 }
 
 /// Where a surface scene sits: a sphere around the (animated) surface and the ground plane under it.
@@ -385,13 +391,19 @@ impl SurfaceLook {
                 ctx,
                 cmd,
                 light,
-                &[(surface.vertices, surface.indices, surface.index_count)],
+                &[LitDraw {
+                    vertices: surface.vertices,
+                    curvature: None,
+                    indices: surface.indices,
+                    index_count: surface.index_count,
+                    indirect: surface.indirect,
+                }],
             )
         });
         let mut shading = view.shading;
         let mut curvature = None;
         match (surface.patches, &self.curvature) {
-            (Some(p), Some(buf)) if shading.needs_curvature() => {
+            (Some(p), Some(buf)) if shading.needs_curvature() && surface.indirect.is_none() => {
                 scoped(profiler, ctx, cmd, slot, "surface curvature", || {
                     self.curvature_pass.record(
                         ctx,
@@ -405,8 +417,11 @@ impl SurfaceLook {
                 })?;
                 curvature = Some(buf);
             }
-            // Without control points there is no curvature to show: Phong instead.
+            // Without control points (or on adaptive grids) there is no curvature to show: Phong instead.
             _ if shading.needs_curvature() => shading = ShadingMode::Phong,
+            _ if shading.needs_uniform_grid() && surface.indirect.is_some() => {
+                shading = ShadingMode::Phong
+            }
             _ => {}
         }
         let view = ViewState { shading, ..*view };
@@ -426,16 +441,20 @@ impl SurfaceLook {
             curvature: None,
             indices: &self.ground[1],
             index_count: 6,
+            indirect: None,
         };
         let lit = LitDraw {
             vertices: surface.vertices,
             curvature,
             indices: surface.indices,
             index_count: surface.index_count,
+            indirect: surface.indirect,
         };
         let clear = Some([0.92, 0.93, 0.95, 1.0]);
         match (view.path, surface.patches, &self.pull_indices) {
-            (DrawPath::VertexPull, Some(p), Some((grid, level))) if *level == surface.level => {
+            (DrawPath::VertexPull, Some(p), Some((grid, level)))
+                if *level == surface.level && surface.indirect.is_none() =>
+            {
                 scoped(profiler, ctx, cmd, slot, "surface draw", || {
                     self.draw.record_lit(
                         ctx,
@@ -679,6 +698,7 @@ impl Scene for FlagScene {
             level: self.flag.level,
             patches: None,
             color: [0.85, 0.25, 0.2],
+            indirect: None,
         };
         self.look
             .record(ctx, cmd, targets, view, profiler, &surface)
@@ -720,7 +740,12 @@ pub struct CageScene {
     look: SurfaceLook,
     pub deformation: Deformation,
     name: String,
+    /// Screen-space adaptive tessellation (key A): target pixels per segment, the current level as L_max.
+    pub adaptive: Option<f32>,
 }
+
+/// Pixels per tessellation segment when key A turns adaptive tessellation on.
+pub const ADAPTIVE_PIXELS: f32 = 8.0;
 
 impl CageScene {
     /// Wraps a built surface.
@@ -754,6 +779,7 @@ impl CageScene {
                 look,
                 deformation,
                 name,
+                adaptive: None,
             }),
             Err(e) => {
                 surface.destroy(ctx);
@@ -765,9 +791,13 @@ impl CageScene {
 
 impl Scene for CageScene {
     fn name(&self) -> String {
+        let level = match self.adaptive {
+            Some(px) => format!("adaptive ≤ {} at {px} px", self.surface.level),
+            None => format!("level {}", self.surface.level),
+        };
         format!(
-            "{} ({} patches, level {}, {:?})",
-            self.name, self.surface.patch_count, self.surface.level, self.deformation
+            "{} ({} patches, {level}, {:?})",
+            self.name, self.surface.patch_count, self.deformation
         )
     }
 
@@ -791,11 +821,33 @@ impl Scene for CageScene {
             box_min: self.surface.box_min,
             box_size: self.surface.box_size,
         };
+        if let Some(pixels_per_segment) = self.adaptive {
+            let e = targets.extent;
+            let (w, h) = (e.width.max(1) as f32, e.height.max(1) as f32);
+            self.surface.set_adaptive(
+                ctx,
+                Some(AdaptiveParams {
+                    view_proj: view.orbit.view_proj(w / h),
+                    viewport: [w, h],
+                    pixels_per_segment,
+                }),
+            )?;
+        }
         self.surface
             .record(ctx, cmd, Some(&deform), Some((profiler, targets.slot)))?;
+        let (indices, indirect) = match self.surface.adaptive_draw() {
+            Some((indices, commands)) => (
+                indices,
+                Some(IndirectDraw {
+                    commands,
+                    count: self.surface.patch_count,
+                }),
+            ),
+            None => (self.surface.indices(), None),
+        };
         let surface = SurfaceFrame {
             vertices: self.surface.vertices(),
-            indices: self.surface.indices(),
+            indices,
             index_count: self.surface.index_count(),
             level: self.surface.level,
             patches: Some(PatchSource {
@@ -804,12 +856,24 @@ impl Scene for CageScene {
                 patch_count: self.surface.patch_count,
             }),
             color: [0.3, 0.55, 0.85],
+            indirect,
         };
         self.look
             .record(ctx, cmd, targets, view, profiler, &surface)
     }
 
-    fn key(&mut self, _ctx: &Context, key: &str) -> anyhow::Result<bool> {
+    fn key(&mut self, ctx: &Context, key: &str) -> anyhow::Result<bool> {
+        if key.eq_ignore_ascii_case("a") {
+            // The parameters are refreshed from the camera every frame; switching off keeps the buffers.
+            self.adaptive = match self.adaptive {
+                Some(_) => {
+                    self.surface.set_adaptive(ctx, None)?;
+                    None
+                }
+                None => Some(ADAPTIVE_PIXELS),
+            };
+            return Ok(true);
+        }
         if key.eq_ignore_ascii_case("d") {
             self.deformation = match self.deformation {
                 Deformation::None => Deformation::Twist,

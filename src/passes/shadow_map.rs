@@ -17,6 +17,7 @@ use crate::error::VkContext;
 use crate::gpu::pipeline::{Binding, GraphicsDesc, GraphicsPipeline};
 use crate::gpu::resources::{image_barrier, memory_barrier};
 use crate::gpu::{shaders, Buffer, Context, Image, ImageDesc, MemoryLocation};
+use crate::passes::surface_draw::{draw_indexed, LitDraw};
 use ash::vk;
 use glam::{Mat4, Vec3};
 
@@ -162,7 +163,7 @@ impl ShadowMap {
         ctx: &Context,
         cmd: vk::CommandBuffer,
         light_view_proj: Mat4,
-        draws: &[(&Buffer, &Buffer, u32)],
+        draws: &[LitDraw<'_>],
     ) {
         // Previous frames' uniform reads and map samples before this frame's writes.
         memory_barrier(
@@ -249,13 +250,16 @@ impl ShadowMap {
         unsafe {
             // Slope-scaled bias: 1.5 × the depth slope keeps grazing surfaces from shadowing themselves.
             ctx.device.cmd_set_depth_bias(cmd, 0.0, 0.0, 1.5);
-            for &(vertices, indices, count) in draws {
+        }
+        for d in draws {
+            // SAFETY: as above.
+            unsafe {
                 ctx.device
-                    .cmd_bind_vertex_buffers(cmd, 0, &[vertices.raw], &[0]);
+                    .cmd_bind_vertex_buffers(cmd, 0, &[d.vertices.raw], &[0]);
                 ctx.device
-                    .cmd_bind_index_buffer(cmd, indices.raw, 0, vk::IndexType::UINT32);
-                ctx.device.cmd_draw_indexed(cmd, count, 1, 0, 0, 0);
+                    .cmd_bind_index_buffer(cmd, d.indices.raw, 0, vk::IndexType::UINT32);
             }
+            draw_indexed(ctx, cmd, d.index_count, d.indirect);
         }
         ctx.cmd_end_rendering(cmd);
         image_barrier(

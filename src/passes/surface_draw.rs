@@ -58,6 +58,12 @@ impl ShadingMode {
     pub fn needs_curvature(self) -> bool {
         matches!(self, ShadingMode::Mean | ShadingMode::Gaussian)
     }
+
+    /// Whether the mode needs every patch's grid at the uniform level (the curvature stream is written per
+    /// uniform grid vertex; the wireframe finds patch boundaries from the vertex index and the level).
+    pub fn needs_uniform_grid(self) -> bool {
+        self.needs_curvature() || self == ShadingMode::Wireframe
+    }
 }
 
 /// `mode.w` flag: the draw is the ground plane (always shadowed Phong, no patch grid).
@@ -77,6 +83,45 @@ pub struct LitDraw<'a> {
     /// u32 triangle-list indices.
     pub indices: &'a Buffer,
     pub index_count: u32,
+    /// Per-patch indexed-indirect commands instead of `index_count` (adaptive tessellation).
+    pub indirect: Option<IndirectDraw<'a>>,
+}
+
+/// One `VkDrawIndexedIndirectCommand` per patch, written on the GPU (adaptive tessellation: each patch draws
+/// its own level's grid from one index buffer holding every level's grid, at its own vertex slot).
+#[derive(Clone, Copy, Debug)]
+pub struct IndirectDraw<'a> {
+    pub commands: &'a Buffer,
+    pub count: u32,
+}
+
+/// Draws from the bound vertex and index buffers: `index_count` indices, or every command of `indirect`.
+/// One draw per command, so it works without the `multiDrawIndirect` feature.
+pub fn draw_indexed(
+    ctx: &Context,
+    cmd: vk::CommandBuffer,
+    index_count: u32,
+    indirect: Option<IndirectDraw<'_>>,
+) {
+    const STRIDE: u32 = std::mem::size_of::<vk::DrawIndexedIndirectCommand>() as u32;
+    // SAFETY: inside a render pass with a graphics pipeline, vertex and index buffers bound; the command
+    // buffer (if any) has INDIRECT usage and `count` commands, made visible to DRAW_INDIRECT by its writer.
+    unsafe {
+        match indirect {
+            None => ctx.device.cmd_draw_indexed(cmd, index_count, 1, 0, 0, 0),
+            Some(d) => {
+                for p in 0..d.count as u64 {
+                    ctx.device.cmd_draw_indexed_indirect(
+                        cmd,
+                        d.commands.raw,
+                        p * STRIDE as u64,
+                        1,
+                        STRIDE,
+                    );
+                }
+            }
+        }
+    }
 }
 
 /// Push constants of the surface shaders (`SurfacePush` in glsl/include/surface_common.glsl).
@@ -264,8 +309,8 @@ impl SurfaceDrawPass {
                 );
                 ctx.device
                     .cmd_bind_index_buffer(cmd, d.indices.raw, 0, vk::IndexType::UINT32);
-                ctx.device.cmd_draw_indexed(cmd, d.index_count, 1, 0, 0, 0);
             }
+            draw_indexed(ctx, cmd, d.index_count, d.indirect);
         }
         ctx.cmd_end_rendering(cmd);
     }
