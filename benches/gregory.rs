@@ -97,7 +97,17 @@ fn bench_gpu(c: &mut Criterion) {
         g.bench_function(BenchmarkId::new("gpu_eval", level), |b| {
             b.iter(|| {
                 ctx.one_shot(|cmd| {
-                    eval.record(&ctx, cmd, surface.points(), &pp, &pf, n, level, true, &out)
+                    eval.record(
+                        &ctx,
+                        cmd,
+                        surface.control_points(),
+                        &pp,
+                        &pf,
+                        n,
+                        level,
+                        true,
+                        &out,
+                    )
                 })
                 .unwrap()
             })

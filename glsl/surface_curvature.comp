@@ -13,7 +13,7 @@ layout(std430, set = 0, binding = 2) writeonly buffer Curvature { vec2 curvature
 layout(push_constant) uniform Push {
     uint patch_count;
     uint level;   // L
-    uint pad0;
+    uint patch_base;  // this dispatch's first patch; `curvature` is bound from its slot on (gregory_eval.rs)
     uint pad1;
 } pc;
 
@@ -109,14 +109,15 @@ vec2 curvature_at(float u, float v) {
 void main() {
     uint L = pc.level;
     uint per_patch = (L + 1u) * (L + 1u);
-    uint patch_id = gl_WorkGroupID.y * gl_NumWorkGroups.x + gl_WorkGroupID.x;
-    if (patch_id >= pc.patch_count) return;   // uniform across the workgroup
+    uint batch_patch = gl_WorkGroupID.y * gl_NumWorkGroups.x + gl_WorkGroupID.x;
+    if (batch_patch >= pc.patch_count) return;   // uniform across the workgroup
+    uint patch_id = pc.patch_base + batch_patch;
     uint t = gl_LocalInvocationIndex;
     if (t < 20u) s_cv[t] = points[patch_points[20u * patch_id + t]].xyz;
     barrier();
     for (uint local = t; local < per_patch; local += gl_WorkGroupSize.x) {
         uint j = local / (L + 1u);
         uint i = local - j * (L + 1u);
-        curvature[patch_id * per_patch + local] = curvature_at(float(i) / float(L), float(j) / float(L));
+        curvature[batch_patch * per_patch + local] = curvature_at(float(i) / float(L), float(j) / float(L));
     }
 }

@@ -361,7 +361,7 @@ fn vertex_pull_equals_compute_for_beziex_and_gregory_patches() {
             pass.record(
                 ctx,
                 cmd,
-                &pb,
+                gregvox::passes::gregory_eval::ControlPoints::plain(&pb),
                 &ib,
                 &fb,
                 patches.len() as u32,

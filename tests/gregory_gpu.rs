@@ -8,7 +8,7 @@ use glam::{DVec3, Vec3};
 use gregvox::geom::gregory::PatchF64;
 use gregvox::gpu::{Buffer, Context, MemoryLocation};
 use gregvox::mesh::{catmull_clark_matrix, load_obj, MeshMatrix};
-use gregvox::passes::gregory_eval::{vertex_count, GregoryEvalPass, SurfaceVertex};
+use gregvox::passes::gregory_eval::{vertex_count, ControlPoints, GregoryEvalPass, SurfaceVertex};
 use gregvox::passes::spmv::{GpuSparse, SpmvPass};
 
 fn points_buffer(ctx: &Context, name: &str, pts: &[[f32; 4]]) -> Buffer {
@@ -141,7 +141,7 @@ fn eval_on_gpu(
             pass.record(
                 ctx,
                 cmd,
-                &pb,
+                ControlPoints::plain(&pb),
                 &ib,
                 &fb,
                 patches.len() as u32,

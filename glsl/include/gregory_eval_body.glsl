@@ -34,13 +34,16 @@ layout(std430, set = 0, binding = 5) readonly buffer EdgeIds { uint edge_ids[]; 
 layout(std430, set = 0, binding = 6) readonly buffer EdgeLevels { uint edge_levels[]; };
 #endif
 layout(push_constant) uniform Push {
-    uint patch_count;
+    uint patch_count;  // in this dispatch
     uint level;        // L (uniform) or L_max (adaptive: the slot size)
     uint canonical;    // 1: canonical edge evaluation on
-    uint pad;
+    uint residual_rows;  // > 0: point r's f32 residual is points[residual_rows + r] (gregory_points.comp)
+    uint patch_base;     // this dispatch's first patch: `vertices` is bound from its slot on (a batch fits
+                         // one storage binding, gregory_eval.rs patch_batches)
 } pc;
 
 shared vec3 s_cv[20];   // the patch's control points, world coordinates
+shared vec3 s_lo[20];   // their residuals (zero without)
 
 // The four boundary points of edge e, parameter increasing with u (edges 0, 2) or v (edges 1, 3). Constant
 // indices only: a dynamic index into cv[] can make llvmpipe keep the whole array in per-lane memory.
@@ -72,17 +75,22 @@ uint snap(uint n, uint L, uint le) {
 
 
 void main() {
-    uint patch_id = gl_WorkGroupID.y * gl_NumWorkGroups.x + gl_WorkGroupID.x;
-    if (patch_id >= pc.patch_count) return;   // uniform across the workgroup
+    uint batch_patch = gl_WorkGroupID.y * gl_NumWorkGroups.x + gl_WorkGroupID.x;
+    if (batch_patch >= pc.patch_count) return;   // uniform across the workgroup
+    uint patch_id = pc.patch_base + batch_patch;
     uint t = gl_LocalInvocationIndex;
-    for (uint k = t; k < 20u; k += gl_WorkGroupSize.x) s_cv[k] = points[patch_points[20u * patch_id + k]].xyz;
+    for (uint k = t; k < 20u; k += gl_WorkGroupSize.x) {
+        uint row = patch_points[20u * patch_id + k];
+        s_cv[k] = points[row].xyz;
+        s_lo[k] = pc.residual_rows > 0u ? points[pc.residual_rows + row].xyz : vec3(0.0);
+    }
     barrier();
 #ifdef GREGORY_ADAPTIVE
     uint L = levels[patch_id];
-    uint base = patch_id * (pc.level + 1u) * (pc.level + 1u);
+    uint base = batch_patch * (pc.level + 1u) * (pc.level + 1u);
 #else
     uint L = pc.level;
-    uint base = patch_id * (L + 1u) * (L + 1u);
+    uint base = batch_patch * (L + 1u) * (L + 1u);
 #endif
     uint per_patch = (L + 1u) * (L + 1u);
     // Invocations without a vertex stop before the per-patch set-up (no barrier follows).
@@ -91,8 +99,10 @@ void main() {
     uvec4 le = uvec4(edge_levels[edge_ids[4u * patch_id]], edge_levels[edge_ids[4u * patch_id + 1u]],
                      edge_levels[edge_ids[4u * patch_id + 2u]], edge_levels[edge_ids[4u * patch_id + 3u]]);
 #endif
+    // Patch-local points (hi_k − hi_0) + (lo_k − lo_0): the world-space rounding of the points cancels, what
+    // is left scales with the patch size (see gregory_points.comp and gregory_localize).
     vec3 origin = s_cv[0], lcv[20];
-    for (int k = 0; k < 20; ++k) lcv[k] = s_cv[k] - origin;   // gregory_localize
+    for (int k = 0; k < 20; ++k) lcv[k] = (s_cv[k] - origin) + (s_lo[k] - s_lo[0]);
     uint flags = patch_flags[patch_id];
     for (uint local = t; local < per_patch; local += gl_WorkGroupSize.x) {
         uint j = local / (L + 1u);

@@ -13,7 +13,9 @@ use crate::geom::gregory::PatchF64;
 use crate::gpu::pipeline::{Binding, ComputePipeline, DescriptorSetLayoutBuilder};
 use crate::gpu::resources::memory_barrier;
 use crate::gpu::{shaders, Buffer, Context, MemoryLocation, Profiler};
-use crate::passes::gregory_eval::{grid_indices, vertex_count, GregoryEvalPass, MAX_LEVEL};
+use crate::passes::gregory_eval::{
+    grid_indices, vertex_count, ControlPoints, GregoryEvalPass, MAX_LEVEL,
+};
 use ash::vk;
 use glam::DVec3;
 
@@ -341,7 +343,7 @@ impl FlagSurface {
         self.eval.record(
             ctx,
             cmd,
-            &self.points,
+            ControlPoints::plain(&self.points),
             &self.patch_points,
             &self.patch_flags,
             self.columns * self.rows,

@@ -24,7 +24,8 @@ use crate::passes::adaptive_levels::{
 };
 use crate::passes::cage_deform::{CageDeformPass, DeformParams, Deformation};
 use crate::passes::gregory_eval::{
-    grid_indices, vertex_count, AdaptiveInputs, GregoryEvalPass, SurfaceVertex, MAX_LEVEL,
+    grid_indices, vertex_count, AdaptiveInputs, ControlPoints, GregoryEvalPass, SurfaceVertex,
+    MAX_LEVEL,
 };
 use crate::passes::spmv::{GpuSparse, SpmvPass};
 use ash::vk;
@@ -242,6 +243,17 @@ impl GregorySurface {
                 "tessellation level {level} is outside 1…{MAX_LEVEL}"
             )));
         }
+        // The points pass sums relative to each row's first cage vertex, which is exact only for affine rows.
+        for r in 0..topo.w.n_rows as usize {
+            let (a, b) = (topo.w.row_ptr[r] as usize, topo.w.row_ptr[r + 1] as usize);
+            let sum: f64 = topo.w.val[a..b].iter().sum();
+            if (sum - 1.0).abs() > 1e-9 {
+                return Err(Error::Invalid(format!(
+                    "stencil row {r} sums to {sum}, not 1: control points must be affine combinations of \
+                     the cage"
+                )));
+            }
+        }
         let mut lo = [f32::INFINITY; 3];
         let mut hi = [f32::NEG_INFINITY; 3];
         for p in cage {
@@ -259,7 +271,7 @@ impl GregorySurface {
         ) = (None, None, None);
         let mut w_gpu: Option<GpuSparse> = None;
         let result = (|| -> Result<()> {
-            passes.0 = Some(SpmvPass::new(ctx)?);
+            passes.0 = Some(SpmvPass::new_affine_split(ctx)?);
             passes.1 = Some(GregoryEvalPass::new(ctx)?);
             passes.2 = Some(CageDeformPass::new(ctx)?);
             w_gpu = Some(GpuSparse::upload(ctx, "gregory W", &topo.w)?);
@@ -273,9 +285,10 @@ impl GregorySurface {
                 rw,
                 MemoryLocation::GpuOnly,
             )?);
+            // hi + lo: 2 points per row (gregory_points.comp).
             made.push(ctx.create_buffer(
                 "gregory points",
-                topo.w.n_rows.max(1) as u64 * 16,
+                topo.w.n_rows.max(1) as u64 * 32,
                 rw,
                 MemoryLocation::GpuOnly,
             )?);
@@ -340,14 +353,12 @@ impl GregorySurface {
     fn level_buffers(ctx: &Context, patches: u32, level: u32) -> Result<(Buffer, Buffer)> {
         let n = vertex_count(patches, level);
         let bytes = n * std::mem::size_of::<SurfaceVertex>() as u64;
-        let max = ctx.limits.max_storage_buffer_range as u64;
-        if bytes > max {
+        // More than one storage binding holds is fine (the evaluation binds batches of patches); the vertex
+        // and index counts must fit u32 indices, the buffers one allocation each (create_buffer checks).
+        if n > u32::MAX as u64 {
             return Err(Error::Limit {
-                what: format!(
-                    "{patches} patches at level {level} ({n} vertices, {} MiB)",
-                    bytes >> 20
-                ),
-                detail: format!("one storage binding holds at most {} MiB", max >> 20),
+                what: format!("{patches} patches at level {level} ({n} vertices)"),
+                detail: "u32 vertex indices address at most 4,294,967,295 vertices".into(),
             });
         }
         let vertices = ctx.create_buffer(
@@ -514,9 +525,15 @@ impl GregorySurface {
         self.patch_count * self.level * self.level * 6
     }
 
-    /// The control points buffer (vec4 per W row).
+    /// The control points buffer: a vec4 point per W row (w = 1), then each row's residual (see
+    /// [`Self::control_points`]); readers wanting plain f32 points use the first rows.
     pub fn points(&self) -> &Buffer {
         &self.points
+    }
+
+    /// The canonical-edge flags per patch (u32, see [`canonical_edge_flags`]).
+    pub fn patch_flags(&self) -> &Buffer {
+        &self.patch_flags
     }
 
     /// The 20 control point indices per patch (u32, GREGORY_BASIS order), e.g. for the demo's curvature pass.
@@ -598,7 +615,7 @@ impl GregorySurface {
                     a.eval.record_adaptive(
                         ctx,
                         cmd,
-                        &self.points,
+                        self.control_points(),
                         &self.patch_points,
                         &self.patch_flags,
                         self.patch_count,
@@ -617,7 +634,7 @@ impl GregorySurface {
             self.eval.record(
                 ctx,
                 cmd,
-                &self.points,
+                self.control_points(),
                 &self.patch_points,
                 &self.patch_flags,
                 self.patch_count,
@@ -684,9 +701,29 @@ impl GregorySurface {
         ctx.read_pod(&self.vertices)
     }
 
-    /// Reads the control points back.
+    /// Reads the control points back (the f32 points; their residuals are [`Self::read_residuals`]).
     pub fn read_points(&self, ctx: &Context) -> Result<Vec<[f32; 4]>> {
-        ctx.read_pod(&self.points)
+        let mut all: Vec<[f32; 4]> = ctx.read_pod(&self.points)?;
+        all.truncate(self.point_rows() as usize);
+        Ok(all)
+    }
+
+    /// Reads the control points' f32 residuals back: point r is `read_points()[r] + read_residuals()[r]`.
+    pub fn read_residuals(&self, ctx: &Context) -> Result<Vec<[f32; 4]>> {
+        let all: Vec<[f32; 4]> = ctx.read_pod(&self.points)?;
+        Ok(all[self.point_rows() as usize..].to_vec())
+    }
+
+    fn point_rows(&self) -> u32 {
+        self.w.rows.max(1)
+    }
+
+    /// The control points as the evaluation reads them: f32 points in rows `0..rows`, residuals after.
+    pub fn control_points(&self) -> ControlPoints<'_> {
+        ControlPoints {
+            buffer: &self.points,
+            residual_rows: self.point_rows(),
+        }
     }
 
     /// Destroys everything (the caller guarantees the GPU is done with it).

@@ -156,6 +156,8 @@ pub struct DeviceInfo {
     pub max_push_constants_size: u32,
     pub max_memory_allocation_count: u32,
     pub min_storage_buffer_offset_alignment: u64,
+    /// The largest single allocation (`maxMemoryAllocationSize`, Vulkan 1.1); `create_buffer` refuses more.
+    pub max_memory_allocation_size: u64,
     pub timestamps_supported: bool,
     pub timestamp_period_ns: f32,
     pub timestamp_valid_bits: u32,
@@ -510,9 +512,11 @@ impl Context {
         // Gather the report.
         let mut driver_props = vk::PhysicalDeviceDriverProperties::default();
         let mut subgroup = vk::PhysicalDeviceSubgroupProperties::default();
+        let mut maintenance3 = vk::PhysicalDeviceMaintenance3Properties::default();
         let mut props2 = vk::PhysicalDeviceProperties2::default()
             .push_next(&mut driver_props)
-            .push_next(&mut subgroup);
+            .push_next(&mut subgroup)
+            .push_next(&mut maintenance3);
         // SAFETY: valid physical device; Vulkan 1.2 guarantees the query.
         unsafe { instance.get_physical_device_properties2(pd, &mut props2) };
         // SAFETY: valid physical device.
@@ -546,6 +550,7 @@ impl Context {
             max_push_constants_size: l.max_push_constants_size,
             max_memory_allocation_count: l.max_memory_allocation_count,
             min_storage_buffer_offset_alignment: l.min_storage_buffer_offset_alignment,
+            max_memory_allocation_size: maintenance3.max_memory_allocation_size,
             timestamps_supported: ts_bits > 0 && l.timestamp_period > 0.0,
             timestamp_period_ns: l.timestamp_period,
             timestamp_valid_bits: ts_bits,
@@ -767,6 +772,15 @@ impl Context {
                     offset: 0,
                     range: vk::WHOLE_SIZE,
                 }],
+                super::pipeline::Binding::StorageRange {
+                    buffer,
+                    offset,
+                    range,
+                } => [vk::DescriptorBufferInfo {
+                    buffer,
+                    offset,
+                    range,
+                }],
                 _ => [vk::DescriptorBufferInfo::default()],
             })
             .collect();
@@ -800,9 +814,9 @@ impl Context {
                     .dst_binding(*binding)
                     .descriptor_type(b.descriptor_type());
                 match b {
-                    super::pipeline::Binding::Storage(_) | super::pipeline::Binding::Uniform(_) => {
-                        w.buffer_info(&buffer_infos[i])
-                    }
+                    super::pipeline::Binding::Storage(_)
+                    | super::pipeline::Binding::StorageRange { .. }
+                    | super::pipeline::Binding::Uniform(_) => w.buffer_info(&buffer_infos[i]),
                     _ => w.image_info(&image_infos[i]),
                 }
             })

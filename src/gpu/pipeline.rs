@@ -23,6 +23,13 @@ pub fn shader_module(ctx: &Context, name: &str, spirv: &[u32]) -> Result<vk::Sha
 pub enum Binding {
     /// A whole storage buffer.
     Storage(vk::Buffer),
+    /// A range of a storage buffer (`offset` a multiple of `minStorageBufferOffsetAlignment`, `range` at
+    /// most `maxStorageBufferRange`): how passes reach buffers larger than one binding may hold.
+    StorageRange {
+        buffer: vk::Buffer,
+        offset: u64,
+        range: u64,
+    },
     /// A whole uniform buffer.
     Uniform(vk::Buffer),
     /// A combined image sampler.
@@ -42,7 +49,9 @@ impl Binding {
     /// The Vulkan descriptor type.
     pub fn descriptor_type(&self) -> vk::DescriptorType {
         match self {
-            Binding::Storage(_) => vk::DescriptorType::STORAGE_BUFFER,
+            Binding::Storage(_) | Binding::StorageRange { .. } => {
+                vk::DescriptorType::STORAGE_BUFFER
+            }
             Binding::Uniform(_) => vk::DescriptorType::UNIFORM_BUFFER,
             Binding::Sampled { .. } => vk::DescriptorType::COMBINED_IMAGE_SAMPLER,
             Binding::StorageImage { .. } => vk::DescriptorType::STORAGE_IMAGE,

@@ -228,6 +228,16 @@ impl Context {
                 "buffer '{name}' would be empty (0 bytes)"
             )));
         }
+        let max = self.info.max_memory_allocation_size;
+        if max > 0 && size > max {
+            return Err(Error::Limit {
+                what: format!("buffer '{name}' of {} MiB", size >> 20),
+                detail: format!(
+                    "the device allocates at most {} MiB at once (maxMemoryAllocationSize)",
+                    max >> 20
+                ),
+            });
+        }
         let info = vk::BufferCreateInfo::default()
             .size(size)
             .usage(usage)

@@ -2,7 +2,8 @@
 //! frame can be placed around a surface that never leaves the device (only six numbers come back).
 //!
 //! Invariants: the pass owns its pipeline; the vertex buffer (positions as the first three floats of each
-//! `stride`-byte vertex) and the 24-byte bounds buffer are the caller's. `record` initialises the bounds itself
+//! `stride`-byte vertex, any size: bound in chunks of at most `maxStorageBufferRange`) and the 24-byte bounds
+//! buffer are the caller's. `record` initialises the bounds itself
 //! and leaves them visible to transfers.
 use crate::error::{Error, Result};
 use crate::gpu::pipeline::{Binding, ComputePipeline, DescriptorSetLayoutBuilder};
@@ -25,6 +26,14 @@ pub struct BoundsPass {
 /// ```
 pub fn decode(u: u32) -> f32 {
     f32::from_bits(if u >> 31 == 1 { u & 0x7fff_ffff } else { !u })
+}
+
+fn gcd(a: u64, b: u64) -> u64 {
+    if b == 0 {
+        a
+    } else {
+        gcd(b, a % b)
+    }
 }
 
 impl BoundsPass {
@@ -81,17 +90,51 @@ impl BoundsPass {
                 vk::AccessFlags2::SHADER_STORAGE_READ | vk::AccessFlags2::SHADER_STORAGE_WRITE,
             ),
         );
-        let push = [count, stride / 4];
-        self.pipeline.bind(
-            ctx,
-            cmd,
-            &[
-                (0, Binding::Storage(vertices.raw)),
-                (1, Binding::Storage(bounds.raw)),
-            ],
-            bytemuck::cast_slice(&push),
-        );
-        self.pipeline.dispatch_linear(ctx, cmd, count as u64)?;
+        // Vertex buffers past one storage binding (e.g. a level-64 Gregory grid) are reduced in chunks: the
+        // atomics accumulate across dispatches, each bound at an aligned offset.
+        let max = ctx.limits.max_storage_buffer_range as u64;
+        let align = ctx.limits.min_storage_buffer_offset_alignment.max(1);
+        let mut chunk = (max / stride as u64).max(1);
+        let step = align / gcd(stride as u64, align);
+        chunk = (chunk - chunk % step).max(step);
+        let mut first = 0u64;
+        while first < count as u64 {
+            let n = chunk.min(count as u64 - first);
+            if first > 0 {
+                memory_barrier(
+                    ctx,
+                    cmd,
+                    (
+                        vk::PipelineStageFlags2::COMPUTE_SHADER,
+                        vk::AccessFlags2::SHADER_STORAGE_WRITE,
+                    ),
+                    (
+                        vk::PipelineStageFlags2::COMPUTE_SHADER,
+                        vk::AccessFlags2::SHADER_STORAGE_READ
+                            | vk::AccessFlags2::SHADER_STORAGE_WRITE,
+                    ),
+                );
+            }
+            let push = [n as u32, stride / 4];
+            self.pipeline.bind(
+                ctx,
+                cmd,
+                &[
+                    (
+                        0,
+                        Binding::StorageRange {
+                            buffer: vertices.raw,
+                            offset: first * stride as u64,
+                            range: n * stride as u64,
+                        },
+                    ),
+                    (1, Binding::Storage(bounds.raw)),
+                ],
+                bytemuck::cast_slice(&push),
+            );
+            self.pipeline.dispatch_linear(ctx, cmd, n)?;
+            first += n;
+        }
         memory_barrier(
             ctx,
             cmd,

@@ -3,7 +3,7 @@
 //!
 //! Invariants: the pass owns only its pipeline. Inputs are the caller's: `points` (vec4 control points, e.g.
 //! written by [`crate::passes::spmv::SpmvPass`]), `patch_points` (20 u32 point indices per patch, GREGORY_BASIS
-//! order) and `patch_flags` (bit e: edge e runs against its canonical direction). The output buffer holds
+//! order; optionally with residuals, [`ControlPoints`]) and `patch_flags` (bit e: edge e runs against its canonical direction). The output buffer holds
 //! [`SurfaceVertex`] values (stride 32) and must have STORAGE and VERTEX usage; on exit its writes are visible
 //! to vertex input, vertex-shader storage reads, later compute passes and transfers. The adaptive variant
 //! (same kernel compiled with GREGORY_ADAPTIVE) also reads per-patch and per-edge levels and writes each
@@ -39,6 +39,26 @@ pub struct GregoryEvalPass {
     adaptive: bool,
 }
 
+/// The control points the pass reads: vec4 points (xyz, any w) and, when `residual_rows` > 0, each point's
+/// f32 residual at `residual_rows + row` (the hi + lo layout of [`crate::passes::spmv::SpmvPass::new_affine_split`]),
+/// which the evaluation adds in patch-local coordinates.
+#[derive(Clone, Copy)]
+pub struct ControlPoints<'a> {
+    pub buffer: &'a Buffer,
+    /// Rows before the residuals (0: no residuals).
+    pub residual_rows: u32,
+}
+
+impl<'a> ControlPoints<'a> {
+    /// Plain f32 points, no residuals.
+    pub fn plain(buffer: &'a Buffer) -> Self {
+        ControlPoints {
+            buffer,
+            residual_rows: 0,
+        }
+    }
+}
+
 /// The per-patch and per-edge levels the adaptive variant reads (see
 /// [`crate::passes::adaptive_levels`]).
 pub struct AdaptiveInputs<'a> {
@@ -48,6 +68,72 @@ pub struct AdaptiveInputs<'a> {
     pub edge_ids: &'a Buffer,
     /// u32 level per edge.
     pub edge_levels: &'a Buffer,
+}
+
+/// Splits `patch_count` patches of `slot_bytes` output bytes each into batches (first patch, count) whose
+/// output range fits one storage binding (`max_range`: `maxStorageBufferRange`, 128 MiB on lavapipe) and
+/// starts at a multiple of `align`: a level-64 grid of a few thousand patches needs several hundred MiB,
+/// which a vertex buffer may hold but one storage descriptor may not.
+///
+/// ```
+/// # use gregvox::passes::gregory_eval::batches_within;
+/// // 65² vertices of 32 B per patch, 128 MiB per binding, 16 B alignment: 992 patches per batch.
+/// assert_eq!(
+///     batches_within(2000, 65 * 65 * 32, 128 << 20, 16),
+///     vec![(0, 992), (992, 992), (1984, 16)]
+/// );
+/// assert_eq!(batches_within(10, 25 * 32, 128 << 20, 256), vec![(0, 10)]);
+/// ```
+pub fn batches_within(
+    patch_count: u32,
+    slot_bytes: u64,
+    max_range: u64,
+    align: u64,
+) -> Vec<(u32, u32)> {
+    let mut per = (max_range / slot_bytes.max(1)).min(u32::MAX as u64);
+    // Every batch's offset (a multiple of per·slot_bytes) must be a multiple of the alignment.
+    let align = align.max(1);
+    let step = align / gcd(slot_bytes.max(1), align);
+    per -= per % step;
+    let per = per.max(1) as u32;
+    (0..patch_count)
+        .step_by(per as usize)
+        .map(|first| (first, per.min(patch_count - first)))
+        .collect()
+}
+
+fn gcd(a: u64, b: u64) -> u64 {
+    if b == 0 {
+        a
+    } else {
+        gcd(b, a % b)
+    }
+}
+
+/// [`batches_within`] for this device, or a limit error when one patch's slot alone exceeds a binding.
+pub fn patch_batches(ctx: &Context, patch_count: u32, slot_bytes: u64) -> Result<Vec<(u32, u32)>> {
+    let max = ctx.limits.max_storage_buffer_range as u64;
+    if slot_bytes > max {
+        return Err(Error::Limit {
+            what: format!("one patch's output of {slot_bytes} B"),
+            detail: format!("one storage binding holds at most {max} B"),
+        });
+    }
+    Ok(batches_within(
+        patch_count,
+        slot_bytes,
+        max,
+        ctx.limits.min_storage_buffer_offset_alignment,
+    ))
+}
+
+/// The output range of patches `first..first + count` with `slot_bytes` each.
+pub fn output_range(out: &Buffer, first: u32, count: u32, slot_bytes: u64) -> Binding {
+    Binding::StorageRange {
+        buffer: out.raw,
+        offset: first as u64 * slot_bytes,
+        range: count as u64 * slot_bytes,
+    }
 }
 
 /// Vertices of `patches` patches at `level`.
@@ -78,7 +164,7 @@ impl GregoryEvalPass {
             ("gregory eval", shaders::GREGORY_EVAL_COMP)
         };
         Ok(GregoryEvalPass {
-            pipeline: ComputePipeline::new(ctx, name, spirv, vec![layout], 16, GROUP_SIZE)?,
+            pipeline: ComputePipeline::new(ctx, name, spirv, vec![layout], 32, GROUP_SIZE)?,
             adaptive,
         })
     }
@@ -89,7 +175,7 @@ impl GregoryEvalPass {
         &self,
         ctx: &Context,
         cmd: vk::CommandBuffer,
-        points: &Buffer,
+        points: ControlPoints,
         patch_points: &Buffer,
         patch_flags: &Buffer,
         patch_count: u32,
@@ -114,18 +200,30 @@ impl GregoryEvalPass {
                 out.name
             )));
         }
-        let push: [u32; 4] = [patch_count, level, canonical_edges as u32, 0];
-        let bindings = [
-            (0, Binding::Storage(points.raw)),
-            (1, Binding::Storage(patch_points.raw)),
-            (2, Binding::Storage(patch_flags.raw)),
-            (3, Binding::Storage(out.raw)),
-        ];
-        self.pipeline
-            .bind(ctx, cmd, &bindings, bytemuck::cast_slice(&push));
-        // One workgroup per patch (see the shader).
-        self.pipeline
-            .dispatch_linear(ctx, cmd, patch_count as u64 * GROUP_SIZE as u64)?;
+        let slot = (level as u64 + 1).pow(2) * std::mem::size_of::<SurfaceVertex>() as u64;
+        for (first, count) in patch_batches(ctx, patch_count, slot)? {
+            let push: [u32; 8] = [
+                count,
+                level,
+                canonical_edges as u32,
+                points.residual_rows,
+                first,
+                0,
+                0,
+                0,
+            ];
+            let bindings = [
+                (0, Binding::Storage(points.buffer.raw)),
+                (1, Binding::Storage(patch_points.raw)),
+                (2, Binding::Storage(patch_flags.raw)),
+                (3, output_range(out, first, count, slot)),
+            ];
+            self.pipeline
+                .bind(ctx, cmd, &bindings, bytemuck::cast_slice(&push));
+            // One workgroup per patch (see the shader).
+            self.pipeline
+                .dispatch_linear(ctx, cmd, count as u64 * GROUP_SIZE as u64)?;
+        }
         compute_writes_to_readers(ctx, cmd);
         Ok(())
     }
@@ -138,7 +236,7 @@ impl GregoryEvalPass {
         &self,
         ctx: &Context,
         cmd: vk::CommandBuffer,
-        points: &Buffer,
+        points: ControlPoints,
         patch_points: &Buffer,
         patch_flags: &Buffer,
         patch_count: u32,
@@ -164,20 +262,23 @@ impl GregoryEvalPass {
                 out.name
             )));
         }
-        let push: [u32; 4] = [patch_count, l_max, 1, 0];
-        let bindings = [
-            (0, Binding::Storage(points.raw)),
-            (1, Binding::Storage(patch_points.raw)),
-            (2, Binding::Storage(patch_flags.raw)),
-            (3, Binding::Storage(out.raw)),
-            (4, Binding::Storage(adaptive.levels.raw)),
-            (5, Binding::Storage(adaptive.edge_ids.raw)),
-            (6, Binding::Storage(adaptive.edge_levels.raw)),
-        ];
-        self.pipeline
-            .bind(ctx, cmd, &bindings, bytemuck::cast_slice(&push));
-        self.pipeline
-            .dispatch_linear(ctx, cmd, patch_count as u64 * GROUP_SIZE as u64)?;
+        let slot = (l_max as u64 + 1).pow(2) * std::mem::size_of::<SurfaceVertex>() as u64;
+        for (first, count) in patch_batches(ctx, patch_count, slot)? {
+            let push: [u32; 8] = [count, l_max, 1, points.residual_rows, first, 0, 0, 0];
+            let bindings = [
+                (0, Binding::Storage(points.buffer.raw)),
+                (1, Binding::Storage(patch_points.raw)),
+                (2, Binding::Storage(patch_flags.raw)),
+                (3, output_range(out, first, count, slot)),
+                (4, Binding::Storage(adaptive.levels.raw)),
+                (5, Binding::Storage(adaptive.edge_ids.raw)),
+                (6, Binding::Storage(adaptive.edge_levels.raw)),
+            ];
+            self.pipeline
+                .bind(ctx, cmd, &bindings, bytemuck::cast_slice(&push));
+            self.pipeline
+                .dispatch_linear(ctx, cmd, count as u64 * GROUP_SIZE as u64)?;
+        }
         compute_writes_to_readers(ctx, cmd);
         Ok(())
     }

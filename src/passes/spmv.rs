@@ -5,6 +5,10 @@
 //! Invariants: the pass owns only its pipeline. A [`GpuSparse`] owns the three CSR buffers of one matrix;
 //! point buffers `x` and `y` are the caller's, `vec4` per point (w ignored on input, 1 on output). On exit
 //! `y`'s writes are visible to later compute and vertex-shader reads and to transfers.
+//!
+//! The affine-split variant ([`SpmvPass::new_affine_split`], glsl/gregory_points.comp) is for matrices whose
+//! rows sum to 1 (Gregory stencils): it sums relative to each row's first column and writes `y` as hi + lo
+//! (hi in rows `0..rows`, the exact residual lo in rows `rows..2·rows`, w = 0), so `y` needs 2·rows points.
 use crate::error::{Error, Result};
 use crate::gpu::pipeline::{Binding, ComputePipeline, DescriptorSetLayoutBuilder};
 use crate::gpu::resources::compute_writes_to_readers;
@@ -75,18 +79,39 @@ impl GpuSparse {
 /// The SpMV compute pass.
 pub struct SpmvPass {
     pipeline: ComputePipeline,
+    affine_split: bool,
 }
 
 impl SpmvPass {
     /// Builds the pipeline.
     pub fn new(ctx: &Context) -> Result<Self> {
+        Self::build(ctx, false)
+    }
+
+    /// Builds the affine-split pipeline (see the module comment): y = A·x as hi + lo, for rows summing to 1.
+    pub fn new_affine_split(ctx: &Context) -> Result<Self> {
+        Self::build(ctx, true)
+    }
+
+    /// Whether `y` is written as hi + lo (2·rows points).
+    pub fn affine_split(&self) -> bool {
+        self.affine_split
+    }
+
+    fn build(ctx: &Context, affine_split: bool) -> Result<Self> {
         let mut b = DescriptorSetLayoutBuilder::new();
         for i in 0..5 {
             b = b.storage_buffer(i, vk::ShaderStageFlags::COMPUTE);
         }
         let layout = b.build(ctx, "spmv set")?;
+        let (name, spirv) = if affine_split {
+            ("gregory points", shaders::GREGORY_POINTS_COMP)
+        } else {
+            ("spmv", shaders::SPMV_COMP)
+        };
         Ok(SpmvPass {
-            pipeline: ComputePipeline::new(ctx, "spmv", shaders::SPMV_COMP, vec![layout], 4, 64)?,
+            pipeline: ComputePipeline::new(ctx, name, spirv, vec![layout], 4, 64)?,
+            affine_split,
         })
     }
 
@@ -99,7 +124,8 @@ impl SpmvPass {
         x: &Buffer,
         y: &Buffer,
     ) -> Result<()> {
-        if (a.cols as u64) * 16 > x.size || (a.rows as u64) * 16 > y.size {
+        let y_points = a.rows as u64 * if self.affine_split { 2 } else { 1 };
+        if (a.cols as u64) * 16 > x.size || y_points * 16 > y.size {
             return Err(Error::Invalid(format!(
                 "spmv: {}×{} matrix does not fit x '{}' ({} B) or y '{}' ({} B)",
                 a.rows, a.cols, x.name, x.size, y.name, y.size

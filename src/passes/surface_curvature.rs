@@ -11,7 +11,7 @@ use crate::error::{Error, Result};
 use crate::gpu::pipeline::{Binding, ComputePipeline, DescriptorSetLayoutBuilder};
 use crate::gpu::resources::compute_writes_to_readers;
 use crate::gpu::{shaders, Buffer, Context};
-use crate::passes::gregory_eval::{vertex_count, MAX_LEVEL};
+use crate::passes::gregory_eval::{output_range, patch_batches, vertex_count, MAX_LEVEL};
 use ash::vk;
 
 /// Bytes per vertex of the curvature buffer: (H, K) as two f32.
@@ -66,17 +66,19 @@ impl SurfaceCurvaturePass {
                 out.name
             )));
         }
-        let push: [u32; 4] = [patch_count, level, 0, 0];
-        let bindings = [
-            (0, Binding::Storage(points.raw)),
-            (1, Binding::Storage(patch_points.raw)),
-            (2, Binding::Storage(out.raw)),
-        ];
-        self.pipeline
-            .bind(ctx, cmd, &bindings, bytemuck::cast_slice(&push));
-        // One workgroup of 64 per patch, as in the evaluation pass.
-        self.pipeline
-            .dispatch_linear(ctx, cmd, patch_count as u64 * 64)?;
+        let slot = (level as u64 + 1).pow(2) * CURVATURE_STRIDE;
+        for (first, count) in patch_batches(ctx, patch_count, slot)? {
+            let push: [u32; 4] = [count, level, first, 0];
+            let bindings = [
+                (0, Binding::Storage(points.raw)),
+                (1, Binding::Storage(patch_points.raw)),
+                (2, output_range(out, first, count, slot)),
+            ];
+            self.pipeline
+                .bind(ctx, cmd, &bindings, bytemuck::cast_slice(&push));
+            // One workgroup of 64 per patch, as in the evaluation pass.
+            self.pipeline.dispatch_linear(ctx, cmd, count as u64 * 64)?;
+        }
         compute_writes_to_readers(ctx, cmd);
         Ok(())
     }
