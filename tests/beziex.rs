@@ -270,7 +270,7 @@ fn vertex_pull(
                 &target,
                 Some([0.0; 4]),
                 kind,
-                &pb,
+                gregvox::passes::gregory_eval::ControlPoints::plain(&pb),
                 &ib,
                 patch_count,
                 level,

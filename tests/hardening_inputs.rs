@@ -97,6 +97,10 @@ impl Scratch {
                 let p = e.path();
                 let t = std::fs::symlink_metadata(&p).unwrap().file_type();
                 if t.is_dir() {
+                    // An empty folder left behind counts too (e.g. a demo --out for a refused model).
+                    if std::fs::read_dir(&p).unwrap().next().is_none() {
+                        out.push(format!("{}/", p.strip_prefix(base).unwrap().display()));
+                    }
                     walk(&p, base, out);
                 } else {
                     out.push(p.strip_prefix(base).unwrap().display().to_string());

@@ -1,6 +1,6 @@
 // The vertex-pull path (the Beziex seed's instanced grid): one instance per patch, one static (L+1)² grid of
 // vertex indices; the vertex shader evaluates its patch at (i/L, j/L) straight from a storage buffer.
-// kind 0: Gregory (20 point indices per patch into `points`), kind 1: Beziex (56 points per patch in `points`).
+// kind 0: Gregory (20 point indices per patch into `points`, residuals at mode.w + row when mode.w > 0), kind 1: Beziex (56 points per patch in `points`).
 // With CAPTURE defined (patch_pull_capture.vert; needs vertexPipelineStoresAndAtomics) it also writes each
 // evaluated vertex to `captured` in the compute path's order, so tests compare the two paths.
 #include "surface_common.glsl"
@@ -24,11 +24,20 @@ void main() {
     float u = float(i) / float(L), v = float(j) / float(L);
     vec3 p, nrm;
     if (kind == 0u) {
+        // Patch-local points with the residuals of gregory_points.comp when mode.w > 0 (as gregory_eval).
+        uint lo_rows = pc.mode.w;
+        uint row0 = patch_points[20u * patch_id];
+        vec3 origin = points[row0].xyz;
+        vec3 lo0 = lo_rows > 0u ? points[lo_rows + row0].xyz : vec3(0.0);
         vec3 cv[20];
-        for (int k = 0; k < 20; ++k) cv[k] = points[patch_points[20u * patch_id + uint(k)]].xyz;
+        for (int k = 0; k < 20; ++k) {
+            uint row = patch_points[20u * patch_id + uint(k)];
+            vec3 lo = lo_rows > 0u ? points[lo_rows + row].xyz : vec3(0.0);
+            cv[k] = (points[row].xyz - origin) + (lo - lo0);
+        }
         vec3 su, sv;
         vec3 net[16];
-        gregory_eval(cv, u, v, p, su, sv, net);
+        gregory_eval_local(cv, origin, u, v, p, su, sv, net);
         nrm = gregory_normal(net, su, sv, u, v);
     } else {
         vec3 net[56];

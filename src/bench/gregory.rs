@@ -137,7 +137,7 @@ pub fn time_path(
                 let r = crate::cli::tessellate::vertex_pull(
                     ctx,
                     PatchKind::Gregory,
-                    surface.points(),
+                    surface.control_points(),
                     &pp,
                     surface.patch_count,
                     level,

@@ -10,7 +10,9 @@ use crate::io::write_atomic;
 use crate::passes::adaptive_levels::{compact_grid_indices, AdaptiveParams};
 use crate::passes::beziex_eval::BeziexEvalPass;
 use crate::passes::cage_deform::{DeformParams, Deformation};
-use crate::passes::gregory_eval::{grid_indices, vertex_count, SurfaceVertex, MAX_LEVEL};
+use crate::passes::gregory_eval::{
+    grid_indices, vertex_count, ControlPoints, SurfaceVertex, MAX_LEVEL,
+};
 use crate::passes::patch_pull::{PatchKind, PatchPullPass};
 use crate::passes::surface_draw::{DrawTarget, SurfacePush};
 use crate::surface::beziex::{load_beziex, BeziexPatch};
@@ -402,7 +404,7 @@ fn evaluate(
                     vertex_pull(
                         ctx,
                         PatchKind::Gregory,
-                        surface.points(),
+                        surface.control_points(),
                         &pp,
                         surface.patch_count,
                         level,
@@ -435,7 +437,7 @@ fn evaluate(
                     let r = vertex_pull(
                         ctx,
                         PatchKind::Beziex,
-                        &nb,
+                        ControlPoints::plain(&nb),
                         &dummy,
                         n,
                         level,
@@ -484,7 +486,7 @@ fn evaluate(
 pub fn vertex_pull(
     ctx: &Context,
     kind: PatchKind,
-    points: &Buffer,
+    points: ControlPoints,
     patch_points: &Buffer,
     patches: u32,
     level: u32,

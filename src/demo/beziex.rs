@@ -160,7 +160,7 @@ impl Scene for BeziexScene {
                 &target,
                 Some([0.92, 0.93, 0.95, 1.0]),
                 PatchKind::Beziex,
-                &self.nets,
+                crate::passes::gregory_eval::ControlPoints::plain(&self.nets),
                 &self.patch_points,
                 self.patch_count,
                 self.level,

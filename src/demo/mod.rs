@@ -411,8 +411,6 @@ fn run_offscreen(args: &DemoArgs) -> anyhow::Result<()> {
         .out
         .clone()
         .unwrap_or_else(|| PathBuf::from("out/demo"));
-    std::fs::create_dir_all(&out)
-        .with_context(|| format!("cannot create the output folder {}", out.display()))?;
     let ctx = Context::with_desc(&ContextDesc::default())?;
     let (w, h) = args.size;
     let mut target = OffscreenTarget::new(&ctx, w, h, FRAMES_IN_FLIGHT)?;
@@ -425,6 +423,13 @@ fn run_offscreen(args: &DemoArgs) -> anyhow::Result<()> {
             return Err(e);
         }
     };
+    // Only once the scene stands: a refused model or option leaves no empty output folder behind.
+    if let Err(e) = std::fs::create_dir_all(&out) {
+        renderer.destroy(&ctx);
+        Box::new(target).destroy(&ctx);
+        return Err(e)
+            .with_context(|| format!("cannot create the output folder {}", out.display()));
+    }
     let dt = args.time_step.unwrap_or(1.0 / 60.0);
     let result = offscreen_loop(
         &ctx,

@@ -12,7 +12,7 @@ use crate::engine::gregory::GregorySurface;
 use crate::gpu::{Buffer, Context, MemoryLocation, Profiler};
 use crate::passes::adaptive_levels::AdaptiveParams;
 use crate::passes::cage_deform::{DeformParams, Deformation};
-use crate::passes::gregory_eval::{grid_indices, vertex_count};
+use crate::passes::gregory_eval::{grid_indices, vertex_count, ControlPoints};
 use crate::passes::patch_pull::{PatchKind, PatchPullPass};
 use crate::passes::shadow_map::{light_view_proj, ShadowMap};
 use crate::passes::spinner::SpinnerPass;
@@ -221,7 +221,8 @@ pub(crate) fn draw_surface(
 /// The control points of a surface, for the curvature pass and the vertex-pull path.
 #[derive(Clone, Copy)]
 pub struct PatchSource<'a> {
-    pub points: &'a Buffer,
+    /// The points (and their residuals, for the vertex-pull path).
+    pub points: ControlPoints<'a>,
     pub patch_points: &'a Buffer,
     pub patch_count: u32,
 }
@@ -408,7 +409,7 @@ impl SurfaceLook {
                     self.curvature_pass.record(
                         ctx,
                         cmd,
-                        p.points,
+                        p.points.buffer,
                         p.patch_points,
                         p.patch_count,
                         surface.level,
@@ -851,7 +852,7 @@ impl Scene for CageScene {
             index_count: self.surface.index_count(),
             level: self.surface.level,
             patches: Some(PatchSource {
-                points: self.surface.points(),
+                points: self.surface.control_points(),
                 patch_points: self.surface.patch_points(),
                 patch_count: self.surface.patch_count,
             }),

@@ -10,6 +10,7 @@ use crate::error::{Error, Result};
 use crate::gpu::pipeline::{Binding, DescriptorSetLayoutBuilder, GraphicsDesc, GraphicsPipeline};
 use crate::gpu::resources::memory_barrier;
 use crate::gpu::{shaders, Buffer, Context};
+use crate::passes::gregory_eval::ControlPoints;
 use crate::passes::surface_draw::{begin_color_depth, DrawTarget, SurfacePush};
 use ash::vk;
 
@@ -61,7 +62,8 @@ impl PatchPullPass {
     }
 
     /// Records the instanced draw of `patch_count` patches at `level` (`grid_indices` is `grid_indices(1, L)`;
-    /// for Beziex `patch_points` is unused but must be a valid buffer). `push.mode` gets the level and kind.
+    /// for Beziex `patch_points` is unused but must be a valid buffer, and `points` has no residuals).
+    /// `push.mode` gets the level, the kind and the residual rows.
     #[allow(clippy::too_many_arguments)]
     pub fn record(
         &self,
@@ -70,7 +72,7 @@ impl PatchPullPass {
         target: &DrawTarget,
         clear: Option<[f32; 4]>,
         kind: PatchKind,
-        points: &Buffer,
+        points: ControlPoints,
         patch_points: &Buffer,
         patch_count: u32,
         level: u32,
@@ -84,11 +86,33 @@ impl PatchPullPass {
             ));
         }
 
+        if let Some(c) = capture {
+            // The capture is one storage binding (the draw itself has no such limit).
+            let bytes = crate::passes::gregory_eval::vertex_count(patch_count, level) * 32;
+            let max = ctx.limits.max_storage_buffer_range as u64;
+            if bytes > max {
+                return Err(Error::Limit {
+                    what: format!("capturing {} MiB of vertex-pull output", bytes >> 20),
+                    detail: format!("one storage binding holds at most {} MiB", max >> 20),
+                });
+            }
+            if bytes > c.size {
+                return Err(Error::Invalid(format!(
+                    "patch pull: capture buffer '{}' holds {} B, {bytes} B needed",
+                    c.name, c.size
+                )));
+            }
+        }
         let mut p = *push;
         p.mode[1] = level;
         p.mode[2] = kind as u32;
+        // mode.w (unused by surface.frag): the Gregory points' residual rows, as in the compute path.
+        p.mode[3] = match kind {
+            PatchKind::Gregory => points.residual_rows,
+            PatchKind::Beziex => 0,
+        };
         let mut bindings = vec![
-            (0, Binding::Storage(points.raw)),
+            (0, Binding::Storage(points.buffer.raw)),
             (1, Binding::Storage(patch_points.raw)),
         ];
         if let Some(c) = capture {
