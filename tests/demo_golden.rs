@@ -41,6 +41,12 @@ const FRAMES: &[(&str, &[&str], bool)] = &[
         &["--scene", "flag", "--shading", "zebra"],
         true,
     ),
+    ("flag_mean", &["--scene", "flag", "--shading", "mean"], true),
+    (
+        "flag_normals_pull",
+        &["--scene", "flag", "--shading", "normals", "--vertex-pull"],
+        true,
+    ),
     ("cage", &["--scene", "cage"], true),
     ("cage_mean", &["--scene", "cage", "--shading", "mean"], true),
     (

@@ -625,8 +625,8 @@ impl Scene for SpinnerScene {
 }
 
 /// The thesis's flag: 2×3 Gregory patches from animated boundary curves, Chiyokura–Kimura on/off (key C).
-/// (`FlagSurface` does not expose its patch layout, so the curvature modes show Phong and V keeps the compute
-/// path here; +/− rebuild the flag at the new level.)
+/// Its control points feed the curvature modes and the vertex-pull path like a cage's; +/− rebuild the flag at
+/// the new level.
 pub struct FlagScene {
     flag: FlagSurface,
     look: SurfaceLook,
@@ -650,7 +650,16 @@ impl FlagScene {
             radius: 0.5 * (w * w + h * h + 1.0).sqrt(),
             ground_z: -0.6 * w.max(h) * 0.5,
         };
-        match SurfaceLook::new(ctx, format, stage) {
+        let look = SurfaceLook::new(ctx, format, stage).and_then(|mut look| {
+            match look.resize(ctx, flag.patch_count(), flag.level) {
+                Ok(()) => Ok(look),
+                Err(e) => {
+                    look.destroy(ctx);
+                    Err(e)
+                }
+            }
+        });
+        match look {
             Ok(look) => Ok(FlagScene {
                 flag,
                 look,
@@ -697,7 +706,11 @@ impl Scene for FlagScene {
             indices: self.flag.indices(),
             index_count: self.flag.index_count(),
             level: self.flag.level,
-            patches: None,
+            patches: Some(PatchSource {
+                points: ControlPoints::plain(self.flag.points()),
+                patch_points: self.flag.patch_points(),
+                patch_count: self.flag.patch_count(),
+            }),
             color: [0.85, 0.25, 0.2],
             indirect: None,
         };
@@ -725,6 +738,10 @@ impl Scene for FlagScene {
     fn set_level(&mut self, ctx: &Context, level: u32) -> anyhow::Result<bool> {
         // The device is idle (trait contract); the flag's buffers are sized per level, so rebuild it.
         let flag = FlagSurface::new(ctx, self.flag.columns, self.flag.rows, level)?;
+        if let Err(e) = self.look.resize(ctx, flag.patch_count(), level) {
+            flag.destroy(ctx);
+            return Err(e);
+        }
         std::mem::replace(&mut self.flag, flag).destroy(ctx);
         Ok(true)
     }

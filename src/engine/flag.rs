@@ -248,6 +248,21 @@ impl FlagSurface {
         })
     }
 
+    /// The control points (vec4, 20 per patch, written by the flag pass each frame).
+    pub fn points(&self) -> &Buffer {
+        &self.points
+    }
+
+    /// The 20 point indices per patch (GREGORY_BASIS order), as `GregorySurface::patch_points`.
+    pub fn patch_points(&self) -> &Buffer {
+        &self.patch_points
+    }
+
+    /// Number of patches (columns × rows).
+    pub fn patch_count(&self) -> u32 {
+        self.columns * self.rows
+    }
+
     /// The vertex buffer (stride 32).
     pub fn vertices(&self) -> &Buffer {
         &self.vertices
