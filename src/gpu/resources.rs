@@ -586,6 +586,23 @@ pub fn memory_barrier(
     ctx.cmd_pipeline_barrier2(cmd, &vk::DependencyInfo::default().memory_barriers(&b));
 }
 
+/// Compute storage writes → later compute storage reads and writes (one dispatch feeding the next, or
+/// atomics accumulating across dispatches).
+pub fn compute_to_compute(ctx: &Context, cmd: vk::CommandBuffer) {
+    memory_barrier(
+        ctx,
+        cmd,
+        (
+            vk::PipelineStageFlags2::COMPUTE_SHADER,
+            vk::AccessFlags2::SHADER_STORAGE_WRITE,
+        ),
+        (
+            vk::PipelineStageFlags2::COMPUTE_SHADER,
+            vk::AccessFlags2::SHADER_STORAGE_READ | vk::AccessFlags2::SHADER_STORAGE_WRITE,
+        ),
+    );
+}
+
 /// The barrier that ends a compute pass: its storage writes become available to every later reader in
 /// gregvox (vertex input, vertex/fragment/compute shaders, copies). One broad barrier instead of one per
 /// consumer keeps the passes independent of who reads their output.

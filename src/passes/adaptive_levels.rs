@@ -10,7 +10,7 @@
 //! On exit the levels, edge levels and commands are visible to compute reads, indirect draws and copies.
 use crate::error::{Error, Result};
 use crate::gpu::pipeline::{Binding, ComputePipeline, DescriptorSetLayoutBuilder};
-use crate::gpu::resources::memory_barrier;
+use crate::gpu::resources::{compute_to_compute, memory_barrier};
 use crate::gpu::{shaders, Buffer, Context};
 use crate::passes::gregory_eval::MAX_LEVEL;
 use ash::vk;
@@ -315,18 +315,7 @@ impl AdaptiveLevelsPass {
         self.pipeline
             .dispatch_linear(ctx, cmd, patch_count as u64)?;
         // Patch levels → edge levels.
-        memory_barrier(
-            ctx,
-            cmd,
-            (
-                vk::PipelineStageFlags2::COMPUTE_SHADER,
-                vk::AccessFlags2::SHADER_STORAGE_WRITE,
-            ),
-            (
-                vk::PipelineStageFlags2::COMPUTE_SHADER,
-                vk::AccessFlags2::SHADER_STORAGE_READ,
-            ),
-        );
+        compute_to_compute(ctx, cmd);
         push.count = edge_count;
         push.mode = 1;
         self.pipeline

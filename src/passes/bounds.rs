@@ -7,7 +7,7 @@
 //! and leaves them visible to transfers.
 use crate::error::{Error, Result};
 use crate::gpu::pipeline::{Binding, ComputePipeline, DescriptorSetLayoutBuilder};
-use crate::gpu::resources::memory_barrier;
+use crate::gpu::resources::{compute_to_compute, memory_barrier};
 use crate::gpu::{shaders, Buffer, Context};
 use ash::vk;
 
@@ -101,19 +101,7 @@ impl BoundsPass {
         while first < count as u64 {
             let n = chunk.min(count as u64 - first);
             if first > 0 {
-                memory_barrier(
-                    ctx,
-                    cmd,
-                    (
-                        vk::PipelineStageFlags2::COMPUTE_SHADER,
-                        vk::AccessFlags2::SHADER_STORAGE_WRITE,
-                    ),
-                    (
-                        vk::PipelineStageFlags2::COMPUTE_SHADER,
-                        vk::AccessFlags2::SHADER_STORAGE_READ
-                            | vk::AccessFlags2::SHADER_STORAGE_WRITE,
-                    ),
-                );
+                compute_to_compute(ctx, cmd);
             }
             let push = [n as u32, stride / 4];
             self.pipeline.bind(

@@ -18,7 +18,7 @@ use crate::error::{Result, VkContext};
 use crate::gpu::pipeline::{
     Binding, ComputePipeline, DescriptorSetLayoutBuilder, GraphicsDesc, GraphicsPipeline,
 };
-use crate::gpu::resources::{image_barrier, memory_barrier};
+use crate::gpu::resources::{compute_to_compute, image_barrier, memory_barrier};
 use crate::gpu::{shaders, Buffer, Context, Image, ImageDesc};
 use crate::voxel::grid::GridFrame;
 use crate::voxel::raycast::{RayCamera, RayShading, BRICK};
@@ -230,18 +230,7 @@ impl VoxelRaycastPass {
             bytemuck::cast_slice(&[frame.res, nb]),
         );
         self.bricks.dispatch_linear(ctx, cmd, (nb as u64).pow(3))?;
-        memory_barrier(
-            ctx,
-            cmd,
-            (
-                vk::PipelineStageFlags2::COMPUTE_SHADER,
-                vk::AccessFlags2::SHADER_STORAGE_WRITE,
-            ),
-            (
-                vk::PipelineStageFlags2::COMPUTE_SHADER,
-                vk::AccessFlags2::SHADER_STORAGE_READ,
-            ),
-        );
+        compute_to_compute(ctx, cmd);
         let inv_pitch = 1.0 / frame.pitch() as f32;
         let v4 = |v: [f32; 3], w: f32| [v[0], v[1], v[2], w];
         let bg = shading.background;
