@@ -364,16 +364,18 @@ fn level_changes_and_scene_switches_rebuild_in_place() {
 fn every_key_works_in_a_window_under_xvfb() {
     // The windowed path end to end: the binary under Xvfb (a system package, see .ci/run) types every
     // control with --keys, one every 5 frames; the scripted keys go through the same `key_action` as real ones.
+    // Then the window operations: a resize (the swapchain is rebuilt and a screenshot taken at the new size),
+    // minimise (frames are skipped) and restore.
     let dir = std::env::temp_dir().join(format!("gregvox-window-keys-{}", std::process::id()));
     let _ = std::fs::remove_dir_all(&dir);
-    let keys = "s,s,s,s,s,+,-,v,Space,p,t,d,v,Space,1,c,3,2";
+    let keys = "s,s,s,s,s,+,-,v,Space,p,t,d,v,Space,1,c,3,2,resize:200x150,minimize,restore,p";
     let out = std::process::Command::new("xvfb-run")
         .args([
             "-a",
             env!("CARGO_BIN_EXE_gregvox"),
             "demo",
             "--frames",
-            "100",
+            "130",
         ])
         .args(["--size", "160x120", "--scene", "cage", "--keys", keys])
         .arg("--out")
@@ -399,7 +401,8 @@ fn every_key_works_in_a_window_under_xvfb() {
         "scene flag",
         "scene spinner",
         "scene built-in box cage",
-        "100 frames presented",
+        "presenting at 200x150",
+        "130 frames presented, 1 skipped",
     ] {
         assert!(err.contains(said), "no '{said}' in:\n{err}");
     }
@@ -407,6 +410,16 @@ fn every_key_works_in_a_window_under_xvfb() {
     let (w, h, px) = read_png(&shot);
     assert_eq!((w, h), (160, 120));
     assert!(non_background(&px) > 0.05, "the screenshot shows the scene");
+    let (w, h, px) = read_png(&dir.join("gregvox-screenshot-002.png"));
+    assert_eq!(
+        (w, h),
+        (200, 150),
+        "the second screenshot comes from the resized swapchain"
+    );
+    assert!(
+        non_background(&px) > 0.05,
+        "the scene shows after minimise and restore"
+    );
     let _ = std::fs::remove_dir_all(&dir);
 }
 

@@ -98,6 +98,39 @@ pub fn key_action(key: &str, c: &Controls) -> Option<Action> {
     }
 }
 
+/// A scripted window operation (`--keys` entries that are not keys), so CI exercises the swapchain paths a
+/// user triggers with the mouse or the window manager.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum WindowAction {
+    /// `resize:WxH`: ask for this inner size (the swapchain is rebuilt at the size the window gets).
+    Resize(u32, u32),
+    /// `minimize`: minimise; frames are skipped until `restore`.
+    Minimize,
+    /// `restore`: back from minimised.
+    Restore,
+}
+
+/// The window operation a scripted entry names, if it names one.
+///
+/// ```
+/// use gregvox::demo::window::{window_action, WindowAction};
+/// assert_eq!(window_action("resize:400x300"), Some(WindowAction::Resize(400, 300)));
+/// assert_eq!(window_action("minimize"), Some(WindowAction::Minimize));
+/// assert_eq!(window_action("resize:0x300"), None);
+/// assert_eq!(window_action("s"), None);
+/// ```
+pub fn window_action(entry: &str) -> Option<WindowAction> {
+    match entry.to_ascii_lowercase().as_str() {
+        "minimize" | "minimise" => Some(WindowAction::Minimize),
+        "restore" => Some(WindowAction::Restore),
+        e => {
+            let (w, h) = e.strip_prefix("resize:")?.split_once('x')?;
+            let (w, h) = (w.parse().ok()?, h.parse().ok()?);
+            (w > 0 && h > 0).then_some(WindowAction::Resize(w, h))
+        }
+    }
+}
+
 /// The name [`key_action`] expects for a winit logical key.
 fn key_name(key: &Key) -> Option<String> {
     match key {
@@ -127,6 +160,10 @@ struct App<'a> {
     screenshots_taken: u32,
     /// Keys still to press (--keys).
     scripted: std::collections::VecDeque<String>,
+    /// A size asked for by a scripted resize, reported once a frame is presented at it.
+    resize_pending: Option<(u32, u32)>,
+    /// Frames skipped while minimised.
+    skipped: u64,
     error: Option<anyhow::Error>,
 }
 
@@ -180,6 +217,38 @@ impl App<'_> {
         self.target = Some(target);
         self.renderer = Some(renderer);
         Ok(())
+    }
+
+    fn window_action(&mut self, action: WindowAction) {
+        let (Some(window), Some(target)) = (self.window.as_ref(), self.target.as_mut()) else {
+            return;
+        };
+        match action {
+            WindowAction::Resize(w, h) => {
+                self.resize_pending = Some((w, h));
+                // Some platforms apply the size at once (no Resized event follows), others report it.
+                if let Some(size) = window.request_inner_size(winit::dpi::PhysicalSize::new(w, h)) {
+                    target.resize(vk::Extent2D {
+                        width: size.width,
+                        height: size.height,
+                    });
+                }
+            }
+            WindowAction::Minimize => {
+                window.set_minimized(true);
+                // Windows reports a minimised window as 0×0; X11 without a window manager has no minimised
+                // state at all. Telling the target directly takes the same path everywhere.
+                target.resize(vk::Extent2D::default());
+            }
+            WindowAction::Restore => {
+                window.set_minimized(false);
+                let size = window.inner_size();
+                target.resize(vk::Extent2D {
+                    width: size.width,
+                    height: size.height,
+                });
+            }
+        }
     }
 
     fn controls(&self) -> Option<Controls> {
@@ -278,6 +347,13 @@ impl App<'_> {
         let begun = renderer.begin_frame(self.ctx)?;
         if renderer.draw(self.ctx, begun, target, t)? {
             self.frames_drawn += 1;
+            let e = target.extent();
+            if self.resize_pending == Some((e.width, e.height)) {
+                self.resize_pending = None;
+                eprintln!("gregvox demo: presenting at {}x{}", e.width, e.height);
+            }
+        } else {
+            self.skipped += 1;
         }
         if self.screenshot.is_some() {
             // Rare: waiting for the frame here keeps the capture simple.
@@ -314,7 +390,10 @@ impl App<'_> {
         if self.frames_drawn % 5 == 0 && self.frames_drawn > 0 {
             if let Some(k) = self.scripted.pop_front() {
                 eprintln!("gregvox demo: key {k}");
-                self.key_named(event_loop, &k)?;
+                match window_action(&k) {
+                    Some(a) => self.window_action(a),
+                    None => self.key_named(event_loop, &k)?,
+                }
             }
         }
         if self.args.frames.is_some_and(|n| self.frames_drawn >= n) {
@@ -447,6 +526,8 @@ pub fn run_windowed(args: &DemoArgs) -> anyhow::Result<()> {
         screenshot: None,
         screenshots_taken: 0,
         scripted: args.keys.iter().map(|k| k.trim().to_string()).collect(),
+        resize_pending: None,
+        skipped: 0,
         error: None,
     };
     let run = event_loop.run_app(&mut app);
@@ -466,7 +547,10 @@ pub fn run_windowed(args: &DemoArgs) -> anyhow::Result<()> {
     }
     drop(app.window.take());
     if result.is_ok() {
-        eprintln!("gregvox demo: {} frames presented", app.frames_drawn);
+        eprintln!(
+            "gregvox demo: {} frames presented, {} skipped (minimised or out of date)",
+            app.frames_drawn, app.skipped
+        );
     }
     result
 }
