@@ -586,6 +586,40 @@ pub fn memory_barrier(
     ctx.cmd_pipeline_barrier2(cmd, &vk::DependencyInfo::default().memory_barriers(&b));
 }
 
+/// Splits `count` items of `item_bytes` each into chunks (first item, count) whose byte range fits one storage
+/// binding (`max_range`, i.e. `maxStorageBufferRange`: 128 MiB on lavapipe) and starts at a multiple of
+/// `align` (`minStorageBufferOffsetAlignment`): how a pass reaches a buffer larger than one binding.
+///
+/// ```
+/// use gregvox::gpu::resources::storage_chunks;
+/// // Level-64 patch grids: 65² vertices of 32 B per patch, 128 MiB per binding, 16 B alignment.
+/// assert_eq!(
+///     storage_chunks(2000, 65 * 65 * 32, 128 << 20, 16),
+///     vec![(0, 992), (992, 992), (1984, 16)]
+/// );
+/// assert_eq!(storage_chunks(10, 25 * 32, 128 << 20, 256), vec![(0, 10)]);
+/// ```
+pub fn storage_chunks(count: u64, item_bytes: u64, max_range: u64, align: u64) -> Vec<(u64, u64)> {
+    let mut per = max_range / item_bytes.max(1);
+    // Every chunk's offset (a multiple of per·item_bytes) must be a multiple of the alignment.
+    let align = align.max(1);
+    let step = align / gcd(item_bytes.max(1), align);
+    per -= per % step;
+    let per = per.max(1);
+    (0..count)
+        .step_by(per as usize)
+        .map(|first| (first, per.min(count - first)))
+        .collect()
+}
+
+fn gcd(a: u64, b: u64) -> u64 {
+    if b == 0 {
+        a
+    } else {
+        gcd(b, a % b)
+    }
+}
+
 /// Compute storage writes → later compute storage reads and writes (one dispatch feeding the next, or
 /// atomics accumulating across dispatches).
 pub fn compute_to_compute(ctx: &Context, cmd: vk::CommandBuffer) {

@@ -7,7 +7,7 @@
 //! and leaves them visible to transfers.
 use crate::error::{Error, Result};
 use crate::gpu::pipeline::{Binding, ComputePipeline, DescriptorSetLayoutBuilder};
-use crate::gpu::resources::{compute_to_compute, memory_barrier};
+use crate::gpu::resources::{compute_to_compute, memory_barrier, storage_chunks};
 use crate::gpu::{shaders, Buffer, Context};
 use ash::vk;
 
@@ -26,14 +26,6 @@ pub struct BoundsPass {
 /// ```
 pub fn decode(u: u32) -> f32 {
     f32::from_bits(if u >> 31 == 1 { u & 0x7fff_ffff } else { !u })
-}
-
-fn gcd(a: u64, b: u64) -> u64 {
-    if b == 0 {
-        a
-    } else {
-        gcd(b, a % b)
-    }
 }
 
 impl BoundsPass {
@@ -92,14 +84,13 @@ impl BoundsPass {
         );
         // Vertex buffers past one storage binding (e.g. a level-64 Gregory grid) are reduced in chunks: the
         // atomics accumulate across dispatches, each bound at an aligned offset.
-        let max = ctx.limits.max_storage_buffer_range as u64;
-        let align = ctx.limits.min_storage_buffer_offset_alignment.max(1);
-        let mut chunk = (max / stride as u64).max(1);
-        let step = align / gcd(stride as u64, align);
-        chunk = (chunk - chunk % step).max(step);
-        let mut first = 0u64;
-        while first < count as u64 {
-            let n = chunk.min(count as u64 - first);
+        let chunks = storage_chunks(
+            count as u64,
+            stride as u64,
+            ctx.limits.max_storage_buffer_range as u64,
+            ctx.limits.min_storage_buffer_offset_alignment,
+        );
+        for (first, n) in chunks {
             if first > 0 {
                 compute_to_compute(ctx, cmd);
             }
@@ -121,7 +112,6 @@ impl BoundsPass {
                 bytemuck::cast_slice(&push),
             );
             self.pipeline.dispatch_linear(ctx, cmd, n)?;
-            first += n;
         }
         memory_barrier(
             ctx,

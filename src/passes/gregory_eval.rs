@@ -10,7 +10,7 @@
 //! patch's own grid at the start of its fixed slot; vertices past a patch's grid in its slot are not written.
 use crate::error::{Error, Result};
 use crate::gpu::pipeline::{Binding, ComputePipeline, DescriptorSetLayoutBuilder};
-use crate::gpu::resources::compute_writes_to_readers;
+use crate::gpu::resources::{compute_writes_to_readers, storage_chunks};
 use crate::gpu::{shaders, Buffer, Context};
 use ash::vk;
 
@@ -70,47 +70,10 @@ pub struct AdaptiveInputs<'a> {
     pub edge_levels: &'a Buffer,
 }
 
-/// Splits `patch_count` patches of `slot_bytes` output bytes each into batches (first patch, count) whose
-/// output range fits one storage binding (`max_range`: `maxStorageBufferRange`, 128 MiB on lavapipe) and
-/// starts at a multiple of `align`: a level-64 grid of a few thousand patches needs several hundred MiB,
-/// which a vertex buffer may hold but one storage descriptor may not.
-///
-/// ```
-/// # use gregvox::passes::gregory_eval::batches_within;
-/// // 65² vertices of 32 B per patch, 128 MiB per binding, 16 B alignment: 992 patches per batch.
-/// assert_eq!(
-///     batches_within(2000, 65 * 65 * 32, 128 << 20, 16),
-///     vec![(0, 992), (992, 992), (1984, 16)]
-/// );
-/// assert_eq!(batches_within(10, 25 * 32, 128 << 20, 256), vec![(0, 10)]);
-/// ```
-pub fn batches_within(
-    patch_count: u32,
-    slot_bytes: u64,
-    max_range: u64,
-    align: u64,
-) -> Vec<(u32, u32)> {
-    let mut per = (max_range / slot_bytes.max(1)).min(u32::MAX as u64);
-    // Every batch's offset (a multiple of per·slot_bytes) must be a multiple of the alignment.
-    let align = align.max(1);
-    let step = align / gcd(slot_bytes.max(1), align);
-    per -= per % step;
-    let per = per.max(1) as u32;
-    (0..patch_count)
-        .step_by(per as usize)
-        .map(|first| (first, per.min(patch_count - first)))
-        .collect()
-}
-
-fn gcd(a: u64, b: u64) -> u64 {
-    if b == 0 {
-        a
-    } else {
-        gcd(b, a % b)
-    }
-}
-
-/// [`batches_within`] for this device, or a limit error when one patch's slot alone exceeds a binding.
+/// Batches (first patch, count) of `patch_count` patches with `slot_bytes` of output each, every batch's output
+/// range one storage binding ([`storage_chunks`]): a level-64 grid of a few thousand patches needs several
+/// hundred MiB, which a vertex buffer may hold but one storage descriptor may not. A limit error when one
+/// patch's slot alone exceeds a binding.
 pub fn patch_batches(ctx: &Context, patch_count: u32, slot_bytes: u64) -> Result<Vec<(u32, u32)>> {
     let max = ctx.limits.max_storage_buffer_range as u64;
     if slot_bytes > max {
@@ -119,12 +82,15 @@ pub fn patch_batches(ctx: &Context, patch_count: u32, slot_bytes: u64) -> Result
             detail: format!("one storage binding holds at most {max} B"),
         });
     }
-    Ok(batches_within(
-        patch_count,
+    Ok(storage_chunks(
+        patch_count as u64,
         slot_bytes,
         max,
         ctx.limits.min_storage_buffer_offset_alignment,
-    ))
+    )
+    .into_iter()
+    .map(|(first, count)| (first as u32, count as u32))
+    .collect())
 }
 
 /// The output range of patches `first..first + count` with `slot_bytes` each.

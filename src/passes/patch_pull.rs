@@ -88,7 +88,8 @@ impl PatchPullPass {
 
         if let Some(c) = capture {
             // The capture is one storage binding (the draw itself has no such limit).
-            let bytes = crate::passes::gregory_eval::vertex_count(patch_count, level) * 32;
+            let bytes = crate::passes::gregory_eval::vertex_count(patch_count, level)
+                * std::mem::size_of::<crate::passes::gregory_eval::SurfaceVertex>() as u64;
             let max = ctx.limits.max_storage_buffer_range as u64;
             if bytes > max {
                 return Err(Error::Limit {

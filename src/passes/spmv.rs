@@ -93,11 +93,6 @@ impl SpmvPass {
         Self::build(ctx, true)
     }
 
-    /// Whether `y` is written as hi + lo (2·rows points).
-    pub fn affine_split(&self) -> bool {
-        self.affine_split
-    }
-
     fn build(ctx: &Context, affine_split: bool) -> Result<Self> {
         let mut b = DescriptorSetLayoutBuilder::new();
         for i in 0..5 {
