@@ -112,13 +112,13 @@ fn bench_gpu(c: &mut Criterion) {
                 .unwrap()
             })
         });
-        out.destroy(&ctx);
-        surface.destroy(&ctx);
+        drop(out);
+        drop(surface);
     }
     g.finish();
-    pp.destroy(&ctx);
-    pf.destroy(&ctx);
-    eval.destroy(&ctx);
+    drop(pp);
+    drop(pf);
+    drop(eval);
 }
 
 criterion_group!(benches, bench_cpu, bench_gpu);

@@ -141,14 +141,14 @@ fn bench_gpu(c: &mut Criterion) {
             })
         });
         for buf in [pb, nb, yb] {
-            buf.destroy(&ctx);
+            drop(buf);
         }
-        s.destroy(&ctx);
-        gm.destroy(&ctx);
+        drop(s);
+        drop(gm);
     }
     g.finish();
-    normals.destroy(&ctx);
-    spmv.destroy(&ctx);
+    drop(normals);
+    drop(spmv);
 }
 
 criterion_group!(benches, bench, bench_gpu);

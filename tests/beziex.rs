@@ -72,9 +72,9 @@ fn gpu_compute(patches: &[BeziexPatch], level: u32) -> Vec<SurfaceVertex> {
         ctx.one_shot(|cmd| pass.record(ctx, cmd, &nb, patches.len() as u32, level, &out))
             .unwrap();
         let v = ctx.read_pod(&out).unwrap();
-        nb.destroy(ctx);
-        out.destroy(ctx);
-        pass.destroy(ctx);
+        drop(nb);
+        drop(out);
+        drop(pass);
         v
     })
 }
@@ -242,11 +242,11 @@ fn vertex_pull(
             mode: [0; 4],
         };
         ctx.one_shot(|cmd| {
-            begin_color_target(ctx, cmd, color.raw);
+            begin_color_target(ctx, cmd, color.raw());
             image_barrier(
                 ctx,
                 cmd,
-                depth.raw,
+                depth.raw(),
                 depth.range(),
                 vk::ImageLayout::UNDEFINED,
                 vk::ImageLayout::DEPTH_ATTACHMENT_OPTIMAL,
@@ -257,8 +257,8 @@ fn vertex_pull(
                 ),
             );
             let target = DrawTarget {
-                color: color.view,
-                depth: depth.view,
+                color: color.view(),
+                depth: depth.view(),
                 extent: vk::Extent2D {
                     width: w,
                     height: h,
@@ -282,11 +282,11 @@ fn vertex_pull(
         .unwrap();
         let v = ctx.read_pod(&cap).unwrap();
         for b in [pb, ib, grid, cap] {
-            b.destroy(ctx);
+            drop(b);
         }
-        color.destroy(ctx);
-        depth.destroy(ctx);
-        pass.destroy(ctx);
+        drop(color);
+        drop(depth);
+        drop(pass);
         v
     })
 }
@@ -373,9 +373,9 @@ fn vertex_pull_equals_compute_for_beziex_and_gregory_patches() {
         .unwrap();
         let v = ctx.read_pod(&out).unwrap();
         for b in [pb, ib, fb, out] {
-            b.destroy(ctx);
+            drop(b);
         }
-        pass.destroy(ctx);
+        drop(pass);
         v
     });
     let (dp, dn) = max_diff(&pulled, &computed);

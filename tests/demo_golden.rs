@@ -123,8 +123,8 @@ fn render(ctx: &Context, args: &DemoArgs, wanted: &[u64]) -> Vec<Vec<u8>> {
             out.push(target.read_rgba(slot).unwrap());
         }
     }
-    r.destroy(ctx);
-    Box::new(target).destroy(ctx);
+    drop(r);
+    drop(target);
     out
 }
 
@@ -262,8 +262,8 @@ fn a_thousand_frames_keep_gpu_memory_flat() {
             after_warmup,
             "(bytes, allocations) after frame 10 and after frame 1000"
         );
-        r.destroy(ctx);
-        Box::new(target).destroy(ctx);
+        drop(r);
+        drop(target);
     });
 }
 
@@ -318,8 +318,8 @@ fn resize_minimise_and_restore_between_frames() {
             non_background(&px) > 0.05,
             "the restored frame shows the scene"
         );
-        r.destroy(ctx);
-        Box::new(target).destroy(ctx);
+        drop(r);
+        drop(target);
     });
 }
 
@@ -355,8 +355,8 @@ fn level_changes_and_scene_switches_rebuild_in_place() {
         r.finish(ctx).unwrap();
         let px = target.read_rgba(0).unwrap();
         assert!(non_background(&px) > 0.05, "the cage at level 1 shows");
-        r.destroy(ctx);
-        Box::new(target).destroy(ctx);
+        drop(r);
+        drop(target);
     });
 }
 
@@ -459,9 +459,9 @@ fn curvature_pass_matches_the_cpu_fundamental_forms_at_every_grid_vertex() {
         .unwrap();
         let hk: Vec<[f32; 2]> = ctx.read_pod(&out).unwrap();
         let points = surface.read_points(ctx).unwrap();
-        out.destroy(ctx);
-        pass.destroy(ctx);
-        surface.destroy(ctx);
+        drop(out);
+        drop(pass);
+        drop(surface);
         (hk, points)
     });
     let n1 = LEVEL as usize + 1;
@@ -568,7 +568,7 @@ fn shadow_map_darkens_exactly_the_ground_the_cpu_ray_cast_puts_in_shadow() {
             image_barrier(
                 ctx,
                 cmd,
-                depth.raw,
+                depth.raw(),
                 depth.range(),
                 vk::ImageLayout::UNDEFINED,
                 vk::ImageLayout::DEPTH_ATTACHMENT_OPTIMAL,
@@ -607,7 +607,7 @@ fn shadow_map_darkens_exactly_the_ground_the_cpu_ray_cast_puts_in_shadow() {
                 cmd,
                 &DrawTarget {
                     color: img.view,
-                    depth: depth.view,
+                    depth: depth.view(),
                     extent: img.extent,
                 },
                 Some([0.0, 0.0, 0.0, 1.0]),
@@ -624,12 +624,12 @@ fn shadow_map_darkens_exactly_the_ground_the_cpu_ray_cast_puts_in_shadow() {
         target.present(ctx, &img).unwrap();
         let px = target.read_rgba(0).unwrap();
         for b in [ground_v, occ_v, ib] {
-            b.destroy(ctx);
+            drop(b);
         }
-        depth.destroy(ctx);
-        shadow.destroy(ctx);
-        draw.destroy(ctx);
-        Box::new(target).destroy(ctx);
+        drop(depth);
+        drop(shadow);
+        drop(draw);
+        drop(target);
         px
     });
     let inv = view_proj.inverse();

@@ -109,11 +109,11 @@ fn gpu_raycast(
     })
     .unwrap();
     let words: Vec<u32> = ctx.read_pod(&ids).unwrap();
-    ids.destroy(ctx);
-    bricks.destroy(ctx);
-    image.destroy(ctx);
-    buf.destroy(ctx);
-    pass.destroy(ctx);
+    drop(ids);
+    drop(bricks);
+    drop(image);
+    drop(buf);
+    drop(pass);
     words
         .chunks_exact(2)
         .map(|p| (p[0], p[1].to_le_bytes()))
@@ -175,7 +175,7 @@ fn gregory_grid(ctx: &Context) -> VoxelGrid {
     let (grid, _) =
         voxelize_gregory_surface(ctx, &surface, 32, &[Axis::Z], FillRule::Winding, 64, None)
             .unwrap();
-    surface.destroy(ctx);
+    drop(surface);
     grid
 }
 
@@ -356,11 +356,11 @@ fn one_frame(ctx: &Context, scene: &mut dyn Scene, t: f32) {
         path: DrawPath::Compute,
     };
     ctx.one_shot(|cmd| {
-        begin_color_target(ctx, cmd, color.raw);
+        begin_color_target(ctx, cmd, color.raw());
         image_barrier(
             ctx,
             cmd,
-            depth.raw,
+            depth.raw(),
             depth.range(),
             vk::ImageLayout::UNDEFINED,
             vk::ImageLayout::DEPTH_ATTACHMENT_OPTIMAL,
@@ -374,8 +374,8 @@ fn one_frame(ctx: &Context, scene: &mut dyn Scene, t: f32) {
         );
         let targets = FrameTargets {
             slot: 0,
-            color: color.view,
-            depth: depth.view,
+            color: color.view(),
+            depth: depth.view(),
             extent: vk::Extent2D {
                 width: w,
                 height: h,
@@ -386,9 +386,9 @@ fn one_frame(ctx: &Context, scene: &mut dyn Scene, t: f32) {
             .map_err(|e| gregvox::Error::Invalid(e.to_string()))
     })
     .unwrap();
-    profiler.destroy(ctx);
-    color.destroy(ctx);
-    depth.destroy(ctx);
+    drop(profiler);
+    drop(color);
+    drop(depth);
 }
 
 #[test]
@@ -428,7 +428,7 @@ fn the_voxels_scene_grid_after_one_frame_equals_the_one_shot_gpu_voxelizer() {
                 None,
             )
             .unwrap();
-        one_shot.destroy(ctx);
+        drop(one_shot);
         eprintln!(
             "resident grid: {} solid voxels of {}³, {} peeling passes planned, {} needed",
             resident.count(),
@@ -462,10 +462,10 @@ fn the_voxels_scene_grid_after_one_frame_equals_the_one_shot_gpu_voxelizer() {
                 None,
             )
             .unwrap();
-        one_shot.destroy(ctx);
+        drop(one_shot);
         assert!(resident.count() > 1000);
         assert_eq!(resident.count_differences(&reference), 0);
-        Box::new(scene).destroy(ctx);
+        drop(scene);
     });
 }
 
@@ -499,7 +499,7 @@ fn with_voxel_every_2_the_grid_is_kept_on_the_odd_frames() {
             grids[2].count_differences(&grids[0]) > 100,
             "the bend changes the grid"
         );
-        Box::new(scene).destroy(ctx);
+        drop(scene);
     });
 }
 
@@ -545,7 +545,7 @@ fn the_curves_scene_draws_the_predicted_segments_from_the_geometry_core() {
         let mut scene = CurvesScene::new(ctx, FORMAT).unwrap();
         one_frame(ctx, &mut scene, 0.4);
         assert_eq!(scene.drawn, expected_vertices());
-        Box::new(scene).destroy(ctx);
+        drop(scene);
     });
 }
 
@@ -574,8 +574,8 @@ fn render(ctx: &Context, args: &[&str], frames: u32) -> (u32, u32, Vec<Vec<u8>>)
     let pixels = (frames - 2..frames)
         .map(|f| target.read_rgba((f % slots) as usize).unwrap())
         .collect();
-    r.destroy(ctx);
-    Box::new(target).destroy(ctx);
+    drop(r);
+    drop(target);
     (w, h, pixels)
 }
 

@@ -7,7 +7,6 @@ use common::{validated_context, with_gpu};
 use gregvox::gpu::frames::Frames;
 use gregvox::gpu::pipeline::shader_module;
 use gregvox::gpu::present::begin_color_target;
-use gregvox::gpu::resources::Deferred;
 use gregvox::gpu::{shaders, Context, MemoryLocation, OffscreenTarget, PresentTarget, Profiler};
 use gregvox::passes::iota::IotaPass;
 use gregvox::passes::triangles::TrianglesPass;
@@ -51,8 +50,8 @@ fn compute_fill_is_exact_element_by_element_across_a_2d_split_dispatch() {
             .filter(|&i| words[i] != (i as u32).wrapping_mul(3).wrapping_add(7))
             .count();
         assert_eq!(wrong, 0, "{wrong} of {n} elements differ from i*3+7");
-        buf.destroy(ctx);
-        pass.destroy(ctx);
+        drop(buf);
+        drop(pass);
     });
 }
 
@@ -69,13 +68,13 @@ fn upload_and_readback_round_trip_through_staging() {
                 vk::BufferUsageFlags::STORAGE_BUFFER | vk::BufferUsageFlags::TRANSFER_SRC,
             )
             .unwrap();
-        assert_eq!(buf.location, MemoryLocation::GpuOnly);
+        assert_eq!(buf.location(), MemoryLocation::GpuOnly);
         assert_eq!(ctx.read_buffer(&buf).unwrap(), data);
         assert_eq!(
             ctx.read_buffer_range(&buf, 1000, 17).unwrap(),
             data[1000..1017]
         );
-        buf.destroy(ctx);
+        drop(buf);
     });
 }
 
@@ -86,7 +85,7 @@ fn gpu_only_memory_is_never_mapped() {
         let err = buf.mapped().unwrap_err().to_string();
         assert!(err.contains("GpuOnly"), "{err}");
         assert!(buf.mapped_mut().is_err());
-        buf.destroy(ctx);
+        drop(buf);
     });
 }
 
@@ -197,9 +196,9 @@ fn offscreen_triangle_covers_exactly_the_pixels_whose_centres_are_inside() {
                 mismatches.push((k as u32 % W, k as u32 / W));
             }
         }
-        vbuf.destroy(ctx);
-        pass.destroy(ctx);
-        Box::new(target).destroy(ctx);
+        drop(vbuf);
+        drop(pass);
+        drop(target);
         (covered, mismatches)
     });
     assert_eq!(covered, expected_count);
@@ -267,10 +266,10 @@ fn profiler_scopes_come_back_ordered_and_positive() {
             6
         );
         assert!(prof.table().contains("| second fill | 3 |"));
-        a.destroy(ctx);
-        b.destroy(ctx);
-        pass.destroy(ctx);
-        prof.destroy(ctx);
+        drop(a);
+        drop(b);
+        drop(pass);
+        drop(prof);
     });
 }
 
@@ -288,15 +287,20 @@ fn every_embedded_shader_module_is_created_under_validation() {
 }
 
 #[test]
-fn deferred_destruction_waits_for_the_frame() {
+fn a_buffer_dropped_while_its_frame_records_lives_until_that_frame_completes() {
     with_gpu(|ctx| {
         let pass = IotaPass::new(ctx).unwrap();
         let mut frames = Frames::new(ctx, 2).unwrap();
         for frame in 0..5u32 {
             let (_, cmd) = frames.begin(ctx).unwrap();
-            let buf = storage_buffer(ctx, &format!("transient {frame}"), 4096);
+            let name = format!("transient {frame}");
+            let buf = storage_buffer(ctx, &name, 4096);
             pass.record(ctx, cmd, &buf, 1024, 1, frame).unwrap();
-            frames.defer(Deferred::Buffer(buf));
+            // The recording references it: dropping it now must not destroy it (validation would report the
+            // submission of a destroyed buffer).
+            drop(buf);
+            assert!(ctx.live_allocations().contains(&name));
+            assert!(ctx.objects_awaiting_release() >= 1);
             frames.submit(ctx, &[], &[]).unwrap();
             // At most one transient per slot is alive: older ones were destroyed after their fence.
             assert!(
@@ -305,8 +309,8 @@ fn deferred_destruction_waits_for_the_frame() {
                 ctx.live_allocations()
             );
         }
-        frames.destroy(ctx);
-        pass.destroy(ctx);
+        drop(frames);
+        drop(pass);
     });
 }
 
@@ -344,7 +348,7 @@ fn the_harness_sees_validation_messages_and_leaks() {
         )
         .unwrap();
     assert_eq!(ctx.live_allocations(), ["leak probe"]);
-    buf.destroy(&ctx);
+    drop(buf);
     assert!(ctx.live_allocations().is_empty());
 }
 
@@ -444,8 +448,8 @@ fn offscreen_target_applies_a_resize_at_the_next_acquire() {
         });
         assert_eq!(target.acquire(ctx, 0).unwrap().unwrap().extent.width, 8);
         assert_eq!(target.acquire(ctx, 1).unwrap().unwrap().extent.height, 8);
-        vbuf.destroy(ctx);
-        pass.destroy(ctx);
-        Box::new(target).destroy(ctx);
+        drop(vbuf);
+        drop(pass);
+        drop(target);
     });
 }

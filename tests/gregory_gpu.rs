@@ -57,10 +57,10 @@ fn spmv_equals_the_cpu_gather_bit_for_bit_on_the_bunny_subdivision_matrix() {
             .unwrap();
         let y: Vec<[f32; 4]> = bytemuck::pod_collect_to_vec(&ctx.read_buffer(&yb).unwrap());
         for b in [xb, yb] {
-            b.destroy(ctx);
+            drop(b);
         }
-        a.destroy(ctx);
-        pass.destroy(ctx);
+        drop(a);
+        drop(pass);
         y
     });
     assert_eq!(gpu.len(), cpu.len());
@@ -153,9 +153,9 @@ fn eval_on_gpu(
         .unwrap();
         let v: Vec<SurfaceVertex> = bytemuck::pod_collect_to_vec(&ctx.read_buffer(&out).unwrap());
         for b in [pb, ib, fb, out] {
-            b.destroy(ctx);
+            drop(b);
         }
-        pass.destroy(ctx);
+        drop(pass);
         v
     })
 }

@@ -36,7 +36,7 @@ fn gpu_control_points_match_opensubdiv_gregory_basis_points() {
             let s = GregorySurface::new(ctx, &topo, &cage, 4).unwrap();
             ctx.one_shot(|cmd| s.record(ctx, cmd, None, None)).unwrap();
             let p = s.read_points(ctx).unwrap();
-            s.destroy(ctx);
+            drop(s);
             p
         });
         let d = diag(&fx.cage);
@@ -75,7 +75,7 @@ fn evaluate(
             .unwrap();
             jumps.push(max_jump_coincident(&s.read_vertices(ctx).unwrap(), level));
         }
-        s.destroy(ctx);
+        drop(s);
         (first, jumps, d)
     })
 }
@@ -216,7 +216,7 @@ fn gpu_g1_over_100_random_deformations_of_one_percent() {
         let plain_out = ctx
             .create_buffer(
                 "plain-points vertices",
-                s.vertices().size,
+                s.vertices().size(),
                 ash::vk::BufferUsageFlags::STORAGE_BUFFER | ash::vk::BufferUsageFlags::TRANSFER_SRC,
                 gregvox::gpu::MemoryLocation::GpuOnly,
             )
@@ -266,9 +266,9 @@ fn gpu_g1_over_100_random_deformations_of_one_percent() {
                 "the control (no residuals) should exceed 1e-3 rad on these deformations: {worst_plain}"
             );
         }
-        plain_out.destroy(ctx);
-        control.destroy(ctx);
-        s.destroy(ctx);
+        drop(plain_out);
+        drop(control);
+        drop(s);
     });
 }
 
@@ -321,11 +321,11 @@ fn level_64_past_one_storage_binding_equals_level_32_at_shared_samples() {
             assert_eq!(gregvox::passes::bounds::decode(gpu_bounds[a]), lo[a]);
             assert_eq!(gregvox::passes::bounds::decode(gpu_bounds[3 + a]), hi[a]);
         }
-        out.destroy(ctx);
-        bounds.destroy(ctx);
-        s64.destroy(ctx);
+        drop(out);
+        drop(bounds);
+        drop(s64);
         let (coarse, s32) = eval(32);
-        s32.destroy(ctx);
+        drop(s32);
         let mut differing = 0usize;
         for p in 0..patches {
             for j in 0..33 {

@@ -41,10 +41,10 @@ fn gpu_normals(m: &MeshMatrix, positions: &[DVec3]) -> Vec<DVec3> {
         ctx.one_shot(|cmd| pass.record(ctx, cmd, &gm, &pb, &out))
             .unwrap();
         let n: Vec<[f32; 4]> = ctx.read_pod(&out).unwrap();
-        pb.destroy(ctx);
-        out.destroy(ctx);
-        gm.destroy(ctx);
-        pass.destroy(ctx);
+        drop(pb);
+        drop(out);
+        drop(gm);
+        drop(pass);
         n.iter()
             .map(|v| DVec3::new(v[0] as f64, v[1] as f64, v[2] as f64))
             .collect()
@@ -149,13 +149,9 @@ fn repeated_subdivision_is_one_gpu_spmv_per_level() {
         })
         .unwrap();
         let out: Vec<[f32; 4]> = ctx.read_pod(bufs.last().unwrap()).unwrap();
-        for b in bufs {
-            b.destroy(ctx);
-        }
-        for a in mats {
-            a.destroy(ctx);
-        }
-        pass.destroy(ctx);
+        drop(bufs);
+        drop(mats);
+        drop(pass);
         out
     });
     assert_eq!(gpu.len(), cpu.len());

@@ -135,9 +135,9 @@ fn gpu_run<T>(
     let abuf = AbufferVoxelizer::new(ctx, 12).unwrap();
     let tris = GpuTriangles::upload(ctx, mesh).unwrap();
     let out = f(&peel, &abuf, &tris);
-    tris.destroy(ctx);
-    abuf.destroy(ctx);
-    peel.destroy(ctx);
+    drop(tris);
+    drop(abuf);
+    drop(peel);
     out
 }
 

@@ -118,10 +118,6 @@ pub fn time_path(
                     })?;
                     Ok(g.pass("gregory_eval"))
                 })();
-                for b in owned {
-                    b.destroy(ctx);
-                }
-                eval.destroy(ctx);
                 r
             }
             EvalPath::VertexPull => {
@@ -156,13 +152,10 @@ pub fn time_path(
                     }
                     super::median(&times)
                 });
-                profiler.destroy(ctx);
-                pp.destroy(ctx);
                 r
             }
         }
     })();
-    surface.destroy(ctx);
     match r {
         Ok(ms) => Ok(Ok(ms)),
         Err(e) => match e.downcast_ref::<crate::Error>() {
@@ -493,7 +486,6 @@ pub fn adaptive(cfg: &BenchConfig, report: &mut Report) -> anyhow::Result<()> {
                 }
                 Ok(())
             })();
-            surface.destroy(&ctx);
             r?;
         }
         Ok(())

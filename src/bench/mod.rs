@@ -518,7 +518,6 @@ pub fn time_gpu(
             wall_ms: median(&walls),
         })
     })();
-    profiler.destroy(ctx);
     r
 }
 

@@ -126,7 +126,6 @@ fn table_3_1(ctx: &Context, cfg: &BenchConfig) -> anyhow::Result<Table> {
         }
         Ok(())
     })();
-    flag.destroy(ctx);
     r.map(|()| t)
 }
 
@@ -175,13 +174,6 @@ fn gpu_spmv_ms(
         })?;
         Ok(g.pass("cc spmv"))
     })();
-    for b in owned {
-        b.destroy(ctx);
-    }
-    if let Some(s) = sparse {
-        s.destroy(ctx);
-    }
-    pass.destroy(ctx);
     r
 }
 
@@ -228,7 +220,6 @@ fn table_3_2(ctx: &Context, cfg: &BenchConfig) -> anyhow::Result<Table> {
         let g = time_gpu(ctx, 2, cfg.repeats, |cmd, prof| {
             surface.record(ctx, cmd, None, prof)
         });
-        surface.destroy(ctx);
         let g = g?;
         t.push(vec![
             format!("{n} × {n}").into(),
@@ -269,7 +260,6 @@ fn table_3_3(ctx: &Context, cfg: &BenchConfig) -> anyhow::Result<Table> {
         };
         surface.record(ctx, cmd, Some(&d), prof)
     });
-    surface.destroy(ctx);
     let g = g?;
     let mut t = Table::new(
         "thesis_3_3_deform_regenerate",

@@ -91,13 +91,7 @@ pub fn time_method(
         Method::Abuffer => GpuVoxelizer::Abuffer(Box::new(AbufferVoxelizer::new(ctx, 12)?)),
         _ => GpuVoxelizer::Peel(Box::new(PeelVoxelizer::new(ctx, 12)?)),
     };
-    let gpu = match GpuTriangles::upload(ctx, tri) {
-        Ok(g) => g,
-        Err(e) => {
-            v.destroy(ctx);
-            return Err(e.into());
-        }
-    };
+    let gpu = GpuTriangles::upload(ctx, tri)?;
     let r = (|| -> anyhow::Result<()> {
         let geom = gpu.geometry();
         // One untimed run pays the pipelines' JIT (only when repeating: large cases run once).
@@ -117,7 +111,6 @@ pub fn time_method(
             );
             wall.push(t.elapsed().as_secs_f64() * 1e3);
             let stats = p.stats();
-            p.destroy(ctx);
             let (grid, st) = out?;
             let sum = |names: &[&str]| -> f64 {
                 stats
@@ -133,8 +126,6 @@ pub fn time_method(
         }
         Ok(())
     })();
-    gpu.destroy(ctx);
-    v.destroy(ctx);
     r?;
     Ok(VoxTime {
         peeling_ms: median(&peel),

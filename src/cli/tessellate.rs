@@ -228,7 +228,6 @@ pub fn run(args: &TessellateArgs) -> anyhow::Result<()> {
         }
         Ok(())
     });
-    profiler.destroy(&ctx);
     out
 }
 
@@ -353,7 +352,6 @@ fn evaluate(
             if let Some(a) = adaptive {
                 let p = adaptive_params(a, surface.box_min, surface.box_size);
                 if let Err(e) = surface.set_adaptive(ctx, Some(p)) {
-                    surface.destroy(ctx);
                     return Err(e.into());
                 }
             }
@@ -378,7 +376,6 @@ fn evaluate(
                 Ok((surface.read_vertices(ctx)?, None))
             })();
             let n = surface.patch_count;
-            surface.destroy(ctx);
             let (v, l) = r?;
             Ok((v, n, l))
         }
@@ -412,11 +409,9 @@ fn evaluate(
                         profiler,
                     )
                 })();
-                pp.destroy(ctx);
                 r
             });
             let n = surface.patch_count;
-            surface.destroy(ctx);
             Ok((r?, n, None))
         }
         (Source::Beziex(patches), path) => {
@@ -444,7 +439,6 @@ fn evaluate(
                         args.repeat,
                         profiler,
                     );
-                    dummy.destroy(ctx);
                     return r;
                 }
                 let pass = BeziexEvalPass::new(ctx)?;
@@ -468,13 +462,10 @@ fn evaluate(
                         }
                         Ok(ctx.read_pod(&out)?)
                     })();
-                    out.destroy(ctx);
                     r
                 });
-                pass.destroy(ctx);
                 r
             })();
-            nb.destroy(ctx);
             Ok((r?, n, None))
         }
     }
@@ -540,8 +531,8 @@ pub fn vertex_pull(
             mode: [0; 4],
         };
         let target = DrawTarget {
-            color: images[0].view,
-            depth: images[1].view,
+            color: images[0].view(),
+            depth: images[1].view(),
             extent: vk::Extent2D {
                 width: w,
                 height: h,
@@ -549,11 +540,11 @@ pub fn vertex_pull(
         };
         for _ in 0..repeat {
             ctx.one_shot(|cmd| {
-                begin_color_target(ctx, cmd, images[0].raw);
+                begin_color_target(ctx, cmd, images[0].raw());
                 image_barrier(
                     ctx,
                     cmd,
-                    images[1].raw,
+                    images[1].raw(),
                     images[1].range(),
                     vk::ImageLayout::UNDEFINED,
                     vk::ImageLayout::DEPTH_ATTACHMENT_OPTIMAL,
@@ -588,13 +579,6 @@ pub fn vertex_pull(
         }
         Ok(ctx.read_pod(&owned[1])?)
     })();
-    for b in owned {
-        b.destroy(ctx);
-    }
-    for i in images {
-        i.destroy(ctx);
-    }
-    pass.destroy(ctx);
     r
 }
 

@@ -272,7 +272,6 @@ fn run_gregory(args: &VoxelizeArgs, level: u32) -> anyhow::Result<()> {
                     Some(&mut profiler),
                 )?)
             });
-        surface.destroy(&ctx);
         r
     })();
     let out = result.and_then(|(grid, stats)| {
@@ -290,7 +289,6 @@ fn run_gregory(args: &VoxelizeArgs, level: u32) -> anyhow::Result<()> {
             start.elapsed().as_secs_f64() * 1e3
         ))
     });
-    profiler.destroy(&ctx);
     out
 }
 
@@ -319,13 +317,7 @@ fn run_peel(
             v.progress = progress.clone();
             GpuVoxelizer::Peel(Box::new(v))
         };
-        let gpu = match GpuTriangles::upload(&ctx, tri) {
-            Ok(g) => g,
-            Err(e) => {
-                v.destroy(&ctx);
-                return Err(e.into());
-            }
-        };
+        let gpu = GpuTriangles::upload(&ctx, tri)?;
         let out = (|| -> anyhow::Result<PeelResult> {
             let geom = gpu.geometry();
             let need = memory_estimate(&ctx, frame.res, 16);
@@ -367,11 +359,8 @@ fn run_peel(
                 .collect();
             Ok((grid, layers, Some(profiler.json()), Some(per_pass)))
         })();
-        gpu.destroy(&ctx);
-        v.destroy(&ctx);
         out
     })();
-    profiler.destroy(&ctx);
     if let Some(p) = progress {
         p.finish_and_clear();
     }

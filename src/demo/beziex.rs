@@ -90,25 +90,9 @@ impl BeziexScene {
             ),
         ];
         for (label, bytes, usage) in uploads {
-            match ctx.upload_buffer(label, bytes, usage) {
-                Ok(b) => made.push(b),
-                Err(e) => {
-                    for b in made {
-                        b.destroy(ctx);
-                    }
-                    return Err(e.into());
-                }
-            }
+            made.push(ctx.upload_buffer(label, bytes, usage)?)
         }
-        let pass = match PatchPullPass::new(ctx, format, DEPTH_FORMAT, false) {
-            Ok(p) => p,
-            Err(e) => {
-                for b in made {
-                    b.destroy(ctx);
-                }
-                return Err(e.into());
-            }
-        };
+        let pass = PatchPullPass::new(ctx, format, DEPTH_FORMAT, false)?;
         let grid = made.pop().unwrap();
         let patch_points = made.pop().unwrap();
         let nets = made.pop().unwrap();
@@ -175,13 +159,6 @@ impl Scene for BeziexScene {
     fn framing(&self) -> Orbit {
         let size = self.box_max - self.box_min;
         Orbit::framing(0.5 * (self.box_min + self.box_max), size.max_element())
-    }
-
-    fn destroy(self: Box<Self>, ctx: &Context) {
-        self.nets.destroy(ctx);
-        self.patch_points.destroy(ctx);
-        self.grid.destroy(ctx);
-        self.pass.destroy(ctx);
     }
 }
 

@@ -311,11 +311,6 @@ impl Scene for CurvesScene {
             distance: 9.5,
         }
     }
-
-    fn destroy(self: Box<Self>, ctx: &Context) {
-        self.ring.destroy(ctx);
-        self.lines.destroy(ctx);
-    }
 }
 
 /// Builds the curves scene.

@@ -170,21 +170,8 @@ impl Renderer {
         shading: ShadingMode,
         path: DrawPath,
     ) -> anyhow::Result<Self> {
-        let frames = match Frames::new(ctx, FRAMES_IN_FLIGHT) {
-            Ok(f) => f,
-            Err(e) => {
-                scene.destroy(ctx);
-                return Err(e.into());
-            }
-        };
-        let profiler = match Profiler::new(ctx, FRAMES_IN_FLIGHT, 64) {
-            Ok(p) => p,
-            Err(e) => {
-                frames.destroy(ctx);
-                scene.destroy(ctx);
-                return Err(e.into());
-            }
-        };
+        let frames = Frames::new(ctx, FRAMES_IN_FLIGHT)?;
+        let profiler = Profiler::new(ctx, FRAMES_IN_FLIGHT, 64)?;
         let view = ViewState {
             orbit: scene.framing(),
             shading,
@@ -218,10 +205,8 @@ impl Renderer {
             .as_ref()
             .is_some_and(|d| d.extent2d() != extent);
         if stale {
-            // The slot's previous frame has completed (begin_frame waited for it): safe to destroy now.
-            if let Some(old) = self.depth[slot].take() {
-                old.destroy(ctx);
-            }
+            // Released through the queue; the slot's previous frame has completed (begin_frame waited).
+            self.depth[slot] = None;
         }
         if self.depth[slot].is_none() {
             let desc = ImageDesc::d2(
@@ -250,7 +235,7 @@ impl Renderer {
             return Ok(false);
         };
         let depth = self.depth_view(ctx, slot, img.extent)?;
-        let (depth_image, depth_view, depth_range) = (depth.raw, depth.view, depth.range());
+        let (depth_image, depth_view, depth_range) = (depth.raw(), depth.view(), depth.range());
         begin_color_target(ctx, cmd, img.image);
         image_barrier(
             ctx,
@@ -296,7 +281,6 @@ impl Renderer {
     pub fn replace_scene(&mut self, ctx: &Context, scene: Box<dyn Scene>) -> anyhow::Result<()> {
         self.finish(ctx)?;
         let old = std::mem::replace(&mut self.scene, scene);
-        old.destroy(ctx);
         self.view.orbit = self.scene.framing();
         Ok(())
     }
@@ -314,17 +298,6 @@ impl Renderer {
             self.profiler.collect(ctx, slot)?;
         }
         Ok(())
-    }
-
-    /// Destroys everything (waits for the device first).
-    pub fn destroy(self, ctx: &Context) {
-        let _ = ctx.wait_idle();
-        self.frames.destroy(ctx);
-        for d in self.depth.into_iter().flatten() {
-            d.destroy(ctx);
-        }
-        self.scene.destroy(ctx);
-        self.profiler.destroy(ctx);
     }
 }
 
@@ -415,19 +388,11 @@ fn run_offscreen(args: &DemoArgs) -> anyhow::Result<()> {
     let ctx = Context::with_desc(&ContextDesc::default())?;
     let (w, h) = args.size;
     let mut target = OffscreenTarget::new(&ctx, w, h, FRAMES_IN_FLIGHT)?;
-    let mut renderer = match build_scene(&ctx, args, target.format())
-        .and_then(|scene| Renderer::new(&ctx, scene, args.shading, draw_path(args)))
-    {
-        Ok(r) => r,
-        Err(e) => {
-            Box::new(target).destroy(&ctx);
-            return Err(e);
-        }
-    };
+    let mut renderer = build_scene(&ctx, args, target.format())
+        .and_then(|scene| Renderer::new(&ctx, scene, args.shading, draw_path(args)))?;
     // Only once the scene stands: a refused model or option leaves no empty output folder behind.
     if let Err(e) = std::fs::create_dir_all(&out) {
-        renderer.destroy(&ctx);
-        Box::new(target).destroy(&ctx);
+        drop(target);
         return Err(e)
             .with_context(|| format!("cannot create the output folder {}", out.display()));
     }
@@ -448,8 +413,7 @@ fn run_offscreen(args: &DemoArgs) -> anyhow::Result<()> {
         );
         Ok(())
     });
-    renderer.destroy(&ctx);
-    Box::new(target).destroy(&ctx);
+    drop(target);
     report
 }
 

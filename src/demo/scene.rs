@@ -150,8 +150,6 @@ pub trait Scene {
     fn set_level(&mut self, _ctx: &Context, _level: u32) -> anyhow::Result<bool> {
         Ok(false)
     }
-    /// Destroys the scene's resources (device idle).
-    fn destroy(self: Box<Self>, ctx: &Context);
 }
 
 /// The light direction (towards the light) of every surface scene.
@@ -273,30 +271,9 @@ impl SurfaceLook {
     /// Builds the passes for targets of `format` and the ground plane of `stage`.
     pub fn new(ctx: &Context, format: vk::Format, stage: Stage) -> anyhow::Result<Self> {
         let draw = SurfaceDrawPass::new(ctx, format, DEPTH_FORMAT)?;
-        let shadow = match ShadowMap::new(ctx, SHADOW_SIZE) {
-            Ok(s) => s,
-            Err(e) => {
-                draw.destroy(ctx);
-                return Err(e.into());
-            }
-        };
-        let curvature_pass = match SurfaceCurvaturePass::new(ctx) {
-            Ok(c) => c,
-            Err(e) => {
-                draw.destroy(ctx);
-                shadow.destroy(ctx);
-                return Err(e.into());
-            }
-        };
-        let pull = match PatchPullPass::new(ctx, format, DEPTH_FORMAT, false) {
-            Ok(p) => p,
-            Err(e) => {
-                draw.destroy(ctx);
-                shadow.destroy(ctx);
-                curvature_pass.destroy(ctx);
-                return Err(e.into());
-            }
-        };
+        let shadow = ShadowMap::new(ctx, SHADOW_SIZE)?;
+        let curvature_pass = SurfaceCurvaturePass::new(ctx)?;
+        let pull = PatchPullPass::new(ctx, format, DEPTH_FORMAT, false)?;
         let mut look = SurfaceLook {
             draw,
             shadow,
@@ -334,10 +311,7 @@ impl SurfaceLook {
                 look.ground.push(i);
                 Ok(look)
             }
-            Err(e) => {
-                look.destroy(ctx);
-                Err(e.into())
-            }
+            Err(e) => Err(e.into()),
         }
     }
 
@@ -345,10 +319,7 @@ impl SurfaceLook {
     /// the old buffers may have been used by earlier frames).
     pub fn resize(&mut self, ctx: &Context, patches: u32, level: u32) -> anyhow::Result<()> {
         let bytes = vertex_count(patches, level) * CURVATURE_STRIDE;
-        if self.curvature.as_ref().is_none_or(|b| b.size < bytes) {
-            if let Some(old) = self.curvature.take() {
-                old.destroy(ctx);
-            }
+        if self.curvature.as_ref().is_none_or(|b| b.size() < bytes) {
             self.curvature = Some(ctx.create_buffer(
                 "surface curvature",
                 bytes.max(CURVATURE_STRIDE),
@@ -357,9 +328,6 @@ impl SurfaceLook {
             )?);
         }
         if self.pull_indices.as_ref().is_none_or(|(_, l)| *l != level) {
-            if let Some((old, _)) = self.pull_indices.take() {
-                old.destroy(ctx);
-            }
             let idx = grid_indices(1, level);
             self.pull_indices = Some((
                 ctx.upload_buffer(
@@ -496,23 +464,6 @@ impl SurfaceLook {
         }
         Ok(())
     }
-
-    /// Destroys everything (device idle).
-    pub fn destroy(self, ctx: &Context) {
-        for b in self.ground {
-            b.destroy(ctx);
-        }
-        if let Some(b) = self.curvature {
-            b.destroy(ctx);
-        }
-        if let Some((b, _)) = self.pull_indices {
-            b.destroy(ctx);
-        }
-        self.draw.destroy(ctx);
-        self.shadow.destroy(ctx);
-        self.curvature_pass.destroy(ctx);
-        self.pull.destroy(ctx);
-    }
 }
 
 /// The minimal compute → raster scene: a ring of triangles written by a compute shader.
@@ -533,13 +484,7 @@ impl SpinnerScene {
     ) -> anyhow::Result<Self> {
         let count = count.clamp(1, 1 << 20);
         let spinner = SpinnerPass::new(ctx)?;
-        let triangles = match TrianglesPass::new(ctx, format) {
-            Ok(t) => t,
-            Err(e) => {
-                spinner.destroy(ctx);
-                return Err(e.into());
-            }
-        };
+        let triangles = TrianglesPass::new(ctx, format)?;
         let mut s = SpinnerScene {
             spinner,
             triangles,
@@ -548,18 +493,12 @@ impl SpinnerScene {
         };
         for i in 0..slots {
             // One buffer per slot: frame N+1's compute must not overwrite what frame N still draws.
-            match ctx.create_buffer(
+            s.buffers.push(ctx.create_buffer(
                 &format!("spinner vertices {i}"),
                 count as u64 * 48,
                 vk::BufferUsageFlags::STORAGE_BUFFER | vk::BufferUsageFlags::VERTEX_BUFFER,
                 MemoryLocation::GpuOnly,
-            ) {
-                Ok(b) => s.buffers.push(b),
-                Err(e) => {
-                    Box::new(s).destroy(ctx);
-                    return Err(e.into());
-                }
-            }
+            )?)
         }
         Ok(s)
     }
@@ -614,14 +553,6 @@ impl Scene for SpinnerScene {
     fn framing(&self) -> Orbit {
         Orbit::framing(Vec3::ZERO, 1.0)
     }
-
-    fn destroy(self: Box<Self>, ctx: &Context) {
-        for b in self.buffers {
-            b.destroy(ctx);
-        }
-        self.spinner.destroy(ctx);
-        self.triangles.destroy(ctx);
-    }
 }
 
 /// The thesis's flag: 2×3 Gregory patches from animated boundary curves, Chiyokura–Kimura on/off (key C).
@@ -653,10 +584,7 @@ impl FlagScene {
         let look = SurfaceLook::new(ctx, format, stage).and_then(|mut look| {
             match look.resize(ctx, flag.patch_count(), flag.level) {
                 Ok(()) => Ok(look),
-                Err(e) => {
-                    look.destroy(ctx);
-                    Err(e)
-                }
+                Err(e) => Err(e),
             }
         });
         match look {
@@ -665,10 +593,7 @@ impl FlagScene {
                 look,
                 correct: true,
             }),
-            Err(e) => {
-                flag.destroy(ctx);
-                Err(e)
-            }
+            Err(e) => Err(e),
         }
     }
 }
@@ -739,16 +664,10 @@ impl Scene for FlagScene {
         // The device is idle (trait contract); the flag's buffers are sized per level, so rebuild it.
         let flag = FlagSurface::new(ctx, self.flag.columns, self.flag.rows, level)?;
         if let Err(e) = self.look.resize(ctx, flag.patch_count(), level) {
-            flag.destroy(ctx);
             return Err(e);
         }
-        std::mem::replace(&mut self.flag, flag).destroy(ctx);
+        self.flag = flag;
         Ok(true)
-    }
-
-    fn destroy(self: Box<Self>, ctx: &Context) {
-        self.flag.destroy(ctx);
-        self.look.destroy(ctx);
     }
 }
 
@@ -785,10 +704,7 @@ impl CageScene {
         let made = SurfaceLook::new(ctx, format, stage).and_then(|mut look| {
             match look.resize(ctx, surface.patch_count, surface.level) {
                 Ok(()) => Ok(look),
-                Err(e) => {
-                    look.destroy(ctx);
-                    Err(e)
-                }
+                Err(e) => Err(e),
             }
         });
         match made {
@@ -799,10 +715,7 @@ impl CageScene {
                 name,
                 adaptive: None,
             }),
-            Err(e) => {
-                surface.destroy(ctx);
-                Err(e)
-            }
+            Err(e) => Err(e),
         }
     }
 }
@@ -918,17 +831,9 @@ impl Scene for CageScene {
     }
 
     fn set_level(&mut self, ctx: &Context, level: u32) -> anyhow::Result<bool> {
-        // The device is idle (trait contract): the old buffers can go at once.
-        for b in self.surface.set_level(ctx, level)? {
-            b.destroy(ctx);
-        }
+        self.surface.set_level(ctx, level)?;
         self.look
             .resize(ctx, self.surface.patch_count, self.surface.level)?;
         Ok(true)
-    }
-
-    fn destroy(self: Box<Self>, ctx: &Context) {
-        self.surface.destroy(ctx);
-        self.look.destroy(ctx);
     }
 }

@@ -94,20 +94,14 @@ fn plan_grid(
 ) -> anyhow::Result<(GridFrame, u32)> {
     let count = vertex_count(surface.patch_count, surface.level) as u32;
     let bounds = BoundsPass::new(ctx)?;
-    let buf = match ctx.create_buffer(
+    let buf = ctx.create_buffer(
         "voxels scene bounds",
         24,
         vk::BufferUsageFlags::STORAGE_BUFFER
             | vk::BufferUsageFlags::TRANSFER_DST
             | vk::BufferUsageFlags::TRANSFER_SRC,
         MemoryLocation::GpuOnly,
-    ) {
-        Ok(b) => b,
-        Err(e) => {
-            bounds.destroy(ctx);
-            return Err(e.into());
-        }
-    };
+    )?;
     let mut lo = [f32::INFINITY; 3];
     let mut hi = [f32::NEG_INFINITY; 3];
     let mut result = Ok(());
@@ -131,8 +125,6 @@ fn plan_grid(
             }
         }
     }
-    buf.destroy(ctx);
-    bounds.destroy(ctx);
     result?;
     let side = (0..3).map(|a| hi[a] - lo[a]).fold(0.0f32, f32::max);
     let margin = 0.02 * side + side / res as f32;
@@ -160,7 +152,6 @@ fn plan_grid(
             }
         }
     }
-    counter.destroy(ctx);
     result?;
     // Two spare passes for poses between samples (extra passes cost time, never correctness).
     Ok((frame, deepest + 2))
@@ -176,59 +167,21 @@ impl VoxelsScene {
         name: String,
     ) -> anyhow::Result<Self> {
         if !(1..=8).contains(&options.scale) {
-            surface.destroy(ctx);
             anyhow::bail!("--voxel-scale {} is outside 1…8", options.scale);
         }
         if !(2..=MAX_VOXEL_RES).contains(&options.res) {
-            surface.destroy(ctx);
             anyhow::bail!("--voxel-res {} is outside 2…{MAX_VOXEL_RES}", options.res);
         }
-        let (frame, layers) = match plan_grid(ctx, &surface, options.deformation, options.res) {
-            Ok(p) => p,
-            Err(e) => {
-                surface.destroy(ctx);
-                return Err(e);
-            }
-        };
-        let voxelizer = match ResidentVoxelizer::new(ctx, 32, frame, layers, FillRule::Winding) {
-            Ok(v) => v,
-            Err(e) => {
-                surface.destroy(ctx);
-                return Err(e.into());
-            }
-        };
-        let draw = match SurfaceDrawPass::new(ctx, format, DEPTH_FORMAT) {
-            Ok(d) => d,
-            Err(e) => {
-                voxelizer.destroy(ctx);
-                surface.destroy(ctx);
-                return Err(e.into());
-            }
-        };
-        let raycast = match VoxelRaycastPass::new(ctx, format) {
-            Ok(r) => r,
-            Err(e) => {
-                draw.destroy(ctx);
-                voxelizer.destroy(ctx);
-                surface.destroy(ctx);
-                return Err(e.into());
-            }
-        };
-        let bricks = match ctx.create_buffer(
+        let (frame, layers) = plan_grid(ctx, &surface, options.deformation, options.res)?;
+        let voxelizer = ResidentVoxelizer::new(ctx, 32, frame, layers, FillRule::Winding)?;
+        let draw = SurfaceDrawPass::new(ctx, format, DEPTH_FORMAT)?;
+        let raycast = VoxelRaycastPass::new(ctx, format)?;
+        let bricks = ctx.create_buffer(
             "voxel bricks",
             bricks_bytes(frame.res),
             vk::BufferUsageFlags::STORAGE_BUFFER,
             MemoryLocation::GpuOnly,
-        ) {
-            Ok(b) => b,
-            Err(e) => {
-                raycast.destroy(ctx);
-                draw.destroy(ctx);
-                voxelizer.destroy(ctx);
-                surface.destroy(ctx);
-                return Err(e.into());
-            }
-        };
+        )?;
         Ok(VoxelsScene {
             surface,
             draw,
@@ -282,10 +235,8 @@ impl VoxelsScene {
             .as_ref()
             .is_some_and(|i| i.extent2d() != extent)
         {
-            // The slot's previous frame has completed (Renderer::begin_frame waited for its fence).
-            if let Some(old) = self.images[slot].take() {
-                old.destroy(ctx);
-            }
+            // Released through the queue; the slot's previous frame has completed.
+            self.images[slot] = None;
         }
         if self.images[slot].is_none() {
             self.images[slot] = Some(VoxelRaycastPass::create_image(
@@ -426,7 +377,7 @@ impl Scene for VoxelsScene {
         };
         let (frame, layers) = plan_grid(ctx, &self.surface, mode, self.voxelizer.frame.res)?;
         let voxelizer = ResidentVoxelizer::new(ctx, 32, frame, layers, FillRule::Winding)?;
-        std::mem::replace(&mut self.voxelizer, voxelizer).destroy(ctx);
+        self.voxelizer = voxelizer;
         self.options.deformation = mode;
         // The next frame voxelizes whatever --voxel-every says.
         self.frames = 0;
@@ -440,17 +391,6 @@ impl Scene for VoxelsScene {
             Vec3::new(x + 0.5 * w, y + 0.5 * h, z + 0.5 * d),
             w.max(h).max(d),
         )
-    }
-
-    fn destroy(self: Box<Self>, ctx: &Context) {
-        for i in self.images.into_iter().flatten() {
-            i.destroy(ctx);
-        }
-        self.bricks.destroy(ctx);
-        self.raycast.destroy(ctx);
-        self.draw.destroy(ctx);
-        self.voxelizer.destroy(ctx);
-        self.surface.destroy(ctx);
     }
 }
 

@@ -199,20 +199,14 @@ impl App<'_> {
             true,
         )?;
         let renderer =
-            match super::build_scene(self.ctx, &self.args, target.format()).and_then(|scene| {
+            super::build_scene(self.ctx, &self.args, target.format()).and_then(|scene| {
                 Renderer::new(
                     self.ctx,
                     scene,
                     self.args.shading,
                     super::draw_path(&self.args),
                 )
-            }) {
-                Ok(r) => r,
-                Err(e) => {
-                    Box::new(target).destroy(self.ctx);
-                    return Err(e);
-                }
-            };
+            })?;
         self.window = Some(window);
         self.target = Some(target);
         self.renderer = Some(renderer);
@@ -358,7 +352,7 @@ impl App<'_> {
         if self.screenshot.is_some() {
             // Rare: waiting for the frame here keeps the capture simple.
             renderer.finish(self.ctx)?;
-            if let Some((w, h, rgba)) = target.take_capture(self.ctx)? {
+            if let Some((w, h, rgba)) = target.take_capture()? {
                 let path = self.screenshot.take().expect("checked above");
                 crate::gpu::present::write_png_rgba(&path, w, h, &rgba)?;
                 eprintln!("gregvox demo: screenshot {}", path.display());
@@ -537,13 +531,12 @@ pub fn run_windowed(args: &DemoArgs) -> anyhow::Result<()> {
     }
     if let Some(mut r) = app.renderer.take() {
         let finished = r.finish(&ctx).and_then(|()| args.profile.emit(&r.profiler));
-        r.destroy(&ctx);
         if result.is_ok() {
             result = finished;
         }
     }
     if let Some(t) = app.target.take() {
-        Box::new(t).destroy(&ctx);
+        drop(t);
     }
     drop(app.window.take());
     if result.is_ok() {

@@ -183,13 +183,7 @@ impl FlagSurface {
             24,
             64,
         )?;
-        let eval = match GregoryEvalPass::new(ctx) {
-            Ok(e) => e,
-            Err(e) => {
-                build.destroy(ctx);
-                return Err(e);
-            }
-        };
+        let eval = GregoryEvalPass::new(ctx)?;
         let mut made = Vec::new();
         let r = (|| -> Result<()> {
             let rw = vk::BufferUsageFlags::STORAGE_BUFFER | vk::BufferUsageFlags::TRANSFER_SRC;
@@ -226,11 +220,6 @@ impl FlagSurface {
             Ok(())
         })();
         if let Err(e) = r {
-            for b in made {
-                b.destroy(ctx);
-            }
-            build.destroy(ctx);
-            eval.destroy(ctx);
             return Err(e);
         }
         let mut it = made.into_iter();
@@ -332,7 +321,7 @@ impl FlagSurface {
         self.build.bind(
             ctx,
             cmd,
-            &[(0, Binding::Storage(self.points.raw))],
+            &[(0, Binding::Storage(self.points.raw()))],
             bytemuck::bytes_of(&push),
         );
         self.build
@@ -375,20 +364,5 @@ impl FlagSurface {
     /// Reads the built control points (20 per patch).
     pub fn read_points(&self, ctx: &Context) -> Result<Vec<[f32; 4]>> {
         ctx.read_pod(&self.points)
-    }
-
-    /// Destroys everything.
-    pub fn destroy(self, ctx: &Context) {
-        for b in [
-            self.points,
-            self.patch_points,
-            self.patch_flags,
-            self.vertices,
-            self.indices,
-        ] {
-            b.destroy(ctx);
-        }
-        self.build.destroy(ctx);
-        self.eval.destroy(ctx);
     }
 }

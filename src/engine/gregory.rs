@@ -112,67 +112,45 @@ impl Adaptive {
         let topo = EdgeTopology::new(patch_points);
         let patches = patch_points.len() as u64;
         let storage = vk::BufferUsageFlags::STORAGE_BUFFER | vk::BufferUsageFlags::TRANSFER_SRC;
-        let mut made: Vec<Buffer> = Vec::new();
-        let mut passes: (Option<AdaptiveLevelsPass>, Option<GregoryEvalPass>) = (None, None);
-        let r = (|| -> Result<()> {
-            passes.0 = Some(AdaptiveLevelsPass::new(ctx)?);
-            passes.1 = Some(GregoryEvalPass::new_adaptive(ctx)?);
-            made.push(ctx.upload_buffer(
+        let gpu = MemoryLocation::GpuOnly;
+        // A closed cage always has edges; keep the buffer non-empty for patches without any (impossible
+        // with 4 edges per patch, but an empty buffer cannot be created).
+        let mut edge_patches = topo.edge_patches.clone();
+        edge_patches.push(0);
+        Ok(Adaptive {
+            params: None,
+            levels_pass: AdaptiveLevelsPass::new(ctx)?,
+            eval: GregoryEvalPass::new_adaptive(ctx)?,
+            edge_count: topo.edge_count(),
+            edge_ids: ctx.upload_buffer(
                 "edge ids",
                 bytemuck::cast_slice(&topo.edge_ids),
                 storage,
-            )?);
-            made.push(ctx.upload_buffer(
+            )?,
+            edge_offsets: ctx.upload_buffer(
                 "edge offsets",
                 bytemuck::cast_slice(&topo.edge_offsets),
                 storage,
-            )?);
-            // A closed cage always has edges; keep the buffer non-empty for patches without any (impossible
-            // with 4 edges per patch, but an empty buffer cannot be created).
-            let mut ep = topo.edge_patches.clone();
-            ep.push(0);
-            made.push(ctx.upload_buffer("edge patches", bytemuck::cast_slice(&ep), storage)?);
-            let gpu = MemoryLocation::GpuOnly;
-            made.push(ctx.create_buffer(
+            )?,
+            edge_patches: ctx.upload_buffer(
+                "edge patches",
+                bytemuck::cast_slice(&edge_patches),
+                storage,
+            )?,
+            edge_levels: ctx.create_buffer(
                 "edge levels",
                 topo.edge_count() as u64 * 4,
                 storage,
                 gpu,
-            )?);
-            made.push(ctx.create_buffer("patch levels", patches * 4, storage, gpu)?);
-            made.push(ctx.create_buffer(
+            )?,
+            levels: ctx.create_buffer("patch levels", patches * 4, storage, gpu)?,
+            commands: ctx.create_buffer(
                 "adaptive draw commands",
                 patches * std::mem::size_of::<DrawCommand>() as u64,
                 storage | vk::BufferUsageFlags::INDIRECT_BUFFER,
                 gpu,
-            )?);
-            made.push(Self::index_buffer(ctx, l_max)?);
-            Ok(())
-        })();
-        if let Err(e) = r {
-            made.into_iter().for_each(|b| b.destroy(ctx));
-            if let Some(p) = passes.0 {
-                p.destroy(ctx);
-            }
-            if let Some(p) = passes.1 {
-                p.destroy(ctx);
-            }
-            return Err(e);
-        }
-        let mut it = made.into_iter();
-        let mut next = || it.next().expect("seven buffers");
-        Ok(Adaptive {
-            params: None,
-            levels_pass: passes.0.unwrap(),
-            eval: passes.1.unwrap(),
-            edge_count: topo.edge_count(),
-            edge_ids: next(),
-            edge_offsets: next(),
-            edge_patches: next(),
-            edge_levels: next(),
-            levels: next(),
-            commands: next(),
-            indices: next(),
+            )?,
+            indices: Self::index_buffer(ctx, l_max)?,
             indices_level: l_max,
         })
     }
@@ -183,22 +161,6 @@ impl Adaptive {
             bytemuck::cast_slice(&adaptive_indices(l_max)),
             vk::BufferUsageFlags::INDEX_BUFFER | vk::BufferUsageFlags::STORAGE_BUFFER,
         )
-    }
-
-    fn destroy(self, ctx: &Context) {
-        for b in [
-            self.edge_ids,
-            self.edge_offsets,
-            self.edge_patches,
-            self.edge_levels,
-            self.levels,
-            self.commands,
-            self.indices,
-        ] {
-            b.destroy(ctx);
-        }
-        self.levels_pass.destroy(ctx);
-        self.eval.destroy(ctx);
     }
 }
 
@@ -262,83 +224,35 @@ impl GregorySurface {
                 hi[a] = hi[a].max(p[a] as f32);
             }
         }
-        // Build step by step; on failure destroy what exists (a Vec of buffers keeps that simple).
-        let mut made: Vec<Buffer> = Vec::new();
-        let mut passes: (
-            Option<SpmvPass>,
-            Option<GregoryEvalPass>,
-            Option<CageDeformPass>,
-        ) = (None, None, None);
-        let mut w_gpu: Option<GpuSparse> = None;
-        let result = (|| -> Result<()> {
-            passes.0 = Some(SpmvPass::new_affine_split(ctx)?);
-            passes.1 = Some(GregoryEvalPass::new(ctx)?);
-            passes.2 = Some(CageDeformPass::new(ctx)?);
-            w_gpu = Some(GpuSparse::upload(ctx, "gregory W", &topo.w)?);
-            let storage = vk::BufferUsageFlags::STORAGE_BUFFER;
-            let rw =
-                storage | vk::BufferUsageFlags::TRANSFER_SRC | vk::BufferUsageFlags::TRANSFER_DST;
-            made.push(ctx.upload_buffer("cage rest", bytemuck::cast_slice(&vec4s(cage)), rw)?);
-            made.push(ctx.create_buffer(
-                "cage",
-                cage.len() as u64 * 16,
-                rw,
-                MemoryLocation::GpuOnly,
-            )?);
+        let storage = vk::BufferUsageFlags::STORAGE_BUFFER;
+        let rw = storage | vk::BufferUsageFlags::TRANSFER_SRC | vk::BufferUsageFlags::TRANSFER_DST;
+        let (vertices, indices) = Self::level_buffers(ctx, topo.patch_points.len() as u32, level)?;
+        Ok(GregorySurface {
+            spmv: SpmvPass::new_affine_split(ctx)?,
+            eval: GregoryEvalPass::new(ctx)?,
+            deform: CageDeformPass::new(ctx)?,
+            w: GpuSparse::upload(ctx, "gregory W", &topo.w)?,
+            rest: ctx.upload_buffer("cage rest", bytemuck::cast_slice(&vec4s(cage)), rw)?,
+            cage: ctx.create_buffer("cage", cage.len() as u64 * 16, rw, MemoryLocation::GpuOnly)?,
             // hi + lo: 2 points per row (gregory_points.comp).
-            made.push(ctx.create_buffer(
+            points: ctx.create_buffer(
                 "gregory points",
                 topo.w.n_rows.max(1) as u64 * 32,
                 rw,
                 MemoryLocation::GpuOnly,
-            )?);
-            made.push(ctx.upload_buffer(
+            )?,
+            patch_points: ctx.upload_buffer(
                 "patch points",
                 bytemuck::cast_slice(&topo.patch_points),
                 storage,
-            )?);
-            made.push(ctx.upload_buffer(
+            )?,
+            patch_flags: ctx.upload_buffer(
                 "patch flags",
                 bytemuck::cast_slice(&topo.patch_flags),
                 storage,
-            )?);
-            let (v, i) = Self::level_buffers(ctx, topo.patch_points.len() as u32, level)?;
-            made.push(v);
-            made.push(i);
-            Ok(())
-        })();
-        if let Err(e) = result {
-            for b in made {
-                b.destroy(ctx);
-            }
-            if let Some(w) = w_gpu {
-                w.destroy(ctx);
-            }
-            if let Some(p) = passes.0 {
-                p.destroy(ctx);
-            }
-            if let Some(p) = passes.1 {
-                p.destroy(ctx);
-            }
-            if let Some(p) = passes.2 {
-                p.destroy(ctx);
-            }
-            return Err(e);
-        }
-        let mut it = made.into_iter();
-        let mut next = || it.next().expect("seven buffers");
-        Ok(GregorySurface {
-            spmv: passes.0.unwrap(),
-            eval: passes.1.unwrap(),
-            deform: passes.2.unwrap(),
-            w: w_gpu.unwrap(),
-            rest: next(),
-            cage: next(),
-            points: next(),
-            patch_points: next(),
-            patch_flags: next(),
-            vertices: next(),
-            indices: next(),
+            )?,
+            vertices,
+            indices,
             patch_count: topo.patch_points.len() as u32,
             cage_count: cage.len() as u32,
             level,
@@ -370,49 +284,34 @@ impl GregorySurface {
             MemoryLocation::GpuOnly,
         )?;
         let idx = grid_indices(patches, level);
-        match ctx.upload_buffer(
+        let indices = ctx.upload_buffer(
             "gregory indices",
             bytemuck::cast_slice(&idx),
             vk::BufferUsageFlags::INDEX_BUFFER | vk::BufferUsageFlags::STORAGE_BUFFER,
-        ) {
-            Ok(i) => Ok((vertices, i)),
-            Err(e) => {
-                vertices.destroy(ctx);
-                Err(e)
-            }
-        }
+        )?;
+        Ok((vertices, indices))
     }
 
-    /// Switches to `level`; returns the old vertex and index buffers, to be destroyed once no frame in
-    /// flight uses them (e.g. through `Frames::defer`).
-    pub fn set_level(&mut self, ctx: &Context, level: u32) -> Result<Vec<Buffer>> {
+    /// Switches to `level`. The old vertex and index buffers are released through the release queue, so
+    /// frames in flight that still draw them stay valid.
+    pub fn set_level(&mut self, ctx: &Context, level: u32) -> Result<()> {
         if !(1..=MAX_LEVEL).contains(&level) {
             return Err(Error::Invalid(format!(
                 "tessellation level {level} is outside 1…{MAX_LEVEL}"
             )));
         }
         if level == self.level {
-            return Ok(Vec::new());
+            return Ok(());
         }
-        let (v, i) = Self::level_buffers(ctx, self.patch_count, level)?;
-        let mut old = Vec::new();
+        let (vertices, indices) = Self::level_buffers(ctx, self.patch_count, level)?;
         if let Some(a) = self.adaptive.as_mut() {
-            match Adaptive::index_buffer(ctx, level) {
-                Ok(ai) => {
-                    old.push(std::mem::replace(&mut a.indices, ai));
-                    a.indices_level = level;
-                }
-                Err(e) => {
-                    v.destroy(ctx);
-                    i.destroy(ctx);
-                    return Err(e);
-                }
-            }
+            a.indices = Adaptive::index_buffer(ctx, level)?;
+            a.indices_level = level;
         }
         self.level = level;
-        old.push(std::mem::replace(&mut self.vertices, v));
-        old.push(std::mem::replace(&mut self.indices, i));
-        Ok(old)
+        self.vertices = vertices;
+        self.indices = indices;
+        Ok(())
     }
 
     /// Switches screen-space adaptive tessellation on (`Some`) or off (`None`). With it on, the current
@@ -494,13 +393,13 @@ impl GregorySurface {
         // SAFETY: recording inside a render pass with a compatible pipeline bound; the buffers are alive.
         unsafe {
             ctx.device
-                .cmd_bind_vertex_buffers(cmd, 0, &[self.vertices.raw], &[0]);
+                .cmd_bind_vertex_buffers(cmd, 0, &[self.vertices.raw()], &[0]);
             ctx.device
-                .cmd_bind_index_buffer(cmd, a.indices.raw, 0, vk::IndexType::UINT32);
+                .cmd_bind_index_buffer(cmd, a.indices.raw(), 0, vk::IndexType::UINT32);
             for p in 0..self.patch_count as u64 {
                 ctx.device.cmd_draw_indexed_indirect(
                     cmd,
-                    a.commands.raw,
+                    a.commands.raw(),
                     p * stride,
                     1,
                     stride as u32,
@@ -678,7 +577,7 @@ impl GregorySurface {
             // SAFETY: recording; the range lies inside the rest buffer (same vertex count).
             unsafe {
                 ctx.device
-                    .cmd_update_buffer(cmd, self.rest.raw, k as u64 * 65536, chunk)
+                    .cmd_update_buffer(cmd, self.rest.raw(), k as u64 * 65536, chunk)
             };
         }
         memory_barrier(
@@ -724,27 +623,5 @@ impl GregorySurface {
             buffer: &self.points,
             residual_rows: self.point_rows(),
         }
-    }
-
-    /// Destroys everything (the caller guarantees the GPU is done with it).
-    pub fn destroy(self, ctx: &Context) {
-        for b in [
-            self.rest,
-            self.cage,
-            self.points,
-            self.patch_points,
-            self.patch_flags,
-            self.vertices,
-            self.indices,
-        ] {
-            b.destroy(ctx);
-        }
-        if let Some(a) = self.adaptive {
-            a.destroy(ctx);
-        }
-        self.w.destroy(ctx);
-        self.spmv.destroy(ctx);
-        self.eval.destroy(ctx);
-        self.deform.destroy(ctx);
     }
 }

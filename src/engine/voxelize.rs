@@ -19,6 +19,7 @@
 //!   commands; the grid stays on the device for the next pass (ray casting).
 use crate::error::{Error, Result};
 use crate::gpu::resources::{image_barrier, memory_barrier};
+use crate::gpu::Owned;
 use crate::gpu::{Buffer, Context, Image, ImageDesc, MemoryLocation, Profiler};
 use crate::passes::abuffer::{scan_words, AbufferFillJob, AbufferPass};
 use crate::passes::peel::{PeelGeometry, PeelPass, PeelPush};
@@ -60,17 +61,11 @@ impl GpuTriangles {
             bytemuck::cast_slice(&mesh.positions),
             vk::BufferUsageFlags::VERTEX_BUFFER | vk::BufferUsageFlags::STORAGE_BUFFER,
         )?;
-        let indices = match ctx.upload_buffer(
+        let indices = ctx.upload_buffer(
             "voxelize indices",
             bytemuck::cast_slice(&mesh.triangles),
             vk::BufferUsageFlags::INDEX_BUFFER | vk::BufferUsageFlags::STORAGE_BUFFER,
-        ) {
-            Ok(b) => b,
-            Err(e) => {
-                vertices.destroy(ctx);
-                return Err(e);
-            }
-        };
+        )?;
         Ok(GpuTriangles {
             vertices,
             indices,
@@ -85,12 +80,6 @@ impl GpuTriangles {
             indices: &self.indices,
             index_count: self.index_count,
         }
-    }
-
-    /// Destroys the buffers.
-    pub fn destroy(self, ctx: &Context) {
-        self.vertices.destroy(ctx);
-        self.indices.destroy(ctx);
     }
 }
 
@@ -140,30 +129,11 @@ struct AxisResources {
     counts: Option<Buffer>,
     depth: Vec<Image>,
     layers: Option<Image>,
-    layer_views: Vec<vk::ImageView>,
+    layer_views: Vec<Owned<vk::ImageView>>,
     out: Option<Buffer>,
 }
 
-impl AxisResources {
-    fn destroy(mut self, ctx: &Context) {
-        for v in self.layer_views.drain(..) {
-            // SAFETY: the device is idle (one_shot waited) when resources are released.
-            unsafe { ctx.device.destroy_image_view(v, None) };
-        }
-        if let Some(b) = self.counts.take() {
-            b.destroy(ctx);
-        }
-        for d in self.depth.drain(..) {
-            d.destroy(ctx);
-        }
-        if let Some(l) = self.layers.take() {
-            l.destroy(ctx);
-        }
-        if let Some(o) = self.out.take() {
-            o.destroy(ctx);
-        }
-    }
-}
+impl AxisResources {}
 
 fn peel_push(frame: &GridFrame, axis: Axis) -> PeelPush {
     let (ua, va) = axis.uv();
@@ -205,13 +175,7 @@ impl PeelVoxelizer {
             });
         }
         let peel = PeelPass::new(ctx, stride)?;
-        let fill = match VoxelFillPass::new(ctx) {
-            Ok(f) => f,
-            Err(e) => {
-                peel.destroy(ctx);
-                return Err(e);
-            }
-        };
+        let fill = VoxelFillPass::new(ctx)?;
         Ok(PeelVoxelizer {
             peel,
             fill,
@@ -245,7 +209,6 @@ impl PeelVoxelizer {
                 Ok(())
             })
             .and_then(|()| ctx.read_buffer(&counts));
-        counts.destroy(ctx);
         let words: Vec<u32> = result?
             .chunks_exact(4)
             .map(|b| u32::from_le_bytes([b[0], b[1], b[2], b[3]]))
@@ -268,7 +231,7 @@ impl PeelVoxelizer {
         // SAFETY: recording; whole-buffer fill.
         unsafe {
             ctx.device
-                .cmd_fill_buffer(cmd, counts.raw, 0, vk::WHOLE_SIZE, 0)
+                .cmd_fill_buffer(cmd, counts.raw(), 0, vk::WHOLE_SIZE, 0)
         };
         memory_barrier(
             ctx,
@@ -329,7 +292,6 @@ impl PeelVoxelizer {
             out: None,
         };
         let result = self.run_axis(ctx, geom, frame, axis, rule, &mut res_, &mut profiler);
-        res_.destroy(ctx);
         result
     }
 
@@ -422,25 +384,7 @@ impl PeelVoxelizer {
         );
         let layer_image = r.layers.insert(ctx.create_image("peel layers", &ldesc)?);
         for l in 0..layers {
-            let info = vk::ImageViewCreateInfo::default()
-                .image(layer_image.raw)
-                .view_type(vk::ImageViewType::TYPE_2D)
-                .format(vk::Format::R32_SFLOAT)
-                .subresource_range(vk::ImageSubresourceRange {
-                    aspect_mask: vk::ImageAspectFlags::COLOR,
-                    base_mip_level: 0,
-                    level_count: 1,
-                    base_array_layer: l,
-                    layer_count: 1,
-                });
-            // SAFETY: valid image and create info.
-            let view = unsafe { ctx.device.create_image_view(&info, None) }.map_err(|result| {
-                Error::Vulkan {
-                    call: "vkCreateImageView",
-                    result,
-                }
-            })?;
-            r.layer_views.push(view);
+            r.layer_views.push(ctx.create_layer_view(layer_image, l)?);
         }
         let words = frame.words_per_column() as u64;
         let max_range =
@@ -478,7 +422,7 @@ impl PeelVoxelizer {
                 self.fill.record(
                     ctx,
                     cmd,
-                    layer_image.view,
+                    layer_image.view(),
                     self.peel.sampler(),
                     out,
                     &FillJob {
@@ -530,7 +474,7 @@ impl PeelVoxelizer {
         push: &PeelPush,
         depth: &[Image],
         layer_image: &Image,
-        views: &[vk::ImageView],
+        views: &[Owned<vk::ImageView>],
         layers: u32,
         profiler: &mut Option<&mut Profiler>,
     ) -> Result<()> {
@@ -550,7 +494,7 @@ impl PeelVoxelizer {
             image_barrier(
                 ctx,
                 cmd,
-                img.raw,
+                img.raw(),
                 depth_range,
                 vk::ImageLayout::UNDEFINED,
                 vk::ImageLayout::DEPTH_ATTACHMENT_OPTIMAL,
@@ -564,7 +508,7 @@ impl PeelVoxelizer {
             );
             if i == 1 {
                 let att = vk::RenderingAttachmentInfo::default()
-                    .image_view(img.view)
+                    .image_view(img.view())
                     .image_layout(vk::ImageLayout::DEPTH_ATTACHMENT_OPTIMAL)
                     .load_op(vk::AttachmentLoadOp::CLEAR)
                     .store_op(vk::AttachmentStoreOp::STORE)
@@ -587,7 +531,7 @@ impl PeelVoxelizer {
                 image_barrier(
                     ctx,
                     cmd,
-                    img.raw,
+                    img.raw(),
                     depth_range,
                     vk::ImageLayout::DEPTH_ATTACHMENT_OPTIMAL,
                     vk::ImageLayout::DEPTH_READ_ONLY_OPTIMAL,
@@ -599,7 +543,7 @@ impl PeelVoxelizer {
         image_barrier(
             ctx,
             cmd,
-            layer_image.raw,
+            layer_image.raw(),
             layer_image.range(),
             vk::ImageLayout::UNDEFINED,
             vk::ImageLayout::COLOR_ATTACHMENT_OPTIMAL,
@@ -620,7 +564,7 @@ impl PeelVoxelizer {
                 image_barrier(
                     ctx,
                     cmd,
-                    prev.raw,
+                    prev.raw(),
                     depth_range,
                     vk::ImageLayout::DEPTH_ATTACHMENT_OPTIMAL,
                     vk::ImageLayout::DEPTH_READ_ONLY_OPTIMAL,
@@ -630,7 +574,7 @@ impl PeelVoxelizer {
                 image_barrier(
                     ctx,
                     cmd,
-                    cur.raw,
+                    cur.raw(),
                     depth_range,
                     vk::ImageLayout::DEPTH_READ_ONLY_OPTIMAL,
                     vk::ImageLayout::DEPTH_ATTACHMENT_OPTIMAL,
@@ -642,7 +586,7 @@ impl PeelVoxelizer {
                 .as_deref_mut()
                 .map(|p| p.begin(ctx, cmd, 0, "peel layer"));
             self.peel
-                .record_layer(ctx, cmd, geom, push, prev, cur, views[l]);
+                .record_layer(ctx, cmd, geom, push, prev, cur, views[l].raw());
             if let (Some(p), Some(s)) = (profiler.as_deref_mut(), s) {
                 p.end(ctx, cmd, s);
             }
@@ -650,7 +594,7 @@ impl PeelVoxelizer {
         image_barrier(
             ctx,
             cmd,
-            layer_image.raw,
+            layer_image.raw(),
             layer_image.range(),
             vk::ImageLayout::COLOR_ATTACHMENT_OPTIMAL,
             vk::ImageLayout::SHADER_READ_ONLY_OPTIMAL,
@@ -680,12 +624,6 @@ impl PeelVoxelizer {
             self.voxelize_axis(ctx, geom, frame, a, rule, profiler.as_deref_mut())
         })
     }
-
-    /// Destroys the passes.
-    pub fn destroy(self, ctx: &Context) {
-        self.peel.destroy(ctx);
-        self.fill.destroy(ctx);
-    }
 }
 
 /// Runs `one` along each of `axes` (1 or 3, checked) and takes the 2-of-3 vote for three.
@@ -714,22 +652,7 @@ struct AbufferResources {
     out: Option<Buffer>,
 }
 
-impl AbufferResources {
-    fn destroy(mut self, ctx: &Context) {
-        for b in [
-            self.counts.take(),
-            self.scan.take(),
-            self.cursor.take(),
-            self.frags.take(),
-            self.out.take(),
-        ]
-        .into_iter()
-        .flatten()
-        {
-            b.destroy(ctx);
-        }
-    }
-}
+impl AbufferResources {}
 
 /// The A-buffer voxelizer (`--method abuffer`): the peel pass's count pre-pass, a prefix sum, one scatter
 /// pass and a per-column sort + fill. Device memory per axis: 4·(2R² + Φ) bytes + one output slab, with Φ the
@@ -747,13 +670,7 @@ impl AbufferVoxelizer {
     /// Builds the passes (vertices of `stride` bytes, positions first).
     pub fn new(ctx: &Context, stride: u32) -> Result<Self> {
         let counter = PeelVoxelizer::new(ctx, stride)?;
-        let pass = match AbufferPass::new(ctx, stride) {
-            Ok(p) => p,
-            Err(e) => {
-                counter.destroy(ctx);
-                return Err(e);
-            }
-        };
+        let pass = AbufferPass::new(ctx, stride)?;
         Ok(AbufferVoxelizer {
             counter,
             pass,
@@ -795,7 +712,6 @@ impl AbufferVoxelizer {
         }
         let mut r = AbufferResources::default();
         let result = self.run_axis(ctx, geom, frame, axis, rule, &mut r, &mut profiler);
-        r.destroy(ctx);
         result
     }
 
@@ -839,15 +755,15 @@ impl AbufferVoxelizer {
             unsafe {
                 ctx.device.cmd_copy_buffer(
                     cmd,
-                    counts.raw,
-                    scan.raw,
+                    counts.raw(),
+                    scan.raw(),
                     &[vk::BufferCopy {
                         src_offset: 4,
                         dst_offset: 0,
                         size: r2 * 4,
                     }],
                 );
-                ctx.device.cmd_fill_buffer(cmd, scan.raw, r2 * 4, 4, 0);
+                ctx.device.cmd_fill_buffer(cmd, scan.raw(), r2 * 4, 4, 0);
             }
             memory_barrier(
                 ctx,
@@ -931,7 +847,7 @@ impl AbufferVoxelizer {
                     // SAFETY: recording; whole-buffer fill.
                     unsafe {
                         ctx.device
-                            .cmd_fill_buffer(cmd, cursor.raw, 0, vk::WHOLE_SIZE, 0)
+                            .cmd_fill_buffer(cmd, cursor.raw(), 0, vk::WHOLE_SIZE, 0)
                     };
                     memory_barrier(
                         ctx,
@@ -1014,12 +930,6 @@ impl AbufferVoxelizer {
             self.voxelize_axis(ctx, geom, frame, a, rule, profiler.as_deref_mut())
         })
     }
-
-    /// Destroys the passes.
-    pub fn destroy(self, ctx: &Context) {
-        self.counter.destroy(ctx);
-        self.pass.destroy(ctx);
-    }
 }
 
 /// A GPU voxelizer of either method, for callers that choose at run time.
@@ -1058,14 +968,6 @@ impl GpuVoxelizer {
             GpuVoxelizer::Abuffer(v) => v.voxelize(ctx, geom, frame, axes, rule, profiler),
         }
     }
-
-    /// Destroys the passes.
-    pub fn destroy(self, ctx: &Context) {
-        match self {
-            GpuVoxelizer::Peel(v) => v.destroy(ctx),
-            GpuVoxelizer::Abuffer(v) => v.destroy(ctx),
-        }
-    }
 }
 
 /// Voxelizes a Gregory surface straight from its device-local vertex buffer: the grid frame comes from a GPU
@@ -1084,25 +986,17 @@ pub fn voxelize_gregory_surface(
     use crate::passes::gregory_eval::vertex_count;
     let count = vertex_count(surface.patch_count, surface.level) as u32;
     let bounds = BoundsPass::new(ctx)?;
-    let buf = match ctx.create_buffer(
+    let buf = ctx.create_buffer(
         "surface bounds",
         24,
         vk::BufferUsageFlags::STORAGE_BUFFER
             | vk::BufferUsageFlags::TRANSFER_DST
             | vk::BufferUsageFlags::TRANSFER_SRC,
         MemoryLocation::GpuOnly,
-    ) {
-        Ok(b) => b,
-        Err(e) => {
-            bounds.destroy(ctx);
-            return Err(e);
-        }
-    };
+    )?;
     let words = ctx
         .one_shot(|cmd| bounds.record(ctx, cmd, surface.vertices(), count, 32, &buf))
         .and_then(|()| ctx.read_pod::<u32>(&buf));
-    buf.destroy(ctx);
-    bounds.destroy(ctx);
     let w = words?;
     let lo = [decode(w[0]), decode(w[1]), decode(w[2])];
     let hi = [decode(w[3]), decode(w[4]), decode(w[5])];
@@ -1115,7 +1009,6 @@ pub fn voxelize_gregory_surface(
         index_count: surface.index_count(),
     };
     let r = v.voxelize(ctx, &geom, &frame, axes, rule, profiler);
-    v.destroy(ctx);
     r
 }
 
@@ -1135,7 +1028,7 @@ pub struct ResidentVoxelizer {
     pub rule: FillRule,
     depth: Vec<Image>,
     layer_image: Image,
-    layer_views: Vec<vk::ImageView>,
+    layer_views: Vec<Owned<vk::ImageView>>,
     grid: Buffer,
 }
 
@@ -1194,11 +1087,7 @@ impl ResidentVoxelizer {
                 layer_views: std::mem::take(&mut r.layer_views),
                 grid: r.out.take().unwrap(),
             }),
-            Err(e) => {
-                r.destroy(ctx);
-                peel.destroy(ctx);
-                Err(e)
-            }
+            Err(e) => Err(e),
         }
     }
 
@@ -1225,25 +1114,7 @@ impl ResidentVoxelizer {
             .layers
             .insert(ctx.create_image("resident peel layers", &ldesc)?);
         for l in 0..layers {
-            let info = vk::ImageViewCreateInfo::default()
-                .image(layer_image.raw)
-                .view_type(vk::ImageViewType::TYPE_2D)
-                .format(vk::Format::R32_SFLOAT)
-                .subresource_range(vk::ImageSubresourceRange {
-                    aspect_mask: vk::ImageAspectFlags::COLOR,
-                    base_mip_level: 0,
-                    level_count: 1,
-                    base_array_layer: l,
-                    layer_count: 1,
-                });
-            // SAFETY: valid image and create info.
-            let view = unsafe { ctx.device.create_image_view(&info, None) }.map_err(|result| {
-                Error::Vulkan {
-                    call: "vkCreateImageView",
-                    result,
-                }
-            })?;
-            r.layer_views.push(view);
+            r.layer_views.push(ctx.create_layer_view(layer_image, l)?);
         }
         r.out = Some(ctx.create_buffer(
             "resident voxel grid",
@@ -1291,7 +1162,7 @@ impl ResidentVoxelizer {
         self.peel.fill.record(
             ctx,
             cmd,
-            self.layer_image.view,
+            self.layer_image.view(),
             self.peel.peel.sampler(),
             &self.grid,
             &FillJob {
@@ -1325,18 +1196,5 @@ impl ResidentVoxelizer {
         let mut g = VoxelGrid::empty(self.frame, Axis::Z);
         g.words.copy_from_slice(&words);
         Ok(g)
-    }
-
-    /// Destroys everything (the GPU is done with it).
-    pub fn destroy(self, ctx: &Context) {
-        AxisResources {
-            counts: None,
-            depth: self.depth,
-            layers: Some(self.layer_image),
-            layer_views: self.layer_views,
-            out: Some(self.grid),
-        }
-        .destroy(ctx);
-        self.peel.destroy(ctx);
     }
 }

@@ -2,20 +2,21 @@
 //! memory allocator and a one-shot command pool.
 //!
 //! Invariants:
-//! - Everything else in gregvox borrows `&Context`; nothing else owns a Vulkan instance or device.
-//! - Destruction order is spelled out once, in `Drop`: wait idle → one-shot pool → allocator (it frees its
-//!   memory blocks through the device) → device → debug messenger → instance. Resources created from the
-//!   context must be destroyed before it; tests check the allocator report is empty first.
+//! - The instance, device and allocator live in a reference-counted [`DeviceShared`] that every object
+//!   made from the context holds (see `gpu::lifetime`); the device is destroyed after the last of them, in
+//!   the order spelled out once in `DeviceShared::drop`. Objects release themselves when dropped.
+//! - Dropping the context waits for the device, destroys what the release queue holds and counts every GPU
+//!   allocation still alive as a leak (named in the log): tests and the CLI fail on a leak.
 //! - The engine uses synchronization2 and dynamic rendering through [`Context::cmd_pipeline_barrier2`],
 //!   [`Context::cmd_begin_rendering`] and [`Context::cmd_end_rendering`], which call the core (1.3) entry
 //!   points or the KHR extension ones (1.2 devices) as the device requires.
 use super::debug::{messenger_callback, ValidationSink};
+use super::lifetime::{DeviceParts, DeviceShared, Owned, OwnedHandle};
 use crate::error::{Error, Result, VkContext};
 use ash::vk;
 use gpu_allocator::vulkan::{Allocator, AllocatorCreateDesc};
 use std::ffi::{c_char, CStr, CString};
-use std::mem::ManuallyDrop;
-use std::sync::atomic::{AtomicU64, AtomicUsize, Ordering};
+use std::sync::atomic::{AtomicUsize, Ordering};
 use std::sync::{Arc, Mutex};
 
 /// The name of the Khronos validation layer.
@@ -28,7 +29,6 @@ pub const MEMORY_BUDGET_ENV: &str = "GREGVOX_MEMORY_BUDGET";
 /// was destroyed. Why process-wide: contexts live inside each CLI command, and the CLI checks these at
 /// exit to fail loudly on a leak or a validation message (the context itself can only log from `Drop`).
 static LEAKED_ALLOCATIONS: AtomicUsize = AtomicUsize::new(0);
-static VALIDATION_MESSAGES: AtomicUsize = AtomicUsize::new(0);
 
 /// GPU allocations that were still alive when a context of this process was destroyed.
 pub fn allocations_leaked_at_destruction() -> usize {
@@ -38,7 +38,7 @@ pub fn allocations_leaked_at_destruction() -> usize {
 /// Validation messages received by the contexts of this process that have been destroyed (including the
 /// layer's report of undestroyed objects, which arrives at device destruction).
 pub fn validation_messages_at_destruction() -> usize {
-    VALIDATION_MESSAGES.load(Ordering::SeqCst)
+    super::lifetime::VALIDATION_MESSAGES.load(Ordering::SeqCst) as usize
 }
 
 /// Parses a byte size: a whole number with an optional `K`, `M` or `G` suffix (powers of 1024, an optional
@@ -173,7 +173,6 @@ pub struct DeviceInfo {
 pub struct Context {
     pub entry: ash::Entry,
     pub instance: ash::Instance,
-    debug_utils: Option<(ash::ext::debug_utils::Instance, vk::DebugUtilsMessengerEXT)>,
     debug_utils_device: Option<ash::ext::debug_utils::Device>,
     pub physical_device: vk::PhysicalDevice,
     pub device: ash::Device,
@@ -182,9 +181,7 @@ pub struct Context {
     pub limits: vk::PhysicalDeviceLimits,
     pub info: DeviceInfo,
     pub validation: Arc<ValidationSink>,
-    allocator: ManuallyDrop<Mutex<Allocator>>,
-    allocated_bytes: AtomicU64,
-    memory_budget: Option<u64>,
+    shared: Arc<DeviceShared>,
     one_shot_pool: Mutex<vk::CommandPool>,
     push_descriptor: ash::khr::push_descriptor::Device,
     sync2_ext: Option<ash::khr::synchronization2::Device>,
@@ -489,6 +486,24 @@ impl Context {
                 });
             }
         };
+        let surface_instance =
+            surface_wanted.then(|| ash::khr::surface::Instance::new(&entry, &instance));
+        let swapchain_device =
+            surface_wanted.then(|| ash::khr::swapchain::Device::new(&instance, &device));
+        // From here on the shared device owns the instance, the device and the allocator and destroys them
+        // when the last owner goes, on any error below too.
+        std::mem::forget(partial);
+        let shared = DeviceShared::new(DeviceParts {
+            entry: entry.clone(),
+            instance: instance.clone(),
+            device: device.clone(),
+            debug_utils,
+            surface_instance: surface_instance.clone(),
+            swapchain_device: swapchain_device.clone(),
+            allocator,
+            memory_budget,
+            validation: validation.clone(),
+        });
         let pool_info = vk::CommandPoolCreateInfo::default()
             .queue_family_index(chosen.family)
             .flags(
@@ -496,18 +511,8 @@ impl Context {
                     | vk::CommandPoolCreateFlags::RESET_COMMAND_BUFFER,
             );
         // SAFETY: valid device.
-        let one_shot_pool = match unsafe { device.create_command_pool(&pool_info, None) } {
-            Ok(p) => p,
-            Err(result) => {
-                drop(allocator);
-                // SAFETY: the allocator is gone; nothing else was created.
-                unsafe { device.destroy_device(None) };
-                return Err(Error::Vulkan {
-                    call: "vkCreateCommandPool",
-                    result,
-                });
-            }
-        };
+        let one_shot_pool =
+            unsafe { device.create_command_pool(&pool_info, None) }.vk("vkCreateCommandPool")?;
 
         // Gather the report.
         let mut driver_props = vk::PhysicalDeviceDriverProperties::default();
@@ -561,9 +566,8 @@ impl Context {
             validation_enabled: want_validation,
             features: opt,
         };
-        let debug_utils_device = debug_utils
-            .as_ref()
-            .map(|_| ash::ext::debug_utils::Device::new(&instance, &device));
+        let debug_utils_device =
+            debug_utils_available.then(|| ash::ext::debug_utils::Device::new(&instance, &device));
         let (sync2_ext, dynamic_rendering_ext) = if core13 {
             (None, None)
         } else {
@@ -572,16 +576,10 @@ impl Context {
                 Some(ash::khr::dynamic_rendering::Device::new(&instance, &device)),
             )
         };
-        let surface_instance =
-            surface_wanted.then(|| ash::khr::surface::Instance::new(&entry, &instance));
-        let swapchain_device =
-            surface_wanted.then(|| ash::khr::swapchain::Device::new(&instance, &device));
         let push_descriptor = ash::khr::push_descriptor::Device::new(&instance, &device);
-        std::mem::forget(partial);
         let ctx = Context {
             entry,
             instance,
-            debug_utils,
             debug_utils_device,
             physical_device: pd,
             device,
@@ -590,9 +588,7 @@ impl Context {
             limits: l,
             info,
             validation,
-            allocator: ManuallyDrop::new(Mutex::new(allocator)),
-            allocated_bytes: AtomicU64::new(0),
-            memory_budget,
+            shared,
             one_shot_pool: Mutex::new(one_shot_pool),
             push_descriptor,
             sync2_ext,
@@ -617,53 +613,51 @@ impl Context {
         }
     }
 
-    /// Locks the allocator.
-    pub(crate) fn allocator(&self) -> std::sync::MutexGuard<'_, Allocator> {
-        self.allocator.lock().unwrap_or_else(|p| p.into_inner())
+    /// What every object made from this context shares (device, allocator, release queue).
+    pub(crate) fn shared(&self) -> &Arc<DeviceShared> {
+        &self.shared
+    }
+
+    /// Takes ownership of a handle created from this context's device and names it: it is released
+    /// (through the release queue) when the returned value is dropped.
+    pub fn own<H: OwnedHandle>(&self, raw: H, name: &str) -> Owned<H> {
+        self.set_name(raw, name);
+        Owned::new(&self.shared, raw)
     }
 
     /// Reserves `bytes` against the memory budget; fails with a clear error past it.
     pub(crate) fn reserve_bytes(&self, name: &str, bytes: u64) -> Result<()> {
-        let before = self.allocated_bytes.fetch_add(bytes, Ordering::SeqCst);
-        if let Some(budget) = self.memory_budget {
-            if before + bytes > budget {
-                self.allocated_bytes.fetch_sub(bytes, Ordering::SeqCst);
-                return Err(Error::Alloc {
-                    name: name.into(),
-                    bytes,
-                    reason: format!(
-                        "over the memory budget of {budget} bytes ({before} in use; the budget comes from \
-                         {MEMORY_BUDGET_ENV} or ContextDesc::memory_budget)"
-                    ),
-                });
-            }
-        }
-        Ok(())
+        self.shared.reserve_bytes(name, bytes)
     }
 
-    /// Returns `bytes` to the memory budget.
-    pub(crate) fn release_bytes(&self, bytes: u64) {
-        self.allocated_bytes.fetch_sub(bytes, Ordering::SeqCst);
+    /// Locks the allocator.
+    pub(crate) fn allocator(&self) -> std::sync::MutexGuard<'_, Allocator> {
+        self.shared.allocator()
     }
 
-    /// Names of the GPU allocations still alive (empty when everything was destroyed).
+    /// Names of the GPU allocations alive now, objects dropped but still awaiting release included (after
+    /// [`Context::wait_idle`], empty when every object was dropped).
     pub fn live_allocations(&self) -> Vec<String> {
-        self.allocator()
-            .generate_report()
-            .allocations
+        self.shared
+            .live_allocations()
             .into_iter()
-            .map(|a| a.name)
+            .map(|(name, _)| name)
             .collect()
+    }
+
+    /// Objects dropped but not yet destroyed because the GPU may still use them.
+    pub fn objects_awaiting_release(&self) -> usize {
+        self.shared.waiting()
     }
 
     /// The allocation budget in bytes, if one is set (desc or [`MEMORY_BUDGET_ENV`]).
     pub fn memory_budget(&self) -> Option<u64> {
-        self.memory_budget
+        self.shared.memory_budget()
     }
 
-    /// Bytes currently allocated through this context.
+    /// Bytes currently allocated through this context (objects awaiting release included).
     pub fn allocated_bytes(&self) -> u64 {
-        self.allocated_bytes.load(Ordering::SeqCst)
+        self.shared.allocated_bytes()
     }
 
     /// Records `f` into a fresh command buffer, submits it, waits for it and returns `f`'s value.
@@ -676,11 +670,12 @@ impl Context {
         // SAFETY: the pool is externally synchronised by the mutex held for the whole call.
         let cmd = unsafe { self.device.allocate_command_buffers(&alloc) }
             .vk("vkAllocateCommandBuffers")?[0];
+        // SAFETY: valid device.
         let fence = match unsafe {
             self.device
                 .create_fence(&vk::FenceCreateInfo::default(), None)
         } {
-            Ok(f) => f,
+            Ok(f) => self.own(f, "one-shot fence"),
             Err(result) => {
                 // SAFETY: cmd was never submitted.
                 unsafe { self.device.free_command_buffers(*pool, &[cmd]) };
@@ -690,6 +685,9 @@ impl Context {
                 });
             }
         };
+        // What `f` drops while recording stays pinned until this submission (or an outer open recording's).
+        self.shared.begin_recording();
+        let mut serial = None;
         let result = (|| {
             let begin = vk::CommandBufferBeginInfo::default()
                 .flags(vk::CommandBufferUsageFlags::ONE_TIME_SUBMIT);
@@ -700,24 +698,27 @@ impl Context {
             unsafe { self.device.end_command_buffer(cmd) }.vk("vkEndCommandBuffer")?;
             let cmds = [cmd];
             let submit = vk::SubmitInfo::default().command_buffers(&cmds);
+            let s = self.shared.next_serial();
+            serial = Some(s);
             // SAFETY: the queue is used from one thread at a time by the engine's design (one queue).
-            unsafe { self.device.queue_submit(self.queue, &[submit], fence) }
+            unsafe { self.device.queue_submit(self.queue, &[submit], fence.raw()) }
                 .vk("vkQueueSubmit")?;
             // SAFETY: the fence belongs to this device.
-            unsafe { self.device.wait_for_fences(&[fence], true, u64::MAX) }
+            unsafe { self.device.wait_for_fences(&[fence.raw()], true, u64::MAX) }
                 .vk("vkWaitForFences")?;
             Ok(value)
         })();
+        self.shared.end_recording();
         if result.is_err() {
             // A failed submission may leave work in flight; make sure nothing uses cmd before freeing it.
             // SAFETY: valid device.
             let _ = unsafe { self.device.device_wait_idle() };
+            self.shared.idle();
+        } else if let Some(s) = serial {
+            self.shared.completed(s);
         }
         // SAFETY: the work is complete (waited on) or never submitted.
-        unsafe {
-            self.device.destroy_fence(fence, None);
-            self.device.free_command_buffers(*pool, &[cmd]);
-        }
+        unsafe { self.device.free_command_buffers(*pool, &[cmd]) };
         result
     }
 
@@ -828,10 +829,12 @@ impl Context {
         };
     }
 
-    /// Waits until the device is idle.
+    /// Waits until the device is idle; then everything dropped so far is destroyed.
     pub fn wait_idle(&self) -> Result<()> {
         // SAFETY: valid device.
-        unsafe { self.device.device_wait_idle() }.vk("vkDeviceWaitIdle")
+        unsafe { self.device.device_wait_idle() }.vk("vkDeviceWaitIdle")?;
+        self.shared.idle();
+        Ok(())
     }
 }
 
@@ -930,35 +933,20 @@ fn pick_device(
 
 impl Drop for Context {
     fn drop(&mut self) {
-        // SAFETY: the destruction order of the module invariants; every handle below was created by this
-        // context and nothing else owns it.
-        unsafe {
-            let _ = self.device.device_wait_idle();
-            let pool = *self
-                .one_shot_pool
-                .get_mut()
-                .unwrap_or_else(|p| p.into_inner());
-            self.device.destroy_command_pool(pool, None);
-            {
-                let report = self.allocator().generate_report();
-                LEAKED_ALLOCATIONS.fetch_add(report.allocations.len(), Ordering::SeqCst);
-                for a in &report.allocations {
-                    log::error!(
-                        "GPU allocation still alive at context destruction: {} ({} bytes)",
-                        a.name,
-                        a.size
-                    );
-                }
-            }
-            // The allocator frees its memory blocks through the device: it goes before the device.
-            ManuallyDrop::drop(&mut self.allocator);
-            self.device.destroy_device(None);
-            // The layer reports undestroyed objects during vkDestroyDevice: count after it.
-            VALIDATION_MESSAGES.fetch_add(self.validation.count(), Ordering::SeqCst);
-            if let Some((loader, messenger)) = self.debug_utils.take() {
-                loader.destroy_debug_utils_messenger(messenger, None);
-            }
-            self.instance.destroy_instance(None);
+        // Wait for the device, destroy what the release queue holds, then count what is still alive: an
+        // object that outlives its context is a leak (it is destroyed, safely, when it is dropped, and the
+        // device after it; see `gpu::lifetime`).
+        self.shared.shut_down_queue();
+        let pool = *self
+            .one_shot_pool
+            .get_mut()
+            .unwrap_or_else(|p| p.into_inner());
+        // SAFETY: the device is idle and the pool's command buffers were freed after each use.
+        unsafe { self.device.destroy_command_pool(pool, None) };
+        let live = self.shared.live_allocations();
+        LEAKED_ALLOCATIONS.fetch_add(live.len(), Ordering::SeqCst);
+        for (name, size) in &live {
+            log::error!("GPU allocation still alive at context destruction: {name} ({size} bytes)");
         }
     }
 }

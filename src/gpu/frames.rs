@@ -1,27 +1,32 @@
-//! Frames in flight: one command buffer, fence and deferred-destruction list per slot.
+//! Frames in flight: one command buffer and fence per slot.
 //!
 //! Invariants: [`Frames::begin`] waits for the slot's previous submission before it resets the command
-//! buffer and destroys what was deferred in that slot, so a resource handed to [`Frames::defer`] is destroyed
-//! only once the GPU can no longer use it. [`Frames::destroy`] waits for every slot.
+//! buffer, and tells the release queue (`gpu::lifetime`) that the submission is complete, so whatever was
+//! dropped before it is destroyed then. Objects dropped while a frame is being recorded stay pinned until that
+//! frame is submitted. A frame begun and never submitted (an error between `begin` and `submit`) is abandoned
+//! by the next `begin` or by dropping the ring. The fences and the command pool release themselves.
 use super::context::Context;
-use super::resources::{Deferred, DeferredDestroy};
+use super::lifetime::{DeviceShared, Owned};
 use crate::error::{Error, Result, VkContext};
 use ash::vk;
+use std::sync::Arc;
 
 struct Slot {
     cmd: vk::CommandBuffer,
-    fence: vk::Fence,
-    deferred: DeferredDestroy,
-    submitted: bool,
+    fence: Owned<vk::Fence>,
+    /// Serial of the slot's last submission, if it has not been waited for yet.
+    in_flight: Option<u64>,
 }
 
 /// A ring of frame slots.
 pub struct Frames {
-    pool: vk::CommandPool,
     slots: Vec<Slot>,
     current: usize,
     recording: bool,
     frame_number: u64,
+    shared: Arc<DeviceShared>,
+    // Last: the command buffers are freed with the pool.
+    _pool: Owned<vk::CommandPool>,
 }
 
 impl Frames {
@@ -33,51 +38,37 @@ impl Frames {
         // SAFETY: valid create info.
         let pool =
             unsafe { ctx.device.create_command_pool(&info, None) }.vk("vkCreateCommandPool")?;
-        let mut frames = Frames {
-            pool,
-            slots: Vec::new(),
-            current: 0,
-            recording: false,
-            frame_number: 0,
-        };
+        let pool = ctx.own(pool, "frame command pool");
         let alloc = vk::CommandBufferAllocateInfo::default()
-            .command_pool(pool)
+            .command_pool(pool.raw())
             .level(vk::CommandBufferLevel::PRIMARY)
             .command_buffer_count(count.max(1) as u32);
         // SAFETY: valid pool.
-        let cmds = match unsafe { ctx.device.allocate_command_buffers(&alloc) } {
-            Ok(c) => c,
-            Err(result) => {
-                frames.destroy(ctx);
-                return Err(Error::Vulkan {
-                    call: "vkAllocateCommandBuffers",
-                    result,
-                });
-            }
-        };
+        let cmds = unsafe { ctx.device.allocate_command_buffers(&alloc) }
+            .vk("vkAllocateCommandBuffers")?;
+        let mut slots = Vec::new();
         for (i, cmd) in cmds.into_iter().enumerate() {
-            let fi = vk::FenceCreateInfo::default();
             // SAFETY: valid device.
-            let fence = match unsafe { ctx.device.create_fence(&fi, None) } {
-                Ok(f) => f,
-                Err(result) => {
-                    frames.destroy(ctx);
-                    return Err(Error::Vulkan {
-                        call: "vkCreateFence",
-                        result,
-                    });
-                }
-            };
+            let fence = unsafe {
+                ctx.device
+                    .create_fence(&vk::FenceCreateInfo::default(), None)
+            }
+            .vk("vkCreateFence")?;
             ctx.set_name(cmd, &format!("frame {i} commands"));
-            ctx.set_name(fence, &format!("frame {i} fence"));
-            frames.slots.push(Slot {
+            slots.push(Slot {
                 cmd,
-                fence,
-                deferred: DeferredDestroy::default(),
-                submitted: false,
+                fence: ctx.own(fence, &format!("frame {i} fence")),
+                in_flight: None,
             });
         }
-        Ok(frames)
+        Ok(Frames {
+            slots,
+            current: 0,
+            recording: false,
+            frame_number: 0,
+            shared: ctx.shared().clone(),
+            _pool: pool,
+        })
     }
 
     /// Number of slots.
@@ -100,19 +91,27 @@ impl Frames {
         self.frame_number
     }
 
-    /// Waits for the current slot's previous work, destroys its deferred resources and starts recording.
-    /// Returns the slot index and its command buffer.
+    /// Waits for the current slot's previous work (whatever was dropped before it is destroyed now) and
+    /// starts recording. Returns the slot index and its command buffer.
     pub fn begin(&mut self, ctx: &Context) -> Result<(usize, vk::CommandBuffer)> {
-        let slot = &mut self.slots[self.current];
-        if slot.submitted {
-            // SAFETY: the fence belongs to this device.
-            unsafe { ctx.device.wait_for_fences(&[slot.fence], true, u64::MAX) }
-                .vk("vkWaitForFences")?;
-            // SAFETY: the fence is signalled and unused.
-            unsafe { ctx.device.reset_fences(&[slot.fence]) }.vk("vkResetFences")?;
-            slot.submitted = false;
+        if self.recording {
+            // The previous frame was begun and never submitted: its recording is abandoned.
+            self.recording = false;
+            self.shared.end_recording();
         }
-        slot.deferred.flush(ctx);
+        let slot = &mut self.slots[self.current];
+        if let Some(serial) = slot.in_flight {
+            // SAFETY: the fence belongs to this device.
+            unsafe {
+                ctx.device
+                    .wait_for_fences(&[slot.fence.raw()], true, u64::MAX)
+            }
+            .vk("vkWaitForFences")?;
+            // SAFETY: the fence is signalled and unused.
+            unsafe { ctx.device.reset_fences(&[slot.fence.raw()]) }.vk("vkResetFences")?;
+            slot.in_flight = None;
+            self.shared.completed(serial);
+        }
         // SAFETY: the command buffer's previous submission has completed.
         unsafe {
             ctx.device
@@ -125,12 +124,8 @@ impl Frames {
                 .vk("vkBeginCommandBuffer")?;
         }
         self.recording = true;
+        self.shared.begin_recording();
         Ok((self.current, slot.cmd))
-    }
-
-    /// Queues a resource for destruction once the current slot's work has completed.
-    pub fn defer(&mut self, item: Deferred) {
-        self.slots[self.current].deferred.push(item);
     }
 
     /// Ends recording and submits the current slot, waiting on `wait` semaphores (with their stages) and
@@ -146,21 +141,33 @@ impl Frames {
                 "Frames::submit without Frames::begin".into(),
             ));
         }
-        let slot = &mut self.slots[self.current];
         self.recording = false;
-        // SAFETY: the command buffer is recording (begun by `begin`).
-        unsafe { ctx.device.end_command_buffer(slot.cmd) }.vk("vkEndCommandBuffer")?;
-        let wait_sems: Vec<vk::Semaphore> = wait.iter().map(|w| w.0).collect();
-        let wait_stages: Vec<vk::PipelineStageFlags> = wait.iter().map(|w| w.1).collect();
-        let cmds = [slot.cmd];
-        let submit = vk::SubmitInfo::default()
-            .wait_semaphores(&wait_sems)
-            .wait_dst_stage_mask(&wait_stages)
-            .command_buffers(&cmds)
-            .signal_semaphores(signal);
-        // SAFETY: valid queue, command buffer and fence (unsignalled).
-        unsafe { ctx.device.queue_submit(ctx.queue, &[submit], slot.fence) }.vk("vkQueueSubmit")?;
-        slot.submitted = true;
+        let slot = &mut self.slots[self.current];
+        let result = (|| {
+            // SAFETY: the command buffer is recording (begun by `begin`).
+            unsafe { ctx.device.end_command_buffer(slot.cmd) }.vk("vkEndCommandBuffer")?;
+            let wait_sems: Vec<vk::Semaphore> = wait.iter().map(|w| w.0).collect();
+            let wait_stages: Vec<vk::PipelineStageFlags> = wait.iter().map(|w| w.1).collect();
+            let cmds = [slot.cmd];
+            let submit = vk::SubmitInfo::default()
+                .wait_semaphores(&wait_sems)
+                .wait_dst_stage_mask(&wait_stages)
+                .command_buffers(&cmds)
+                .signal_semaphores(signal);
+            let serial = self.shared.next_serial();
+            // Counted as in flight even if the call fails: waiting on an unsignalled fence is avoided
+            // below, and `Context::wait_idle` completes every serial.
+            // SAFETY: valid queue, command buffer and fence (unsignalled).
+            unsafe {
+                ctx.device
+                    .queue_submit(ctx.queue, &[submit], slot.fence.raw())
+            }
+            .vk("vkQueueSubmit")?;
+            slot.in_flight = Some(serial);
+            Ok(())
+        })();
+        self.shared.end_recording();
+        result?;
         self.frame_number += 1;
         self.current = (self.current + 1) % self.slots.len();
         Ok(())
@@ -168,25 +175,31 @@ impl Frames {
 
     /// Waits for every submitted slot.
     pub fn wait_all(&mut self, ctx: &Context) -> Result<()> {
+        let mut last = None;
         for slot in &mut self.slots {
-            if slot.submitted {
+            if let Some(serial) = slot.in_flight {
                 // SAFETY: valid fence.
-                unsafe { ctx.device.wait_for_fences(&[slot.fence], true, u64::MAX) }
-                    .vk("vkWaitForFences")?;
+                unsafe {
+                    ctx.device
+                        .wait_for_fences(&[slot.fence.raw()], true, u64::MAX)
+                }
+                .vk("vkWaitForFences")?;
+                last = last.max(Some(serial));
             }
+        }
+        if let Some(serial) = last {
+            self.shared.completed(serial);
         }
         Ok(())
     }
+}
 
-    /// Waits for all work, destroys the deferred resources, fences and command pool.
-    pub fn destroy(mut self, ctx: &Context) {
-        let _ = ctx.wait_idle();
-        for slot in &mut self.slots {
-            slot.deferred.flush(ctx);
-            // SAFETY: idle device.
-            unsafe { ctx.device.destroy_fence(slot.fence, None) };
+impl Drop for Frames {
+    fn drop(&mut self) {
+        if self.recording {
+            self.shared.end_recording();
         }
-        // SAFETY: idle device; destroying the pool frees its command buffers.
-        unsafe { ctx.device.destroy_command_pool(self.pool, None) };
+        // The fences and the pool go through the release queue: they are destroyed once the slots'
+        // submissions are known to be complete.
     }
 }

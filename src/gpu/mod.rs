@@ -1,8 +1,9 @@
-//! The Vulkan foundation: context, validation sink, resources, frames, pipeline builders, generated shader
-//! statics, profiler, present targets. Knows no geometry.
+//! The Vulkan foundation: context, validation sink, object lifetime (release queue), resources, frames,
+//! pipeline builders, generated shader statics, profiler, present targets. Knows no geometry.
 pub mod context;
 pub mod debug;
 pub mod frames;
+pub mod lifetime;
 pub mod pipeline;
 pub mod present;
 pub mod profiler;
@@ -10,6 +11,7 @@ pub mod resources;
 
 pub use context::{Context, ContextDesc, DeviceInfo, Validation};
 pub use frames::Frames;
+pub use lifetime::{Owned, OwnedHandle};
 pub use present::{OffscreenTarget, PresentTarget, SwapchainTarget, TargetImage};
 pub use profiler::Profiler;
 pub use resources::{Buffer, Image, ImageDesc, MemoryLocation};

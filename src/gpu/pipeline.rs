@@ -2,10 +2,13 @@
 //! pipelines with dynamic rendering, and dispatch helpers that respect `maxComputeWorkGroupCount`.
 //!
 //! Invariants: a pipeline value owns its `vk::Pipeline`, its `vk::PipelineLayout` and the descriptor set
-//! layouts it created, and destroys them in `destroy`; shader modules live only while a pipeline is built.
+//! layouts handed to it, and releases them when dropped (`gpu::lifetime`); shader modules live only while a
+//! pipeline is built. Every constructor releases what it made on any error, with no cleanup code: each
+//! handle is owned from the moment it exists.
 //! Large 1D dispatches are split into a 2D grid whose x extent is a full row; shaders rebuild the linear
 //! index with `linear_invocation()` from `glsl/include/dispatch.glsl`.
 use super::context::Context;
+use super::lifetime::Owned;
 use crate::error::{Error, Result, VkContext};
 use ash::vk;
 
@@ -109,95 +112,24 @@ impl DescriptorSetLayoutBuilder {
     }
 
     /// Creates a push-descriptor layout (descriptors are pushed with `Context::cmd_push_descriptors`).
-    pub fn build(&self, ctx: &Context, name: &str) -> Result<vk::DescriptorSetLayout> {
-        self.build_with(
-            ctx,
-            name,
-            vk::DescriptorSetLayoutCreateFlags::PUSH_DESCRIPTOR_KHR,
-        )
-    }
-
-    /// Creates a layout for sets allocated from a [`DescriptorPool`].
-    pub fn build_pooled(&self, ctx: &Context, name: &str) -> Result<vk::DescriptorSetLayout> {
-        self.build_with(ctx, name, vk::DescriptorSetLayoutCreateFlags::empty())
-    }
-
-    fn build_with(
-        &self,
-        ctx: &Context,
-        name: &str,
-        flags: vk::DescriptorSetLayoutCreateFlags,
-    ) -> Result<vk::DescriptorSetLayout> {
+    pub fn build(&self, ctx: &Context, name: &str) -> Result<Owned<vk::DescriptorSetLayout>> {
         let info = vk::DescriptorSetLayoutCreateInfo::default()
             .bindings(&self.bindings)
-            .flags(flags);
+            .flags(vk::DescriptorSetLayoutCreateFlags::PUSH_DESCRIPTOR_KHR);
         // SAFETY: valid create info.
         let l = unsafe { ctx.device.create_descriptor_set_layout(&info, None) }
             .vk("vkCreateDescriptorSetLayout")?;
-        ctx.set_name(l, name);
-        Ok(l)
+        Ok(ctx.own(l, name))
     }
 }
 
-/// A descriptor pool sized for `max_sets` sets of generous per-type counts; sets are freed with the pool.
-pub struct DescriptorPool {
-    pub raw: vk::DescriptorPool,
-}
-
-impl DescriptorPool {
-    /// Creates a pool for up to `max_sets` sets with up to `per_type` descriptors of each common type.
-    pub fn new(ctx: &Context, name: &str, max_sets: u32, per_type: u32) -> Result<Self> {
-        let sizes = [
-            vk::DescriptorType::STORAGE_BUFFER,
-            vk::DescriptorType::UNIFORM_BUFFER,
-            vk::DescriptorType::COMBINED_IMAGE_SAMPLER,
-            vk::DescriptorType::STORAGE_IMAGE,
-        ]
-        .map(|ty| vk::DescriptorPoolSize {
-            ty,
-            descriptor_count: per_type,
-        });
-        let info = vk::DescriptorPoolCreateInfo::default()
-            .max_sets(max_sets)
-            .pool_sizes(&sizes);
-        // SAFETY: valid create info.
-        let raw = unsafe { ctx.device.create_descriptor_pool(&info, None) }
-            .vk("vkCreateDescriptorPool")?;
-        ctx.set_name(raw, name);
-        Ok(DescriptorPool { raw })
-    }
-
-    /// Allocates one set of `layout`.
-    pub fn allocate(
-        &self,
-        ctx: &Context,
-        layout: vk::DescriptorSetLayout,
-    ) -> Result<vk::DescriptorSet> {
-        let layouts = [layout];
-        let info = vk::DescriptorSetAllocateInfo::default()
-            .descriptor_pool(self.raw)
-            .set_layouts(&layouts);
-        // SAFETY: valid pool and layout.
-        Ok(
-            unsafe { ctx.device.allocate_descriptor_sets(&info) }.vk("vkAllocateDescriptorSets")?
-                [0],
-        )
-    }
-
-    /// Destroys the pool and every set allocated from it.
-    pub fn destroy(self, ctx: &Context) {
-        // SAFETY: the caller guarantees no set of this pool is in use by the GPU.
-        unsafe { ctx.device.destroy_descriptor_pool(self.raw, None) };
-    }
-}
-
-/// A compute pipeline with its layout and owned set layouts.
+/// A compute pipeline with its layout and owned set layouts, released when dropped.
 pub struct ComputePipeline {
-    pub raw: vk::Pipeline,
-    pub layout: vk::PipelineLayout,
-    pub set_layouts: Vec<vk::DescriptorSetLayout>,
-    pub local_size: u32,
-    pub name: String,
+    raw: Owned<vk::Pipeline>,
+    layout: Owned<vk::PipelineLayout>,
+    _set_layouts: Vec<Owned<vk::DescriptorSetLayout>>,
+    local_size: u32,
+    name: String,
 }
 
 impl ComputePipeline {
@@ -207,67 +139,63 @@ impl ComputePipeline {
         ctx: &Context,
         name: &str,
         spirv: &[u32],
-        set_layouts: Vec<vk::DescriptorSetLayout>,
+        set_layouts: Vec<Owned<vk::DescriptorSetLayout>>,
         push_constant_bytes: u32,
         local_size: u32,
     ) -> Result<Self> {
-        let layout = match pipeline_layout(
+        let layout = pipeline_layout(
             ctx,
             name,
             &set_layouts,
             push_constant_bytes,
             vk::ShaderStageFlags::COMPUTE,
-        ) {
-            Ok(l) => l,
-            Err(e) => {
-                destroy_set_layouts(ctx, &set_layouts);
-                return Err(e);
-            }
-        };
-        let module = match shader_module(ctx, name, spirv) {
-            Ok(m) => m,
-            Err(e) => {
-                // SAFETY: unused layouts.
-                unsafe { ctx.device.destroy_pipeline_layout(layout, None) };
-                destroy_set_layouts(ctx, &set_layouts);
-                return Err(e);
-            }
-        };
+        )?;
+        let module = shader_module(ctx, name, spirv)?;
         let stage = vk::PipelineShaderStageCreateInfo::default()
             .stage(vk::ShaderStageFlags::COMPUTE)
             .module(module)
             .name(c"main");
         let info = [vk::ComputePipelineCreateInfo::default()
             .stage(stage)
-            .layout(layout)];
+            .layout(layout.raw())];
         // SAFETY: valid module and layout.
         let result = unsafe {
             ctx.device
                 .create_compute_pipelines(vk::PipelineCache::null(), &info, None)
         };
-        // SAFETY: modules may be destroyed once the pipeline exists.
+        // SAFETY: modules may be destroyed once the pipeline exists (or failed to).
         unsafe { ctx.device.destroy_shader_module(module, None) };
-        match result {
-            Ok(p) => {
-                ctx.set_name(p[0], name);
-                Ok(ComputePipeline {
-                    raw: p[0],
-                    layout,
-                    set_layouts,
-                    local_size,
-                    name: name.into(),
-                })
-            }
-            Err((_, result)) => {
-                // SAFETY: unused layouts.
-                unsafe { ctx.device.destroy_pipeline_layout(layout, None) };
-                destroy_set_layouts(ctx, &set_layouts);
-                Err(Error::Vulkan {
-                    call: "vkCreateComputePipelines",
-                    result,
-                })
-            }
-        }
+        let raw = result.map_err(|(_, result)| Error::Vulkan {
+            call: "vkCreateComputePipelines",
+            result,
+        })?[0];
+        Ok(ComputePipeline {
+            raw: ctx.own(raw, name),
+            layout,
+            _set_layouts: set_layouts,
+            local_size,
+            name: name.into(),
+        })
+    }
+
+    /// The pipeline handle.
+    pub fn raw(&self) -> vk::Pipeline {
+        self.raw.raw()
+    }
+
+    /// The pipeline layout (push constants, push descriptors).
+    pub fn layout(&self) -> vk::PipelineLayout {
+        self.layout.raw()
+    }
+
+    /// The shader's `local_size_x`.
+    pub fn local_size(&self) -> u32 {
+        self.local_size
+    }
+
+    /// The debug name.
+    pub fn name(&self) -> &str {
+        &self.name
     }
 
     /// Binds the pipeline, pushes `bindings` as set 0 (a push-descriptor layout) and `push` as push
@@ -282,13 +210,13 @@ impl ComputePipeline {
         // SAFETY: recording command buffer.
         unsafe {
             ctx.device
-                .cmd_bind_pipeline(cmd, vk::PipelineBindPoint::COMPUTE, self.raw)
+                .cmd_bind_pipeline(cmd, vk::PipelineBindPoint::COMPUTE, self.raw())
         };
         if !bindings.is_empty() {
             ctx.cmd_push_descriptors(
                 cmd,
                 vk::PipelineBindPoint::COMPUTE,
-                self.layout,
+                self.layout(),
                 0,
                 bindings,
             );
@@ -298,7 +226,7 @@ impl ComputePipeline {
             unsafe {
                 ctx.device.cmd_push_constants(
                     cmd,
-                    self.layout,
+                    self.layout(),
                     vk::ShaderStageFlags::COMPUTE,
                     0,
                     push,
@@ -325,32 +253,15 @@ impl ComputePipeline {
         }
         Ok(())
     }
-
-    /// Destroys the pipeline, its layout and its set layouts.
-    pub fn destroy(self, ctx: &Context) {
-        // SAFETY: caller guarantees the pipeline is no longer in use.
-        unsafe {
-            ctx.device.destroy_pipeline(self.raw, None);
-            ctx.device.destroy_pipeline_layout(self.layout, None);
-        }
-        destroy_set_layouts(ctx, &self.set_layouts);
-    }
-}
-
-fn destroy_set_layouts(ctx: &Context, layouts: &[vk::DescriptorSetLayout]) {
-    for &l in layouts {
-        // SAFETY: owned, unused layouts.
-        unsafe { ctx.device.destroy_descriptor_set_layout(l, None) };
-    }
 }
 
 fn pipeline_layout(
     ctx: &Context,
     name: &str,
-    set_layouts: &[vk::DescriptorSetLayout],
+    set_layouts: &[Owned<vk::DescriptorSetLayout>],
     push_constant_bytes: u32,
     stages: vk::ShaderStageFlags,
-) -> Result<vk::PipelineLayout> {
+) -> Result<Owned<vk::PipelineLayout>> {
     if push_constant_bytes > ctx.limits.max_push_constants_size {
         return Err(Error::Limit {
             what: format!("{push_constant_bytes} bytes of push constants in '{name}'"),
@@ -365,15 +276,15 @@ fn pipeline_layout(
         offset: 0,
         size: push_constant_bytes,
     }];
-    let mut info = vk::PipelineLayoutCreateInfo::default().set_layouts(set_layouts);
+    let raw_layouts: Vec<vk::DescriptorSetLayout> = set_layouts.iter().map(Owned::raw).collect();
+    let mut info = vk::PipelineLayoutCreateInfo::default().set_layouts(&raw_layouts);
     if push_constant_bytes > 0 {
         info = info.push_constant_ranges(&ranges);
     }
     // SAFETY: valid create info.
     let l =
         unsafe { ctx.device.create_pipeline_layout(&info, None) }.vk("vkCreatePipelineLayout")?;
-    ctx.set_name(l, &format!("{name} (layout)"));
-    Ok(l)
+    Ok(ctx.own(l, &format!("{name} (layout)")))
 }
 
 /// The group counts `[x, y, 1]` that cover `invocations` threads of `local_size`, with x ≤ `max[0]`:
@@ -429,7 +340,8 @@ pub struct GraphicsDesc<'a> {
     pub color_formats: Vec<vk::Format>,
     pub depth_format: vk::Format,
     pub blend: bool,
-    pub set_layouts: Vec<vk::DescriptorSetLayout>,
+    /// Set layouts the pipeline takes ownership of.
+    pub set_layouts: Vec<Owned<vk::DescriptorSetLayout>>,
     pub push_constant_bytes: u32,
     pub push_constant_stages: vk::ShaderStageFlags,
 }
@@ -473,31 +385,25 @@ impl<'a> GraphicsDesc<'a> {
     }
 }
 
-/// A graphics pipeline with its layout and owned set layouts.
+/// A graphics pipeline with its layout and owned set layouts, released when dropped.
 pub struct GraphicsPipeline {
-    pub raw: vk::Pipeline,
-    pub layout: vk::PipelineLayout,
-    pub set_layouts: Vec<vk::DescriptorSetLayout>,
-    pub push_constant_stages: vk::ShaderStageFlags,
-    pub name: String,
+    raw: Owned<vk::Pipeline>,
+    layout: Owned<vk::PipelineLayout>,
+    _set_layouts: Vec<Owned<vk::DescriptorSetLayout>>,
+    push_constant_stages: vk::ShaderStageFlags,
+    name: String,
 }
 
 impl GraphicsPipeline {
     /// Builds the pipeline; viewport and scissor are dynamic state. Takes ownership of the set layouts.
     pub fn new(ctx: &Context, name: &str, desc: GraphicsDesc<'_>) -> Result<Self> {
-        let layout = match pipeline_layout(
+        let layout = pipeline_layout(
             ctx,
             name,
             &desc.set_layouts,
             desc.push_constant_bytes,
             desc.push_constant_stages,
-        ) {
-            Ok(l) => l,
-            Err(e) => {
-                destroy_set_layouts(ctx, &desc.set_layouts);
-                return Err(e);
-            }
-        };
+        )?;
         let mut modules = Vec::new();
         let mut stages = Vec::new();
         let mut result = Ok(());
@@ -590,7 +496,7 @@ impl GraphicsPipeline {
                 .depth_stencil_state(&depth)
                 .color_blend_state(&blend)
                 .dynamic_state(&dynamic)
-                .layout(layout)
+                .layout(layout.raw())
                 .push_next(&mut rendering);
             if desc.tess_control.is_some() {
                 info = info.tessellation_state(&tess);
@@ -610,24 +516,33 @@ impl GraphicsPipeline {
             // SAFETY: modules are no longer needed once the pipeline is built (or failed).
             unsafe { ctx.device.destroy_shader_module(m, None) };
         }
-        match pipeline {
-            Ok(raw) => {
-                ctx.set_name(raw, name);
-                Ok(GraphicsPipeline {
-                    raw,
-                    layout,
-                    set_layouts: desc.set_layouts,
-                    push_constant_stages: desc.push_constant_stages,
-                    name: name.into(),
-                })
-            }
-            Err(e) => {
-                // SAFETY: unused layouts.
-                unsafe { ctx.device.destroy_pipeline_layout(layout, None) };
-                destroy_set_layouts(ctx, &desc.set_layouts);
-                Err(e)
-            }
-        }
+        Ok(GraphicsPipeline {
+            raw: ctx.own(pipeline?, name),
+            layout,
+            _set_layouts: desc.set_layouts,
+            push_constant_stages: desc.push_constant_stages,
+            name: name.into(),
+        })
+    }
+
+    /// The pipeline handle.
+    pub fn raw(&self) -> vk::Pipeline {
+        self.raw.raw()
+    }
+
+    /// The pipeline layout (push constants, push descriptors).
+    pub fn layout(&self) -> vk::PipelineLayout {
+        self.layout.raw()
+    }
+
+    /// The debug name.
+    pub fn name(&self) -> &str {
+        &self.name
+    }
+
+    /// The stages its push constants are visible to.
+    pub fn push_constant_stages(&self) -> vk::ShaderStageFlags {
+        self.push_constant_stages
     }
 
     /// Binds the pipeline, pushes `bindings` as set 0 and `push` as push constants (each if non-empty) and
@@ -643,13 +558,13 @@ impl GraphicsPipeline {
         // SAFETY: recording command buffer inside a dynamic render pass.
         unsafe {
             ctx.device
-                .cmd_bind_pipeline(cmd, vk::PipelineBindPoint::GRAPHICS, self.raw)
+                .cmd_bind_pipeline(cmd, vk::PipelineBindPoint::GRAPHICS, self.raw())
         };
         if !bindings.is_empty() {
             ctx.cmd_push_descriptors(
                 cmd,
                 vk::PipelineBindPoint::GRAPHICS,
-                self.layout,
+                self.layout(),
                 0,
                 bindings,
             );
@@ -657,8 +572,13 @@ impl GraphicsPipeline {
         // SAFETY: as above.
         unsafe {
             if !push.is_empty() {
-                ctx.device
-                    .cmd_push_constants(cmd, self.layout, self.push_constant_stages, 0, push);
+                ctx.device.cmd_push_constants(
+                    cmd,
+                    self.layout(),
+                    self.push_constant_stages,
+                    0,
+                    push,
+                );
             }
             let vp = vk::Viewport {
                 x: 0.0,
@@ -678,15 +598,5 @@ impl GraphicsPipeline {
                 }],
             );
         }
-    }
-
-    /// Destroys the pipeline, its layout and its set layouts.
-    pub fn destroy(self, ctx: &Context) {
-        // SAFETY: caller guarantees the pipeline is no longer in use.
-        unsafe {
-            ctx.device.destroy_pipeline(self.raw, None);
-            ctx.device.destroy_pipeline_layout(self.layout, None);
-        }
-        destroy_set_layouts(ctx, &self.set_layouts);
     }
 }

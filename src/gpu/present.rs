@@ -10,11 +10,15 @@
 //! - The swapchain uses one acquire semaphore per frame slot and one render-finished semaphore per
 //!   swapchain image (a present may still wait on it when the slot comes round again). Out-of-date and
 //!   suboptimal results and resizes recreate the swapchain; a zero-sized (minimised) window skips frames.
+//! - Targets release their objects when dropped; the swapchain first waits for the device, because the
+//!   presentation engine's use of its images is not covered by the release queue's submission serials.
 use super::context::Context;
+use super::lifetime::{DeviceShared, Owned};
 use super::resources::{image_barrier, Buffer, Image, ImageDesc, MemoryLocation};
 use crate::error::{Error, Result, VkContext};
 use ash::vk;
 use std::path::Path;
+use std::sync::Arc;
 
 /// The image a frame renders into.
 #[derive(Clone, Copy, Debug)]
@@ -46,8 +50,6 @@ pub trait PresentTarget {
     fn present(&mut self, ctx: &Context, img: &TargetImage) -> Result<()>;
     /// Asks for a new size (window resized); applied at the next acquire.
     fn resize(&mut self, extent: vk::Extent2D);
-    /// Destroys the target's resources (the device must be idle).
-    fn destroy(self: Box<Self>, ctx: &Context);
 }
 
 /// Transitions for the renderer: from `UNDEFINED` to color attachment.
@@ -104,10 +106,7 @@ impl OffscreenTarget {
             pending_extent: None,
             slots: slots.max(1),
         };
-        if let Err(e) = t.build(ctx) {
-            t.release(ctx);
-            return Err(e);
-        }
+        t.build(ctx)?;
         Ok(t)
     }
 
@@ -133,13 +132,9 @@ impl OffscreenTarget {
         Ok(())
     }
 
-    fn release(&mut self, ctx: &Context) {
-        for i in self.images.drain(..) {
-            i.destroy(ctx);
-        }
-        for b in self.readback.drain(..) {
-            b.destroy(ctx);
-        }
+    fn release(&mut self) {
+        self.images.clear();
+        self.readback.clear();
         self.rendered.clear();
     }
 
@@ -196,7 +191,7 @@ impl PresentTarget for OffscreenTarget {
         if let Some(e) = self.pending_extent.take() {
             // Resizing recreates every slot: wait for the GPU to release them.
             ctx.wait_idle()?;
-            self.release(ctx);
+            self.release();
             self.extent = e;
             if e.width > 0 && e.height > 0 {
                 self.build(ctx)?;
@@ -214,8 +209,8 @@ impl PresentTarget for OffscreenTarget {
         Ok(Some(TargetImage {
             index: slot as u32,
             slot,
-            image: img.raw,
-            view: img.view,
+            image: img.raw(),
+            view: img.view(),
             extent: self.extent,
             format: self.format,
             acquired: None,
@@ -263,7 +258,7 @@ impl PresentTarget for OffscreenTarget {
                 cmd,
                 img.image,
                 vk::ImageLayout::TRANSFER_SRC_OPTIMAL,
-                self.readback[img.slot].raw,
+                self.readback[img.slot].raw(),
                 &[region],
             )
         };
@@ -285,27 +280,33 @@ impl PresentTarget for OffscreenTarget {
             self.pending_extent = Some(extent);
         }
     }
-
-    fn destroy(mut self: Box<Self>, ctx: &Context) {
-        self.release(ctx);
-    }
 }
 
 /// A window swapchain (winit + ash-window).
 pub struct SwapchainTarget {
-    surface: vk::SurfaceKHR,
-    swapchain: vk::SwapchainKHR,
+    /// A screenshot readback (buffer, its extent, whether the copy was recorded); see `request_capture`.
+    capture: Option<(Buffer, vk::Extent2D, bool)>,
     images: Vec<vk::Image>,
-    views: Vec<vk::ImageView>,
-    rendered: Vec<vk::Semaphore>,
-    acquired: Vec<vk::Semaphore>,
+    // Field order is release order: views and semaphores, then the swapchain, then its surface.
+    views: Vec<Owned<vk::ImageView>>,
+    rendered: Vec<Owned<vk::Semaphore>>,
+    acquired: Vec<Owned<vk::Semaphore>>,
+    swapchain: Option<Owned<vk::SwapchainKHR>>,
+    surface: Owned<vk::SurfaceKHR>,
     format: vk::SurfaceFormatKHR,
     extent: vk::Extent2D,
     wanted: vk::Extent2D,
     needs_rebuild: bool,
     present_mode: vk::PresentModeKHR,
-    /// A screenshot readback (buffer, its extent, whether the copy was recorded); see `request_capture`.
-    capture: Option<(Buffer, vk::Extent2D, bool)>,
+    shared: Arc<DeviceShared>,
+}
+
+impl Drop for SwapchainTarget {
+    fn drop(&mut self) {
+        // SAFETY: valid device. Presentation may still read the images: wait before anything is released.
+        let _ = unsafe { self.shared.device.device_wait_idle() };
+        self.shared.idle();
+    }
 }
 
 impl SwapchainTarget {
@@ -328,6 +329,7 @@ impl SwapchainTarget {
         let surface =
             unsafe { ash_window::create_surface(&ctx.entry, &ctx.instance, display, window, None) }
                 .vk("vkCreate*SurfaceKHR")?;
+        let owned_surface = ctx.own(surface, "window surface");
         // SAFETY: valid physical device and surface.
         let supported = unsafe {
             surface_fn.get_physical_device_surface_support(
@@ -338,8 +340,6 @@ impl SwapchainTarget {
         }
         .unwrap_or(false);
         if !supported {
-            // SAFETY: unused surface.
-            unsafe { surface_fn.destroy_surface(surface, None) };
             return Err(Error::NoDevice(
                 "the chosen queue cannot present to this window".into(),
             ));
@@ -373,8 +373,8 @@ impl SwapchainTarget {
             vk::PresentModeKHR::FIFO
         };
         let mut t = SwapchainTarget {
-            surface,
-            swapchain: vk::SwapchainKHR::null(),
+            surface: owned_surface,
+            swapchain: None,
             images: Vec::new(),
             views: Vec::new(),
             rendered: Vec::new(),
@@ -385,42 +385,26 @@ impl SwapchainTarget {
             needs_rebuild: true,
             capture: None,
             present_mode,
+            shared: ctx.shared().clone(),
         };
         for i in 0..slots.max(1) {
             // SAFETY: valid device.
-            match unsafe {
+            let s = unsafe {
                 ctx.device
                     .create_semaphore(&vk::SemaphoreCreateInfo::default(), None)
-            } {
-                Ok(s) => {
-                    ctx.set_name(s, &format!("swapchain acquired {i}"));
-                    t.acquired.push(s)
-                }
-                Err(result) => {
-                    Box::new(t).destroy(ctx);
-                    return Err(Error::Vulkan {
-                        call: "vkCreateSemaphore",
-                        result,
-                    });
-                }
             }
+            .vk("vkCreateSemaphore")?;
+            t.acquired
+                .push(ctx.own(s, &format!("swapchain acquired {i}")));
         }
-        if let Err(e) = t.rebuild(ctx) {
-            Box::new(t).destroy(ctx);
-            return Err(e);
-        }
+        t.rebuild(ctx)?;
         Ok(t)
     }
 
-    fn release_images(&mut self, ctx: &Context) {
-        for v in self.views.drain(..) {
-            // SAFETY: the device is idle when the swapchain is rebuilt or destroyed.
-            unsafe { ctx.device.destroy_image_view(v, None) };
-        }
-        for s in self.rendered.drain(..) {
-            // SAFETY: idle device.
-            unsafe { ctx.device.destroy_semaphore(s, None) };
-        }
+    /// Releases the views and render semaphores (the device is idle when the swapchain is rebuilt).
+    fn release_images(&mut self) {
+        self.views.clear();
+        self.rendered.clear();
         self.images.clear();
     }
 
@@ -430,7 +414,8 @@ impl SwapchainTarget {
         let swapchain_fn = ctx.swapchain_device.as_ref().expect("swapchain device");
         // SAFETY: valid physical device and surface.
         let caps = unsafe {
-            surface_fn.get_physical_device_surface_capabilities(ctx.physical_device, self.surface)
+            surface_fn
+                .get_physical_device_surface_capabilities(ctx.physical_device, self.surface.raw())
         }
         .vk("vkGetPhysicalDeviceSurfaceCapabilitiesKHR")?;
         let extent = if caps.current_extent.width != u32::MAX {
@@ -451,14 +436,14 @@ impl SwapchainTarget {
             return Ok(false);
         }
         ctx.wait_idle()?;
-        self.release_images(ctx);
+        self.release_images();
         let mut count = caps.min_image_count + 1;
         if caps.max_image_count > 0 {
             count = count.min(caps.max_image_count);
         }
-        let old = self.swapchain;
+        let old = self.swapchain.take();
         let info = vk::SwapchainCreateInfoKHR::default()
-            .surface(self.surface)
+            .surface(self.surface.raw())
             .min_image_count(count)
             .image_format(self.format.format)
             .image_color_space(self.format.color_space)
@@ -470,15 +455,13 @@ impl SwapchainTarget {
             .composite_alpha(vk::CompositeAlphaFlagsKHR::OPAQUE)
             .present_mode(self.present_mode)
             .clipped(true)
-            .old_swapchain(old);
+            .old_swapchain(old.as_ref().map_or(vk::SwapchainKHR::null(), Owned::raw));
         // SAFETY: valid create info; the old swapchain is retired by this call.
         let swapchain =
             unsafe { swapchain_fn.create_swapchain(&info, None) }.vk("vkCreateSwapchainKHR")?;
-        if old != vk::SwapchainKHR::null() {
-            // SAFETY: idle device; the old swapchain has no acquired images in use.
-            unsafe { swapchain_fn.destroy_swapchain(old, None) };
-        }
-        self.swapchain = swapchain;
+        // The device is idle and the old swapchain is retired: releasing it destroys it now.
+        drop(old);
+        self.swapchain = Some(ctx.own(swapchain, "swapchain"));
         // SAFETY: valid swapchain.
         self.images = unsafe { swapchain_fn.get_swapchain_images(swapchain) }
             .vk("vkGetSwapchainImagesKHR")?;
@@ -491,15 +474,16 @@ impl SwapchainTarget {
             // SAFETY: valid swapchain image.
             let view =
                 unsafe { ctx.device.create_image_view(&vi, None) }.vk("vkCreateImageView")?;
-            self.views.push(view);
+            self.views
+                .push(ctx.own(view, &format!("swapchain view {i}")));
             // SAFETY: valid device.
             let sem = unsafe {
                 ctx.device
                     .create_semaphore(&vk::SemaphoreCreateInfo::default(), None)
             }
             .vk("vkCreateSemaphore")?;
-            ctx.set_name(sem, &format!("swapchain rendered {i}"));
-            self.rendered.push(sem);
+            self.rendered
+                .push(ctx.own(sem, &format!("swapchain rendered {i}")));
         }
         self.extent = extent;
         self.needs_rebuild = false;
@@ -525,7 +509,7 @@ impl SwapchainTarget {
 
     /// The captured frame as (width, height, RGBA8 rows top to bottom) once its copy was recorded; call after
     /// that frame's fence (e.g. after `Frames::wait_all`). Frees the readback buffer.
-    pub fn take_capture(&mut self, ctx: &Context) -> Result<Option<(u32, u32, Vec<u8>)>> {
+    pub fn take_capture(&mut self) -> Result<Option<(u32, u32, Vec<u8>)>> {
         if !self.capture.as_ref().is_some_and(|c| c.2) {
             return Ok(None);
         }
@@ -541,15 +525,7 @@ impl SwapchainTarget {
                 }
             }
         }
-        buf.destroy(ctx);
         Ok(Some((e.width, e.height, px?)))
-    }
-
-    /// Releases a pending capture (device idle).
-    fn release_capture(&mut self, ctx: &Context) {
-        if let Some((b, _, _)) = self.capture.take() {
-            b.destroy(ctx);
-        }
     }
 }
 
@@ -570,11 +546,18 @@ impl PresentTarget for SwapchainTarget {
             return Ok(None);
         }
         let swapchain_fn = ctx.swapchain_device.as_ref().expect("swapchain device");
-        let sem = self.acquired[slot];
+        let sem = self.acquired[slot].raw();
         // SAFETY: valid swapchain; the slot's semaphore is unsignalled (its previous wait has completed
         // because the caller waited for the slot's fence).
         match unsafe {
-            swapchain_fn.acquire_next_image(self.swapchain, u64::MAX, sem, vk::Fence::null())
+            swapchain_fn.acquire_next_image(
+                self.swapchain
+                    .as_ref()
+                    .map_or(vk::SwapchainKHR::null(), Owned::raw),
+                u64::MAX,
+                sem,
+                vk::Fence::null(),
+            )
         } {
             Ok((index, suboptimal)) => {
                 if suboptimal {
@@ -586,11 +569,11 @@ impl PresentTarget for SwapchainTarget {
                     index,
                     slot,
                     image: self.images[i],
-                    view: self.views[i],
+                    view: self.views[i].raw(),
                     extent: self.extent,
                     format: self.format.format,
                     acquired: Some(sem),
-                    rendered: Some(self.rendered[i]),
+                    rendered: Some(self.rendered[i].raw()),
                 }))
             }
             Err(vk::Result::ERROR_OUT_OF_DATE_KHR) => {
@@ -647,7 +630,7 @@ impl PresentTarget for SwapchainTarget {
                         cmd,
                         img.image,
                         vk::ImageLayout::TRANSFER_SRC_OPTIMAL,
-                        buf.raw,
+                        buf.raw(),
                         &[region],
                     )
                 };
@@ -679,8 +662,11 @@ impl PresentTarget for SwapchainTarget {
 
     fn present(&mut self, ctx: &Context, img: &TargetImage) -> Result<()> {
         let swapchain_fn = ctx.swapchain_device.as_ref().expect("swapchain device");
-        let waits = [self.rendered[img.index as usize]];
-        let swapchains = [self.swapchain];
+        let waits = [self.rendered[img.index as usize].raw()];
+        let swapchains = [self
+            .swapchain
+            .as_ref()
+            .map_or(vk::SwapchainKHR::null(), Owned::raw)];
         let indices = [img.index];
         let info = vk::PresentInfoKHR::default()
             .wait_semaphores(&waits)
@@ -704,28 +690,6 @@ impl PresentTarget for SwapchainTarget {
         if extent != self.wanted {
             self.wanted = extent;
             self.needs_rebuild = true;
-        }
-    }
-
-    fn destroy(mut self: Box<Self>, ctx: &Context) {
-        let _ = ctx.wait_idle();
-        self.release_capture(ctx);
-        self.release_images(ctx);
-        for s in self.acquired.drain(..) {
-            // SAFETY: idle device.
-            unsafe { ctx.device.destroy_semaphore(s, None) };
-        }
-        // SAFETY: idle device; nothing else references the swapchain or surface.
-        unsafe {
-            if self.swapchain != vk::SwapchainKHR::null() {
-                ctx.swapchain_device
-                    .as_ref()
-                    .expect("swapchain device")
-                    .destroy_swapchain(self.swapchain, None);
-            }
-            if let Some(s) = &ctx.surface_instance {
-                s.destroy_surface(self.surface, None);
-            }
         }
     }
 }

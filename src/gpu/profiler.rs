@@ -12,6 +12,7 @@
 //!   calls, min, max and total are exact and the median is over the last [`MEDIAN_WINDOW`] calls; the trace
 //!   keeps the first [`TRACE_MAX_EVENTS`] events and counts the rest as dropped.
 use super::context::Context;
+use super::lifetime::Owned;
 use crate::error::{Result, VkContext};
 use ash::vk;
 use std::collections::HashMap;
@@ -85,7 +86,7 @@ pub struct PassStats {
 
 /// The per-pass timestamp profiler. See the module invariants.
 pub struct Profiler {
-    pools: Vec<vk::QueryPool>,
+    pools: Vec<Owned<vk::QueryPool>>,
     slots: Vec<Slot>,
     capacity: u32,
     enabled: bool,
@@ -112,22 +113,11 @@ impl Profiler {
                     .query_type(vk::QueryType::TIMESTAMP)
                     .query_count(capacity);
                 // SAFETY: valid create info.
-                let pool = match unsafe { ctx.device.create_query_pool(&info, None) } {
-                    Ok(p) => p,
-                    Err(result) => {
-                        for p in pools {
-                            // SAFETY: unused pools.
-                            unsafe { ctx.device.destroy_query_pool(p, None) };
-                        }
-                        return Err(crate::Error::Vulkan {
-                            call: "vkCreateQueryPool",
-                            result,
-                        });
-                    }
-                };
+                let pool =
+                    unsafe { ctx.device.create_query_pool(&info, None) }.vk("vkCreateQueryPool")?;
+                let pool = ctx.own(pool, &format!("profiler slot {i}"));
                 // SAFETY: hostQueryReset is enabled on every gregvox device.
-                unsafe { ctx.device.reset_query_pool(pool, 0, capacity) };
-                ctx.set_name(pool, &format!("profiler slot {i}"));
+                unsafe { ctx.device.reset_query_pool(pool.raw(), 0, capacity) };
                 pools.push(pool);
             }
         }
@@ -189,7 +179,7 @@ impl Profiler {
             ctx.device.cmd_write_timestamp(
                 cmd,
                 vk::PipelineStageFlags::TOP_OF_PIPE,
-                self.pools[slot],
+                self.pools[slot].raw(),
                 q,
             )
         };
@@ -207,7 +197,7 @@ impl Profiler {
             ctx.device.cmd_write_timestamp(
                 cmd,
                 vk::PipelineStageFlags::BOTTOM_OF_PIPE,
-                self.pools[scope.slot],
+                self.pools[scope.slot].raw(),
                 q,
             )
         };
@@ -239,7 +229,7 @@ impl Profiler {
         // SAFETY: all `used` queries were written by a submission whose fence the caller waited for.
         unsafe {
             ctx.device.get_query_pool_results(
-                self.pools[slot],
+                self.pools[slot].raw(),
                 0,
                 &mut ticks,
                 vk::QueryResultFlags::TYPE_64 | vk::QueryResultFlags::WAIT,
@@ -273,7 +263,7 @@ impl Profiler {
         // SAFETY: the slot's queries are no longer in use.
         unsafe {
             ctx.device
-                .reset_query_pool(self.pools[slot], 0, self.capacity)
+                .reset_query_pool(self.pools[slot].raw(), 0, self.capacity)
         };
         let s = &mut self.slots[slot];
         s.next_query = 0;
@@ -360,13 +350,5 @@ impl Profiler {
             .collect();
         serde_json::json!({ "traceEvents": events, "displayTimeUnit": "ms",
                             "otherData": {"device": self.device_name, "dropped_events": self.trace_dropped} })
-    }
-
-    /// Destroys the query pools.
-    pub fn destroy(self, ctx: &Context) {
-        for p in self.pools {
-            // SAFETY: the caller guarantees no submission using the pools is pending.
-            unsafe { ctx.device.destroy_query_pool(p, None) };
-        }
     }
 }

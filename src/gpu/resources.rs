@@ -1,28 +1,39 @@
-//! Named buffers and images, staging upload and readback, deferred destruction.
+//! Named buffers and images, staging upload and readback.
 //!
 //! Invariants:
-//! - A `Buffer`/`Image` is a plain struct (`raw`, allocation, name); it is destroyed explicitly with
-//!   `destroy(ctx)` or handed to a [`DeferredDestroy`] list; dropping one undestroyed leaks it and the
-//!   context's leak check reports it by name.
+//! - A [`Buffer`]/[`Image`] owns its handle and its memory and releases both when dropped, through the
+//!   release queue of `gpu::lifetime` (destroyed once no submitted work can use them). Its fields are
+//!   read through getters only.
+//! - Every allocation is named (the leak check and the budget error name it).
 //! - Host access only through `MemoryLocation::CpuToGpu`/`GpuToCpu` allocations. Mapping a `GpuOnly`
 //!   allocation is refused with an error even where it would work (lavapipe has a single host-visible memory
 //!   type, which hides that bug until the code meets a discrete GPU). Device-local data goes through
 //!   staging buffers and `vkCmdCopyBuffer`.
 use super::context::Context;
+use super::lifetime::{DeviceShared, Retired};
 use crate::error::{Error, Result, VkContext};
 use ash::vk;
 use gpu_allocator::vulkan::{Allocation, AllocationCreateDesc, AllocationScheme};
 pub use gpu_allocator::MemoryLocation;
+use std::sync::Arc;
 
-/// A buffer and its memory.
+/// A buffer and its memory, released when dropped.
 #[derive(Debug)]
 pub struct Buffer {
-    pub raw: vk::Buffer,
-    pub allocation: Option<Allocation>,
-    pub size: u64,
-    pub usage: vk::BufferUsageFlags,
-    pub location: MemoryLocation,
-    pub name: String,
+    raw: vk::Buffer,
+    allocation: Option<Allocation>,
+    size: u64,
+    usage: vk::BufferUsageFlags,
+    location: MemoryLocation,
+    name: String,
+    owner: Arc<DeviceShared>,
+}
+
+impl Drop for Buffer {
+    fn drop(&mut self) {
+        self.owner
+            .release(Retired::Buffer(self.raw, self.allocation.take()));
+    }
 }
 
 /// Describes an image to create.
@@ -88,17 +99,58 @@ pub fn is_depth_format(format: vk::Format) -> bool {
     )
 }
 
-/// An image, its default view and its memory.
+/// An image, its default view and its memory, released when dropped.
 #[derive(Debug)]
 pub struct Image {
-    pub raw: vk::Image,
-    pub view: vk::ImageView,
-    pub allocation: Option<Allocation>,
-    pub desc: ImageDesc,
-    pub name: String,
+    raw: vk::Image,
+    view: vk::ImageView,
+    allocation: Option<Allocation>,
+    desc: ImageDesc,
+    name: String,
+    owner: Arc<DeviceShared>,
+}
+
+impl Drop for Image {
+    fn drop(&mut self) {
+        self.owner
+            .release(Retired::Image(self.raw, self.view, self.allocation.take()));
+    }
 }
 
 impl Image {
+    /// The image handle.
+    pub fn raw(&self) -> vk::Image {
+        self.raw
+    }
+
+    /// The default view (every layer, the one mip level).
+    pub fn view(&self) -> vk::ImageView {
+        self.view
+    }
+
+    /// What the image was created as.
+    pub fn desc(&self) -> &ImageDesc {
+        &self.desc
+    }
+
+    /// The debug name.
+    pub fn name(&self) -> &str {
+        &self.name
+    }
+
+    /// Destroys the image now instead of through the release queue.
+    ///
+    /// # Safety
+    /// No submitted command buffer that uses the image may still be executing, and no command buffer that
+    /// records it may be submitted afterwards.
+    pub unsafe fn destroy_now(mut self) {
+        let item = Retired::Image(self.raw, self.view, self.allocation.take());
+        self.view = vk::ImageView::null();
+        self.raw = vk::Image::null();
+        // SAFETY: the caller's promise.
+        unsafe { self.owner.destroy(item) };
+    }
+
     /// The full subresource range of the image.
     pub fn range(&self) -> vk::ImageSubresourceRange {
         vk::ImageSubresourceRange {
@@ -117,22 +169,34 @@ impl Image {
             height: self.desc.extent.height,
         }
     }
-
-    /// Destroys the view, the image and frees its memory.
-    pub fn destroy(mut self, ctx: &Context) {
-        // SAFETY: the caller guarantees the GPU no longer uses the image.
-        unsafe {
-            ctx.device.destroy_image_view(self.view, None);
-            ctx.device.destroy_image(self.raw, None);
-        }
-        if let Some(a) = self.allocation.take() {
-            ctx.release_bytes(a.size());
-            let _ = ctx.allocator().free(a);
-        }
-    }
 }
 
 impl Buffer {
+    /// The buffer handle.
+    pub fn raw(&self) -> vk::Buffer {
+        self.raw
+    }
+
+    /// Its size in bytes (as requested; the allocation may be larger).
+    pub fn size(&self) -> u64 {
+        self.size
+    }
+
+    /// The usage it was created with.
+    pub fn usage(&self) -> vk::BufferUsageFlags {
+        self.usage
+    }
+
+    /// Where its memory lives.
+    pub fn location(&self) -> MemoryLocation {
+        self.location
+    }
+
+    /// The debug name.
+    pub fn name(&self) -> &str {
+        &self.name
+    }
+
     /// Host-visible bytes of the buffer, or an error for `GpuOnly` memory.
     pub fn mapped(&self) -> Result<&[u8]> {
         self.assert_host_location()?;
@@ -174,20 +238,23 @@ impl Buffer {
         }
     }
 
-    /// Destroys the buffer and frees its memory.
-    pub fn destroy(mut self, ctx: &Context) {
-        // SAFETY: the caller guarantees the GPU no longer uses the buffer.
-        unsafe { ctx.device.destroy_buffer(self.raw, None) };
-        if let Some(a) = self.allocation.take() {
-            ctx.release_bytes(a.size());
-            let _ = ctx.allocator().free(a);
-        }
+    /// Destroys the buffer now instead of through the release queue.
+    ///
+    /// # Safety
+    /// No submitted command buffer that uses the buffer may still be executing, and no command buffer that
+    /// records it may be submitted afterwards.
+    pub unsafe fn destroy_now(mut self) {
+        let item = Retired::Buffer(self.raw, self.allocation.take());
+        self.raw = vk::Buffer::null();
+        // SAFETY: the caller's promise.
+        unsafe { self.owner.destroy(item) };
     }
 }
 
 impl Context {
     /// Reserves `requirements.size` against the memory budget and allocates it (`bytes` is the size the
-    /// error message names); on failure nothing stays reserved.
+    /// error message names); on failure nothing stays reserved. When it fails while dropped objects still
+    /// wait for the GPU, it waits for the device (which destroys them) and tries once more.
     fn allocate_memory(
         &self,
         name: &str,
@@ -196,23 +263,32 @@ impl Context {
         linear: bool,
         bytes: u64,
     ) -> Result<Allocation> {
-        self.reserve_bytes(name, requirements.size)?;
-        self.allocator()
-            .allocate(&AllocationCreateDesc {
-                name,
-                requirements,
-                location,
-                linear,
-                allocation_scheme: AllocationScheme::GpuAllocatorManaged,
-            })
-            .map_err(|e| {
-                self.release_bytes(requirements.size);
-                Error::Alloc {
-                    name: name.into(),
-                    bytes,
-                    reason: e.to_string(),
-                }
-            })
+        let attempt = || {
+            self.reserve_bytes(name, requirements.size)?;
+            self.allocator()
+                .allocate(&AllocationCreateDesc {
+                    name,
+                    requirements,
+                    location,
+                    linear,
+                    allocation_scheme: AllocationScheme::GpuAllocatorManaged,
+                })
+                .map_err(|e| {
+                    self.shared().release_bytes(requirements.size);
+                    Error::Alloc {
+                        name: name.into(),
+                        bytes,
+                        reason: e.to_string(),
+                    }
+                })
+        };
+        match attempt() {
+            Err(_) if self.objects_awaiting_release() > 0 => {
+                self.wait_idle()?;
+                attempt()
+            }
+            result => result,
+        }
     }
 
     /// Creates a named buffer of `size` bytes in `location`.
@@ -244,37 +320,26 @@ impl Context {
             .sharing_mode(vk::SharingMode::EXCLUSIVE);
         // SAFETY: valid create info.
         let raw = unsafe { self.device.create_buffer(&info, None) }.vk("vkCreateBuffer")?;
-        // SAFETY: raw is a valid buffer.
-        let requirements = unsafe { self.device.get_buffer_memory_requirements(raw) };
-        let destroy = |e: Error| {
-            // SAFETY: raw has no memory bound and is unused.
-            unsafe { self.device.destroy_buffer(raw, None) };
-            e
-        };
-        let allocation = self
-            .allocate_memory(name, requirements, location, true, size)
-            .map_err(destroy)?;
-        // SAFETY: memory and offset come from an allocation that satisfies the requirements.
-        if let Err(result) = unsafe {
-            self.device
-                .bind_buffer_memory(raw, allocation.memory(), allocation.offset())
-        } {
-            self.release_bytes(requirements.size);
-            let _ = self.allocator().free(allocation);
-            return Err(destroy(Error::Vulkan {
-                call: "vkBindBufferMemory",
-                result,
-            }));
-        }
-        self.set_name(raw, name);
-        Ok(Buffer {
+        // Owned from here on: an error below releases whatever exists.
+        let mut buffer = Buffer {
             raw,
-            allocation: Some(allocation),
+            allocation: None,
             size,
             usage,
             location,
             name: name.into(),
-        })
+            owner: self.shared().clone(),
+        };
+        // SAFETY: raw is a valid buffer.
+        let requirements = unsafe { self.device.get_buffer_memory_requirements(raw) };
+        let allocation = self.allocate_memory(name, requirements, location, true, size)?;
+        // SAFETY: the memory is bound below and freed only with the allocation.
+        let (memory, offset) = (unsafe { allocation.memory() }, allocation.offset());
+        buffer.allocation = Some(allocation);
+        // SAFETY: memory and offset come from an allocation that satisfies the requirements.
+        unsafe { self.device.bind_buffer_memory(raw, memory, offset) }.vk("vkBindBufferMemory")?;
+        self.set_name(raw, name);
+        Ok(buffer)
     }
 
     /// Creates a device-local buffer holding `data`, uploaded through a staging buffer.
@@ -290,13 +355,8 @@ impl Context {
             usage | vk::BufferUsageFlags::TRANSFER_DST,
             MemoryLocation::GpuOnly,
         )?;
-        match self.write_buffer(&buf, 0, data) {
-            Ok(()) => Ok(buf),
-            Err(e) => {
-                buf.destroy(self);
-                Err(e)
-            }
-        }
+        self.write_buffer(&buf, 0, data)?;
+        Ok(buf)
     }
 
     /// Writes `data` at `offset` into `buf`: directly when it is host-visible, else through staging.
@@ -353,7 +413,6 @@ impl Context {
                     Ok(())
                 })
             });
-        staging.destroy(self);
         result
     }
 
@@ -431,7 +490,6 @@ impl Context {
                 Ok(())
             })
             .and_then(|()| staging.mapped().map(|m| m.to_vec()));
-        staging.destroy(self);
         result
     }
 
@@ -472,40 +530,29 @@ impl Context {
             .initial_layout(vk::ImageLayout::UNDEFINED);
         // SAFETY: valid create info.
         let raw = unsafe { self.device.create_image(&info, None) }.vk("vkCreateImage")?;
+        // Owned from here on: an error below releases whatever exists (a null view is ignored).
+        let mut image = Image {
+            raw,
+            view: vk::ImageView::null(),
+            allocation: None,
+            desc: desc.clone(),
+            name: name.into(),
+            owner: self.shared().clone(),
+        };
         // SAFETY: valid image.
         let requirements = unsafe { self.device.get_image_memory_requirements(raw) };
-        let destroy = |e: Error| {
-            // SAFETY: unused image.
-            unsafe { self.device.destroy_image(raw, None) };
-            e
-        };
-        let allocation = self
-            .allocate_memory(
-                name,
-                requirements,
-                MemoryLocation::GpuOnly,
-                false,
-                requirements.size,
-            )
-            .map_err(destroy)?;
-        let free = |e: Error, allocation: Allocation| {
-            self.release_bytes(requirements.size);
-            let _ = self.allocator().free(allocation);
-            destroy(e)
-        };
-        // SAFETY: allocation satisfies the requirements.
-        if let Err(result) = unsafe {
-            self.device
-                .bind_image_memory(raw, allocation.memory(), allocation.offset())
-        } {
-            return Err(free(
-                Error::Vulkan {
-                    call: "vkBindImageMemory",
-                    result,
-                },
-                allocation,
-            ));
-        }
+        let allocation = self.allocate_memory(
+            name,
+            requirements,
+            MemoryLocation::GpuOnly,
+            false,
+            requirements.size,
+        )?;
+        // SAFETY: the memory is bound below and freed only with the allocation.
+        let (memory, offset) = (unsafe { allocation.memory() }, allocation.offset());
+        image.allocation = Some(allocation);
+        // SAFETY: the allocation satisfies the requirements.
+        unsafe { self.device.bind_image_memory(raw, memory, offset) }.vk("vkBindImageMemory")?;
         let view_info = vk::ImageViewCreateInfo::default()
             .image(raw)
             .view_type(desc.view_type)
@@ -518,27 +565,47 @@ impl Context {
                 layer_count: desc.layers,
             });
         // SAFETY: valid image with bound memory.
-        let view = match unsafe { self.device.create_image_view(&view_info, None) } {
-            Ok(v) => v,
-            Err(result) => {
-                return Err(free(
-                    Error::Vulkan {
-                        call: "vkCreateImageView",
-                        result,
-                    },
-                    allocation,
-                ))
-            }
-        };
+        image.view =
+            unsafe { self.device.create_image_view(&view_info, None) }.vk("vkCreateImageView")?;
         self.set_name(raw, name);
-        self.set_name(view, &format!("{name} (view)"));
-        Ok(Image {
-            raw,
-            view,
-            allocation: Some(allocation),
-            desc: desc.clone(),
-            name: name.into(),
-        })
+        self.set_name(image.view, &format!("{name} (view)"));
+        Ok(image)
+    }
+}
+
+impl Context {
+    /// A 2D view of one layer of an array image (same format and aspect), released when dropped.
+    pub fn create_layer_view(
+        &self,
+        image: &Image,
+        layer: u32,
+    ) -> Result<super::lifetime::Owned<vk::ImageView>> {
+        let info = vk::ImageViewCreateInfo::default()
+            .image(image.raw)
+            .view_type(vk::ImageViewType::TYPE_2D)
+            .format(image.desc.format)
+            .subresource_range(vk::ImageSubresourceRange {
+                aspect_mask: image.desc.aspect,
+                base_mip_level: 0,
+                level_count: 1,
+                base_array_layer: layer,
+                layer_count: 1,
+            });
+        // SAFETY: valid image and create info; the view is released before the image (it is dropped first
+        // or in the same release batch, in order).
+        let view = unsafe { self.device.create_image_view(&info, None) }.vk("vkCreateImageView")?;
+        Ok(self.own(view, &format!("{} (layer {layer})", image.name)))
+    }
+
+    /// Creates a named sampler, released when dropped.
+    pub fn create_sampler(
+        &self,
+        info: &vk::SamplerCreateInfo<'_>,
+        name: &str,
+    ) -> Result<super::lifetime::Owned<vk::Sampler>> {
+        // SAFETY: valid create info.
+        let raw = unsafe { self.device.create_sampler(info, None) }.vk("vkCreateSampler")?;
+        Ok(self.own(raw, name))
     }
 }
 
@@ -660,44 +727,4 @@ pub fn compute_writes_to_readers(ctx: &Context, cmd: vk::CommandBuffer) {
                 | vk::AccessFlags2::TRANSFER_READ,
         ),
     );
-}
-
-/// A resource whose destruction waits for the GPU to finish a frame.
-#[derive(Debug)]
-pub enum Deferred {
-    Buffer(Buffer),
-    Image(Image),
-}
-
-/// A per-frame list of resources to destroy once that frame's fence has signalled.
-#[derive(Debug, Default)]
-pub struct DeferredDestroy {
-    items: Vec<Deferred>,
-}
-
-impl DeferredDestroy {
-    /// Queues a resource for destruction.
-    pub fn push(&mut self, item: Deferred) {
-        self.items.push(item);
-    }
-
-    /// Number of queued resources.
-    pub fn len(&self) -> usize {
-        self.items.len()
-    }
-
-    /// Whether nothing is queued.
-    pub fn is_empty(&self) -> bool {
-        self.items.is_empty()
-    }
-
-    /// Destroys everything queued. Call only after the frame's fence has signalled.
-    pub fn flush(&mut self, ctx: &Context) {
-        for item in self.items.drain(..) {
-            match item {
-                Deferred::Buffer(b) => b.destroy(ctx),
-                Deferred::Image(i) => i.destroy(ctx),
-            }
-        }
-    }
 }

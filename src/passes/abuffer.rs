@@ -104,14 +104,8 @@ impl AbufferPass {
             16,
             (SCAN_BLOCK / SCAN_PER_INVOCATION) as u32,
         )?;
-        let scatter = match Self::scatter_pipeline(ctx, stride) {
-            Ok(p) => p,
-            Err(e) => {
-                scan.destroy(ctx);
-                return Err(e);
-            }
-        };
-        let fill = match DescriptorSetLayoutBuilder::new()
+        let scatter = Self::scatter_pipeline(ctx, stride)?;
+        let fill = DescriptorSetLayoutBuilder::new()
             .storage_buffer(0, vk::ShaderStageFlags::COMPUTE)
             .storage_buffer(1, vk::ShaderStageFlags::COMPUTE)
             .storage_buffer(2, vk::ShaderStageFlags::COMPUTE)
@@ -125,14 +119,7 @@ impl AbufferPass {
                     20,
                     64,
                 )
-            }) {
-            Ok(p) => p,
-            Err(e) => {
-                scan.destroy(ctx);
-                scatter.destroy(ctx);
-                return Err(e);
-            }
-        };
+            })?;
         Ok(AbufferPass {
             scan,
             scatter,
@@ -192,7 +179,7 @@ impl AbufferPass {
             self.scan.bind(
                 ctx,
                 cmd,
-                &[(0, Binding::Storage(scan.raw))],
+                &[(0, Binding::Storage(scan.raw()))],
                 bytemuck::cast_slice(&push(data, len, levels[l + 1].0, 0)),
             );
             self.scan
@@ -205,7 +192,7 @@ impl AbufferPass {
             self.scan.bind(
                 ctx,
                 cmd,
-                &[(0, Binding::Storage(scan.raw))],
+                &[(0, Binding::Storage(scan.raw()))],
                 bytemuck::cast_slice(&push(data, len, levels[l + 1].0, 1)),
             );
             self.scan
@@ -255,9 +242,9 @@ impl AbufferPass {
             ctx,
             cmd,
             &[
-                (0, Binding::Storage(scan.raw)),
-                (1, Binding::Storage(cursor.raw)),
-                (2, Binding::Storage(frags.raw)),
+                (0, Binding::Storage(scan.raw())),
+                (1, Binding::Storage(cursor.raw())),
+                (2, Binding::Storage(frags.raw())),
             ],
             bytemuck::bytes_of(push),
             extent,
@@ -265,9 +252,9 @@ impl AbufferPass {
         // SAFETY: recording inside dynamic rendering with the pipeline bound.
         unsafe {
             ctx.device
-                .cmd_bind_vertex_buffers(cmd, 0, &[geom.vertices.raw], &[0]);
+                .cmd_bind_vertex_buffers(cmd, 0, &[geom.vertices.raw()], &[0]);
             ctx.device
-                .cmd_bind_index_buffer(cmd, geom.indices.raw, 0, vk::IndexType::UINT32);
+                .cmd_bind_index_buffer(cmd, geom.indices.raw(), 0, vk::IndexType::UINT32);
             ctx.device
                 .cmd_draw_indexed(cmd, geom.index_count, 1, 0, 0, 0);
         }
@@ -298,10 +285,10 @@ impl AbufferPass {
         job: &AbufferFillJob,
     ) -> Result<()> {
         let words = job.res.div_ceil(32);
-        if job.column_count as u64 * words as u64 * 4 > out.size {
+        if job.column_count as u64 * words as u64 * 4 > out.size() {
             return Err(crate::Error::Invalid(format!(
                 "voxel slab does not fit buffer '{}'",
-                out.name
+                out.name()
             )));
         }
         let push: [u32; 5] = [
@@ -318,9 +305,9 @@ impl AbufferPass {
             ctx,
             cmd,
             &[
-                (0, Binding::Storage(scan.raw)),
-                (1, Binding::Storage(frags.raw)),
-                (2, Binding::Storage(out.raw)),
+                (0, Binding::Storage(scan.raw())),
+                (1, Binding::Storage(frags.raw())),
+                (2, Binding::Storage(out.raw())),
             ],
             bytemuck::cast_slice(&push),
         );
@@ -339,12 +326,5 @@ impl AbufferPass {
             ),
         );
         Ok(())
-    }
-
-    /// Destroys the pipelines.
-    pub fn destroy(self, ctx: &Context) {
-        self.scan.destroy(ctx);
-        self.scatter.destroy(ctx);
-        self.fill.destroy(ctx);
     }
 }

@@ -286,21 +286,22 @@ impl AdaptiveLevelsPass {
             (b.edge_offsets, (edge_count as u64 + 1) * 4),
         ];
         for (buf, need) in checks {
-            if buf.size < need {
+            if buf.size() < need {
                 return Err(Error::Invalid(format!(
                     "buffer '{}' holds {} bytes, {need} needed",
-                    buf.name, buf.size
+                    buf.name(),
+                    buf.size()
                 )));
             }
         }
         let bindings = [
-            (0, Binding::Storage(b.points.raw)),
-            (1, Binding::Storage(b.patch_points.raw)),
-            (2, Binding::Storage(b.levels.raw)),
-            (3, Binding::Storage(b.commands.raw)),
-            (4, Binding::Storage(b.edge_offsets.raw)),
-            (5, Binding::Storage(b.edge_patches.raw)),
-            (6, Binding::Storage(b.edge_levels.raw)),
+            (0, Binding::Storage(b.points.raw())),
+            (1, Binding::Storage(b.patch_points.raw())),
+            (2, Binding::Storage(b.levels.raw())),
+            (3, Binding::Storage(b.commands.raw())),
+            (4, Binding::Storage(b.edge_offsets.raw())),
+            (5, Binding::Storage(b.edge_patches.raw())),
+            (6, Binding::Storage(b.edge_levels.raw())),
         ];
         let mut push = Push {
             view_proj: params.view_proj.to_cols_array(),
@@ -338,10 +339,5 @@ impl AdaptiveLevelsPass {
             ),
         );
         Ok(())
-    }
-
-    /// Destroys the pipeline.
-    pub fn destroy(self, ctx: &Context) {
-        self.pipeline.destroy(ctx);
     }
 }

@@ -50,7 +50,7 @@ impl BeziexEvalPass {
             )));
         }
         let n = vertex_count(patch_count, level);
-        if n * 32 > out.size || patch_count as u64 * 56 * 16 > nets.size {
+        if n * 32 > out.size() || patch_count as u64 * 56 * 16 > nets.size() {
             return Err(Error::Invalid("beziex eval: buffers too small".into()));
         }
         let push = [patch_count, level];
@@ -58,18 +58,13 @@ impl BeziexEvalPass {
             ctx,
             cmd,
             &[
-                (0, Binding::Storage(nets.raw)),
-                (1, Binding::Storage(out.raw)),
+                (0, Binding::Storage(nets.raw())),
+                (1, Binding::Storage(out.raw())),
             ],
             bytemuck::cast_slice(&push),
         );
         self.pipeline.dispatch_linear(ctx, cmd, n)?;
         compute_writes_to_readers(ctx, cmd);
         Ok(())
-    }
-
-    /// Destroys the pipeline.
-    pub fn destroy(self, ctx: &Context) {
-        self.pipeline.destroy(ctx);
     }
 }

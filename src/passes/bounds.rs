@@ -59,8 +59,8 @@ impl BoundsPass {
     ) -> Result<()> {
         if stride % 4 != 0
             || stride < 12
-            || count as u64 * stride as u64 > vertices.size
-            || bounds.size < 24
+            || count as u64 * stride as u64 > vertices.size()
+            || bounds.size() < 24
         {
             return Err(Error::Invalid("bounds: bad stride or buffer sizes".into()));
         }
@@ -68,7 +68,7 @@ impl BoundsPass {
         // SAFETY: recording; 24 bytes inside the bounds buffer.
         unsafe {
             ctx.device
-                .cmd_update_buffer(cmd, bounds.raw, 0, bytemuck::cast_slice(&init))
+                .cmd_update_buffer(cmd, bounds.raw(), 0, bytemuck::cast_slice(&init))
         };
         memory_barrier(
             ctx,
@@ -102,12 +102,12 @@ impl BoundsPass {
                     (
                         0,
                         Binding::StorageRange {
-                            buffer: vertices.raw,
+                            buffer: vertices.raw(),
                             offset: first * stride as u64,
                             range: n * stride as u64,
                         },
                     ),
-                    (1, Binding::Storage(bounds.raw)),
+                    (1, Binding::Storage(bounds.raw())),
                 ],
                 bytemuck::cast_slice(&push),
             );
@@ -126,10 +126,5 @@ impl BoundsPass {
             ),
         );
         Ok(())
-    }
-
-    /// Destroys the pipeline.
-    pub fn destroy(self, ctx: &Context) {
-        self.pipeline.destroy(ctx);
     }
 }

@@ -91,18 +91,13 @@ impl CageDeformPass {
             ctx,
             cmd,
             &[
-                (0, Binding::Storage(rest.raw)),
-                (1, Binding::Storage(out.raw)),
+                (0, Binding::Storage(rest.raw())),
+                (1, Binding::Storage(out.raw())),
             ],
             bytemuck::bytes_of(&push),
         );
         self.pipeline.dispatch_linear(ctx, cmd, count as u64)?;
         compute_writes_to_readers(ctx, cmd);
         Ok(())
-    }
-
-    /// Destroys the pipeline.
-    pub fn destroy(self, ctx: &Context) {
-        self.pipeline.destroy(ctx);
     }
 }

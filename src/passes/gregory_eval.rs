@@ -96,7 +96,7 @@ pub fn patch_batches(ctx: &Context, patch_count: u32, slot_bytes: u64) -> Result
 /// The output range of patches `first..first + count` with `slot_bytes` each.
 pub fn output_range(out: &Buffer, first: u32, count: u32, slot_bytes: u64) -> Binding {
     Binding::StorageRange {
-        buffer: out.raw,
+        buffer: out.raw(),
         offset: first as u64 * slot_bytes,
         range: count as u64 * slot_bytes,
     }
@@ -160,10 +160,10 @@ impl GregoryEvalPass {
             )));
         }
         let n = vertex_count(patch_count, level);
-        if n * 32 > out.size {
+        if n * 32 > out.size() {
             return Err(Error::Invalid(format!(
                 "{n} vertices do not fit buffer '{}'",
-                out.name
+                out.name()
             )));
         }
         let slot = (level as u64 + 1).pow(2) * std::mem::size_of::<SurfaceVertex>() as u64;
@@ -179,9 +179,9 @@ impl GregoryEvalPass {
                 0,
             ];
             let bindings = [
-                (0, Binding::Storage(points.buffer.raw)),
-                (1, Binding::Storage(patch_points.raw)),
-                (2, Binding::Storage(patch_flags.raw)),
+                (0, Binding::Storage(points.buffer.raw())),
+                (1, Binding::Storage(patch_points.raw())),
+                (2, Binding::Storage(patch_flags.raw())),
                 (3, output_range(out, first, count, slot)),
             ];
             self.pipeline
@@ -222,23 +222,23 @@ impl GregoryEvalPass {
             )));
         }
         let n = vertex_count(patch_count, l_max);
-        if n * 32 > out.size {
+        if n * 32 > out.size() {
             return Err(Error::Invalid(format!(
                 "{n} vertices do not fit buffer '{}'",
-                out.name
+                out.name()
             )));
         }
         let slot = (l_max as u64 + 1).pow(2) * std::mem::size_of::<SurfaceVertex>() as u64;
         for (first, count) in patch_batches(ctx, patch_count, slot)? {
             let push: [u32; 8] = [count, l_max, 1, points.residual_rows, first, 0, 0, 0];
             let bindings = [
-                (0, Binding::Storage(points.buffer.raw)),
-                (1, Binding::Storage(patch_points.raw)),
-                (2, Binding::Storage(patch_flags.raw)),
+                (0, Binding::Storage(points.buffer.raw())),
+                (1, Binding::Storage(patch_points.raw())),
+                (2, Binding::Storage(patch_flags.raw())),
                 (3, output_range(out, first, count, slot)),
-                (4, Binding::Storage(adaptive.levels.raw)),
-                (5, Binding::Storage(adaptive.edge_ids.raw)),
-                (6, Binding::Storage(adaptive.edge_levels.raw)),
+                (4, Binding::Storage(adaptive.levels.raw())),
+                (5, Binding::Storage(adaptive.edge_ids.raw())),
+                (6, Binding::Storage(adaptive.edge_levels.raw())),
             ];
             self.pipeline
                 .bind(ctx, cmd, &bindings, bytemuck::cast_slice(&push));
@@ -247,11 +247,6 @@ impl GregoryEvalPass {
         }
         compute_writes_to_readers(ctx, cmd);
         Ok(())
-    }
-
-    /// Destroys the pipeline.
-    pub fn destroy(self, ctx: &Context) {
-        self.pipeline.destroy(ctx);
     }
 }
 

@@ -35,26 +35,22 @@ impl IotaPass {
         scale: u32,
         offset: u32,
     ) -> Result<()> {
-        if count as u64 * 4 > buffer.size {
+        if count as u64 * 4 > buffer.size() {
             return Err(crate::Error::Invalid(format!(
                 "iota of {count} values does not fit buffer '{}' ({} bytes)",
-                buffer.name, buffer.size
+                buffer.name(),
+                buffer.size()
             )));
         }
         let push: [u32; 3] = [count, scale, offset];
         self.pipeline.bind(
             ctx,
             cmd,
-            &[(0, Binding::Storage(buffer.raw))],
+            &[(0, Binding::Storage(buffer.raw()))],
             bytemuck::cast_slice(&push),
         );
         self.pipeline.dispatch_linear(ctx, cmd, count as u64)?;
         compute_writes_to_readers(ctx, cmd);
         Ok(())
-    }
-
-    /// Destroys the pipeline.
-    pub fn destroy(self, ctx: &Context) {
-        self.pipeline.destroy(ctx);
     }
 }

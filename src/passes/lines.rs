@@ -83,10 +83,10 @@ impl LinesPass {
         vertex_count: u32,
         view_proj: &glam::Mat4,
     ) -> Result<()> {
-        if vertex_count as u64 * std::mem::size_of::<LineVertex>() as u64 > vertices.size {
+        if vertex_count as u64 * std::mem::size_of::<LineVertex>() as u64 > vertices.size() {
             return Err(Error::Invalid(format!(
                 "lines: {vertex_count} vertices do not fit buffer '{}'",
-                vertices.name
+                vertices.name()
             )));
         }
         begin_color_depth(ctx, cmd, target, clear);
@@ -101,17 +101,12 @@ impl LinesPass {
             // SAFETY: inside the render pass with the pipeline bound; the buffer holds vertex_count vertices.
             unsafe {
                 ctx.device
-                    .cmd_bind_vertex_buffers(cmd, 0, &[vertices.raw], &[0]);
+                    .cmd_bind_vertex_buffers(cmd, 0, &[vertices.raw()], &[0]);
                 ctx.device.cmd_draw(cmd, vertex_count & !1, 1, 0, 0);
             }
         }
         ctx.cmd_end_rendering(cmd);
         Ok(())
-    }
-
-    /// Destroys the pipeline.
-    pub fn destroy(self, ctx: &Context) {
-        self.pipeline.destroy(ctx);
     }
 }
 
@@ -138,10 +133,8 @@ impl LineRing {
     ) -> Result<&Buffer> {
         let bytes: &[u8] = bytemuck::cast_slice(vertices);
         let need = (bytes.len() as u64).max(64);
-        if self.buffers[slot].as_ref().is_some_and(|b| b.size < need) {
-            if let Some(old) = self.buffers[slot].take() {
-                old.destroy(ctx);
-            }
+        if self.buffers[slot].as_ref().is_some_and(|b| b.size() < need) {
+            self.buffers[slot] = None;
         }
         if self.buffers[slot].is_none() {
             self.buffers[slot] = Some(ctx.create_buffer(
@@ -154,12 +147,5 @@ impl LineRing {
         let buf = self.buffers[slot].as_mut().unwrap();
         buf.mapped_mut()?[..bytes.len()].copy_from_slice(bytes);
         Ok(buf)
-    }
-
-    /// Destroys the buffers (device idle).
-    pub fn destroy(self, ctx: &Context) {
-        for b in self.buffers.into_iter().flatten() {
-            b.destroy(ctx);
-        }
     }
 }

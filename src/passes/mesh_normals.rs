@@ -41,12 +41,7 @@ impl GpuMeshMatrix {
             ),
         ];
         let mut buffers = Vec::new();
-        let fail = |e, buffers: Vec<Buffer>| {
-            for b in buffers {
-                b.destroy(ctx);
-            }
-            e
-        };
+        let fail = |e, buffers: Vec<Buffer>| e;
         for (name, data) in arrays {
             match ctx.upload_buffer(
                 &format!("mesh {name}"),
@@ -71,13 +66,6 @@ impl GpuMeshMatrix {
             faces: m.n_faces() as u32,
             buffers,
         })
-    }
-
-    /// Destroys the buffers.
-    pub fn destroy(self, ctx: &Context) {
-        for b in self.buffers {
-            b.destroy(ctx);
-        }
     }
 }
 
@@ -105,13 +93,7 @@ impl MeshNormalsPass {
             4,
             64,
         )?;
-        let l = match layout(5, "vertex normals set") {
-            Ok(l) => l,
-            Err(e) => {
-                faces.destroy(ctx);
-                return Err(e);
-            }
-        };
+        let l = layout(5, "vertex normals set")?;
         match ComputePipeline::new(
             ctx,
             "vertex normals",
@@ -121,10 +103,7 @@ impl MeshNormalsPass {
             64,
         ) {
             Ok(vertices) => Ok(MeshNormalsPass { faces, vertices }),
-            Err(e) => {
-                faces.destroy(ctx);
-                Err(e)
-            }
+            Err(e) => Err(e),
         }
     }
 
@@ -137,7 +116,7 @@ impl MeshNormalsPass {
         positions: &Buffer,
         out: &Buffer,
     ) -> Result<()> {
-        if (m.vertices as u64) * 16 > positions.size.min(out.size) {
+        if (m.vertices as u64) * 16 > positions.size().min(out.size()) {
             return Err(Error::Invalid(format!(
                 "{} vertices do not fit the position or normal buffer",
                 m.vertices
@@ -149,10 +128,10 @@ impl MeshNormalsPass {
             ctx,
             cmd,
             &[
-                (0, Binding::Storage(b[0].raw)),
-                (1, Binding::Storage(b[1].raw)),
-                (2, Binding::Storage(positions.raw)),
-                (3, Binding::Storage(fnb.raw)),
+                (0, Binding::Storage(b[0].raw())),
+                (1, Binding::Storage(b[1].raw())),
+                (2, Binding::Storage(positions.raw())),
+                (3, Binding::Storage(fnb.raw())),
             ],
             bytemuck::bytes_of(&m.faces),
         );
@@ -162,22 +141,16 @@ impl MeshNormalsPass {
             ctx,
             cmd,
             &[
-                (0, Binding::Storage(b[3].raw)),
-                (1, Binding::Storage(b[4].raw)),
-                (2, Binding::Storage(b[2].raw)),
-                (3, Binding::Storage(fnb.raw)),
-                (4, Binding::Storage(out.raw)),
+                (0, Binding::Storage(b[3].raw())),
+                (1, Binding::Storage(b[4].raw())),
+                (2, Binding::Storage(b[2].raw())),
+                (3, Binding::Storage(fnb.raw())),
+                (4, Binding::Storage(out.raw())),
             ],
             bytemuck::bytes_of(&m.vertices),
         );
         self.vertices.dispatch_linear(ctx, cmd, m.vertices as u64)?;
         compute_writes_to_readers(ctx, cmd);
         Ok(())
-    }
-
-    /// Destroys the pipelines.
-    pub fn destroy(self, ctx: &Context) {
-        self.faces.destroy(ctx);
-        self.vertices.destroy(ctx);
     }
 }

@@ -97,10 +97,11 @@ impl PatchPullPass {
                     detail: format!("one storage binding holds at most {} MiB", max >> 20),
                 });
             }
-            if bytes > c.size {
+            if bytes > c.size() {
                 return Err(Error::Invalid(format!(
                     "patch pull: capture buffer '{}' holds {} B, {bytes} B needed",
-                    c.name, c.size
+                    c.name(),
+                    c.size()
                 )));
             }
         }
@@ -113,11 +114,11 @@ impl PatchPullPass {
             PatchKind::Beziex => 0,
         };
         let mut bindings = vec![
-            (0, Binding::Storage(points.buffer.raw)),
-            (1, Binding::Storage(patch_points.raw)),
+            (0, Binding::Storage(points.buffer.raw())),
+            (1, Binding::Storage(patch_points.raw())),
         ];
         if let Some(c) = capture {
-            bindings.push((2, Binding::Storage(c.raw)));
+            bindings.push((2, Binding::Storage(c.raw())));
         }
         begin_color_depth(ctx, cmd, target, clear);
         self.pipeline
@@ -125,7 +126,7 @@ impl PatchPullPass {
         // SAFETY: inside the render pass with the pipeline bound; the index buffer covers one grid.
         unsafe {
             ctx.device
-                .cmd_bind_index_buffer(cmd, grid_indices.raw, 0, vk::IndexType::UINT32);
+                .cmd_bind_index_buffer(cmd, grid_indices.raw(), 0, vk::IndexType::UINT32);
             ctx.device
                 .cmd_draw_indexed(cmd, level * level * 6, patch_count, 0, 0, 0);
         }
@@ -145,10 +146,5 @@ impl PatchPullPass {
             );
         }
         Ok(())
-    }
-
-    /// Destroys the pipeline.
-    pub fn destroy(self, ctx: &Context) {
-        self.pipeline.destroy(ctx);
     }
 }

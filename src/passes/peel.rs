@@ -11,8 +11,9 @@
 //! On entry `depth` is in `DEPTH_ATTACHMENT_OPTIMAL` and `layer_view`'s image in `COLOR_ATTACHMENT_OPTIMAL`;
 //! they stay so on exit (the caller places the barriers between passes). Vertex positions are three f32 at the
 //! start of each `stride`-byte vertex, so the Gregory pass's vertex buffer is drawn as-is.
-use crate::error::{Result, VkContext};
+use crate::error::Result;
 use crate::gpu::pipeline::{Binding, DescriptorSetLayoutBuilder, GraphicsDesc, GraphicsPipeline};
+use crate::gpu::Owned;
 use crate::gpu::{shaders, Buffer, Context, Image};
 use ash::vk;
 
@@ -38,7 +39,7 @@ pub struct PeelGeometry<'a> {
 pub struct PeelPass {
     count: GraphicsPipeline,
     peel: GraphicsPipeline,
-    sampler: vk::Sampler,
+    sampler: Owned<vk::Sampler>,
     pub stride: u32,
 }
 
@@ -76,16 +77,9 @@ impl PeelPass {
         desc.set_layouts = vec![count_layout];
         let count = GraphicsPipeline::new(ctx, "peel count", desc)?;
 
-        let peel_layout = match DescriptorSetLayoutBuilder::new()
+        let peel_layout = DescriptorSetLayoutBuilder::new()
             .sampled_image(0, vk::ShaderStageFlags::FRAGMENT)
-            .build(ctx, "peel set")
-        {
-            Ok(l) => l,
-            Err(e) => {
-                count.destroy(ctx);
-                return Err(e);
-            }
-        };
+            .build(ctx, "peel set")?;
         let mut desc = GraphicsDesc::new(
             shaders::PEEL_VERT,
             shaders::PEEL_FRAG,
@@ -95,13 +89,7 @@ impl PeelPass {
         vertex_input(&mut desc);
         desc.set_layouts = vec![peel_layout];
         desc.depth_compare = vk::CompareOp::LESS;
-        let peel = match GraphicsPipeline::new(ctx, "peel layer", desc) {
-            Ok(p) => p,
-            Err(e) => {
-                count.destroy(ctx);
-                return Err(e);
-            }
-        };
+        let peel = GraphicsPipeline::new(ctx, "peel layer", desc)?;
         let info = vk::SamplerCreateInfo::default()
             .mag_filter(vk::Filter::NEAREST)
             .min_filter(vk::Filter::NEAREST)
@@ -109,17 +97,7 @@ impl PeelPass {
             .address_mode_u(vk::SamplerAddressMode::CLAMP_TO_EDGE)
             .address_mode_v(vk::SamplerAddressMode::CLAMP_TO_EDGE)
             .address_mode_w(vk::SamplerAddressMode::CLAMP_TO_EDGE);
-        // SAFETY: valid create info.
-        let sampler = match unsafe { ctx.device.create_sampler(&info, None) }.vk("vkCreateSampler")
-        {
-            Ok(s) => s,
-            Err(e) => {
-                count.destroy(ctx);
-                peel.destroy(ctx);
-                return Err(e);
-            }
-        };
-        ctx.set_name(sampler, "peel nearest sampler");
+        let sampler = ctx.create_sampler(&info, "peel nearest sampler")?;
         Ok(PeelPass {
             count,
             peel,
@@ -130,16 +108,16 @@ impl PeelPass {
 
     /// The nearest sampler (also used by the fill pass to read the layers).
     pub fn sampler(&self) -> vk::Sampler {
-        self.sampler
+        self.sampler.raw()
     }
 
     fn bind_geometry(&self, ctx: &Context, cmd: vk::CommandBuffer, geom: &PeelGeometry) {
         // SAFETY: recording command buffer inside a render pass.
         unsafe {
             ctx.device
-                .cmd_bind_vertex_buffers(cmd, 0, &[geom.vertices.raw], &[0]);
+                .cmd_bind_vertex_buffers(cmd, 0, &[geom.vertices.raw()], &[0]);
             ctx.device
-                .cmd_bind_index_buffer(cmd, geom.indices.raw, 0, vk::IndexType::UINT32);
+                .cmd_bind_index_buffer(cmd, geom.indices.raw(), 0, vk::IndexType::UINT32);
         }
     }
 
@@ -167,7 +145,7 @@ impl PeelPass {
         self.count.bind(
             ctx,
             cmd,
-            &[(1, Binding::Storage(counts.raw))],
+            &[(1, Binding::Storage(counts.raw()))],
             bytemuck::bytes_of(push),
             extent,
         );
@@ -206,7 +184,7 @@ impl PeelPass {
                 color: vk::ClearColorValue { float32: [0.0; 4] },
             })];
         let depth_att = vk::RenderingAttachmentInfo::default()
-            .image_view(depth.view)
+            .image_view(depth.view())
             .image_layout(vk::ImageLayout::DEPTH_ATTACHMENT_OPTIMAL)
             .load_op(vk::AttachmentLoadOp::CLEAR)
             .store_op(vk::AttachmentStoreOp::STORE)
@@ -226,8 +204,8 @@ impl PeelPass {
             .depth_attachment(&depth_att);
         ctx.cmd_begin_rendering(cmd, &info);
         let prev = Binding::Sampled {
-            view: prev_depth.view,
-            sampler: self.sampler,
+            view: prev_depth.view(),
+            sampler: self.sampler.raw(),
             layout: vk::ImageLayout::DEPTH_READ_ONLY_OPTIMAL,
         };
         self.peel
@@ -239,13 +217,5 @@ impl PeelPass {
                 .cmd_draw_indexed(cmd, geom.index_count, 1, 0, 0, 0)
         };
         ctx.cmd_end_rendering(cmd);
-    }
-
-    /// Destroys the pipelines and the sampler.
-    pub fn destroy(self, ctx: &Context) {
-        // SAFETY: the caller guarantees nothing in flight uses the sampler.
-        unsafe { ctx.device.destroy_sampler(self.sampler, None) };
-        self.count.destroy(ctx);
-        self.peel.destroy(ctx);
     }
 }

@@ -13,9 +13,9 @@
 //! - `record` must be called outside a render pass, before the colour pass that samples the map.
 //! - The light matrix is orthographic (directional light) and maps depth to 0…1.
 use crate::error::Result;
-use crate::error::VkContext;
 use crate::gpu::pipeline::{Binding, GraphicsDesc, GraphicsPipeline};
 use crate::gpu::resources::{image_barrier, memory_barrier};
+use crate::gpu::Owned;
 use crate::gpu::{shaders, Buffer, Context, Image, ImageDesc, MemoryLocation};
 use crate::passes::surface_draw::{draw_indexed, LitDraw};
 use ash::vk;
@@ -62,7 +62,7 @@ pub fn light_view_proj(dir: Vec3, centre: Vec3, radius: f32) -> Mat4 {
 pub struct ShadowMap {
     pipeline: GraphicsPipeline,
     image: Image,
-    sampler: vk::Sampler,
+    sampler: Owned<vk::Sampler>,
     uniform: Buffer,
     /// Side of the square map in texels.
     pub size: u32,
@@ -94,7 +94,7 @@ impl ShadowMap {
         desc.push_constant_bytes = 64;
         desc.push_constant_stages = vk::ShaderStageFlags::VERTEX;
         let pipeline = GraphicsPipeline::new(ctx, "shadow map", desc)?;
-        let image = match ctx.create_image(
+        let image = ctx.create_image(
             "shadow map",
             &ImageDesc::d2(
                 size,
@@ -102,13 +102,7 @@ impl ShadowMap {
                 SHADOW_FORMAT,
                 vk::ImageUsageFlags::DEPTH_STENCIL_ATTACHMENT | vk::ImageUsageFlags::SAMPLED,
             ),
-        ) {
-            Ok(i) => i,
-            Err(e) => {
-                pipeline.destroy(ctx);
-                return Err(e);
-            }
-        };
+        )?;
         // Depth-compare sampler: texture() returns 1 where ref ≤ stored depth (lit). NEAREST: one tap, hard
         // edges, bit-reproducible frames for the golden tests.
         let info = vk::SamplerCreateInfo::default()
@@ -121,32 +115,13 @@ impl ShadowMap {
             .compare_enable(true)
             .compare_op(vk::CompareOp::LESS_OR_EQUAL)
             .max_lod(0.0);
-        // SAFETY: valid create info.
-        let sampler = match unsafe { ctx.device.create_sampler(&info, None) }.vk("vkCreateSampler")
-        {
-            Ok(s) => s,
-            Err(e) => {
-                image.destroy(ctx);
-                pipeline.destroy(ctx);
-                return Err(e);
-            }
-        };
-        ctx.set_name(sampler, "shadow map compare sampler");
-        let uniform = match ctx.create_buffer(
+        let sampler = ctx.create_sampler(&info, "shadow map compare sampler")?;
+        let uniform = ctx.create_buffer(
             "shadow light",
             std::mem::size_of::<LightUniform>() as u64,
             vk::BufferUsageFlags::UNIFORM_BUFFER | vk::BufferUsageFlags::TRANSFER_DST,
             MemoryLocation::GpuOnly,
-        ) {
-            Ok(b) => b,
-            Err(e) => {
-                // SAFETY: unused sampler.
-                unsafe { ctx.device.destroy_sampler(sampler, None) };
-                image.destroy(ctx);
-                pipeline.destroy(ctx);
-                return Err(e);
-            }
-        };
+        )?;
         Ok(ShadowMap {
             pipeline,
             image,
@@ -186,7 +161,7 @@ impl ShadowMap {
         // SAFETY: recording outside a render pass; 80 bytes ≤ 65536, multiple of 4.
         unsafe {
             ctx.device
-                .cmd_update_buffer(cmd, self.uniform.raw, 0, bytemuck::bytes_of(&light))
+                .cmd_update_buffer(cmd, self.uniform.raw(), 0, bytemuck::bytes_of(&light))
         };
         memory_barrier(
             ctx,
@@ -206,7 +181,7 @@ impl ShadowMap {
         image_barrier(
             ctx,
             cmd,
-            self.image.raw,
+            self.image.raw(),
             self.image.range(),
             vk::ImageLayout::UNDEFINED,
             vk::ImageLayout::DEPTH_ATTACHMENT_OPTIMAL,
@@ -225,7 +200,7 @@ impl ShadowMap {
             height: self.size,
         };
         let depth = vk::RenderingAttachmentInfo::default()
-            .image_view(self.image.view)
+            .image_view(self.image.view())
             .image_layout(vk::ImageLayout::DEPTH_ATTACHMENT_OPTIMAL)
             .load_op(vk::AttachmentLoadOp::CLEAR)
             .store_op(vk::AttachmentStoreOp::STORE)
@@ -255,9 +230,9 @@ impl ShadowMap {
             // SAFETY: as above.
             unsafe {
                 ctx.device
-                    .cmd_bind_vertex_buffers(cmd, 0, &[d.vertices.raw], &[0]);
+                    .cmd_bind_vertex_buffers(cmd, 0, &[d.vertices.raw()], &[0]);
                 ctx.device
-                    .cmd_bind_index_buffer(cmd, d.indices.raw, 0, vk::IndexType::UINT32);
+                    .cmd_bind_index_buffer(cmd, d.indices.raw(), 0, vk::IndexType::UINT32);
             }
             draw_indexed(ctx, cmd, d.index_count, d.indirect);
         }
@@ -265,7 +240,7 @@ impl ShadowMap {
         image_barrier(
             ctx,
             cmd,
-            self.image.raw,
+            self.image.raw(),
             self.image.range(),
             vk::ImageLayout::DEPTH_ATTACHMENT_OPTIMAL,
             vk::ImageLayout::SHADER_READ_ONLY_OPTIMAL,
@@ -280,24 +255,15 @@ impl ShadowMap {
     /// The descriptors the lit surface path reads: binding 0 the light uniform, binding 1 the map.
     pub fn bindings(&self) -> [(u32, Binding); 2] {
         [
-            (0, Binding::Uniform(self.uniform.raw)),
+            (0, Binding::Uniform(self.uniform.raw())),
             (
                 1,
                 Binding::Sampled {
-                    view: self.image.view,
-                    sampler: self.sampler,
+                    view: self.image.view(),
+                    sampler: self.sampler.raw(),
                     layout: vk::ImageLayout::SHADER_READ_ONLY_OPTIMAL,
                 },
             ),
         ]
-    }
-
-    /// Destroys everything (the caller guarantees the GPU is done with it).
-    pub fn destroy(self, ctx: &Context) {
-        // SAFETY: unused sampler.
-        unsafe { ctx.device.destroy_sampler(self.sampler, None) };
-        self.image.destroy(ctx);
-        self.uniform.destroy(ctx);
-        self.pipeline.destroy(ctx);
     }
 }

@@ -43,26 +43,21 @@ impl SpinnerPass {
         t: f32,
         aspect: f32,
     ) -> Result<()> {
-        if count as u64 * 48 > out.size {
+        if count as u64 * 48 > out.size() {
             return Err(crate::Error::Invalid(format!(
                 "{count} triangles do not fit buffer '{}'",
-                out.name
+                out.name()
             )));
         }
         let push: [u32; 3] = [count, t.to_bits(), aspect.to_bits()];
         self.pipeline.bind(
             ctx,
             cmd,
-            &[(0, Binding::Storage(out.raw))],
+            &[(0, Binding::Storage(out.raw()))],
             bytemuck::cast_slice(&push),
         );
         self.pipeline.dispatch_linear(ctx, cmd, count as u64)?;
         compute_writes_to_readers(ctx, cmd);
         Ok(())
-    }
-
-    /// Destroys the pipeline.
-    pub fn destroy(self, ctx: &Context) {
-        self.pipeline.destroy(ctx);
     }
 }

@@ -42,23 +42,8 @@ impl GpuSparse {
             bytemuck::cast_slice(&m.row_ptr),
             usage,
         )?;
-        let col = match ctx.upload_buffer(&format!("{name} col"), bytemuck::cast_slice(&col), usage)
-        {
-            Ok(b) => b,
-            Err(e) => {
-                row_ptr.destroy(ctx);
-                return Err(e);
-            }
-        };
-        let val =
-            match ctx.upload_buffer(&format!("{name} val"), bytemuck::cast_slice(&vals), usage) {
-                Ok(b) => b,
-                Err(e) => {
-                    row_ptr.destroy(ctx);
-                    col.destroy(ctx);
-                    return Err(e);
-                }
-            };
+        let col = ctx.upload_buffer(&format!("{name} col"), bytemuck::cast_slice(&col), usage)?;
+        let val = ctx.upload_buffer(&format!("{name} val"), bytemuck::cast_slice(&vals), usage)?;
         Ok(GpuSparse {
             rows: m.n_rows,
             cols: m.n_cols,
@@ -66,13 +51,6 @@ impl GpuSparse {
             col,
             val,
         })
-    }
-
-    /// Destroys the buffers.
-    pub fn destroy(self, ctx: &Context) {
-        self.row_ptr.destroy(ctx);
-        self.col.destroy(ctx);
-        self.val.destroy(ctx);
     }
 }
 
@@ -120,28 +98,28 @@ impl SpmvPass {
         y: &Buffer,
     ) -> Result<()> {
         let y_points = a.rows as u64 * if self.affine_split { 2 } else { 1 };
-        if (a.cols as u64) * 16 > x.size || y_points * 16 > y.size {
+        if (a.cols as u64) * 16 > x.size() || y_points * 16 > y.size() {
             return Err(Error::Invalid(format!(
                 "spmv: {}×{} matrix does not fit x '{}' ({} B) or y '{}' ({} B)",
-                a.rows, a.cols, x.name, x.size, y.name, y.size
+                a.rows,
+                a.cols,
+                x.name(),
+                x.size(),
+                y.name(),
+                y.size()
             )));
         }
         let bindings = [
-            (0, Binding::Storage(a.row_ptr.raw)),
-            (1, Binding::Storage(a.col.raw)),
-            (2, Binding::Storage(a.val.raw)),
-            (3, Binding::Storage(x.raw)),
-            (4, Binding::Storage(y.raw)),
+            (0, Binding::Storage(a.row_ptr.raw())),
+            (1, Binding::Storage(a.col.raw())),
+            (2, Binding::Storage(a.val.raw())),
+            (3, Binding::Storage(x.raw())),
+            (4, Binding::Storage(y.raw())),
         ];
         self.pipeline
             .bind(ctx, cmd, &bindings, bytemuck::bytes_of(&a.rows));
         self.pipeline.dispatch_linear(ctx, cmd, a.rows as u64)?;
         compute_writes_to_readers(ctx, cmd);
         Ok(())
-    }
-
-    /// Destroys the pipeline.
-    pub fn destroy(self, ctx: &Context) {
-        self.pipeline.destroy(ctx);
     }
 }

@@ -60,18 +60,18 @@ impl SurfaceCurvaturePass {
             )));
         }
         let n = vertex_count(patch_count, level);
-        if n * CURVATURE_STRIDE > out.size {
+        if n * CURVATURE_STRIDE > out.size() {
             return Err(Error::Invalid(format!(
                 "curvature of {n} vertices does not fit buffer '{}'",
-                out.name
+                out.name()
             )));
         }
         let slot = (level as u64 + 1).pow(2) * CURVATURE_STRIDE;
         for (first, count) in patch_batches(ctx, patch_count, slot)? {
             let push: [u32; 4] = [count, level, first, 0];
             let bindings = [
-                (0, Binding::Storage(points.raw)),
-                (1, Binding::Storage(patch_points.raw)),
+                (0, Binding::Storage(points.raw())),
+                (1, Binding::Storage(patch_points.raw())),
                 (2, output_range(out, first, count, slot)),
             ];
             self.pipeline
@@ -81,10 +81,5 @@ impl SurfaceCurvaturePass {
         }
         compute_writes_to_readers(ctx, cmd);
         Ok(())
-    }
-
-    /// Destroys the pipeline.
-    pub fn destroy(self, ctx: &Context) {
-        self.pipeline.destroy(ctx);
     }
 }

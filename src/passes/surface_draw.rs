@@ -113,7 +113,7 @@ pub fn draw_indexed(
                 for p in 0..d.count as u64 {
                     ctx.device.cmd_draw_indexed_indirect(
                         cmd,
-                        d.commands.raw,
+                        d.commands.raw(),
                         p * STRIDE as u64,
                         1,
                         STRIDE,
@@ -263,10 +263,7 @@ impl SurfaceDrawPass {
                 color_format: color,
                 depth_format: depth,
             }),
-            Err(e) => {
-                pipeline.destroy(ctx);
-                Err(e)
-            }
+            Err(e) => Err(e),
         }
     }
 
@@ -291,8 +288,8 @@ impl SurfaceDrawPass {
                 unsafe {
                     ctx.device.cmd_push_constants(
                         cmd,
-                        self.lit.layout,
-                        self.lit.push_constant_stages,
+                        self.lit.layout(),
+                        self.lit.push_constant_stages(),
                         0,
                         bytemuck::bytes_of(push),
                     )
@@ -304,11 +301,11 @@ impl SurfaceDrawPass {
                 ctx.device.cmd_bind_vertex_buffers(
                     cmd,
                     0,
-                    &[d.vertices.raw, curvature.raw],
+                    &[d.vertices.raw(), curvature.raw()],
                     &[0, 0],
                 );
                 ctx.device
-                    .cmd_bind_index_buffer(cmd, d.indices.raw, 0, vk::IndexType::UINT32);
+                    .cmd_bind_index_buffer(cmd, d.indices.raw(), 0, vk::IndexType::UINT32);
             }
             draw_indexed(ctx, cmd, d.index_count, d.indirect);
         }
@@ -334,17 +331,11 @@ impl SurfaceDrawPass {
         // SAFETY: inside the render pass with the pipeline bound; buffers have VERTEX/INDEX usage.
         unsafe {
             ctx.device
-                .cmd_bind_vertex_buffers(cmd, 0, &[vertices.raw], &[0]);
+                .cmd_bind_vertex_buffers(cmd, 0, &[vertices.raw()], &[0]);
             ctx.device
-                .cmd_bind_index_buffer(cmd, indices.raw, 0, vk::IndexType::UINT32);
+                .cmd_bind_index_buffer(cmd, indices.raw(), 0, vk::IndexType::UINT32);
             ctx.device.cmd_draw_indexed(cmd, index_count, 1, 0, 0, 0);
         }
         ctx.cmd_end_rendering(cmd);
-    }
-
-    /// Destroys the pipelines.
-    pub fn destroy(self, ctx: &Context) {
-        self.pipeline.destroy(ctx);
-        self.lit.destroy(ctx);
     }
 }

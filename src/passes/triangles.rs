@@ -71,17 +71,12 @@ impl TrianglesPass {
         self.pipeline.bind(
             ctx,
             cmd,
-            &[(0, Binding::Storage(positions.raw))],
+            &[(0, Binding::Storage(positions.raw()))],
             bytemuck::cast_slice(&push),
             extent,
         );
         // SAFETY: inside the render pass with the pipeline bound.
         unsafe { ctx.device.cmd_draw(cmd, vertices, 1, 0, 0) };
         ctx.cmd_end_rendering(cmd);
-    }
-
-    /// Destroys the pipeline.
-    pub fn destroy(self, ctx: &Context) {
-        self.pipeline.destroy(ctx);
     }
 }

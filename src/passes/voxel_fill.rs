@@ -57,10 +57,10 @@ impl VoxelFillPass {
         job: &FillJob,
     ) -> Result<()> {
         let words = job.res.div_ceil(32);
-        if job.column_count as u64 * words as u64 * 4 > out.size {
+        if job.column_count as u64 * words as u64 * 4 > out.size() {
             return Err(crate::Error::Invalid(format!(
                 "voxel slab does not fit buffer '{}'",
-                out.name
+                out.name()
             )));
         }
         let push: [u32; 6] = [
@@ -82,7 +82,7 @@ impl VoxelFillPass {
         self.pipeline.bind(
             ctx,
             cmd,
-            &[(0, image), (1, Binding::Storage(out.raw))],
+            &[(0, image), (1, Binding::Storage(out.raw()))],
             bytemuck::cast_slice(&push),
         );
         self.pipeline
@@ -100,10 +100,5 @@ impl VoxelFillPass {
             ),
         );
         Ok(())
-    }
-
-    /// Destroys the pipeline.
-    pub fn destroy(self, ctx: &Context) {
-        self.pipeline.destroy(ctx);
     }
 }

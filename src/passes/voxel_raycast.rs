@@ -14,11 +14,12 @@
 //! `SHADER_READ_ONLY_OPTIMAL` for the fragment stage and the optional per-pixel `(voxel id, rgba8)` words
 //! visible to transfers. `record_show` expects the colour target in `COLOR_ATTACHMENT_OPTIMAL` and leaves it so.
 //! The grid's bit axis is z (the resident voxelizer's peel axis).
-use crate::error::{Result, VkContext};
+use crate::error::Result;
 use crate::gpu::pipeline::{
     Binding, ComputePipeline, DescriptorSetLayoutBuilder, GraphicsDesc, GraphicsPipeline,
 };
 use crate::gpu::resources::{compute_to_compute, image_barrier, memory_barrier};
+use crate::gpu::Owned;
 use crate::gpu::{shaders, Buffer, Context, Image, ImageDesc};
 use crate::voxel::grid::GridFrame;
 use crate::voxel::raycast::{RayCamera, RayShading, BRICK};
@@ -45,7 +46,7 @@ pub struct VoxelRaycastPass {
     bricks: ComputePipeline,
     cast: ComputePipeline,
     show: GraphicsPipeline,
-    sampler: vk::Sampler,
+    sampler: Owned<vk::Sampler>,
 }
 
 /// Bytes of the brick occupancy buffer of a grid of `res` voxels per side (one u32 per 4³ brick).
@@ -73,44 +74,23 @@ impl VoxelRaycastPass {
             8,
             64,
         )?;
-        let layout = match DescriptorSetLayoutBuilder::new()
+        let layout = DescriptorSetLayoutBuilder::new()
             .storage_image(0, vk::ShaderStageFlags::COMPUTE)
             .storage_buffer(1, vk::ShaderStageFlags::COMPUTE)
             .storage_buffer(2, vk::ShaderStageFlags::COMPUTE)
             .storage_buffer(3, vk::ShaderStageFlags::COMPUTE)
-            .build(ctx, "voxel raycast set")
-        {
-            Ok(l) => l,
-            Err(e) => {
-                bricks.destroy(ctx);
-                return Err(e);
-            }
-        };
-        let cast = match ComputePipeline::new(
+            .build(ctx, "voxel raycast set")?;
+        let cast = ComputePipeline::new(
             ctx,
             "voxel raycast",
             shaders::VOXEL_RAYCAST_COMP,
             vec![layout],
             std::mem::size_of::<Push>() as u32,
             64,
-        ) {
-            Ok(c) => c,
-            Err(e) => {
-                bricks.destroy(ctx);
-                return Err(e);
-            }
-        };
-        let show_layout = match DescriptorSetLayoutBuilder::new()
+        )?;
+        let show_layout = DescriptorSetLayoutBuilder::new()
             .sampled_image(0, vk::ShaderStageFlags::FRAGMENT)
-            .build(ctx, "voxel raycast show set")
-        {
-            Ok(l) => l,
-            Err(e) => {
-                cast.destroy(ctx);
-                bricks.destroy(ctx);
-                return Err(e);
-            }
-        };
+            .build(ctx, "voxel raycast show set")?;
         let mut desc = GraphicsDesc::new(
             shaders::VOXEL_RAYCAST_BLIT_VERT,
             shaders::VOXEL_RAYCAST_BLIT_FRAG,
@@ -120,14 +100,7 @@ impl VoxelRaycastPass {
         desc.set_layouts = vec![show_layout];
         desc.push_constant_bytes = 12;
         desc.push_constant_stages = vk::ShaderStageFlags::FRAGMENT;
-        let show = match GraphicsPipeline::new(ctx, "voxel raycast show", desc) {
-            Ok(p) => p,
-            Err(e) => {
-                cast.destroy(ctx);
-                bricks.destroy(ctx);
-                return Err(e);
-            }
-        };
+        let show = GraphicsPipeline::new(ctx, "voxel raycast show", desc)?;
         let info = vk::SamplerCreateInfo::default()
             .mag_filter(vk::Filter::NEAREST)
             .min_filter(vk::Filter::NEAREST)
@@ -135,18 +108,7 @@ impl VoxelRaycastPass {
             .address_mode_u(vk::SamplerAddressMode::CLAMP_TO_EDGE)
             .address_mode_v(vk::SamplerAddressMode::CLAMP_TO_EDGE)
             .address_mode_w(vk::SamplerAddressMode::CLAMP_TO_EDGE);
-        // SAFETY: valid create info.
-        let sampler = match unsafe { ctx.device.create_sampler(&info, None) }.vk("vkCreateSampler")
-        {
-            Ok(s) => s,
-            Err(e) => {
-                cast.destroy(ctx);
-                bricks.destroy(ctx);
-                show.destroy(ctx);
-                return Err(e);
-            }
-        };
-        ctx.set_name(sampler, "voxel raycast sampler");
+        let sampler = ctx.create_sampler(&info, "voxel raycast sampler")?;
         Ok(VoxelRaycastPass {
             bricks,
             cast,
@@ -189,20 +151,20 @@ impl VoxelRaycastPass {
             height: h,
         } = image.extent2d();
         if let Some(b) = ids {
-            if b.size < ids_bytes(w, h) {
+            if b.size() < ids_bytes(w, h) {
                 return Err(crate::Error::Invalid(format!(
                     "voxel raycast: the id buffer '{}' holds {} bytes, {} needed",
-                    b.name,
-                    b.size,
+                    b.name(),
+                    b.size(),
                     ids_bytes(w, h)
                 )));
             }
         }
-        if bricks.size < bricks_bytes(frame.res) {
+        if bricks.size() < bricks_bytes(frame.res) {
             return Err(crate::Error::Invalid(format!(
                 "voxel raycast: the brick buffer '{}' holds {} bytes, {} needed",
-                bricks.name,
-                bricks.size,
+                bricks.name(),
+                bricks.size(),
                 bricks_bytes(frame.res)
             )));
         }
@@ -224,8 +186,8 @@ impl VoxelRaycastPass {
             ctx,
             cmd,
             &[
-                (0, Binding::Storage(grid.raw)),
-                (1, Binding::Storage(bricks.raw)),
+                (0, Binding::Storage(grid.raw())),
+                (1, Binding::Storage(bricks.raw())),
             ],
             bytemuck::cast_slice(&[frame.res, nb]),
         );
@@ -248,7 +210,7 @@ impl VoxelRaycastPass {
         image_barrier(
             ctx,
             cmd,
-            image.raw,
+            image.raw(),
             image.range(),
             vk::ImageLayout::UNDEFINED,
             vk::ImageLayout::GENERAL,
@@ -262,7 +224,7 @@ impl VoxelRaycastPass {
             ),
         );
         // Without an id buffer the shader never writes binding 2; the grid stands in as a valid buffer.
-        let id_buffer = ids.map_or(grid.raw, |b| b.raw);
+        let id_buffer = ids.map_or(grid.raw(), |b| b.raw());
         self.cast.bind(
             ctx,
             cmd,
@@ -270,13 +232,13 @@ impl VoxelRaycastPass {
                 (
                     0,
                     Binding::StorageImage {
-                        view: image.view,
+                        view: image.view(),
                         layout: vk::ImageLayout::GENERAL,
                     },
                 ),
-                (1, Binding::Storage(grid.raw)),
+                (1, Binding::Storage(grid.raw())),
                 (2, Binding::Storage(id_buffer)),
-                (3, Binding::Storage(bricks.raw)),
+                (3, Binding::Storage(bricks.raw())),
             ],
             bytemuck::bytes_of(&push),
         );
@@ -289,7 +251,7 @@ impl VoxelRaycastPass {
         image_barrier(
             ctx,
             cmd,
-            image.raw,
+            image.raw(),
             image.range(),
             vk::ImageLayout::GENERAL,
             vk::ImageLayout::SHADER_READ_ONLY_OPTIMAL,
@@ -352,8 +314,8 @@ impl VoxelRaycastPass {
             &[(
                 0,
                 Binding::Sampled {
-                    view: image.view,
-                    sampler: self.sampler,
+                    view: image.view(),
+                    sampler: self.sampler.raw(),
                     layout: vk::ImageLayout::SHADER_READ_ONLY_OPTIMAL,
                 },
             )],
@@ -378,14 +340,5 @@ impl VoxelRaycastPass {
             ctx.device.cmd_draw(cmd, 3, 1, 0, 0);
         }
         ctx.cmd_end_rendering(cmd);
-    }
-
-    /// Destroys the pipelines and the sampler.
-    pub fn destroy(self, ctx: &Context) {
-        self.bricks.destroy(ctx);
-        self.cast.destroy(ctx);
-        self.show.destroy(ctx);
-        // SAFETY: no command using the sampler is pending (caller's guarantee).
-        unsafe { ctx.device.destroy_sampler(self.sampler, None) };
     }
 }
