@@ -41,6 +41,10 @@ pub enum Error {
     /// An argument or value is not acceptable.
     #[error("{0}")]
     Invalid(String),
+    /// A mesh given in memory cannot be used (no usable triangle, no vertices…). Callers that loaded it from
+    /// a file prefix the file's name ([`Error::for_input`]).
+    #[error("{0}")]
+    Mesh(String),
 }
 
 /// gregvox's result type.
@@ -54,6 +58,14 @@ impl Error {
             source,
         }
     }
+    /// Names the input a [`Error::Mesh`] came from (other errors are returned unchanged).
+    pub fn for_input(self, input: &std::path::Path) -> Self {
+        match self {
+            Error::Mesh(msg) => Error::parse(input, msg),
+            e => e,
+        }
+    }
+
     /// A malformed input file.
     pub fn parse(path: impl Into<PathBuf>, msg: impl Into<String>) -> Self {
         Error::Parse {

@@ -192,7 +192,7 @@ fn the_cpu_wave_deformation_matches_the_gpu_pass() {
     use gregvox::passes::cage_deform::{DeformParams, Deformation};
     use gregvox::surface::{GregoryStencils, Tangents};
     let cage = grid_cage(3, 2);
-    let (topo, rest, _) = gregvox::cli::cage::cage_topology(&cage, Tangents::OpenSubdiv).unwrap();
+    let (topo, rest, _) = gregvox::engine::cage::cage_topology(&cage, Tangents::OpenSubdiv).unwrap();
     let stencils = GregoryStencils::from_mesh(&cage, Tangents::OpenSubdiv)
         .unwrap()
         .stencils;
@@ -237,8 +237,8 @@ fn spheres_for_the_triangle_curve_have_about_the_requested_count() {
 fn gregory_compute_timing_is_positive_and_clean_under_validation() {
     use gregvox::bench::gregory::{time_path, EvalPath};
     use gregvox::surface::Tangents;
-    let cage = gregvox::cli::cage::builtin_cage(2, 1, 1);
-    let (topo, pos, _) = gregvox::cli::cage::cage_topology(&cage, Tangents::OpenSubdiv).unwrap();
+    let cage = gregvox::engine::cage::builtin_cage(2, 1, 1);
+    let (topo, pos, _) = gregvox::engine::cage::cage_topology(&cage, Tangents::OpenSubdiv).unwrap();
     for path in EvalPath::ALL {
         let ms = common::with_gpu(|ctx| time_path(ctx, &topo, &pos, 3, path, 2).unwrap());
         let ms = ms.unwrap_or_else(|e| panic!("{path:?}: {e}"));

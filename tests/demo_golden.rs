@@ -13,7 +13,7 @@ mod common;
 use ash::vk;
 use clap::Parser;
 use glam::{DVec3, Mat4, Vec3, Vec4};
-use gregvox::cli::cage::{builtin_cage, cage_topology};
+use gregvox::engine::cage::{builtin_cage, cage_topology};
 use gregvox::demo::{build_scene, draw_path, DemoArgs, Renderer, FRAMES_IN_FLIGHT};
 use gregvox::engine::gregory::GregorySurface;
 use gregvox::geom::gregory::PatchF64;

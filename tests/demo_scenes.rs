@@ -12,7 +12,7 @@ use ash::vk;
 use clap::Parser;
 use common::with_gpu;
 use glam::{DVec2, Vec3};
-use gregvox::cli::cage::{builtin_cage, cage_topology};
+use gregvox::engine::cage::{builtin_cage, cage_topology};
 use gregvox::demo::curves::{casteljau_t, curve_lines, expected_vertices, CurvesScene};
 use gregvox::demo::scene::{DrawPath, FrameTargets, Scene, ViewState};
 use gregvox::demo::voxels::{VoxelsOptions, VoxelsScene};

@@ -7,7 +7,7 @@ mod common;
 
 use common::{model, with_gpu};
 use glam::{DVec3, Mat4, Vec3};
-use gregvox::cli::cage::cage_topology;
+use gregvox::engine::cage::cage_topology;
 use gregvox::engine::gregory::GregorySurface;
 use gregvox::gpu::Context;
 use gregvox::mesh::load_obj;

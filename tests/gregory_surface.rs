@@ -7,7 +7,7 @@ mod surface_common;
 
 use common::with_gpu;
 use glam::DVec3;
-use gregvox::cli::cage::{cage_topology, max_jump_coincident};
+use gregvox::engine::cage::{cage_topology, max_jump_coincident};
 use gregvox::engine::gregory::GregorySurface;
 use gregvox::mesh::{load_obj, Mesh};
 use gregvox::passes::gregory_eval::{ControlPoints, GregoryEvalPass, SurfaceVertex};

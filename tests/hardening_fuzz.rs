@@ -80,7 +80,7 @@ fn obj_line() -> impl Strategy<Value = String> {
 
 /// A valid closed quad cage as OBJ text: the demo's lattice box.
 fn box_obj(nx: u32, ny: u32, nz: u32) -> String {
-    let m = gregvox::cli::cage::builtin_cage(nx, ny, nz);
+    let m = gregvox::engine::cage::builtin_cage(nx, ny, nz);
     let mut s = String::new();
     for p in &m.positions {
         s.push_str(&format!("v {} {} {}\n", p.x, p.y, p.z));
@@ -211,7 +211,7 @@ proptest! {
         rotate in proptest::collection::vec(0usize..4, 64),
         shuffle_seed in any::<u64>(),
     ) {
-        let base = gregvox::cli::cage::builtin_cage(n.0, n.1, n.2);
+        let base = gregvox::engine::cage::builtin_cage(n.0, n.1, n.2);
         // Jitter each vertex by up to 15 % of the smallest lattice step (faces stay non-degenerate).
         let step = [2.0 / n.0 as f64, 1.0 / n.1 as f64, 1.0 / n.2 as f64]
             .into_iter()

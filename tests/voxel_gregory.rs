@@ -4,7 +4,7 @@
 mod common;
 
 use common::{model, with_gpu};
-use gregvox::cli::cage::cage_topology;
+use gregvox::engine::cage::cage_topology;
 use gregvox::engine::gregory::GregorySurface;
 use gregvox::engine::voxelize::voxelize_gregory_surface;
 use gregvox::mesh::load_obj;

@@ -57,7 +57,7 @@ fn case(name: &str, res: u32) -> Case {
         .find(|c| c["model"] == name && c["res"] == res)
         .unwrap_or_else(|| panic!("no fixture for {name} at {res}"));
     let mesh = gregvox::mesh::load_obj(model(&format!("{name}.obj"))).unwrap();
-    let (mesh, _) = gregvox::cli::voxelize::triangles_of(&mesh).clean();
+    let (mesh, _) = gregvox::voxel::mesh::TriMesh::fan(&mesh).clean();
     let frame = GridFrame::from_points(&mesh.positions, res).unwrap();
     // The exact values travel as shortest round-trip text: serde_json's default float parser is not
     // correctly rounded (1 ulp off on cow's origin), Rust's `str::parse` is.

@@ -77,48 +77,41 @@ pub fn time_path(
                 // dispatch's time to its neighbour, so the pass is timed by itself.
                 ctx.one_shot(|cmd| surface.record(ctx, cmd, None, None))?;
                 let eval = GregoryEvalPass::new(ctx)?;
-                let mut owned: Vec<Buffer> = Vec::new();
-                let r = (|| -> anyhow::Result<f64> {
-                    let ids: Vec<u32> = topo.patch_points.iter().flatten().copied().collect();
-                    let storage = vk::BufferUsageFlags::STORAGE_BUFFER;
-                    owned.push(ctx.upload_buffer(
-                        "bench patch points",
-                        bytemuck::cast_slice(&ids),
-                        storage,
-                    )?);
-                    owned.push(ctx.upload_buffer(
-                        "bench patch flags",
-                        bytemuck::cast_slice(&topo.patch_flags),
-                        storage,
-                    )?);
-                    owned.push(ctx.create_buffer(
-                        "bench vertices",
-                        vertex_count(surface.patch_count, level) * 32,
-                        storage,
-                        MemoryLocation::GpuOnly,
-                    )?);
-                    let g = time_gpu(ctx, 2, repeats, |cmd, prof| {
-                        let run = || {
-                            eval.record(
-                                ctx,
-                                cmd,
-                                surface.control_points(),
-                                &owned[0],
-                                &owned[1],
-                                surface.patch_count,
-                                level,
-                                true,
-                                &owned[2],
-                            )
-                        };
-                        match prof {
-                            Some((p, slot)) => p.scope(ctx, cmd, slot, "gregory_eval", run),
-                            None => run(),
-                        }
-                    })?;
-                    Ok(g.pass("gregory_eval"))
-                })();
-                r
+                let ids: Vec<u32> = topo.patch_points.iter().flatten().copied().collect();
+                let storage = vk::BufferUsageFlags::STORAGE_BUFFER;
+                let patch_points =
+                    ctx.upload_buffer("bench patch points", bytemuck::cast_slice(&ids), storage)?;
+                let patch_flags = ctx.upload_buffer(
+                    "bench patch flags",
+                    bytemuck::cast_slice(&topo.patch_flags),
+                    storage,
+                )?;
+                let vertices = ctx.create_buffer(
+                    "bench vertices",
+                    vertex_count(surface.patch_count(), level) * 32,
+                    storage,
+                    MemoryLocation::GpuOnly,
+                )?;
+                let g = time_gpu(ctx, 2, repeats, |cmd, prof| {
+                    let run = || {
+                        eval.record(
+                            ctx,
+                            cmd,
+                            surface.control_points(),
+                            &patch_points,
+                            &patch_flags,
+                            surface.patch_count(),
+                            level,
+                            true,
+                            &vertices,
+                        )
+                    };
+                    match prof {
+                        Some((p, slot)) => p.scope(ctx, cmd, slot, "gregory_eval", run),
+                        None => run(),
+                    }
+                })?;
+                Ok(g.pass("gregory_eval"))
             }
             EvalPath::VertexPull => {
                 ctx.one_shot(|cmd| surface.record(ctx, cmd, None, None))?;
@@ -130,16 +123,17 @@ pub fn time_path(
                 )?;
                 let mut profiler = Profiler::new(ctx, 1, repeats as u32 + 8)?;
                 // One untimed draw pays the pipeline JIT; the median of the next `repeats` is reported.
-                let r = crate::cli::tessellate::vertex_pull(
+                crate::engine::vertex_pull::vertex_pull(
                     ctx,
                     PatchKind::Gregory,
                     surface.control_points(),
                     &pp,
-                    surface.patch_count,
+                    surface.patch_count(),
                     level,
                     1 + repeats as u32,
                     &mut profiler,
                 )
+                .map_err(anyhow::Error::from)
                 .map(|_| {
                     let mut times: Vec<f64> = profiler
                         .trace()
@@ -151,8 +145,7 @@ pub fn time_path(
                         times.remove(0);
                     }
                     super::median(&times)
-                });
-                r
+                })
             }
         }
     })();
@@ -191,7 +184,7 @@ fn osd(
 }
 
 fn topology(mesh: &Mesh) -> anyhow::Result<(GregoryTopology, Vec<DVec3>)> {
-    let (t, c, _) = crate::cli::cage::cage_topology(mesh, Tangents::OpenSubdiv)?;
+    let (t, c, _) = crate::engine::cage::cage_topology(mesh, Tangents::OpenSubdiv)?;
     Ok((t, c))
 }
 
@@ -337,7 +330,7 @@ pub fn run(
 
 /// The tessellation-level curve: compute, vertex pull and the f64 CPU evaluation on a 160-patch box cage.
 pub fn scaling(ctx: &Context, cfg: &BenchConfig, report: &mut Report) -> anyhow::Result<()> {
-    let mesh = crate::cli::cage::builtin_cage(8, 4, 4);
+    let mesh = crate::engine::cage::builtin_cage(8, 4, 4);
     let (topo, cage) = topology(&mesh)?;
     let stencils = GregoryStencils::from_mesh(&mesh, Tangents::OpenSubdiv)?.stencils;
     let patches = stencils.patches_f64(&cage)?;
@@ -444,49 +437,45 @@ pub fn adaptive(cfg: &BenchConfig, report: &mut Report) -> anyhow::Result<()> {
     let r = (|| -> anyhow::Result<()> {
         for &l_max in levels {
             let mut surface = GregorySurface::new(&ctx, &topo, &cage, l_max)?;
-            let r = (|| -> anyhow::Result<()> {
-                let chain = |s: &GregorySurface| {
-                    time_gpu(&ctx, 2, cfg.repeats, |cmd, prof| {
-                        s.record(&ctx, cmd, None, prof)
-                    })
-                    .map(|g| {
-                        ["gregory_points", "adaptive_levels", "gregory_eval"]
-                            .iter()
-                            .map(|n| g.pass(n))
-                            .filter(|ms| ms.is_finite())
-                            .sum::<f64>()
-                    })
-                };
-                let uniform_ms = chain(&surface)?;
-                let uniform_n = vertex_count(surface.patch_count, l_max);
-                for (name, vp) in &views {
-                    surface.set_adaptive(
-                        &ctx,
-                        Some(AdaptiveParams {
-                            view_proj: *vp,
-                            viewport: [w, h],
-                            pixels_per_segment: pixels,
-                        }),
-                    )?;
-                    let ms = chain(&surface)?;
-                    let lv = surface.read_levels(&ctx)?;
-                    let n: u64 = lv.iter().map(|&l| ((l + 1) * (l + 1)) as u64).sum();
-                    let mean = lv.iter().map(|&l| l as f64).sum::<f64>() / lv.len().max(1) as f64;
-                    t.push(vec![
-                        (*name).into(),
-                        l_max.into(),
-                        num(uniform_ms),
-                        uniform_n.into(),
-                        num(ms),
-                        n.into(),
-                        num(mean),
-                        speedup(Some(uniform_ms), ms),
-                    ]);
-                    surface.set_adaptive(&ctx, None)?;
-                }
-                Ok(())
-            })();
-            r?;
+            let chain = |s: &GregorySurface| {
+                time_gpu(&ctx, 2, cfg.repeats, |cmd, prof| {
+                    s.record(&ctx, cmd, None, prof)
+                })
+                .map(|g| {
+                    ["gregory_points", "adaptive_levels", "gregory_eval"]
+                        .iter()
+                        .map(|n| g.pass(n))
+                        .filter(|ms| ms.is_finite())
+                        .sum::<f64>()
+                })
+            };
+            let uniform_ms = chain(&surface)?;
+            let uniform_n = vertex_count(surface.patch_count(), l_max);
+            for (name, vp) in &views {
+                surface.set_adaptive(
+                    &ctx,
+                    Some(AdaptiveParams {
+                        view_proj: *vp,
+                        viewport: [w, h],
+                        pixels_per_segment: pixels,
+                    }),
+                )?;
+                let ms = chain(&surface)?;
+                let lv = surface.read_levels(&ctx)?;
+                let n: u64 = lv.iter().map(|&l| ((l + 1) * (l + 1)) as u64).sum();
+                let mean = lv.iter().map(|&l| l as f64).sum::<f64>() / lv.len().max(1) as f64;
+                t.push(vec![
+                    (*name).into(),
+                    l_max.into(),
+                    num(uniform_ms),
+                    uniform_n.into(),
+                    num(ms),
+                    n.into(),
+                    num(mean),
+                    speedup(Some(uniform_ms), ms),
+                ]);
+                surface.set_adaptive(&ctx, None)?;
+            }
         }
         Ok(())
     })();

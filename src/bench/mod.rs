@@ -9,7 +9,8 @@
 //!   speed; speed is stated as ratios of figures measured side by side.
 //! - Ratios are always `peer time / gregvox time` ("speed-up": above 1 means gregvox is faster), and a missing
 //!   peer is a row that says so and how to install it, never a number.
-//! - Every GPU resource a suite creates is destroyed before the suite returns, on success and on error.
+//! - Every GPU resource a suite creates is dropped (released through the release queue) before the suite
+//!   returns, on success and on error.
 pub mod gregory;
 pub mod mesh;
 pub mod peak;
@@ -498,27 +499,24 @@ pub fn time_gpu(
     mut record: impl FnMut(vk::CommandBuffer, Option<(&mut Profiler, usize)>) -> crate::Result<()>,
 ) -> anyhow::Result<GpuTiming> {
     let mut profiler = Profiler::new(ctx, 1, 64)?;
-    let r = (|| -> anyhow::Result<GpuTiming> {
-        for _ in 0..warmup {
-            ctx.one_shot(|cmd| record(cmd, None))?;
-        }
-        let mut walls = Vec::new();
-        for _ in 0..repeats.max(1) {
-            let t = Instant::now();
-            ctx.one_shot(|cmd| record(cmd, Some((&mut profiler, 0))))?;
-            walls.push(t.elapsed().as_secs_f64() * 1e3);
-            profiler.collect(ctx, 0)?;
-        }
-        Ok(GpuTiming {
-            passes: profiler
-                .stats()
-                .into_iter()
-                .map(|s| (s.name, s.median_ms))
-                .collect(),
-            wall_ms: median(&walls),
-        })
-    })();
-    r
+    for _ in 0..warmup {
+        ctx.one_shot(|cmd| record(cmd, None))?;
+    }
+    let mut walls = Vec::new();
+    for _ in 0..repeats.max(1) {
+        let t = Instant::now();
+        ctx.one_shot(|cmd| record(cmd, Some((&mut profiler, 0))))?;
+        walls.push(t.elapsed().as_secs_f64() * 1e3);
+        profiler.collect(ctx, 0)?;
+    }
+    Ok(GpuTiming {
+        passes: profiler
+            .stats()
+            .into_iter()
+            .map(|s| (s.name, s.median_ms))
+            .collect(),
+        wall_ms: median(&walls),
+    })
 }
 
 /// A fresh context for compute-only timing. On lavapipe (Mesa 22.3), once a context has rasterized anything,

@@ -12,11 +12,12 @@
 //!   SpMV + evaluation, timestamps and wall).
 //!
 //! Invariants: topology (subdivision matrices, Gregory stencils) is built once before timing, as an animated
-//! cage would; what is timed is the per-frame work. Every GPU object is destroyed before returning.
+//! cage would; what is timed is the per-frame work. Every GPU object is dropped (released through the
+//! release queue) before returning.
 use super::{num, time_cpu, time_gpu, BenchConfig, Report, Table};
 use crate::engine::flag::{flag_patches, FlagParams, FlagSurface};
 use crate::engine::gregory::GregorySurface;
-use crate::gpu::{Buffer, Context, MemoryLocation};
+use crate::gpu::{Context, MemoryLocation};
 use crate::mesh::{Mesh, MeshMatrix, SparseMatrix, SubdivisionStack};
 use crate::passes::cage_deform::{DeformParams, Deformation};
 use crate::passes::spmv::{GpuSparse, SpmvPass};
@@ -94,39 +95,36 @@ fn table_3_1(ctx: &Context, cfg: &BenchConfig) -> anyhow::Result<Table> {
         ],
     );
     let flag = FlagSurface::new(ctx, 3, 2, level)?;
-    let r = (|| -> anyhow::Result<()> {
-        for correct in [true, false] {
-            let mut frame = 0u32;
-            let g = time_gpu(ctx, 3, frames, |cmd, prof| {
-                frame += 1;
-                flag.record(ctx, cmd, frame as f32 / 60.0, 0.35, correct, prof)
-            })?;
-            let mut f = 0u32;
-            let cpu = time_cpu(frames.min(50), || {
-                f += 1;
-                let p = FlagParams {
-                    t: f as f64 / 60.0,
-                    correct,
-                    ..FlagParams::default()
-                };
-                flag_patches(&p).map(|ps| tessellate(&ps, level))
-            });
-            t.push(vec![
-                if correct {
-                    "with (CK on)"
-                } else {
-                    "without (CK off)"
-                }
-                .into(),
-                num(g.total()),
-                num(g.wall_ms),
-                num(1e3 / g.wall_ms),
-                num(cpu),
-            ]);
-        }
-        Ok(())
-    })();
-    r.map(|()| t)
+    for correct in [true, false] {
+        let mut frame = 0u32;
+        let g = time_gpu(ctx, 3, frames, |cmd, prof| {
+            frame += 1;
+            flag.record(ctx, cmd, frame as f32 / 60.0, 0.35, correct, prof)
+        })?;
+        let mut f = 0u32;
+        let cpu = time_cpu(frames.min(50), || {
+            f += 1;
+            let p = FlagParams {
+                t: f as f64 / 60.0,
+                correct,
+                ..FlagParams::default()
+            };
+            flag_patches(&p).map(|ps| tessellate(&ps, level))
+        });
+        t.push(vec![
+            if correct {
+                "with (CK on)"
+            } else {
+                "without (CK off)"
+            }
+            .into(),
+            num(g.total()),
+            num(g.wall_ms),
+            num(1e3 / g.wall_ms),
+            num(cpu),
+        ]);
+    }
+    Ok(t)
 }
 
 /// Composes the levels of a stack into one matrix (finest = S_k⋯S_1 · cage).
@@ -150,37 +148,31 @@ fn gpu_spmv_ms(
     repeats: usize,
 ) -> anyhow::Result<f64> {
     let pass = SpmvPass::new(ctx)?;
-    let mut owned: Vec<Buffer> = Vec::new();
-    let mut sparse = None;
-    let r = (|| -> anyhow::Result<f64> {
-        sparse = Some(GpuSparse::upload(ctx, "bench S", m)?);
-        owned.push(ctx.upload_buffer(
-            "bench cage",
-            bytemuck::cast_slice(&vec4s(cage)),
-            vk::BufferUsageFlags::STORAGE_BUFFER,
-        )?);
-        owned.push(ctx.create_buffer(
-            "bench refined",
-            m.n_rows.max(1) as u64 * 16,
-            vk::BufferUsageFlags::STORAGE_BUFFER,
-            MemoryLocation::GpuOnly,
-        )?);
-        let s = sparse.as_ref().expect("uploaded");
-        let g = time_gpu(ctx, 2, repeats, |cmd, prof| match prof {
-            Some((p, slot)) => p.scope(ctx, cmd, slot, "cc spmv", || {
-                pass.record(ctx, cmd, s, &owned[0], &owned[1])
-            }),
-            None => pass.record(ctx, cmd, s, &owned[0], &owned[1]),
-        })?;
-        Ok(g.pass("cc spmv"))
-    })();
-    r
+    let sparse = GpuSparse::upload(ctx, "bench S", m)?;
+    let points = ctx.upload_buffer(
+        "bench cage",
+        bytemuck::cast_slice(&vec4s(cage)),
+        vk::BufferUsageFlags::STORAGE_BUFFER,
+    )?;
+    let refined = ctx.create_buffer(
+        "bench refined",
+        m.n_rows.max(1) as u64 * 16,
+        vk::BufferUsageFlags::STORAGE_BUFFER,
+        MemoryLocation::GpuOnly,
+    )?;
+    let g = time_gpu(ctx, 2, repeats, |cmd, prof| match prof {
+        Some((p, slot)) => p.scope(ctx, cmd, slot, "cc spmv", || {
+            pass.record(ctx, cmd, &sparse, &points, &refined)
+        }),
+        None => pass.record(ctx, cmd, &sparse, &points, &refined),
+    })?;
+    Ok(g.pass("cc spmv"))
 }
 
 fn table_3_2(ctx: &Context, cfg: &BenchConfig) -> anyhow::Result<Table> {
     let cage = grid_cage(3, 3);
     let m = MeshMatrix::from_mesh(&cage);
-    let (topo, positions, _) = crate::cli::cage::cage_topology(&cage, Tangents::OpenSubdiv)?;
+    let (topo, positions, _) = crate::engine::cage::cage_topology(&cage, Tangents::OpenSubdiv)?;
     let stencils = GregoryStencils::from_mesh(&cage, Tangents::OpenSubdiv)?.stencils;
     let mut t = Table::new(
         "thesis_3_2_subdivision_vs_gregory",
@@ -219,8 +211,7 @@ fn table_3_2(ctx: &Context, cfg: &BenchConfig) -> anyhow::Result<Table> {
         let surface = GregorySurface::new(ctx, &topo, &positions, level)?;
         let g = time_gpu(ctx, 2, cfg.repeats, |cmd, prof| {
             surface.record(ctx, cmd, None, prof)
-        });
-        let g = g?;
+        })?;
         t.push(vec![
             format!("{n} × {n}").into(),
             k.into(),
@@ -238,7 +229,7 @@ fn table_3_2(ctx: &Context, cfg: &BenchConfig) -> anyhow::Result<Table> {
 fn table_3_3(ctx: &Context, cfg: &BenchConfig) -> anyhow::Result<Table> {
     let cage = grid_cage(3, 2);
     let level = 32;
-    let (topo, rest, _) = crate::cli::cage::cage_topology(&cage, Tangents::OpenSubdiv)?;
+    let (topo, rest, _) = crate::engine::cage::cage_topology(&cage, Tangents::OpenSubdiv)?;
     let stencils = GregoryStencils::from_mesh(&cage, Tangents::OpenSubdiv)?.stencils;
     let frames = if cfg.quick { 10 } else { 100 };
     let mut f = 0u32;
@@ -255,12 +246,11 @@ fn table_3_3(ctx: &Context, cfg: &BenchConfig) -> anyhow::Result<Table> {
             mode: Deformation::Wave,
             t: frame as f32 / 30.0,
             amplitude: 1.0,
-            box_min: surface.box_min,
-            box_size: surface.box_size,
+            box_min: surface.box_min(),
+            box_size: surface.box_size(),
         };
         surface.record(ctx, cmd, Some(&d), prof)
-    });
-    let g = g?;
+    })?;
     let mut t = Table::new(
         "thesis_3_3_deform_regenerate",
         "Thesis Table 3.3: deform + regenerate, CPU only vs GPU",

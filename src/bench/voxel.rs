@@ -12,7 +12,6 @@
 use super::peak::Peak;
 use super::peers::{self, Peer};
 use super::{median, num, speedup, BenchConfig, Curve, Report, Series, Table};
-use crate::cli::voxelize::triangles_of;
 use crate::engine::voxelize::{AbufferVoxelizer, GpuTriangles, GpuVoxelizer, PeelVoxelizer};
 use crate::gpu::{Context, Profiler};
 use crate::mesh::{load_obj, loop_subdivide, LoopBeta};
@@ -92,41 +91,37 @@ pub fn time_method(
         _ => GpuVoxelizer::Peel(Box::new(PeelVoxelizer::new(ctx, 12)?)),
     };
     let gpu = GpuTriangles::upload(ctx, tri)?;
-    let r = (|| -> anyhow::Result<()> {
-        let geom = gpu.geometry();
-        // One untimed run pays the pipelines' JIT (only when repeating: large cases run once).
-        if repeats > 1 {
-            v.voxelize(ctx, &geom, &frame, &[Axis::Z], FillRule::Winding, None)?;
-        }
-        for _ in 0..repeats.max(1) {
-            let mut p = Profiler::new(ctx, 1, 4096)?;
-            let t = Instant::now();
-            let out = v.voxelize(
-                ctx,
-                &geom,
-                &frame,
-                &[Axis::Z],
-                FillRule::Winding,
-                Some(&mut p),
-            );
-            wall.push(t.elapsed().as_secs_f64() * 1e3);
-            let stats = p.stats();
-            let (grid, st) = out?;
-            let sum = |names: &[&str]| -> f64 {
-                stats
-                    .iter()
-                    .filter(|s| names.contains(&s.name.as_str()))
-                    .map(|s| s.total_ms)
-                    .sum()
-            };
-            peel.push(sum(&PEELING));
-            fill.push(sum(&FILL));
-            solid = grid.count();
-            layers = st.first().map(|s| s.layers).unwrap_or(0);
-        }
-        Ok(())
-    })();
-    r?;
+    let geom = gpu.geometry();
+    // One untimed run pays the pipelines' JIT (only when repeating: large cases run once).
+    if repeats > 1 {
+        v.voxelize(ctx, &geom, &frame, &[Axis::Z], FillRule::Winding, None)?;
+    }
+    for _ in 0..repeats.max(1) {
+        let mut p = Profiler::new(ctx, 1, 4096)?;
+        let t = Instant::now();
+        let out = v.voxelize(
+            ctx,
+            &geom,
+            &frame,
+            &[Axis::Z],
+            FillRule::Winding,
+            Some(&mut p),
+        );
+        wall.push(t.elapsed().as_secs_f64() * 1e3);
+        let stats = p.stats();
+        let (grid, st) = out?;
+        let sum = |names: &[&str]| -> f64 {
+            stats
+                .iter()
+                .filter(|s| names.contains(&s.name.as_str()))
+                .map(|s| s.total_ms)
+                .sum()
+        };
+        peel.push(sum(&PEELING));
+        fill.push(sum(&FILL));
+        solid = grid.count();
+        layers = st.first().map(|s| s.layers).unwrap_or(0);
+    }
     Ok(VoxTime {
         peeling_ms: median(&peel),
         fill_ms: median(&fill),
@@ -139,7 +134,7 @@ pub fn time_method(
 /// A model as cleaned triangles.
 fn model_triangles(path: &std::path::Path) -> anyhow::Result<TriMesh> {
     let mesh = load_obj(path)?;
-    Ok(triangles_of(&mesh).clean().0)
+    Ok(TriMesh::fan(&mesh).clean().0)
 }
 
 /// Writes `tri` as an OBJ for the peers.
@@ -186,7 +181,7 @@ pub fn run(
         });
         // The bunny after two Loop levels (Warren β): about 1.1 M triangles.
         let fine = loop_subdivide(&load_obj(&bunny_path)?, 2, LoopBeta::Warren)?;
-        let tri = triangles_of(&fine).clean().0;
+        let tri = TriMesh::fan(&fine).clean().0;
         let obj = std::env::temp_dir().join(format!(
             "gregvox-bench-bunny-loop2-{}.obj",
             std::process::id()

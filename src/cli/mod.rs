@@ -4,7 +4,6 @@ use clap::{Parser, Subcommand};
 use std::process::ExitCode;
 
 pub mod bench;
-pub mod cage;
 pub mod info;
 pub mod mesh;
 pub mod profile;

@@ -3,9 +3,8 @@
 //! per patch, u along the face's first edge, rows of u inner), plus the grid triangles.
 use super::profile::ProfileArgs;
 use crate::engine::gregory::{GregorySurface, GregoryTopology};
-use crate::gpu::present::begin_color_target;
-use crate::gpu::resources::image_barrier;
-use crate::gpu::{Buffer, Context, ContextDesc, ImageDesc, MemoryLocation, Profiler};
+use crate::engine::vertex_pull::vertex_pull;
+use crate::gpu::{Context, ContextDesc, MemoryLocation, Profiler};
 use crate::io::write_atomic;
 use crate::passes::adaptive_levels::{compact_grid_indices, AdaptiveParams};
 use crate::passes::beziex_eval::BeziexEvalPass;
@@ -13,8 +12,7 @@ use crate::passes::cage_deform::{DeformParams, Deformation};
 use crate::passes::gregory_eval::{
     grid_indices, vertex_count, ControlPoints, SurfaceVertex, MAX_LEVEL,
 };
-use crate::passes::patch_pull::{PatchKind, PatchPullPass};
-use crate::passes::surface_draw::{DrawTarget, SurfacePush};
+use crate::passes::patch_pull::PatchKind;
 use crate::surface::beziex::{load_beziex, BeziexPatch};
 use crate::surface::Tangents;
 use anyhow::{bail, Context as _};
@@ -178,7 +176,7 @@ pub fn run(args: &TessellateArgs) -> anyhow::Result<()> {
         Source::Beziex(load_beziex(&args.input)?)
     } else {
         let mesh = crate::mesh::load_obj(&args.input)?;
-        let (topo, cage, note) = super::cage::cage_topology(&mesh, args.tangents.into())
+        let (topo, cage, note) = crate::engine::cage::cage_topology(&mesh, args.tangents.into())
             .map_err(|e| anyhow::anyhow!("{}: {e}", args.input.display()))?;
         if let Some(n) = note {
             eprintln!("gregvox tessellate: {n}");
@@ -209,7 +207,7 @@ pub fn run(args: &TessellateArgs) -> anyhow::Result<()> {
                 // Adaptive grids differ per patch; the uniform-grid edge matcher does not apply.
                 (Source::Cage(..), Some(_)) => f64::NAN,
                 (Source::Cage(topo, _), None) => {
-                    super::cage::max_jump_shared_edges(topo, &vertices, args.level)
+                    crate::engine::cage::max_jump_shared_edges(topo, &vertices, args.level)
                 }
             };
             let eval_ms: f64 = profiler
@@ -350,7 +348,7 @@ fn evaluate(
         (Source::Cage(topo, cage), EvalPath::Compute) => {
             let mut surface = GregorySurface::new(ctx, topo, cage, level)?;
             if let Some(a) = adaptive {
-                let p = adaptive_params(a, surface.box_min, surface.box_size);
+                let p = adaptive_params(a, surface.box_min(), surface.box_size());
                 if let Err(e) = surface.set_adaptive(ctx, Some(p)) {
                     return Err(e.into());
                 }
@@ -359,8 +357,8 @@ fn evaluate(
                 mode,
                 t: 1.0,
                 amplitude,
-                box_min: surface.box_min,
-                box_size: surface.box_size,
+                box_min: surface.box_min(),
+                box_size: surface.box_size(),
             });
             let r = (|| -> anyhow::Result<(Vec<SurfaceVertex>, Option<Vec<u32>>)> {
                 for _ in 0..args.repeat {
@@ -375,7 +373,7 @@ fn evaluate(
                 }
                 Ok((surface.read_vertices(ctx)?, None))
             })();
-            let n = surface.patch_count;
+            let n = surface.patch_count();
             let (v, l) = r?;
             Ok((v, n, l))
         }
@@ -385,8 +383,8 @@ fn evaluate(
                 mode,
                 t: 1.0,
                 amplitude,
-                box_min: surface.box_min,
-                box_size: surface.box_size,
+                box_min: surface.box_min(),
+                box_size: surface.box_size(),
             });
             let ids: Vec<u32> = topo.patch_points.iter().flatten().copied().collect();
             let pp = ctx.upload_buffer(
@@ -403,15 +401,16 @@ fn evaluate(
                         PatchKind::Gregory,
                         surface.control_points(),
                         &pp,
-                        surface.patch_count,
+                        surface.patch_count(),
                         level,
                         args.repeat,
                         profiler,
                     )
+                    .map_err(anyhow::Error::from)
                 })();
                 r
             });
-            let n = surface.patch_count;
+            let n = surface.patch_count();
             Ok((r?, n, None))
         }
         (Source::Beziex(patches), path) => {
@@ -439,7 +438,7 @@ fn evaluate(
                         args.repeat,
                         profiler,
                     );
-                    return r;
+                    return Ok(r?);
                 }
                 let pass = BeziexEvalPass::new(ctx)?;
                 let out = ctx.create_buffer(
@@ -471,119 +470,8 @@ fn evaluate(
     }
 }
 
-/// Draws the patches through the capturing vertex-pull pipeline into a small offscreen target and returns
-/// the evaluated vertices (in the compute path's order).
-#[allow(clippy::too_many_arguments)]
-pub fn vertex_pull(
-    ctx: &Context,
-    kind: PatchKind,
-    points: ControlPoints,
-    patch_points: &Buffer,
-    patches: u32,
-    level: u32,
-    repeat: u32,
-    profiler: &mut Profiler,
-) -> anyhow::Result<Vec<SurfaceVertex>> {
-    let (w, h) = (256, 256);
-    let mut owned: Vec<Buffer> = Vec::new();
-    let mut images = Vec::new();
-    let pass = PatchPullPass::new(
-        ctx,
-        vk::Format::B8G8R8A8_UNORM,
-        vk::Format::D32_SFLOAT,
-        true,
-    )?;
-    let r = (|| -> anyhow::Result<Vec<SurfaceVertex>> {
-        images.push(ctx.create_image(
-            "pull color",
-            &ImageDesc::d2(
-                w,
-                h,
-                vk::Format::B8G8R8A8_UNORM,
-                vk::ImageUsageFlags::COLOR_ATTACHMENT,
-            ),
-        )?);
-        images.push(ctx.create_image(
-            "pull depth",
-            &ImageDesc::d2(
-                w,
-                h,
-                vk::Format::D32_SFLOAT,
-                vk::ImageUsageFlags::DEPTH_STENCIL_ATTACHMENT,
-            ),
-        )?);
-        owned.push(ctx.upload_buffer(
-            "pull grid",
-            bytemuck::cast_slice(&grid_indices(1, level)),
-            vk::BufferUsageFlags::INDEX_BUFFER,
-        )?);
-        owned.push(ctx.create_buffer(
-            "pull capture",
-            vertex_count(patches, level) * 32,
-            vk::BufferUsageFlags::STORAGE_BUFFER | vk::BufferUsageFlags::TRANSFER_SRC,
-            MemoryLocation::GpuOnly,
-        )?);
-        let push = SurfacePush {
-            view_proj: glam::Mat4::IDENTITY.to_cols_array_2d(),
-            eye: [0.0, 0.0, 10.0, 1.0],
-            light: [0.0, 0.0, 1.0, 0.3],
-            color: [1.0; 4],
-            mode: [0; 4],
-        };
-        let target = DrawTarget {
-            color: images[0].view(),
-            depth: images[1].view(),
-            extent: vk::Extent2D {
-                width: w,
-                height: h,
-            },
-        };
-        for _ in 0..repeat {
-            ctx.one_shot(|cmd| {
-                begin_color_target(ctx, cmd, images[0].raw());
-                image_barrier(
-                    ctx,
-                    cmd,
-                    images[1].raw(),
-                    images[1].range(),
-                    vk::ImageLayout::UNDEFINED,
-                    vk::ImageLayout::DEPTH_ATTACHMENT_OPTIMAL,
-                    (
-                        vk::PipelineStageFlags2::EARLY_FRAGMENT_TESTS
-                            | vk::PipelineStageFlags2::LATE_FRAGMENT_TESTS,
-                        vk::AccessFlags2::DEPTH_STENCIL_ATTACHMENT_WRITE,
-                    ),
-                    (
-                        vk::PipelineStageFlags2::EARLY_FRAGMENT_TESTS,
-                        vk::AccessFlags2::DEPTH_STENCIL_ATTACHMENT_WRITE,
-                    ),
-                );
-                profiler.scope(ctx, cmd, 0, "vertex_pull", || {
-                    pass.record(
-                        ctx,
-                        cmd,
-                        &target,
-                        Some([0.0; 4]),
-                        kind,
-                        points,
-                        patch_points,
-                        patches,
-                        level,
-                        &owned[0],
-                        Some(&owned[1]),
-                        &push,
-                    )
-                })
-            })?;
-            profiler.collect(ctx, 0)?;
-        }
-        Ok(ctx.read_pod(&owned[1])?)
-    })();
-    r
-}
-
 /// Largest normal jump (rad, up to orientation) between coincident edge vertices of different Beziex
 /// patches in an evaluated grid.
 fn max_jump_beziex(_patches: &[BeziexPatch], vertices: &[SurfaceVertex], level: u32) -> f64 {
-    super::cage::max_jump_coincident(vertices, level)
+    crate::engine::cage::max_jump_coincident(vertices, level)
 }

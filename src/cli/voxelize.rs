@@ -1,33 +1,15 @@
-//! `gregvox voxelize IN.obj --res R [--out OUT.binvox] …`: solid voxels by depth peeling (GPU) or the CPU
-//! scanline, with hygiene, open-mesh detection, axis choice, a memory estimate and per-pass times.
+//! `gregvox voxelize IN.obj --res R [--out OUT.binvox] …`: argument parsing and printing over
+//! `Gpu::voxelize` / `voxelize_on_cpu` of the library API (which holds the policy: hygiene, open-mesh
+//! detection, axis choice, the memory estimate).
 use super::profile::ProfileArgs;
-use crate::engine::voxelize::{
-    memory_estimate, AbufferVoxelizer, GpuTriangles, GpuVoxelizer, PeelVoxelizer,
+use crate::api::{
+    load_mesh, voxelize_on_cpu, Axes, Axis, FillRule, Gpu, Method, VoxelizeOptions, Voxelization,
+    MAX_RES,
 };
-use crate::gpu::{Context, ContextDesc, Profiler};
-use crate::mesh::{load_obj, Mesh, MeshMatrix};
-use crate::voxel::cpu::{voxelize_cpu, FillRule};
-use crate::voxel::export::write_grid;
-use crate::voxel::grid::{Axis, GridFrame, VoxelGrid};
-use crate::voxel::mesh::TriMesh;
-use anyhow::{bail, Context as _};
-use clap::{Args, ValueEnum};
+use anyhow::bail;
+use clap::Args;
 use std::path::PathBuf;
 use std::time::Instant;
-
-/// Largest resolution accepted (2048³ bits = 1 GiB).
-pub const MAX_RES: u32 = 2048;
-
-/// The voxelization method.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
-pub enum Method {
-    /// Raster depth peeling + compute fill on the GPU.
-    Peel,
-    /// GPU A-buffer: count, prefix sum, one scatter pass, per-column sort + fill (no equal-depth loss).
-    Abuffer,
-    /// The same-sampling CPU column scanline (all cores).
-    Cpu,
-}
 
 /// Arguments of `gregvox voxelize`.
 #[derive(Debug, Args)]
@@ -66,27 +48,7 @@ pub struct VoxelizeArgs {
     pub profile: ProfileArgs,
 }
 
-/// Fan-triangulates a polygon mesh for the voxelizers.
-pub fn triangles_of(mesh: &Mesh) -> TriMesh {
-    let positions = mesh
-        .positions
-        .iter()
-        .map(|p| [p.x as f32, p.y as f32, p.z as f32])
-        .collect();
-    let mut triangles = Vec::new();
-    for f in 0..mesh.n_faces() {
-        let face = mesh.face(f);
-        for k in 1..face.len() - 1 {
-            triangles.push([face[0], face[k], face[k + 1]]);
-        }
-    }
-    TriMesh {
-        positions,
-        triangles,
-    }
-}
-
-/// Runs `gregvox voxelize`.
+/// Runs `gregvox voxelize`: argument checks, then one call of the library API, then printing.
 pub fn run(args: &VoxelizeArgs) -> anyhow::Result<()> {
     if args.res == 0 || args.res > MAX_RES {
         bail!(
@@ -107,268 +69,122 @@ pub fn run(args: &VoxelizeArgs) -> anyhow::Result<()> {
             );
         }
     }
-    if let Some(level) = args.gregory_level {
-        return run_gregory(args, level);
-    }
-    let mesh = load_obj(&args.input)?;
-    let topo = MeshMatrix::from_mesh(&mesh).report();
-    let (tri, clean) = triangles_of(&mesh).clean();
-    if tri.triangles.is_empty() {
-        bail!(
-            "{}: no triangle with a non-zero area to voxelize",
-            args.input.display()
-        );
-    }
-    let frame = GridFrame::from_points(&tri.positions, args.res)
-        .with_context(|| args.input.display().to_string())?;
-    let mut notes = Vec::new();
-    if clean.duplicates + clean.cancelled + clean.zero_area > 0 {
-        notes.push(format!(
-            "removed {} duplicate, {} cancelling and {} zero-area triangles",
-            clean.duplicates, clean.cancelled, clean.zero_area
-        ));
-    }
-    let open = !topo.closed;
-    let three = match args.axes.as_deref() {
-        Some("3") => true,
-        Some(_) => false,
-        None => open && args.axis.is_none(),
+    let axes = match (args.axes.as_deref(), args.axis) {
+        (Some("3"), _) => Axes::Three,
+        (_, Some(a)) => Axes::One(a),
+        (Some(_), None) => Axes::Best,
+        (None, None) => Axes::Auto,
     };
-    if open {
-        notes.push(format!(
-            "open mesh ({} boundary and {} non-manifold edges){}",
-            topo.boundary_edges,
-            topo.non_manifold_edges,
-            if three {
-                ": peeling along x, y and z with a 2-of-3 vote"
-            } else {
-                ""
-            }
-        ));
+    let mesh = load_mesh(&args.input)?;
+    let mut opts = VoxelizeOptions::default()
+        .res(args.res)
+        .method(args.method)
+        .rule(args.rule)
+        .axes(axes)
+        .max_layers(args.max_layers);
+    let start = Instant::now();
+    // Only the GPU paths need a device (and a profiler); the CPU method runs without Vulkan.
+    let gpu = if args.method == Method::Cpu && args.gregory_level.is_none() {
+        None
+    } else {
+        Some(Gpu::new()?)
+    };
+    let mut profiler = gpu.as_ref().map(Gpu::profiler).transpose()?;
+    let bar = progress_bar(
+        args.res,
+        mesh.n_faces(),
+        if axes == Axes::Three { 3 } else { 1 },
+        args.max_layers,
+    );
+    if let Some(bar) = &bar {
+        let bar = bar.clone();
+        opts = opts.on_progress(move |msg| {
+            bar.set_message(msg.to_string());
+            bar.inc(1);
+        });
     }
-    for n in &notes {
+    let result = match (&gpu, args.gregory_level) {
+        (Some(gpu), Some(level)) => gpu.voxelize_gregory(&mesh, level, &opts, profiler.as_mut()),
+        (Some(gpu), None) => gpu.voxelize_profiled(&mesh, &opts, profiler.as_mut()),
+        (None, _) => voxelize_on_cpu(&mesh, &opts),
+    };
+    if let Some(bar) = bar {
+        bar.finish_and_clear();
+    }
+    let Voxelization { grid, report } = result.map_err(|e| e.for_input(&args.input))?;
+    let seconds = start.elapsed().as_secs_f64();
+    for n in &report.notes {
         eprintln!("gregvox voxelize: {n}");
     }
-
-    let start = Instant::now();
-    let (grid, layers, profiler_json, table) = match args.method {
-        Method::Cpu => {
-            let axes: Vec<Axis> = if three {
-                Axis::ALL.to_vec()
-            } else {
-                vec![args.axis.unwrap_or(Axis::Z)]
-            };
-            let grids: Vec<VoxelGrid> = axes
-                .iter()
-                .map(|&a| voxelize_cpu(&tri, &frame, a, args.rule))
-                .collect();
-            let grid = if three {
-                VoxelGrid::majority([&grids[0], &grids[1], &grids[2]])
-            } else {
-                grids.into_iter().next().unwrap()
-            };
-            (grid, Vec::new(), None, None)
-        }
-        Method::Peel | Method::Abuffer => run_peel(args, &tri, &frame, three)?,
-    };
-    let seconds = start.elapsed().as_secs_f64();
-    if let Some(out) = &args.out {
-        write_grid(&grid, out)?;
+    if let Some(p) = &profiler {
+        args.profile.emit(p)?;
     }
-    let summary = serde_json::json!({
-        "input": args.input.display().to_string(),
-        "res": args.res,
-        "method": format!("{:?}", args.method).to_lowercase(),
-        "rule": format!("{:?}", args.rule).to_lowercase(),
-        "triangles": tri.triangles.len(),
-        "removed": clean,
-        "closed": topo.closed,
-        "layers": layers.iter().map(|(a, l): &(Axis, u32)| (a.name().to_string(), *l)).collect::<std::collections::BTreeMap<_, _>>(),
-        "solid_voxels": grid.count(),
-        "origin": frame.origin,
-        "pitch": frame.pitch(),
-        "seconds": seconds,
-        "profile": profiler_json,
-    });
+    if let Some(out) = &args.out {
+        grid.save(out)?;
+    }
+    let layers: std::collections::BTreeMap<String, u32> = report
+        .layers
+        .iter()
+        .map(|(a, l)| (a.name().to_string(), *l))
+        .collect();
     if args.json {
+        let summary = serde_json::json!({
+            "input": args.input.display().to_string(),
+            "res": args.res,
+            "method": report.method,
+            "rule": format!("{:?}", args.rule).to_lowercase(),
+            "gregory_level": args.gregory_level,
+            "triangles": report.triangles,
+            "removed": report.removed,
+            "closed": report.closed,
+            "axes": report.axes.iter().map(|a| a.name()).collect::<Vec<_>>(),
+            "layers": layers,
+            "solid_voxels": grid.count(),
+            "origin": grid.frame.origin,
+            "pitch": grid.frame.pitch(),
+            "seconds": seconds,
+            "profile": profiler.as_ref().map(|p| p.json()),
+        });
         super::print_out(&format!("{}\n", serde_json::to_string_pretty(&summary)?))?;
-    } else {
-        let l: Vec<String> = layers
+        return Ok(());
+    }
+    let mut text = match args.gregory_level {
+        Some(level) => format!(
+            "{}: Gregory surface at level {level}, {}³ grid\n",
+            args.input.display(),
+            args.res
+        ),
+        None => format!(
+            "{}: {} triangles, {}³ grid, pitch {:.6}\n",
+            args.input.display(),
+            report.triangles,
+            args.res,
+            grid.frame.pitch()
+        ),
+    };
+    if !layers.is_empty() {
+        let l: Vec<String> = report
+            .layers
             .iter()
             .map(|(a, l)| format!("{} {l}", a.name()))
             .collect();
-        let mut text = format!(
-            "{}: {} triangles, {}³ grid, pitch {:.6}\n",
-            args.input.display(),
-            tri.triangles.len(),
-            args.res,
-            frame.pitch()
-        );
-        if !l.is_empty() {
-            text.push_str(&format!("layers per axis: {}\n", l.join(", ")));
-        }
-        text.push_str(&format!(
-            "solid voxels: {}\ntotal time: {:.1} ms\n",
-            grid.count(),
-            seconds * 1e3
-        ));
-        if let Some(t) = table {
-            text.push_str(&t);
-        }
-        super::print_out(&text)?;
+        text.push_str(&format!("layers per axis: {}\n", l.join(", ")));
     }
+    text.push_str(&format!(
+        "solid voxels: {}\ntotal time: {:.1} ms\n",
+        grid.count(),
+        seconds * 1e3
+    ));
+    if let Some(p) = &profiler {
+        for s in p.stats() {
+            text.push_str(&format!(
+                "{}: {} call(s), {:.2} ms total\n",
+                s.name, s.calls, s.total_ms
+            ));
+        }
+    }
+    super::print_out(&text)?;
     Ok(())
-}
-
-type PeelResult = (
-    VoxelGrid,
-    Vec<(Axis, u32)>,
-    Option<serde_json::Value>,
-    Option<String>,
-);
-
-/// `--gregory-level`: cage → GPU Gregory surface → peel, all on the device.
-fn run_gregory(args: &VoxelizeArgs, level: u32) -> anyhow::Result<()> {
-    use crate::engine::gregory::GregorySurface;
-    use crate::engine::voxelize::voxelize_gregory_surface;
-    if args.method != Method::Peel {
-        bail!("--gregory-level voxelizes the GPU surface by depth peeling: use --method peel");
-    }
-    let mesh = load_obj(&args.input)?;
-    let open = !MeshMatrix::from_mesh(&mesh).report().closed;
-    let (topo, cage, note) =
-        super::cage::cage_topology(&mesh, crate::surface::Tangents::OpenSubdiv)
-            .map_err(|e| anyhow::anyhow!("{}: {e}", args.input.display()))?;
-    if let Some(n) = note {
-        eprintln!("gregvox voxelize: {n}");
-    }
-    let three = match args.axes.as_deref() {
-        Some("3") => true,
-        Some(_) => false,
-        None => open && args.axis.is_none(),
-    };
-    let axes: Vec<Axis> = if three {
-        Axis::ALL.to_vec()
-    } else {
-        vec![args.axis.unwrap_or(Axis::Z)]
-    };
-    let ctx = Context::with_desc(&ContextDesc::default())?;
-    let mut profiler = Profiler::new(&ctx, 1, 4096)?;
-    let start = Instant::now();
-    let result = (|| -> anyhow::Result<(VoxelGrid, Vec<crate::engine::voxelize::AxisStats>)> {
-        let surface = GregorySurface::new(&ctx, &topo, &cage, level)?;
-        let r = ctx
-            .one_shot(|cmd| surface.record(&ctx, cmd, None, Some((&mut profiler, 0))))
-            .map_err(anyhow::Error::from)
-            .and_then(|()| {
-                profiler.collect(&ctx, 0)?;
-                Ok(voxelize_gregory_surface(
-                    &ctx,
-                    &surface,
-                    args.res,
-                    &axes,
-                    args.rule,
-                    args.max_layers,
-                    Some(&mut profiler),
-                )?)
-            });
-        r
-    })();
-    let out = result.and_then(|(grid, stats)| {
-        args.profile.emit(&profiler)?;
-        if let Some(path) = &args.out {
-            write_grid(&grid, path)?;
-        }
-        let layers: Vec<String> = stats.iter().map(|s| format!("{} {}", s.axis.name(), s.layers)).collect();
-        super::print_out(&format!(
-            "{}: Gregory surface at level {level}, {}³ grid\nlayers per axis: {}\nsolid voxels: {}\ntotal time: {:.1} ms\n",
-            args.input.display(),
-            args.res,
-            layers.join(", "),
-            grid.count(),
-            start.elapsed().as_secs_f64() * 1e3
-        ))
-    });
-    out
-}
-
-fn run_peel(
-    args: &VoxelizeArgs,
-    tri: &TriMesh,
-    frame: &GridFrame,
-    three: bool,
-) -> anyhow::Result<PeelResult> {
-    let ctx = Context::with_desc(&ContextDesc::default())?;
-    let progress = progress_bar(
-        frame.res,
-        tri.triangles.len(),
-        if three { 3 } else { 1 },
-        args.max_layers,
-    );
-    let mut profiler = Profiler::new(&ctx, 1, 4096)?;
-    let result = (|| -> anyhow::Result<PeelResult> {
-        let v = if args.method == Method::Abuffer {
-            let mut v = AbufferVoxelizer::new(&ctx, 12)?;
-            v.progress = progress.clone();
-            GpuVoxelizer::Abuffer(Box::new(v))
-        } else {
-            let mut v = PeelVoxelizer::new(&ctx, 12)?;
-            v.max_layers = args.max_layers;
-            v.progress = progress.clone();
-            GpuVoxelizer::Peel(Box::new(v))
-        };
-        let gpu = GpuTriangles::upload(&ctx, tri)?;
-        let out = (|| -> anyhow::Result<PeelResult> {
-            let geom = gpu.geometry();
-            let need = memory_estimate(&ctx, frame.res, 16);
-            let heap = ctx.info.device_local_heap_bytes;
-            if heap > 0 && need > heap {
-                bail!(
-                    "--res {} needs about {} MiB of device memory; the device has {} MiB",
-                    frame.res,
-                    need >> 20,
-                    heap >> 20
-                );
-            }
-            let axes: Vec<Axis> = if three {
-                Axis::ALL.to_vec()
-            } else if let Some(a) = args.axis {
-                vec![a]
-            } else {
-                // The cheapest axis: fewest layers × columns covered, from the count pre-pass.
-                let mut best = (u128::MAX, Axis::Z);
-                for a in Axis::ALL {
-                    let (l, area) = v.count_layers(&ctx, &geom, frame, a)?;
-                    best = best.min(((l as u128) * (area as u128), a));
-                }
-                vec![best.1]
-            };
-            let (grid, stats) =
-                v.voxelize(&ctx, &geom, frame, &axes, args.rule, Some(&mut profiler))?;
-            let layers = stats.iter().map(|s| (s.axis, s.layers)).collect();
-            args.profile.emit(&profiler)?;
-            let per_pass: String = profiler
-                .stats()
-                .iter()
-                .map(|p| {
-                    format!(
-                        "{}: {} call(s), {:.2} ms total\n",
-                        p.name, p.calls, p.total_ms
-                    )
-                })
-                .collect();
-            Ok((grid, layers, Some(profiler.json()), Some(per_pass)))
-        })();
-        out
-    })();
-    if let Some(p) = progress {
-        p.finish_and_clear();
-    }
-    let leaks = ctx.live_allocations();
-    if !leaks.is_empty() {
-        bail!("internal error: GPU allocations still alive: {leaks:?}");
-    }
-    result
 }
 
 /// A progress bar on stderr for long voxelizations, only when stderr is a terminal: piped output and tests
@@ -385,7 +201,7 @@ fn progress_bar(
     use std::io::IsTerminal;
     let long = res >= 512
         || triangles >= 1_000_000
-        || max_layers > crate::engine::voxelize::DEFAULT_MAX_LAYERS;
+        || max_layers > crate::api::DEFAULT_MAX_LAYERS;
     if !long || !std::io::stderr().is_terminal() {
         return None;
     }

@@ -73,29 +73,20 @@ impl BeziexScene {
             hi = hi.max(v);
         }
         let indices = grid_indices(1, level);
-        let mut made: Vec<Buffer> = Vec::new();
         let storage = vk::BufferUsageFlags::STORAGE_BUFFER;
-        let uploads: [(&str, &[u8], vk::BufferUsageFlags); 3] = [
-            ("beziex nets", bytemuck::cast_slice(&nets), storage),
-            // Beziex patches read their net by instance index; the shader still needs a valid binding 1.
-            (
-                "beziex patch points (unused)",
-                bytemuck::cast_slice(&[0u32; 4]),
-                storage,
-            ),
-            (
-                "beziex grid indices",
-                bytemuck::cast_slice(&indices),
-                vk::BufferUsageFlags::INDEX_BUFFER,
-            ),
-        ];
-        for (label, bytes, usage) in uploads {
-            made.push(ctx.upload_buffer(label, bytes, usage)?)
-        }
+        let nets = ctx.upload_buffer("beziex nets", bytemuck::cast_slice(&nets), storage)?;
+        // Beziex patches read their net by instance index; the shader still needs a valid binding 1.
+        let patch_points = ctx.upload_buffer(
+            "beziex patch points (unused)",
+            bytemuck::cast_slice(&[0u32; 4]),
+            storage,
+        )?;
+        let grid = ctx.upload_buffer(
+            "beziex grid indices",
+            bytemuck::cast_slice(&indices),
+            vk::BufferUsageFlags::INDEX_BUFFER,
+        )?;
         let pass = PatchPullPass::new(ctx, format, DEPTH_FORMAT, false)?;
-        let grid = made.pop().unwrap();
-        let patch_points = made.pop().unwrap();
-        let nets = made.pop().unwrap();
         Ok(BeziexScene {
             pass,
             nets,

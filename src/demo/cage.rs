@@ -1,7 +1,7 @@
 //! The cage scene's input: an OBJ quad cage (or the built-in one) turned into a GPU Gregory surface.
 use super::scene::{CageScene, Scene};
 use super::DemoArgs;
-use crate::cli::cage::{builtin_cage, cage_topology, load_cage_topology};
+use crate::engine::cage::{builtin_cage, cage_topology, load_cage_topology};
 use crate::engine::gregory::GregorySurface;
 use crate::gpu::Context;
 use crate::surface::Tangents;

@@ -2,7 +2,8 @@
 //! same renderer and frame loop; every GPU pass runs in a profiler scope.
 //!
 //! Invariants: the context outlives everything here; at exit the frame loop waits for the device, then the
-//! renderer, the present target and the window are destroyed, in that order, before the context drops.
+//! renderer, the present target and the window are dropped, in that order, before the context; their GPU
+//! objects release themselves through the release queue of `gpu::lifetime`.
 //! The offscreen ring has one image per frame slot, so a frame's PNG is written when its slot comes round
 //! again (after that slot's fence) or at the end. Time is `frame × --time-step` offscreen (default 1/60 s,
 //! so frames are reproducible whatever the machine's speed) and in a window when `--time-step` is given;
@@ -280,7 +281,7 @@ impl Renderer {
     /// Replaces the scene (waits for the device: the old scene's buffers may be in use) and frames it.
     pub fn replace_scene(&mut self, ctx: &Context, scene: Box<dyn Scene>) -> anyhow::Result<()> {
         self.finish(ctx)?;
-        let old = std::mem::replace(&mut self.scene, scene);
+        self.scene = scene;
         self.view.orbit = self.scene.framing();
         Ok(())
     }
@@ -388,14 +389,11 @@ fn run_offscreen(args: &DemoArgs) -> anyhow::Result<()> {
     let ctx = Context::with_desc(&ContextDesc::default())?;
     let (w, h) = args.size;
     let mut target = OffscreenTarget::new(&ctx, w, h, FRAMES_IN_FLIGHT)?;
-    let mut renderer = build_scene(&ctx, args, target.format())
-        .and_then(|scene| Renderer::new(&ctx, scene, args.shading, draw_path(args)))?;
+    let scene = build_scene(&ctx, args, target.format())?;
+    let mut renderer = Renderer::new(&ctx, scene, args.shading, draw_path(args))?;
     // Only once the scene stands: a refused model or option leaves no empty output folder behind.
-    if let Err(e) = std::fs::create_dir_all(&out) {
-        drop(target);
-        return Err(e)
-            .with_context(|| format!("cannot create the output folder {}", out.display()));
-    }
+    std::fs::create_dir_all(&out)
+        .with_context(|| format!("cannot create the output folder {}", out.display()))?;
     let dt = args.time_step.unwrap_or(1.0 / 60.0);
     let result = offscreen_loop(
         &ctx,
@@ -413,7 +411,7 @@ fn run_offscreen(args: &DemoArgs) -> anyhow::Result<()> {
         );
         Ok(())
     });
-    drop(target);
+    // Dropped in reverse order of declaration: renderer, target, context.
     report
 }
 

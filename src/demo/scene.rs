@@ -3,8 +3,10 @@
 //!
 //! Invariants: on entry to `Scene::record` the color target is in `COLOR_ATTACHMENT_OPTIMAL` (contents
 //! undefined) and the depth target in `DEPTH_ATTACHMENT_OPTIMAL`; the scene clears and draws both and leaves
-//! the layouts unchanged. A scene's `destroy` and `set_level` run with the device idle (the renderer waits),
-//! so they may free buffers that earlier frames used. Every GPU pass a scene records is in a profiler scope.
+//! the layouts unchanged. A scene's `set_level` runs with the device idle (the renderer waits). A scene's
+//! GPU objects release themselves when dropped, through the release queue of `gpu::lifetime`, so a buffer
+//! earlier frames used may be replaced or dropped at any point. Every GPU pass a scene records is in a
+//! profiler scope.
 //! Surface scenes draw through [`SurfaceLook`]: shadow map → [curvature] → ground + surface (lit path), or the
 //! vertex-pull path for the surface when `ViewState::path` asks for it and the scene has control points.
 use crate::engine::flag::FlagSurface;
@@ -274,16 +276,6 @@ impl SurfaceLook {
         let shadow = ShadowMap::new(ctx, SHADOW_SIZE)?;
         let curvature_pass = SurfaceCurvaturePass::new(ctx)?;
         let pull = PatchPullPass::new(ctx, format, DEPTH_FORMAT, false)?;
-        let mut look = SurfaceLook {
-            draw,
-            shadow,
-            curvature_pass,
-            pull,
-            curvature: None,
-            pull_indices: None,
-            ground: Vec::new(),
-            stage,
-        };
         // The ground: a square of 3.2 radii under the stage, normal +Z (SurfaceVertex layout).
         let (c, h) = (stage.centre, 1.6 * stage.radius);
         let corners = [(-h, -h), (h, -h), (h, h), (-h, h)];
@@ -292,31 +284,32 @@ impl SurfaceLook {
             .map(|&(x, y)| [c.x + x, c.y + y, stage.ground_z, 1.0, 0.0, 0.0, 1.0, 0.0])
             .collect();
         let indices: [u32; 6] = [0, 1, 2, 0, 2, 3];
-        let made = ctx
-            .upload_buffer(
+        let ground = vec![
+            ctx.upload_buffer(
                 "ground vertices",
                 bytemuck::cast_slice(&vertices),
                 vk::BufferUsageFlags::VERTEX_BUFFER,
-            )
-            .and_then(|v| {
-                look.ground.push(v);
-                ctx.upload_buffer(
-                    "ground indices",
-                    bytemuck::cast_slice(&indices),
-                    vk::BufferUsageFlags::INDEX_BUFFER,
-                )
-            });
-        match made {
-            Ok(i) => {
-                look.ground.push(i);
-                Ok(look)
-            }
-            Err(e) => Err(e.into()),
-        }
+            )?,
+            ctx.upload_buffer(
+                "ground indices",
+                bytemuck::cast_slice(&indices),
+                vk::BufferUsageFlags::INDEX_BUFFER,
+            )?,
+        ];
+        Ok(SurfaceLook {
+            draw,
+            shadow,
+            curvature_pass,
+            pull,
+            curvature: None,
+            pull_indices: None,
+            ground,
+            stage,
+        })
     }
 
-    /// Sizes the curvature buffer and the vertex-pull grid for `patches` patches at `level` (device idle:
-    /// the old buffers may have been used by earlier frames).
+    /// Sizes the curvature buffer and the vertex-pull grid for `patches` patches at `level`. Replaced buffers
+    /// go through the release queue, so earlier frames may still be using them.
     pub fn resize(&mut self, ctx: &Context, patches: u32, level: u32) -> anyhow::Result<()> {
         let bytes = vertex_count(patches, level) * CURVATURE_STRIDE;
         if self.curvature.as_ref().is_none_or(|b| b.size() < bytes) {
@@ -485,22 +478,23 @@ impl SpinnerScene {
         let count = count.clamp(1, 1 << 20);
         let spinner = SpinnerPass::new(ctx)?;
         let triangles = TrianglesPass::new(ctx, format)?;
-        let mut s = SpinnerScene {
+        // One buffer per slot: frame N+1's compute must not overwrite what frame N still draws.
+        let buffers = (0..slots)
+            .map(|i| {
+                ctx.create_buffer(
+                    &format!("spinner vertices {i}"),
+                    count as u64 * 48,
+                    vk::BufferUsageFlags::STORAGE_BUFFER | vk::BufferUsageFlags::VERTEX_BUFFER,
+                    MemoryLocation::GpuOnly,
+                )
+            })
+            .collect::<Result<Vec<_>, _>>()?;
+        Ok(SpinnerScene {
             spinner,
             triangles,
-            buffers: Vec::new(),
+            buffers,
             count,
-        };
-        for i in 0..slots {
-            // One buffer per slot: frame N+1's compute must not overwrite what frame N still draws.
-            s.buffers.push(ctx.create_buffer(
-                &format!("spinner vertices {i}"),
-                count as u64 * 48,
-                vk::BufferUsageFlags::STORAGE_BUFFER | vk::BufferUsageFlags::VERTEX_BUFFER,
-                MemoryLocation::GpuOnly,
-            )?)
-        }
-        Ok(s)
+        })
     }
 }
 
@@ -581,20 +575,13 @@ impl FlagScene {
             radius: 0.5 * (w * w + h * h + 1.0).sqrt(),
             ground_z: -0.6 * w.max(h) * 0.5,
         };
-        let look = SurfaceLook::new(ctx, format, stage).and_then(|mut look| {
-            match look.resize(ctx, flag.patch_count(), flag.level) {
-                Ok(()) => Ok(look),
-                Err(e) => Err(e),
-            }
-        });
-        match look {
-            Ok(look) => Ok(FlagScene {
-                flag,
-                look,
-                correct: true,
-            }),
-            Err(e) => Err(e),
-        }
+        let mut look = SurfaceLook::new(ctx, format, stage)?;
+        look.resize(ctx, flag.patch_count(), flag.level)?;
+        Ok(FlagScene {
+            flag,
+            look,
+            correct: true,
+        })
     }
 }
 
@@ -663,9 +650,7 @@ impl Scene for FlagScene {
     fn set_level(&mut self, ctx: &Context, level: u32) -> anyhow::Result<bool> {
         // The device is idle (trait contract); the flag's buffers are sized per level, so rebuild it.
         let flag = FlagSurface::new(ctx, self.flag.columns, self.flag.rows, level)?;
-        if let Err(e) = self.look.resize(ctx, flag.patch_count(), level) {
-            return Err(e);
-        }
+        self.look.resize(ctx, flag.patch_count(), level)?;
         self.flag = flag;
         Ok(true)
     }
@@ -693,42 +678,35 @@ impl CageScene {
         deformation: Deformation,
         name: String,
     ) -> anyhow::Result<Self> {
-        let lo = Vec3::from(surface.box_min);
-        let size = Vec3::from(surface.box_size);
+        let lo = Vec3::from(surface.box_min());
+        let size = Vec3::from(surface.box_size());
         // Twist, bend and wave move points by up to the amplitude (0.6) times the box: a generous sphere.
         let stage = Stage {
             centre: lo + 0.5 * size,
             radius: 0.75 * size.length().max(1e-3),
             ground_z: lo.z - 0.35 * size.max_element(),
         };
-        let made = SurfaceLook::new(ctx, format, stage).and_then(|mut look| {
-            match look.resize(ctx, surface.patch_count, surface.level) {
-                Ok(()) => Ok(look),
-                Err(e) => Err(e),
-            }
-        });
-        match made {
-            Ok(look) => Ok(CageScene {
-                surface,
-                look,
-                deformation,
-                name,
-                adaptive: None,
-            }),
-            Err(e) => Err(e),
-        }
+        let mut look = SurfaceLook::new(ctx, format, stage)?;
+        look.resize(ctx, surface.patch_count(), surface.level())?;
+        Ok(CageScene {
+            surface,
+            look,
+            deformation,
+            name,
+            adaptive: None,
+        })
     }
 }
 
 impl Scene for CageScene {
     fn name(&self) -> String {
         let level = match self.adaptive {
-            Some(px) => format!("adaptive ≤ {} at {px} px", self.surface.level),
-            None => format!("level {}", self.surface.level),
+            Some(px) => format!("adaptive ≤ {} at {px} px", self.surface.level()),
+            None => format!("level {}", self.surface.level()),
         };
         format!(
             "{} ({} patches, {level}, {:?})",
-            self.name, self.surface.patch_count, self.deformation
+            self.name, self.surface.patch_count(), self.deformation
         )
     }
 
@@ -749,8 +727,8 @@ impl Scene for CageScene {
             },
             t,
             amplitude: 0.6,
-            box_min: self.surface.box_min,
-            box_size: self.surface.box_size,
+            box_min: self.surface.box_min(),
+            box_size: self.surface.box_size(),
         };
         if let Some(pixels_per_segment) = self.adaptive {
             let e = targets.extent;
@@ -771,7 +749,7 @@ impl Scene for CageScene {
                 indices,
                 Some(IndirectDraw {
                     commands,
-                    count: self.surface.patch_count,
+                    count: self.surface.patch_count(),
                 }),
             ),
             None => (self.surface.indices(), None),
@@ -780,11 +758,11 @@ impl Scene for CageScene {
             vertices: self.surface.vertices(),
             indices,
             index_count: self.surface.index_count(),
-            level: self.surface.level,
+            level: self.surface.level(),
             patches: Some(PatchSource {
                 points: self.surface.control_points(),
                 patch_points: self.surface.patch_points(),
-                patch_count: self.surface.patch_count,
+                patch_count: self.surface.patch_count(),
             }),
             color: [0.3, 0.55, 0.85],
             indirect,
@@ -818,8 +796,8 @@ impl Scene for CageScene {
     }
 
     fn framing(&self) -> Orbit {
-        let [x, y, z] = self.surface.box_min;
-        let [w, h, d] = self.surface.box_size;
+        let [x, y, z] = self.surface.box_min();
+        let [w, h, d] = self.surface.box_size();
         Orbit::framing(
             Vec3::new(x + 0.5 * w, y + 0.5 * h, z + 0.5 * d),
             w.max(h).max(d),
@@ -827,13 +805,13 @@ impl Scene for CageScene {
     }
 
     fn level(&self) -> Option<u32> {
-        Some(self.surface.level)
+        Some(self.surface.level())
     }
 
     fn set_level(&mut self, ctx: &Context, level: u32) -> anyhow::Result<bool> {
         self.surface.set_level(ctx, level)?;
         self.look
-            .resize(ctx, self.surface.patch_count, self.surface.level)?;
+            .resize(ctx, self.surface.patch_count(), self.surface.level())?;
         Ok(true)
     }
 }

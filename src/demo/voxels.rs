@@ -11,7 +11,7 @@
 //! completed (the renderer waited for it in `begin_frame`).
 use super::scene::{draw_surface, FrameTargets, Orbit, Scene, ViewState, DEPTH_FORMAT};
 use super::DemoArgs;
-use crate::cli::cage::{builtin_cage, cage_topology, load_cage_topology};
+use crate::engine::cage::{builtin_cage, cage_topology, load_cage_topology};
 use crate::engine::gregory::GregorySurface;
 use crate::engine::voxelize::{PeelVoxelizer, ResidentVoxelizer};
 use crate::gpu::{Buffer, Context, Image, MemoryLocation, Profiler};
@@ -79,8 +79,8 @@ fn deform(surface: &GregorySurface, mode: Deformation, t: f32) -> DeformParams {
         mode,
         t,
         amplitude: AMPLITUDE,
-        box_min: surface.box_min,
-        box_size: surface.box_size,
+        box_min: surface.box_min(),
+        box_size: surface.box_size(),
     }
 }
 
@@ -92,7 +92,7 @@ fn plan_grid(
     mode: Deformation,
     res: u32,
 ) -> anyhow::Result<(GridFrame, u32)> {
-    let count = vertex_count(surface.patch_count, surface.level) as u32;
+    let count = vertex_count(surface.patch_count(), surface.level()) as u32;
     let bounds = BoundsPass::new(ctx)?;
     let buf = ctx.create_buffer(
         "voxels scene bounds",
@@ -104,28 +104,17 @@ fn plan_grid(
     )?;
     let mut lo = [f32::INFINITY; 3];
     let mut hi = [f32::NEG_INFINITY; 3];
-    let mut result = Ok(());
     for t in sample_times() {
-        let words = ctx
-            .one_shot(|cmd| {
-                surface.record(ctx, cmd, Some(&deform(surface, mode, t)), None)?;
-                bounds.record(ctx, cmd, surface.vertices(), count, 32, &buf)
-            })
-            .and_then(|()| ctx.read_pod::<u32>(&buf));
-        match words {
-            Ok(w) => {
-                for a in 0..3 {
-                    lo[a] = lo[a].min(decode(w[a]));
-                    hi[a] = hi[a].max(decode(w[a + 3]));
-                }
-            }
-            Err(e) => {
-                result = Err(e);
-                break;
-            }
+        ctx.one_shot(|cmd| {
+            surface.record(ctx, cmd, Some(&deform(surface, mode, t)), None)?;
+            bounds.record(ctx, cmd, surface.vertices(), count, 32, &buf)
+        })?;
+        let w = ctx.read_pod::<u32>(&buf)?;
+        for a in 0..3 {
+            lo[a] = lo[a].min(decode(w[a]));
+            hi[a] = hi[a].max(decode(w[a + 3]));
         }
     }
-    result?;
     let side = (0..3).map(|a| hi[a] - lo[a]).fold(0.0f32, f32::max);
     let margin = 0.02 * side + side / res as f32;
     let lo = lo.map(|x| x - margin);
@@ -139,20 +128,11 @@ fn plan_grid(
         index_count: surface.index_count(),
     };
     let mut deepest = 0;
-    let mut result = Ok(());
     for t in sample_times() {
-        let r = ctx
-            .one_shot(|cmd| surface.record(ctx, cmd, Some(&deform(surface, mode, t)), None))
-            .and_then(|()| counter.count_layers(ctx, &geom, &frame, Axis::Z));
-        match r {
-            Ok((layers, _)) => deepest = deepest.max(layers),
-            Err(e) => {
-                result = Err(e);
-                break;
-            }
-        }
+        ctx.one_shot(|cmd| surface.record(ctx, cmd, Some(&deform(surface, mode, t)), None))?;
+        let (layers, _) = counter.count_layers(ctx, &geom, &frame, Axis::Z)?;
+        deepest = deepest.max(layers);
     }
-    result?;
     // Two spare passes for poses between samples (extra passes cost time, never correctness).
     Ok((frame, deepest + 2))
 }
@@ -255,7 +235,7 @@ impl Scene for VoxelsScene {
         format!(
             "voxels: {} ({} patches, {}³ voxels every {} frame(s), {} peeling passes, {:?})",
             self.name,
-            self.surface.patch_count,
+            self.surface.patch_count(),
             self.voxelizer.frame.res,
             self.options.every,
             self.voxelizer.layers,
@@ -321,7 +301,7 @@ impl Scene for VoxelsScene {
                 self.surface.vertices(),
                 self.surface.indices(),
                 self.surface.index_count(),
-                self.surface.level,
+                self.surface.level(),
             ),
         );
         if w < 2 {
@@ -366,8 +346,9 @@ impl Scene for VoxelsScene {
             return Ok(false);
         }
         // D cycles the deformation as in the cage scene. The grid frame and peeling depth belong to one
-        // deformation, so they are planned again; the device is idled first because frames in flight still
-        // use the old voxelizer (a key press may take that pause).
+        // deformation, so they are planned again, with the device idled first (a key press may take that
+        // pause). The old voxelizer is released through the release queue when it is replaced, so frames in
+        // flight that still use it stay valid.
         ctx.wait_idle()?;
         let mode = match self.options.deformation {
             Deformation::None => Deformation::Twist,
@@ -376,8 +357,7 @@ impl Scene for VoxelsScene {
             Deformation::Wave => Deformation::None,
         };
         let (frame, layers) = plan_grid(ctx, &self.surface, mode, self.voxelizer.frame.res)?;
-        let voxelizer = ResidentVoxelizer::new(ctx, 32, frame, layers, FillRule::Winding)?;
-        self.voxelizer = voxelizer;
+        self.voxelizer = ResidentVoxelizer::new(ctx, 32, frame, layers, FillRule::Winding)?;
         self.options.deformation = mode;
         // The next frame voxelizes whatever --voxel-every says.
         self.frames = 0;
@@ -385,8 +365,8 @@ impl Scene for VoxelsScene {
     }
 
     fn framing(&self) -> Orbit {
-        let [x, y, z] = self.surface.box_min;
-        let [w, h, d] = self.surface.box_size;
+        let [x, y, z] = self.surface.box_min();
+        let [w, h, d] = self.surface.box_size();
         Orbit::framing(
             Vec3::new(x + 0.5 * w, y + 0.5 * h, z + 0.5 * d),
             w.max(h).max(d),

@@ -2,8 +2,8 @@
 //!
 //! Invariants: the context is created before the event loop runs, with the surface extensions the display
 //! needs; the window and swapchain are created in `resumed`; resize and minimise go to the target, which
-//! rebuilds or skips frames; after the loop ends, renderer → swapchain → window are destroyed before the
-//! context. An error inside the loop stops it and is returned from [`run_windowed`].
+//! rebuilds or skips frames; after the loop ends, renderer → swapchain → window are dropped, in that order,
+//! before the context. An error inside the loop stops it and is returned from [`run_windowed`].
 //! Keys are handled in two steps so the mapping is testable without a window: [`key_action`] is a pure
 //! function of (key name, [`Controls`]) → [`Action`], and `App::apply` carries the action out. Adding a key
 //! (e.g. the adaptive level, A) is one arm in `key_action` plus, for a new kind of action, one arm in `apply`.
@@ -198,15 +198,13 @@ impl App<'_> {
             super::FRAMES_IN_FLIGHT,
             true,
         )?;
-        let renderer =
-            super::build_scene(self.ctx, &self.args, target.format()).and_then(|scene| {
-                Renderer::new(
-                    self.ctx,
-                    scene,
-                    self.args.shading,
-                    super::draw_path(&self.args),
-                )
-            })?;
+        let scene = super::build_scene(self.ctx, &self.args, target.format())?;
+        let renderer = Renderer::new(
+            self.ctx,
+            scene,
+            self.args.shading,
+            super::draw_path(&self.args),
+        )?;
         self.window = Some(window);
         self.target = Some(target);
         self.renderer = Some(renderer);
@@ -535,9 +533,8 @@ pub fn run_windowed(args: &DemoArgs) -> anyhow::Result<()> {
             result = finished;
         }
     }
-    if let Some(t) = app.target.take() {
-        drop(t);
-    }
+    // The swapchain (and its surface) before the window it was made for.
+    drop(app.target.take());
     drop(app.window.take());
     if result.is_ok() {
         eprintln!(

@@ -184,53 +184,40 @@ impl FlagSurface {
             64,
         )?;
         let eval = GregoryEvalPass::new(ctx)?;
-        let mut made = Vec::new();
-        let r = (|| -> Result<()> {
-            let rw = vk::BufferUsageFlags::STORAGE_BUFFER | vk::BufferUsageFlags::TRANSFER_SRC;
-            made.push(ctx.create_buffer(
+        let rw = vk::BufferUsageFlags::STORAGE_BUFFER | vk::BufferUsageFlags::TRANSFER_SRC;
+        let idx: Vec<u32> = (0..n * 20).collect();
+        Ok(FlagSurface {
+            build,
+            eval,
+            points: ctx.create_buffer(
                 "flag points",
                 n as u64 * 20 * 16,
                 rw,
                 MemoryLocation::GpuOnly,
-            )?);
-            let idx: Vec<u32> = (0..n * 20).collect();
-            made.push(ctx.upload_buffer(
+            )?,
+            patch_points: ctx.upload_buffer(
                 "flag patch points",
                 bytemuck::cast_slice(&idx),
                 vk::BufferUsageFlags::STORAGE_BUFFER,
-            )?);
+            )?,
             // Each patch's edge points come from the same analytic network, so both sides of an edge agree
             // to f32 evaluation of the same formulas; canonical edges are off (flags unused).
-            made.push(ctx.upload_buffer(
+            patch_flags: ctx.upload_buffer(
                 "flag patch flags",
                 bytemuck::cast_slice(&vec![0u32; n as usize]),
                 vk::BufferUsageFlags::STORAGE_BUFFER,
-            )?);
-            made.push(ctx.create_buffer(
+            )?,
+            vertices: ctx.create_buffer(
                 "flag vertices",
                 vertex_count(n, level) * 32,
                 rw | vk::BufferUsageFlags::VERTEX_BUFFER,
                 MemoryLocation::GpuOnly,
-            )?);
-            made.push(ctx.upload_buffer(
+            )?,
+            indices: ctx.upload_buffer(
                 "flag indices",
                 bytemuck::cast_slice(&grid_indices(n, level)),
                 vk::BufferUsageFlags::INDEX_BUFFER,
-            )?);
-            Ok(())
-        })();
-        if let Err(e) = r {
-            return Err(e);
-        }
-        let mut it = made.into_iter();
-        Ok(FlagSurface {
-            build,
-            eval,
-            points: it.next().unwrap(),
-            patch_points: it.next().unwrap(),
-            patch_flags: it.next().unwrap(),
-            vertices: it.next().unwrap(),
-            indices: it.next().unwrap(),
+            )?,
             columns,
             rows,
             level,

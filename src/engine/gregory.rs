@@ -79,12 +79,12 @@ pub struct GregorySurface {
     patch_flags: Buffer,
     vertices: Buffer,
     indices: Buffer,
-    pub patch_count: u32,
-    pub cage_count: u32,
-    pub level: u32,
-    pub canonical_edges: bool,
-    pub box_min: [f32; 3],
-    pub box_size: [f32; 3],
+    patch_count: u32,
+    cage_count: u32,
+    level: u32,
+    canonical_edges: bool,
+    box_min: [f32; 3],
+    box_size: [f32; 3],
     adaptive: Option<Adaptive>,
     /// The patch point rows, kept for the adaptive edge topology.
     patch_rows: Vec<[u32; 20]>,
@@ -290,6 +290,36 @@ impl GregorySurface {
             vk::BufferUsageFlags::INDEX_BUFFER | vk::BufferUsageFlags::STORAGE_BUFFER,
         )?;
         Ok((vertices, indices))
+    }
+
+    /// Patches (one per cage quad).
+    pub fn patch_count(&self) -> u32 {
+        self.patch_count
+    }
+
+    /// Vertices of the cage (columns of W).
+    pub fn cage_count(&self) -> u32 {
+        self.cage_count
+    }
+
+    /// The tessellation level (the maximum L_max with adaptive tessellation on).
+    pub fn level(&self) -> u32 {
+        self.level
+    }
+
+    /// Whether shared edges are evaluated from one canonical side (bit-identical edge vertices).
+    pub fn canonical_edges(&self) -> bool {
+        self.canonical_edges
+    }
+
+    /// The rest cage's bounding-box minimum (f32, as uploaded).
+    pub fn box_min(&self) -> [f32; 3] {
+        self.box_min
+    }
+
+    /// The rest cage's bounding-box size.
+    pub fn box_size(&self) -> [f32; 3] {
+        self.box_size
     }
 
     /// Switches to `level`. The old vertex and index buffers are released through the release queue, so

@@ -92,14 +92,17 @@ pub struct PeelVoxelizer {
     /// Largest output slab in bytes (default and upper bound: `maxStorageBufferRange`); tests lower it to
     /// exercise the slab path.
     pub slab_limit: Option<u64>,
-    /// Advanced by one per stage (count, peel, fill) of each axis.
-    pub progress: Option<indicatif::ProgressBar>,
+    /// Called once per finished stage (count, peel, fill) of each axis: three calls per axis.
+    pub progress: Option<ProgressFn>,
 }
 
-fn tick(progress: &Option<indicatif::ProgressBar>, msg: &str) {
+/// A progress callback: called with a short description each time a stage of a voxelization finishes
+/// (three stages per axis). The CLI draws a bar from it; a library user may log, or ignore it.
+pub type ProgressFn = std::sync::Arc<dyn Fn(&str) + Send + Sync>;
+
+fn tick(progress: &Option<ProgressFn>, msg: &str) {
     if let Some(p) = progress {
-        p.set_message(msg.to_string());
-        p.inc(1);
+        p(msg);
     }
 }
 
@@ -663,7 +666,8 @@ pub struct AbufferVoxelizer {
     /// Largest output slab in bytes (as [`PeelVoxelizer::slab_limit`]).
     pub slab_limit: Option<u64>,
     /// Advanced by one per stage (count, scatter, fill) of each axis.
-    pub progress: Option<indicatif::ProgressBar>,
+    /// Called once per finished stage (count, scatter, fill) of each axis: three calls per axis.
+    pub progress: Option<ProgressFn>,
 }
 
 impl AbufferVoxelizer {
@@ -984,7 +988,7 @@ pub fn voxelize_gregory_surface(
 ) -> Result<(VoxelGrid, Vec<AxisStats>)> {
     use crate::passes::bounds::{decode, BoundsPass};
     use crate::passes::gregory_eval::vertex_count;
-    let count = vertex_count(surface.patch_count, surface.level) as u32;
+    let count = vertex_count(surface.patch_count(), surface.level()) as u32;
     let bounds = BoundsPass::new(ctx)?;
     let buf = ctx.create_buffer(
         "surface bounds",

@@ -8,11 +8,15 @@ pub mod pipeline;
 pub mod present;
 pub mod profiler;
 pub mod resources;
+#[cfg(feature = "window")]
+pub mod swapchain;
 
 pub use context::{Context, ContextDesc, DeviceInfo, Validation};
 pub use frames::Frames;
 pub use lifetime::{Owned, OwnedHandle};
-pub use present::{OffscreenTarget, PresentTarget, SwapchainTarget, TargetImage};
+#[cfg(feature = "window")]
+pub use swapchain::SwapchainTarget;
+pub use present::{OffscreenTarget, PresentTarget, TargetImage};
 pub use profiler::Profiler;
 pub use resources::{Buffer, Image, ImageDesc, MemoryLocation};
 

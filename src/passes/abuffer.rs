@@ -105,21 +105,19 @@ impl AbufferPass {
             (SCAN_BLOCK / SCAN_PER_INVOCATION) as u32,
         )?;
         let scatter = Self::scatter_pipeline(ctx, stride)?;
-        let fill = DescriptorSetLayoutBuilder::new()
+        let fill_layout = DescriptorSetLayoutBuilder::new()
             .storage_buffer(0, vk::ShaderStageFlags::COMPUTE)
             .storage_buffer(1, vk::ShaderStageFlags::COMPUTE)
             .storage_buffer(2, vk::ShaderStageFlags::COMPUTE)
-            .build(ctx, "abuffer fill set")
-            .and_then(|l| {
-                ComputePipeline::new(
-                    ctx,
-                    "abuffer fill",
-                    shaders::ABUFFER_FILL_COMP,
-                    vec![l],
-                    20,
-                    64,
-                )
-            })?;
+            .build(ctx, "abuffer fill set")?;
+        let fill = ComputePipeline::new(
+            ctx,
+            "abuffer fill",
+            shaders::ABUFFER_FILL_COMP,
+            vec![fill_layout],
+            20,
+            64,
+        )?;
         Ok(AbufferPass {
             scan,
             scatter,

@@ -10,7 +10,8 @@ use crate::gpu::{shaders, Buffer, Context};
 use ash::vk;
 
 /// How the cage moves.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum, serde::Serialize)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize)]
+#[cfg_attr(feature = "cli", derive(clap::ValueEnum))]
 pub enum Deformation {
     /// The rest cage.
     None = 0,

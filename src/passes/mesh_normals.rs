@@ -41,26 +41,19 @@ impl GpuMeshMatrix {
             ),
         ];
         let mut buffers = Vec::new();
-        let fail = |e, buffers: Vec<Buffer>| e;
         for (name, data) in arrays {
-            match ctx.upload_buffer(
+            buffers.push(ctx.upload_buffer(
                 &format!("mesh {name}"),
                 bytemuck::cast_slice(&data),
                 vk::BufferUsageFlags::STORAGE_BUFFER,
-            ) {
-                Ok(b) => buffers.push(b),
-                Err(e) => return Err(fail(e, buffers)),
-            }
+            )?);
         }
-        match ctx.create_buffer(
+        buffers.push(ctx.create_buffer(
             "mesh face normals",
             m.n_faces() as u64 * 16,
             vk::BufferUsageFlags::STORAGE_BUFFER,
             MemoryLocation::GpuOnly,
-        ) {
-            Ok(b) => buffers.push(b),
-            Err(e) => return Err(fail(e, buffers)),
-        }
+        )?);
         Ok(GpuMeshMatrix {
             vertices: m.n_verts() as u32,
             faces: m.n_faces() as u32,
@@ -93,18 +86,15 @@ impl MeshNormalsPass {
             4,
             64,
         )?;
-        let l = layout(5, "vertex normals set")?;
-        match ComputePipeline::new(
+        let vertices = ComputePipeline::new(
             ctx,
             "vertex normals",
             shaders::VERTEX_NORMALS_COMP,
-            vec![l],
+            vec![layout(5, "vertex normals set")?],
             4,
             64,
-        ) {
-            Ok(vertices) => Ok(MeshNormalsPass { faces, vertices }),
-            Err(e) => Err(e),
-        }
+        )?;
+        Ok(MeshNormalsPass { faces, vertices })
     }
 
     /// Records area-weighted unit vertex normals of `positions` into `out`.

@@ -1,5 +1,6 @@
-//! One GPU pass per file. Each owns its pipelines and layouts and exposes `new`, `record`, `destroy`;
-//! buffers are passed in, never owned by two passes.
+//! One GPU pass per file. Each owns its pipelines and layouts and exposes `new` and `record`; it releases
+//! them when dropped, through the release queue of `gpu::lifetime`. Buffers are passed in, never owned by
+//! two passes.
 pub mod abuffer;
 pub mod adaptive_levels;
 pub mod beziex_eval;

@@ -16,7 +16,8 @@ use crate::passes::shadow_map::ShadowMap;
 use ash::vk;
 
 /// The shading modes (`mode.x` of the surface shaders).
-#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "cli", derive(clap::ValueEnum))]
 pub enum ShadingMode {
     /// Lambert + ambient + Phong (the lecture model), with shadows on the lit path.
     Phong = 0,
@@ -25,7 +26,7 @@ pub enum ShadingMode {
     /// Zebra stripes of the reflected view direction (G1 across patch edges).
     Zebra = 2,
     /// Phong with the patch boundaries drawn as lines.
-    #[value(alias = "grid")]
+    #[cfg_attr(feature = "cli", value(alias = "grid"))]
     Wireframe = 3,
     /// Mean curvature H, diverging colours (lit path only; Phong on the plain path).
     Mean = 4,
@@ -248,23 +249,17 @@ impl SurfaceDrawPass {
         lit_desc.push_constant_bytes = desc.push_constant_bytes;
         lit_desc.push_constant_stages = desc.push_constant_stages;
         let pipeline = GraphicsPipeline::new(ctx, "surface draw", desc)?;
-        let lit = DescriptorSetLayoutBuilder::new()
+        lit_desc.set_layouts = vec![DescriptorSetLayoutBuilder::new()
             .uniform_buffer(0, vk::ShaderStageFlags::FRAGMENT)
             .sampled_image(1, vk::ShaderStageFlags::FRAGMENT)
-            .build(ctx, "lit surface set")
-            .and_then(|layout| {
-                lit_desc.set_layouts = vec![layout];
-                GraphicsPipeline::new(ctx, "lit surface draw", lit_desc)
-            });
-        match lit {
-            Ok(lit) => Ok(SurfaceDrawPass {
-                pipeline,
-                lit,
-                color_format: color,
-                depth_format: depth,
-            }),
-            Err(e) => Err(e),
-        }
+            .build(ctx, "lit surface set")?];
+        let lit = GraphicsPipeline::new(ctx, "lit surface draw", lit_desc)?;
+        Ok(SurfaceDrawPass {
+            pipeline,
+            lit,
+            color_format: color,
+            depth_format: depth,
+        })
     }
 
     /// Records `draws` on the lit path (shadows from `shadow`, curvature stream) in one render pass.

@@ -15,7 +15,8 @@ use super::mesh::TriMesh;
 use rayon::prelude::*;
 
 /// How crossings make a voxel solid.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum, serde::Serialize)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize)]
+#[cfg_attr(feature = "cli", derive(clap::ValueEnum))]
 pub enum FillRule {
     /// Signed winding count, non-zero inside (overlapping and self-intersecting solids come out right).
     Winding,

@@ -138,6 +138,13 @@ pub fn parse_binvox(bytes: &[u8]) -> Result<VoxelGrid> {
     Ok(g)
 }
 
+impl VoxelGrid {
+    /// Writes the grid in the format its extension names (see [`write_grid`]).
+    pub fn save(&self, path: impl AsRef<Path>) -> Result<()> {
+        write_grid(self, path.as_ref())
+    }
+}
+
 /// Writes `grid` to `path` in the format its extension names.
 pub fn write_grid(grid: &VoxelGrid, path: &Path) -> Result<()> {
     let ext = path

@@ -28,6 +28,27 @@ pub struct CleanReport {
 }
 
 impl TriMesh {
+    /// The triangles of a loaded polygon mesh, each face fanned from its first vertex (the loader has
+    /// validated indices and coordinates already), positions as f32.
+    pub fn fan(mesh: &crate::mesh::Mesh) -> TriMesh {
+        let positions = mesh
+            .positions
+            .iter()
+            .map(|p| [p.x as f32, p.y as f32, p.z as f32])
+            .collect();
+        let mut triangles = Vec::new();
+        for f in 0..mesh.n_faces() {
+            let face = mesh.face(f);
+            for k in 1..face.len() - 1 {
+                triangles.push([face[0], face[k], face[k + 1]]);
+            }
+        }
+        TriMesh {
+            positions,
+            triangles,
+        }
+    }
+
     /// A mesh from positions and polygon faces (fan-triangulated), with every index and coordinate checked.
     ///
     /// ```

@@ -1,5 +1,6 @@
-//! Shared by the commands that take a quad cage: loading it as GPU Gregory topology, and measuring normal
-//! jumps across shared patch edges of an evaluated grid.
+//! Quad cages for the Gregory pipeline: loading one as GPU Gregory topology (with the valence limit and one
+//! Catmull–Clark step for non-quad cages), a built-in box cage, and measuring normal jumps across shared
+//! patch edges of an evaluated grid.
 use crate::engine::gregory::{canonical_edge_flags, GregoryTopology};
 use crate::mesh::{load_obj, Mesh};
 use crate::passes::gregory_eval::SurfaceVertex;
@@ -11,10 +12,12 @@ use std::path::Path;
 /// Loads an OBJ quad cage and builds its ACC-2 topology (refining non-quad cages once, with a note).
 pub fn load_cage_topology(
     path: &Path,
-) -> anyhow::Result<(GregoryTopology, Vec<DVec3>, Option<String>)> {
+) -> crate::Result<(GregoryTopology, Vec<DVec3>, Option<String>)> {
     let mesh = load_obj(path)?;
-    cage_topology(&mesh, Tangents::OpenSubdiv)
-        .map_err(|e| anyhow::anyhow!("{}: {e}", path.display()))
+    cage_topology(&mesh, Tangents::OpenSubdiv).map_err(|e| match e {
+        crate::Error::Invalid(msg) => crate::Error::parse(path, msg),
+        e => e,
+    })
 }
 
 /// Largest vertex valence (and polygon size: an n-gon refined once makes a valence-n vertex) accepted for
@@ -77,7 +80,7 @@ pub fn cage_topology(
 /// (valence-3 corners, valence-4 elsewhere).
 ///
 /// ```
-/// let m = gregvox::cli::cage::builtin_cage(4, 2, 2);
+/// let m = gregvox::engine::cage::builtin_cage(4, 2, 2);
 /// assert_eq!(m.n_faces(), 2 * (4 * 2 + 2 * 2 + 4 * 2));
 /// ```
 pub fn builtin_cage(nx: u32, ny: u32, nz: u32) -> Mesh {
