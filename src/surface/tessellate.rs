@@ -1,6 +1,6 @@
 //! CPU reference tessellator: every patch on a (L+1)² grid, the f64 twin of the GPU evaluation pass.
 //!
-//! Invariants (DESIGN.md "Tessellation output"):
+//! Invariants (docs/ARCHITECTURE.md, "Tessellation output"):
 //! - patch `p` owns vertices `p·(L+1)² ..`; its vertex `j·(L+1) + i` is at (u, v) = (i/L, j/L), u along the
 //!   face's first edge (v0→v1), v along v0→v3, rows of u inner;
 //! - normals are unit length and never NaN ([`PatchF64::normal`] falls back on degenerate derivatives);
