@@ -16,9 +16,9 @@ use std::time::Duration;
 fn spot() -> gregvox::mesh::Mesh {
     let path = concat!(
         env!("CARGO_MANIFEST_DIR"),
-        "/../shared/models/spot_quadrangulated.obj"
+        "/assets/models/spot_quadrangulated.obj"
     );
-    load_obj(path).expect("spot_quadrangulated is in ../shared/models")
+    load_obj(path).expect("spot_quadrangulated is in assets/models")
 }
 
 fn bench_cpu(c: &mut Criterion) {

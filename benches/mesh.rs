@@ -20,9 +20,9 @@ use std::time::Duration;
 fn bunny() -> Mesh {
     let path = concat!(
         env!("CARGO_MANIFEST_DIR"),
-        "/../shared/models/stanford-bunny.obj"
+        "/assets/models/stanford-bunny.obj"
     );
-    load_obj(path).expect("the bunny is in ../shared/models")
+    load_obj(path).expect("the bunny is in assets/models")
 }
 
 fn bench(c: &mut Criterion) {

@@ -5,7 +5,7 @@
 #include "beziex.glsl"
 layout(local_size_x = 64) in;
 layout(std430, set = 0, binding = 0) readonly buffer Nets { vec4 nets[]; };
-struct Vertex { vec4 position; vec4 normal; };
+#include "surface_vertex.glsl"
 layout(std430, set = 0, binding = 1) writeonly buffer Vertices { Vertex vertices[]; };
 layout(push_constant) uniform Push { uint patch_count; uint level; } pc;
 void main() {

@@ -125,7 +125,7 @@ fn s(p: &Path) -> String {
 }
 
 fn model(rel: &str) -> String {
-    format!("{}/../shared/models/{rel}", env!("CARGO_MANIFEST_DIR"))
+    format!("{}/assets/models/{rel}", env!("CARGO_MANIFEST_DIR"))
 }
 
 /// Every command that reads an OBJ input, with its outputs inside `dir`.

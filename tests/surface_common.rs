@@ -7,7 +7,7 @@ use gregvox::geom::gregory::PatchF64;
 use gregvox::mesh::{Mesh, MeshMatrix, NONE};
 
 pub fn model(rel: &str) -> String {
-    format!("{}/../shared/models/{rel}", env!("CARGO_MANIFEST_DIR"))
+    format!("{}/assets/models/{rel}", env!("CARGO_MANIFEST_DIR"))
 }
 
 pub fn fixture_path(name: &str) -> String {

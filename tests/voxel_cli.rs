@@ -11,7 +11,7 @@ fn gregvox(args: &[&str]) -> Output {
 }
 
 fn model(name: &str) -> String {
-    format!("{}/../shared/models/{name}", env!("CARGO_MANIFEST_DIR"))
+    format!("{}/assets/models/{name}", env!("CARGO_MANIFEST_DIR"))
 }
 
 fn tmp(name: &str) -> std::path::PathBuf {

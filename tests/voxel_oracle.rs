@@ -4,7 +4,7 @@
 //!
 //! The meshes are loaded exactly as `gregvox voxelize` loads them (`load_obj` → `triangles_of` → `clean`),
 //! and the fixture's origin and side must equal our grid frame bit for bit, so both sides sample the same
-//! centres. Tolerances (shared/notes/voxelization.md §10, §13 T2):
+//! centres. Tolerances:
 //! - closed and overlapping meshes (spot, cow, teapot): 0 wrong voxels outside the band, IoU ≥ 0.9999, for
 //!   the CPU scanline, the GPU peel and the GPU A-buffer (winding rule, one axis: z);
 //! - GPU vs CPU, same rule: ≤ max(4, 1e-5·solid) voxels (sub-pixel snapping ties, §3);

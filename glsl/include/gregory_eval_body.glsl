@@ -26,7 +26,7 @@ layout(local_size_x = 8) in;    // gregory_eval.rs GROUP_SIZE
 layout(std430, set = 0, binding = 0) readonly buffer Points { vec4 points[]; };
 layout(std430, set = 0, binding = 1) readonly buffer PatchPoints { uint patch_points[]; };
 layout(std430, set = 0, binding = 2) readonly buffer PatchFlags { uint patch_flags[]; };
-struct Vertex { vec4 position; vec4 normal; };
+#include "surface_vertex.glsl"
 layout(std430, set = 0, binding = 3) writeonly buffer Vertices { Vertex vertices[]; };
 #ifdef GREGORY_ADAPTIVE
 layout(std430, set = 0, binding = 4) readonly buffer Levels { uint levels[]; };

@@ -9,7 +9,7 @@
 layout(std430, set = 0, binding = 0) readonly buffer Points { vec4 points[]; };
 layout(std430, set = 0, binding = 1) readonly buffer PatchPoints { uint patch_points[]; };
 #ifdef CAPTURE
-struct Vertex { vec4 position; vec4 normal; };
+#include "surface_vertex.glsl"
 layout(std430, set = 0, binding = 2) writeonly buffer Captured { Vertex captured[]; };
 #endif
 layout(location = 0) out vec3 world_pos;

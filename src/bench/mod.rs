@@ -38,7 +38,7 @@ pub struct BenchConfig {
     pub suites: Vec<String>,
     /// Repeats per measurement (the median is reported).
     pub repeats: usize,
-    /// The shared models folder (stanford-bunny.obj, spot_quadrangulated.obj, cow.obj, …).
+    /// The test models folder (stanford-bunny.obj, spot_quadrangulated.obj, cow.obj, …).
     pub models: PathBuf,
     /// Where the peer programs live (`bench/peers/install.sh` builds the OpenSubdiv one into it).
     pub peers: PathBuf,
@@ -47,14 +47,14 @@ pub struct BenchConfig {
 }
 
 impl BenchConfig {
-    /// The defaults for this checkout: models in `../shared/models`, peers in `target/bench-peers`.
+    /// The defaults for this checkout: models in `assets/models`, peers in `target/bench-peers`.
     pub fn new(quick: bool) -> Self {
         let repo = PathBuf::from(env!("CARGO_MANIFEST_DIR"));
         BenchConfig {
             quick,
             suites: SUITES.iter().map(|s| s.to_string()).collect(),
             repeats: if quick { 3 } else { 7 },
-            models: repo.join("../shared/models"),
+            models: repo.join("assets/models"),
             peers: repo.join("target/bench-peers"),
             repo,
         }

@@ -22,7 +22,7 @@ pub struct BenchArgs {
     /// Repeats per measurement (the median is reported); default 3 with --quick, else 7.
     #[arg(long)]
     pub repeats: Option<usize>,
-    /// Folder of the shared test models (default: ../shared/models of the source checkout).
+    /// Folder of the test models (default: assets/models of the source checkout).
     #[arg(long)]
     pub models: Option<PathBuf>,
     /// Folder of the built peer programs (default: target/bench-peers; see bench/peers/install.sh).

@@ -1,6 +1,6 @@
 //! `gregvox tessellate IN.obj|IN.gzjson --level N --out OUT.obj`: evaluates every patch on the GPU (compute or
-//! vertex-pull path) and writes positions and unit normals in the contract order of DESIGN.md (one (L+1)² grid
-//! per patch, u along the face's first edge, rows of u inner), plus the grid triangles.
+//! vertex-pull path) and writes positions and unit normals in the contract order of docs/ARCHITECTURE.md
+//! (one (L+1)² grid per patch, u along the face's first edge, rows of u inner), plus the grid triangles.
 use super::profile::ProfileArgs;
 use crate::engine::gregory::{GregorySurface, GregoryTopology};
 use crate::engine::vertex_pull::vertex_pull;

@@ -3,7 +3,7 @@
 //! turning slowly about the vertical axis while animation is on.
 //!
 //! With no `--model` the scene shows `04_Cup1.gzjson` from beziex/Beziex_We, embedded in the binary: it is a
-//! beziex original shape released under CC0 1.0 (see ../shared/models/beziex/SOURCES.md), so it may be
+//! beziex original shape released under CC0 1.0 (see assets/models/beziex/SOURCES.md), so it may be
 //! redistributed without conditions.
 //!
 //! Invariants: the nets, the placeholder patch-index buffer and the grid index buffer are uploaded once and

@@ -319,7 +319,8 @@ impl Profiler {
         s
     }
 
-    /// The profile JSON of DESIGN.md: `{"device", "passes": [{"name", "calls", "gpu_ms": {min, median, max}}]}`.
+    /// The profile JSON of docs/ARCHITECTURE.md:
+    /// `{"device", "passes": [{"name", "calls", "gpu_ms": {min, median, max}}]}`.
     pub fn json(&self) -> serde_json::Value {
         let passes: Vec<serde_json::Value> = self
             .stats()

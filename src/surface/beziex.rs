@@ -1,4 +1,4 @@
-//! Beziex patches (the "Beziex patch 2019" format of ../shared/models/beziex, notes/gregory.md §5): loading
+//! Beziex patches (the "Beziex patch 2019" format of assets/models/beziex/SOURCES.md): loading
 //! the gzip-JSON files and the f64 reference evaluator.
 //!
 //! A patch blends two polynomial surfaces sharing its four boundary cubics:

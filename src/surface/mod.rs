@@ -1,8 +1,8 @@
 //! Gregory patches from cages (ACC-2 stencils), Beziex patches, CPU reference tessellator.
 //!
 //! Invariants: patch `k` of a quad cage is face `k`; control points are in OpenSubdiv GREGORY_BASIS order
-//! (see [`crate::geom::gregory`]); tessellation grids follow DESIGN.md's contract (u along v0→v1, rows of u
-//! inner, vertex `j·(L+1)+i` at (i/L, j/L)).
+//! (see [`crate::geom::gregory`]); tessellation grids follow the contract of docs/ARCHITECTURE.md (u along
+//! v0→v1, rows of u inner, vertex `j·(L+1)+i` at (i/L, j/L)).
 pub mod acc2;
 pub mod beziex;
 pub mod tessellate;

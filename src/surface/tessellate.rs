@@ -1,6 +1,6 @@
 //! CPU reference tessellator: every patch on a (L+1)² grid, the f64 twin of the GPU evaluation pass.
 //!
-//! Invariants (DESIGN.md "Tessellation output"):
+//! Invariants (docs/ARCHITECTURE.md, "Tessellation output"):
 //! - patch `p` owns vertices `p·(L+1)² ..`; its vertex `j·(L+1) + i` is at (u, v) = (i/L, j/L), u along the
 //!   face's first edge (v0→v1), v along v0→v3, rows of u inner;
 //! - normals are unit length and never NaN ([`PatchF64::normal`] falls back on degenerate derivatives);
@@ -10,7 +10,6 @@
 use crate::error::{Error, Result};
 use crate::geom::gregory::PatchF64;
 use glam::DVec3;
-use std::io::Write;
 use std::path::Path;
 
 /// Positions and unit normals of all patch grids, patch-major.
@@ -80,8 +79,8 @@ pub fn indices(level: u32, n_patches: usize) -> Vec<u32> {
     idx
 }
 
-/// Writes `v`, `vn` and `f a//a b//b c//c` lines to `path` atomically (a temporary file beside it, then
-/// a rename), so a reader never sees a half-written file.
+/// Writes `v`, `vn` and `f a//a b//b c//c` lines to `path` through [`crate::io::write_atomic`] (a temporary
+/// file beside it, then a rename), so a reader never sees a half-written file.
 ///
 /// ```
 /// use gregvox::geom::gregory::PatchF64;
@@ -108,14 +107,7 @@ pub fn write_tessellation_obj(path: impl AsRef<Path>, t: &Tessellation, level: u
             t.normals.len()
         )));
     }
-    let file_name = path
-        .file_name()
-        .map(|s| s.to_string_lossy().into_owned())
-        .unwrap_or_else(|| "out.obj".into());
-    let tmp = path.with_file_name(format!(".{file_name}.tmp{}", std::process::id()));
-    let write = || -> std::io::Result<()> {
-        let f = std::fs::File::create(&tmp)?;
-        let mut w = std::io::BufWriter::new(f);
+    crate::io::write_atomic(path, |w| {
         writeln!(
             w,
             "# gregvox tessellation: level {l}, {} patches",
@@ -131,16 +123,6 @@ pub fn write_tessellation_obj(path: impl AsRef<Path>, t: &Tessellation, level: u
             let (a, b, c) = (tri[0] + 1, tri[1] + 1, tri[2] + 1);
             writeln!(w, "f {a}//{a} {b}//{b} {c}//{c}")?;
         }
-        w.flush()?;
-        w.get_ref().sync_all()?;
         Ok(())
-    };
-    if let Err(e) = write() {
-        let _ = std::fs::remove_file(&tmp);
-        return Err(Error::io(path, e));
-    }
-    std::fs::rename(&tmp, path).map_err(|e| {
-        let _ = std::fs::remove_file(&tmp);
-        Error::io(path, e)
     })
 }

@@ -1,6 +1,6 @@
-//! The voxel grid contract (DESIGN.md): a cubic R×R×R grid whose origin is the mesh's bounding-box minimum
-//! and whose side is the box's longest extent; voxel (i,j,k) has its centre at origin + (i+½, j+½, k+½)·pitch;
-//! a voxel is solid iff its centre is inside the solid.
+//! The voxel grid contract (docs/ARCHITECTURE.md): a cubic R×R×R grid whose origin is the mesh's bounding-box
+//! minimum and whose side is the box's longest extent; voxel (i,j,k) has its centre at origin + (i+½, j+½,
+//! k+½)·pitch; a voxel is solid iff its centre is inside the solid.
 //!
 //! Storage: bit-packed u32 columns along one *bit axis*. For bit axis `a`, the column coordinates are the two
 //! other axes in cyclic order `(u, v) = (a+1, a+2) mod 3` and the depth `d` is axis `a`; word

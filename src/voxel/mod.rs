@@ -1,5 +1,6 @@
-//! Solid voxelization: the grid contract, the CPU reference voxelizer, the GPU depth-peeling driver, hygiene
-//! of the input triangles and the exporters.
+//! Solid voxelization on the CPU side: the grid contract, the CPU reference voxelizer, hygiene of the input
+//! triangles, the exporters and the CPU reference of the voxel ray caster. The GPU drivers (depth peeling,
+//! A-buffer) are in `crate::engine::voxelize`.
 pub mod cpu;
 pub mod export;
 pub mod grid;

@@ -36,9 +36,9 @@ pub fn with_gpu<T>(f: impl FnOnce(&Context) -> T) -> T {
     out
 }
 
-/// Path of a file in the shared models folder.
+/// Path of a file in the repository's models folder (`assets/models`).
 pub fn model(name: &str) -> std::path::PathBuf {
     std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("../shared/models")
+        .join("assets/models")
         .join(name)
 }

@@ -5,10 +5,10 @@ use glam::DVec3;
 use std::collections::HashMap;
 use std::path::PathBuf;
 
-/// `shared/models/NAME` beside the repository (CI checks shared/ out there too).
+/// `assets/models/NAME` of the repository.
 pub fn model(name: &str) -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR"))
-        .join("../shared/models")
+        .join("assets/models")
         .join(name)
 }
 

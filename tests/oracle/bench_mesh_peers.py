@@ -30,7 +30,7 @@ import numpy as np
 import trimesh
 
 ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
-MODELS = os.path.join(ROOT, "..", "shared", "models")
+MODELS = os.path.join(ROOT, "assets", "models")
 
 
 def read_obj(path):

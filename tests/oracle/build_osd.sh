@@ -4,7 +4,7 @@
 set -eu
 here=$(cd "$(dirname "$0")" && pwd)
 root=$(cd "$here/../.." && pwd)
-models="$root/../shared/models"
+models="$root/assets/models"
 out="$root/tests/fixtures/surface"
 bin="${TMPDIR:-/tmp}/osd_gregory"
 mkdir -p "$out"

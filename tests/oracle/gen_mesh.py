@@ -1,11 +1,11 @@
 #!/usr/bin/env python3
 """Generate the mesh oracle fixtures in tests/fixtures/mesh/ from libigl and trimesh.
 
-Run from the repository root (shared/ must sit beside it):
+Run from the repository root (models in assets/models):
     python3 -m pip install -r tests/oracle/requirements-mesh.txt
     python3 tests/oracle/gen_mesh.py
 
-Traps handled (see shared/notes/mesh-matrices-and-curves.md A.8):
+Traps handled:
 - meshes are read with a plain text reader (positions as given, no welding, unreferenced vertices kept);
   trimesh always gets process=False;
 - libigl gives NaN normals to unreferenced vertices: the fixture keeps them, the Rust test skips them;
@@ -24,7 +24,7 @@ import scipy
 import trimesh
 
 ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
-MODELS = os.path.join(ROOT, "..", "shared", "models")
+MODELS = os.path.join(ROOT, "assets", "models")
 OUT = os.path.join(ROOT, "tests", "fixtures", "mesh")
 
 

@@ -1,11 +1,11 @@
 #!/usr/bin/env python3
 """Generate the solid-voxel oracle fixtures in tests/fixtures/voxel/ (generalized winding number, libigl).
 
-Run from the repository root (shared/ must sit beside it, `cargo build` done first):
+Run from the repository root (models in assets/models, `cargo build` done first):
     python3 -m pip install -r tests/oracle/requirements-voxel.txt
     python3 tests/oracle/gen_voxel.py
 
-What is stored, per model and resolution R (grid contract of DESIGN.md, shared/notes/voxelization.md §1):
+What is stored, per model and resolution R (grid contract of docs/ARCHITECTURE.md):
 - the mesh exactly as `gregvox voxelize` sees it: OBJ positions parsed as float64, rounded to float32
   (`src/cli/voxelize.rs::triangles_of`), polygons fan-triangulated (v0, vk, vk+1); no welding, no cleaning;
 - origin = bbox min, side = longest extent (both from the float32 positions, in float64),
@@ -36,7 +36,7 @@ import numpy as np
 import trimesh
 
 ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
-MODELS = os.path.join(ROOT, "..", "shared", "models")
+MODELS = os.path.join(ROOT, "assets", "models")
 OUT = os.path.join(ROOT, "tests", "fixtures", "voxel")
 GREGVOX = os.path.join(ROOT, "target", "debug", "gregvox")
 
