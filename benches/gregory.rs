@@ -62,7 +62,8 @@ fn bench_gpu(c: &mut Criterion) {
         }
     };
     let mesh = spot();
-    let (topo, cage, _) = gregvox::engine::cage::cage_topology(&mesh, Tangents::OpenSubdiv).unwrap();
+    let (topo, cage, _) =
+        gregvox::engine::cage::cage_topology(&mesh, Tangents::OpenSubdiv).unwrap();
     let n = topo.patch_points.len() as u32;
     let eval = GregoryEvalPass::new(&ctx).unwrap();
     let ids: Vec<u32> = topo.patch_points.iter().flatten().copied().collect();

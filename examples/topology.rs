@@ -17,7 +17,10 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let m = MeshMatrix::from_mesh(&mesh);
     let loops = m.boundary_loops();
     let longest = loops.iter().map(Vec::len).max().unwrap_or(0);
-    println!("{} boundary loops, the longest of {longest} edges", loops.len());
+    println!(
+        "{} boundary loops, the longest of {longest} edges",
+        loops.len()
+    );
     println!(
         "vertex 1: valence {}, neighbours {:?}",
         m.valence(0),

@@ -442,7 +442,8 @@ impl Gpu {
         opts.validate()?;
         if opts.method != Method::Peel {
             return Err(Error::Invalid(
-                "--gregory-level voxelizes the GPU surface by depth peeling: use --method peel".into(),
+                "--gregory-level voxelizes the GPU surface by depth peeling: use --method peel"
+                    .into(),
             ));
         }
         let topo_report = topology(cage);

@@ -69,7 +69,7 @@ pub mod surface;
 pub mod voxel;
 
 pub use api::{
-    load_mesh, topology, voxelize_on_cpu, Axes, Deformation, Gpu, Method, Surface, VoxelizeOptions,
-    VoxelizeReport, Voxelization,
+    load_mesh, topology, voxelize_on_cpu, Axes, Deformation, Gpu, Method, Surface, Voxelization,
+    VoxelizeOptions, VoxelizeReport,
 };
 pub use error::{Error, Result};

@@ -192,7 +192,8 @@ fn the_cpu_wave_deformation_matches_the_gpu_pass() {
     use gregvox::passes::cage_deform::{DeformParams, Deformation};
     use gregvox::surface::{GregoryStencils, Tangents};
     let cage = grid_cage(3, 2);
-    let (topo, rest, _) = gregvox::engine::cage::cage_topology(&cage, Tangents::OpenSubdiv).unwrap();
+    let (topo, rest, _) =
+        gregvox::engine::cage::cage_topology(&cage, Tangents::OpenSubdiv).unwrap();
     let stencils = GregoryStencils::from_mesh(&cage, Tangents::OpenSubdiv)
         .unwrap()
         .stencils;
@@ -204,8 +205,8 @@ fn the_cpu_wave_deformation_matches_the_gpu_pass() {
             mode: Deformation::Wave,
             t: t as f32,
             amplitude: amplitude as f32,
-            box_min: s.box_min,
-            box_size: s.box_size,
+            box_min: s.box_min(),
+            box_size: s.box_size(),
         };
         ctx.one_shot(|cmd| s.record(ctx, cmd, Some(&d), None))
             .unwrap();

@@ -13,8 +13,8 @@ mod common;
 use ash::vk;
 use clap::Parser;
 use glam::{DVec3, Mat4, Vec3, Vec4};
-use gregvox::engine::cage::{builtin_cage, cage_topology};
 use gregvox::demo::{build_scene, draw_path, DemoArgs, Renderer, FRAMES_IN_FLIGHT};
+use gregvox::engine::cage::{builtin_cage, cage_topology};
 use gregvox::engine::gregory::GregorySurface;
 use gregvox::geom::gregory::PatchF64;
 use gregvox::geom::shading::in_shadow_by;
@@ -435,7 +435,7 @@ fn curvature_pass_matches_the_cpu_fundamental_forms_at_every_grid_vertex() {
     let (gpu, points) = common::with_gpu(|ctx| {
         let surface = GregorySurface::new(ctx, &topo, &cage, LEVEL).unwrap();
         let pass = SurfaceCurvaturePass::new(ctx).unwrap();
-        let n = surface.patch_count as u64 * (LEVEL as u64 + 1).pow(2);
+        let n = surface.patch_count() as u64 * (LEVEL as u64 + 1).pow(2);
         let out = ctx
             .create_buffer(
                 "curvature",
@@ -451,7 +451,7 @@ fn curvature_pass_matches_the_cpu_fundamental_forms_at_every_grid_vertex() {
                 cmd,
                 surface.points(),
                 surface.patch_points(),
-                surface.patch_count,
+                surface.patch_count(),
                 LEVEL,
                 &out,
             )

@@ -3,7 +3,7 @@
 //! detection, axis choice, the memory estimate).
 use super::profile::ProfileArgs;
 use crate::api::{
-    load_mesh, voxelize_on_cpu, Axes, Axis, FillRule, Gpu, Method, VoxelizeOptions, Voxelization,
+    load_mesh, voxelize_on_cpu, Axes, Axis, FillRule, Gpu, Method, Voxelization, VoxelizeOptions,
     MAX_RES,
 };
 use anyhow::bail;
@@ -199,9 +199,7 @@ fn progress_bar(
     max_layers: u32,
 ) -> Option<indicatif::ProgressBar> {
     use std::io::IsTerminal;
-    let long = res >= 512
-        || triangles >= 1_000_000
-        || max_layers > crate::api::DEFAULT_MAX_LAYERS;
+    let long = res >= 512 || triangles >= 1_000_000 || max_layers > crate::api::DEFAULT_MAX_LAYERS;
     if !long || !std::io::stderr().is_terminal() {
         return None;
     }

@@ -706,7 +706,9 @@ impl Scene for CageScene {
         };
         format!(
             "{} ({} patches, {level}, {:?})",
-            self.name, self.surface.patch_count(), self.deformation
+            self.name,
+            self.surface.patch_count(),
+            self.deformation
         )
     }
 

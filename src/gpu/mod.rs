@@ -14,11 +14,11 @@ pub mod swapchain;
 pub use context::{Context, ContextDesc, DeviceInfo, Validation};
 pub use frames::Frames;
 pub use lifetime::{Owned, OwnedHandle};
-#[cfg(feature = "window")]
-pub use swapchain::SwapchainTarget;
 pub use present::{OffscreenTarget, PresentTarget, TargetImage};
 pub use profiler::Profiler;
 pub use resources::{Buffer, Image, ImageDesc, MemoryLocation};
+#[cfg(feature = "window")]
+pub use swapchain::SwapchainTarget;
 
 pub mod shaders {
     //! SPIR-V of every shader in `glsl/`, compiled by `build.rs` (one u32 array per file).
