@@ -45,11 +45,13 @@
 //! # Layers
 //!
 //! Nothing imports from a layer above it:
-//! `cli` → `demo`, `bench` → [`api`] → [`engine`] (multi-pass workflows) → [`passes`] (one GPU pass per file)
+//! `cli` → `demo`, `bench` → `args` → [`api`] → [`engine`] (multi-pass workflows) → [`passes`] (one GPU pass per file)
 //! → [`surface`], [`voxel`] → [`mesh`] → [`geom`]; [`gpu`] is the Vulkan foundation and knows no geometry;
 //! [`error`] and [`io`] are shared by all. The app (`cli`, `demo`, `bench`) sits behind cargo features of the
 //! same names, on by default: `cargo build --lib --no-default-features` builds the engine without clap,
 //! winit, plotters or indicatif. `docs/ARCHITECTURE.md` follows a mesh from a file to voxels or pixels.
+#[cfg(feature = "cli")]
+pub mod args;
 #[cfg(feature = "bench")]
 pub mod bench;
 #[cfg(feature = "cli")]

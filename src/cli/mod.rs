@@ -6,7 +6,6 @@ use std::process::ExitCode;
 pub mod bench;
 pub mod info;
 pub mod mesh;
-pub mod profile;
 pub mod tessellate;
 pub mod voxelize;
 

@@ -8,7 +8,7 @@
 //! again (after that slot's fence) or at the end. Time is `frame × --time-step` offscreen (default 1/60 s,
 //! so frames are reproducible whatever the machine's speed) and in a window when `--time-step` is given;
 //! otherwise the window uses wall-clock time. Scene switches and level changes wait for the device first.
-use crate::cli::profile::ProfileArgs;
+use crate::args::ProfileArgs;
 use crate::gpu::present::begin_color_target;
 use crate::gpu::resources::image_barrier;
 use crate::gpu::{

@@ -11,7 +11,7 @@
 use crate::error::{Error, Result};
 use crate::gpu::pipeline::{GraphicsDesc, GraphicsPipeline};
 use crate::gpu::{shaders, Buffer, Context, MemoryLocation};
-use crate::passes::surface_draw::{begin_color_depth, DrawTarget};
+use crate::passes::draw::{begin_color_depth, DrawTarget};
 use ash::vk;
 
 /// One line vertex (stride 32).

@@ -11,7 +11,8 @@ use crate::gpu::pipeline::{Binding, DescriptorSetLayoutBuilder, GraphicsDesc, Gr
 use crate::gpu::resources::memory_barrier;
 use crate::gpu::{shaders, Buffer, Context};
 use crate::passes::gregory_eval::ControlPoints;
-use crate::passes::surface_draw::{begin_color_depth, DrawTarget, SurfacePush};
+use crate::passes::draw::{begin_color_depth, DrawTarget};
+use crate::passes::surface_draw::SurfacePush;
 use ash::vk;
 
 /// Which patch type the vertex shader evaluates.

@@ -17,7 +17,7 @@ use crate::gpu::pipeline::{Binding, GraphicsDesc, GraphicsPipeline};
 use crate::gpu::resources::{image_barrier, memory_barrier};
 use crate::gpu::Owned;
 use crate::gpu::{shaders, Buffer, Context, Image, ImageDesc, MemoryLocation};
-use crate::passes::surface_draw::{draw_indexed, LitDraw};
+use crate::passes::draw::{draw_indexed, LitDraw};
 use ash::vk;
 use glam::{Mat4, Vec3};
 

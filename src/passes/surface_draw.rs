@@ -12,6 +12,7 @@
 use crate::error::Result;
 use crate::gpu::pipeline::{DescriptorSetLayoutBuilder, GraphicsDesc, GraphicsPipeline};
 use crate::gpu::{shaders, Buffer, Context};
+pub use crate::passes::draw::{begin_color_depth, draw_indexed, DrawTarget, IndirectDraw, LitDraw};
 use crate::passes::shadow_map::ShadowMap;
 use ash::vk;
 
@@ -72,59 +73,6 @@ pub const FLAG_GROUND: u32 = 1;
 /// `mode.w` flag: sample the shadow map.
 pub const FLAG_SHADOWS: u32 = 2;
 
-/// One indexed surface draw of the lit path.
-#[derive(Clone, Copy)]
-pub struct LitDraw<'a> {
-    /// Stride-32 `SurfaceVertex` buffer.
-    pub vertices: &'a Buffer,
-    /// (H, K) per vertex (stride 8), or `None` when the draw has no curvature: then the vertex buffer is
-    /// bound again in its place (a valid stream the shader reads but the non-curvature modes ignore), so one
-    /// pipeline serves both.
-    pub curvature: Option<&'a Buffer>,
-    /// u32 triangle-list indices.
-    pub indices: &'a Buffer,
-    pub index_count: u32,
-    /// Per-patch indexed-indirect commands instead of `index_count` (adaptive tessellation).
-    pub indirect: Option<IndirectDraw<'a>>,
-}
-
-/// One `VkDrawIndexedIndirectCommand` per patch, written on the GPU (adaptive tessellation: each patch draws
-/// its own level's grid from one index buffer holding every level's grid, at its own vertex slot).
-#[derive(Clone, Copy, Debug)]
-pub struct IndirectDraw<'a> {
-    pub commands: &'a Buffer,
-    pub count: u32,
-}
-
-/// Draws from the bound vertex and index buffers: `index_count` indices, or every command of `indirect`.
-/// One draw per command, so it works without the `multiDrawIndirect` feature.
-pub fn draw_indexed(
-    ctx: &Context,
-    cmd: vk::CommandBuffer,
-    index_count: u32,
-    indirect: Option<IndirectDraw<'_>>,
-) {
-    const STRIDE: u32 = std::mem::size_of::<vk::DrawIndexedIndirectCommand>() as u32;
-    // SAFETY: inside a render pass with a graphics pipeline, vertex and index buffers bound; the command
-    // buffer (if any) has INDIRECT usage and `count` commands, made visible to DRAW_INDIRECT by its writer.
-    unsafe {
-        match indirect {
-            None => ctx.device.cmd_draw_indexed(cmd, index_count, 1, 0, 0, 0),
-            Some(d) => {
-                for p in 0..d.count as u64 {
-                    ctx.device.cmd_draw_indexed_indirect(
-                        cmd,
-                        d.commands.raw(),
-                        p * STRIDE as u64,
-                        1,
-                        STRIDE,
-                    );
-                }
-            }
-        }
-    }
-}
-
 /// Push constants of the surface shaders (`SurfacePush` in glsl/include/surface_common.glsl).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, bytemuck::Pod, bytemuck::Zeroable)]
@@ -136,65 +84,12 @@ pub struct SurfacePush {
     pub mode: [u32; 4],
 }
 
-/// Begins dynamic rendering into `target`'s color and depth views, clearing both (`clear` = Some(color)) or
-/// loading them; shared by every pass that draws a surface.
-pub fn begin_color_depth(
-    ctx: &Context,
-    cmd: vk::CommandBuffer,
-    target: &DrawTarget,
-    clear: Option<[f32; 4]>,
-) {
-    let load = if clear.is_some() {
-        vk::AttachmentLoadOp::CLEAR
-    } else {
-        vk::AttachmentLoadOp::LOAD
-    };
-    let color = [vk::RenderingAttachmentInfo::default()
-        .image_view(target.color)
-        .image_layout(vk::ImageLayout::COLOR_ATTACHMENT_OPTIMAL)
-        .load_op(load)
-        .store_op(vk::AttachmentStoreOp::STORE)
-        .clear_value(vk::ClearValue {
-            color: vk::ClearColorValue {
-                float32: clear.unwrap_or([0.0; 4]),
-            },
-        })];
-    let depth = vk::RenderingAttachmentInfo::default()
-        .image_view(target.depth)
-        .image_layout(vk::ImageLayout::DEPTH_ATTACHMENT_OPTIMAL)
-        .load_op(load)
-        .store_op(vk::AttachmentStoreOp::STORE)
-        .clear_value(vk::ClearValue {
-            depth_stencil: vk::ClearDepthStencilValue {
-                depth: 1.0,
-                stencil: 0,
-            },
-        });
-    let info = vk::RenderingInfo::default()
-        .render_area(vk::Rect2D {
-            offset: vk::Offset2D::default(),
-            extent: target.extent,
-        })
-        .layer_count(1)
-        .color_attachments(&color)
-        .depth_attachment(&depth);
-    ctx.cmd_begin_rendering(cmd, &info);
-}
-
 /// The surface draw pass.
 pub struct SurfaceDrawPass {
     pipeline: GraphicsPipeline,
     lit: GraphicsPipeline,
     pub color_format: vk::Format,
     pub depth_format: vk::Format,
-}
-
-/// A frame's targets.
-#[derive(Clone, Copy)]
-pub struct DrawTarget {
-    pub color: vk::ImageView,
-    pub depth: vk::ImageView,
-    pub extent: vk::Extent2D,
 }
 
 impl SurfaceDrawPass {

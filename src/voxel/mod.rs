@@ -1,6 +1,6 @@
 //! Solid voxelization on the CPU side: the grid contract, the CPU reference voxelizer, hygiene of the input
 //! triangles, the exporters and the CPU reference of the voxel ray caster. The GPU drivers (depth peeling,
-//! A-buffer) are in `crate::engine::voxelize`.
+//! A-buffer) are one layer up, in the engine's `voxelize` module.
 pub mod cpu;
 pub mod export;
 pub mod grid;

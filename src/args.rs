@@ -1,4 +1,5 @@
-//! The profiling flags shared by every command that runs GPU passes.
+//! Argument groups shared by the command line, the demo and the bench (feature `cli`): the profiling flags of
+//! every command that runs GPU passes. Below all three, so none of them imports upward.
 use crate::gpu::Profiler;
 use clap::Args;
 use std::path::PathBuf;

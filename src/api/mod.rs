@@ -23,6 +23,8 @@ use crate::voxel::mesh::{CleanReport, TriMesh};
 use glam::DVec3;
 use std::path::Path;
 
+pub mod tessellate;
+
 pub use crate::engine::voxelize::{ProgressFn, DEFAULT_MAX_LAYERS};
 pub use crate::mesh::{Mesh, MeshMatrix, TopologyReport};
 pub use crate::passes::cage_deform::Deformation;
