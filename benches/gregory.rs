@@ -113,13 +113,8 @@ fn bench_gpu(c: &mut Criterion) {
                 .unwrap()
             })
         });
-        drop(out);
-        drop(surface);
     }
     g.finish();
-    drop(pp);
-    drop(pf);
-    drop(eval);
 }
 
 criterion_group!(benches, bench_cpu, bench_gpu);

@@ -140,15 +140,8 @@ fn bench_gpu(c: &mut Criterion) {
                     .unwrap()
             })
         });
-        for buf in [pb, nb, yb] {
-            drop(buf);
-        }
-        drop(s);
-        drop(gm);
     }
     g.finish();
-    drop(normals);
-    drop(spmv);
 }
 
 criterion_group!(benches, bench, bench_gpu);

@@ -40,5 +40,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             vertices.len()
         );
     }
+    drop(surface);
+    gpu.finish()?; // nothing left alive, no validation message
     Ok(())
 }

@@ -18,7 +18,9 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     } else {
         let gpu = Gpu::new()?;
         println!("device: {}", gpu.info().name);
-        gpu.voxelize(&mesh, &opts)?
+        let voxels = gpu.voxelize(&mesh, &opts)?;
+        gpu.finish()?; // nothing left alive, no validation message
+        voxels
     };
     for note in &voxels.report.notes {
         println!("note: {note}");

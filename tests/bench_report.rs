@@ -211,7 +211,6 @@ fn the_cpu_wave_deformation_matches_the_gpu_pass() {
         ctx.one_shot(|cmd| s.record(ctx, cmd, Some(&d), None))
             .unwrap();
         let p = s.read_points(ctx).unwrap();
-        drop(s);
         p
     });
     assert_eq!(got.len(), want.len());

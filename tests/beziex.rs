@@ -72,9 +72,6 @@ fn gpu_compute(patches: &[BeziexPatch], level: u32) -> Vec<SurfaceVertex> {
         ctx.one_shot(|cmd| pass.record(ctx, cmd, &nb, patches.len() as u32, level, &out))
             .unwrap();
         let v = ctx.read_pod(&out).unwrap();
-        drop(nb);
-        drop(out);
-        drop(pass);
         v
     })
 }
@@ -281,12 +278,6 @@ fn vertex_pull(
         })
         .unwrap();
         let v = ctx.read_pod(&cap).unwrap();
-        for b in [pb, ib, grid, cap] {
-            drop(b);
-        }
-        drop(color);
-        drop(depth);
-        drop(pass);
         v
     })
 }
@@ -372,10 +363,6 @@ fn vertex_pull_equals_compute_for_beziex_and_gregory_patches() {
         })
         .unwrap();
         let v = ctx.read_pod(&out).unwrap();
-        for b in [pb, ib, fb, out] {
-            drop(b);
-        }
-        drop(pass);
         v
     });
     let (dp, dn) = max_diff(&pulled, &computed);

@@ -123,8 +123,6 @@ fn render(ctx: &Context, args: &DemoArgs, wanted: &[u64]) -> Vec<Vec<u8>> {
             out.push(target.read_rgba(slot).unwrap());
         }
     }
-    drop(r);
-    drop(target);
     out
 }
 
@@ -262,8 +260,6 @@ fn a_thousand_frames_keep_gpu_memory_flat() {
             after_warmup,
             "(bytes, allocations) after frame 10 and after frame 1000"
         );
-        drop(r);
-        drop(target);
     });
 }
 
@@ -318,8 +314,6 @@ fn resize_minimise_and_restore_between_frames() {
             non_background(&px) > 0.05,
             "the restored frame shows the scene"
         );
-        drop(r);
-        drop(target);
     });
 }
 
@@ -355,8 +349,6 @@ fn level_changes_and_scene_switches_rebuild_in_place() {
         r.finish(ctx).unwrap();
         let px = target.read_rgba(0).unwrap();
         assert!(non_background(&px) > 0.05, "the cage at level 1 shows");
-        drop(r);
-        drop(target);
     });
 }
 
@@ -459,9 +451,6 @@ fn curvature_pass_matches_the_cpu_fundamental_forms_at_every_grid_vertex() {
         .unwrap();
         let hk: Vec<[f32; 2]> = ctx.read_pod(&out).unwrap();
         let points = surface.read_points(ctx).unwrap();
-        drop(out);
-        drop(pass);
-        drop(surface);
         (hk, points)
     });
     let n1 = LEVEL as usize + 1;
@@ -623,13 +612,6 @@ fn shadow_map_darkens_exactly_the_ground_the_cpu_ray_cast_puts_in_shadow() {
         .unwrap();
         target.present(ctx, &img).unwrap();
         let px = target.read_rgba(0).unwrap();
-        for b in [ground_v, occ_v, ib] {
-            drop(b);
-        }
-        drop(depth);
-        drop(shadow);
-        drop(draw);
-        drop(target);
         px
     });
     let inv = view_proj.inverse();

@@ -109,11 +109,6 @@ fn gpu_raycast(
     })
     .unwrap();
     let words: Vec<u32> = ctx.read_pod(&ids).unwrap();
-    drop(ids);
-    drop(bricks);
-    drop(image);
-    drop(buf);
-    drop(pass);
     words
         .chunks_exact(2)
         .map(|p| (p[0], p[1].to_le_bytes()))
@@ -175,7 +170,6 @@ fn gregory_grid(ctx: &Context) -> VoxelGrid {
     let (grid, _) =
         voxelize_gregory_surface(ctx, &surface, 32, &[Axis::Z], FillRule::Winding, 64, None)
             .unwrap();
-    drop(surface);
     grid
 }
 
@@ -386,9 +380,6 @@ fn one_frame(ctx: &Context, scene: &mut dyn Scene, t: f32) {
             .map_err(|e| gregvox::Error::Invalid(e.to_string()))
     })
     .unwrap();
-    drop(profiler);
-    drop(color);
-    drop(depth);
 }
 
 #[test]
@@ -462,10 +453,8 @@ fn the_voxels_scene_grid_after_one_frame_equals_the_one_shot_gpu_voxelizer() {
                 None,
             )
             .unwrap();
-        drop(one_shot);
         assert!(resident.count() > 1000);
         assert_eq!(resident.count_differences(&reference), 0);
-        drop(scene);
     });
 }
 
@@ -499,7 +488,6 @@ fn with_voxel_every_2_the_grid_is_kept_on_the_odd_frames() {
             grids[2].count_differences(&grids[0]) > 100,
             "the bend changes the grid"
         );
-        drop(scene);
     });
 }
 
@@ -545,7 +533,6 @@ fn the_curves_scene_draws_the_predicted_segments_from_the_geometry_core() {
         let mut scene = CurvesScene::new(ctx, FORMAT).unwrap();
         one_frame(ctx, &mut scene, 0.4);
         assert_eq!(scene.drawn, expected_vertices());
-        drop(scene);
     });
 }
 
@@ -574,8 +561,6 @@ fn render(ctx: &Context, args: &[&str], frames: u32) -> (u32, u32, Vec<Vec<u8>>)
     let pixels = (frames - 2..frames)
         .map(|f| target.read_rgba((f % slots) as usize).unwrap())
         .collect();
-    drop(r);
-    drop(target);
     (w, h, pixels)
 }
 

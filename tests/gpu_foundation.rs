@@ -50,8 +50,6 @@ fn compute_fill_is_exact_element_by_element_across_a_2d_split_dispatch() {
             .filter(|&i| words[i] != (i as u32).wrapping_mul(3).wrapping_add(7))
             .count();
         assert_eq!(wrong, 0, "{wrong} of {n} elements differ from i*3+7");
-        drop(buf);
-        drop(pass);
     });
 }
 
@@ -74,7 +72,6 @@ fn upload_and_readback_round_trip_through_staging() {
             ctx.read_buffer_range(&buf, 1000, 17).unwrap(),
             data[1000..1017]
         );
-        drop(buf);
     });
 }
 
@@ -85,7 +82,6 @@ fn gpu_only_memory_is_never_mapped() {
         let err = buf.mapped().unwrap_err().to_string();
         assert!(err.contains("GpuOnly"), "{err}");
         assert!(buf.mapped_mut().is_err());
-        drop(buf);
     });
 }
 
@@ -196,9 +192,6 @@ fn offscreen_triangle_covers_exactly_the_pixels_whose_centres_are_inside() {
                 mismatches.push((k as u32 % W, k as u32 / W));
             }
         }
-        drop(vbuf);
-        drop(pass);
-        drop(target);
         (covered, mismatches)
     });
     assert_eq!(covered, expected_count);
@@ -266,10 +259,6 @@ fn profiler_scopes_come_back_ordered_and_positive() {
             6
         );
         assert!(prof.table().contains("| second fill | 3 |"));
-        drop(a);
-        drop(b);
-        drop(pass);
-        drop(prof);
     });
 }
 
@@ -309,8 +298,6 @@ fn a_buffer_dropped_while_its_frame_records_lives_until_that_frame_completes() {
                 ctx.live_allocations()
             );
         }
-        drop(frames);
-        drop(pass);
     });
 }
 
@@ -448,8 +435,5 @@ fn offscreen_target_applies_a_resize_at_the_next_acquire() {
         });
         assert_eq!(target.acquire(ctx, 0).unwrap().unwrap().extent.width, 8);
         assert_eq!(target.acquire(ctx, 1).unwrap().unwrap().extent.height, 8);
-        drop(vbuf);
-        drop(pass);
-        drop(target);
     });
 }

@@ -84,7 +84,6 @@ fn uniform<'a>(
         let s = GregorySurface::new(ctx, topo, cage, level).unwrap();
         ctx.one_shot(|cmd| s.record(ctx, cmd, None, None)).unwrap();
         let v = s.read_vertices(ctx).unwrap();
-        drop(s);
         v
     })
 }
@@ -230,7 +229,6 @@ fn adaptive_levels_are_crack_free_and_equal_uniform_evaluation_at_their_levels()
                 view.name
             );
         }
-        drop(s);
     });
 }
 
@@ -273,6 +271,5 @@ fn bad_adaptive_parameters_are_clear_errors() {
         }
         assert!(s.read_levels(ctx).is_err(), "adaptive is still off");
         assert!(s.adaptive_draw().is_none());
-        drop(s);
     });
 }

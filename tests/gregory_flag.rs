@@ -71,7 +71,6 @@ fn gpu_patches_equal_the_reference_and_stay_g1_when_evaluated() {
             .unwrap();
         let on = flag.read_points(ctx).unwrap();
         let verts: Vec<SurfaceVertex> = ctx.read_pod(flag.vertices()).unwrap();
-        drop(flag);
         (on, off, verts)
     });
     for (gpu, correct) in [(&points_on, true), (&points_off, false)] {

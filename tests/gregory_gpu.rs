@@ -56,11 +56,6 @@ fn spmv_equals_the_cpu_gather_bit_for_bit_on_the_bunny_subdivision_matrix() {
         ctx.one_shot(|cmd| pass.record(ctx, cmd, &a, &xb, &yb))
             .unwrap();
         let y: Vec<[f32; 4]> = bytemuck::pod_collect_to_vec(&ctx.read_buffer(&yb).unwrap());
-        for b in [xb, yb] {
-            drop(b);
-        }
-        drop(a);
-        drop(pass);
         y
     });
     assert_eq!(gpu.len(), cpu.len());
@@ -152,10 +147,6 @@ fn eval_on_gpu(
         })
         .unwrap();
         let v: Vec<SurfaceVertex> = bytemuck::pod_collect_to_vec(&ctx.read_buffer(&out).unwrap());
-        for b in [pb, ib, fb, out] {
-            drop(b);
-        }
-        drop(pass);
         v
     })
 }

@@ -36,7 +36,6 @@ fn gpu_control_points_match_opensubdiv_gregory_basis_points() {
             let s = GregorySurface::new(ctx, &topo, &cage, 4).unwrap();
             ctx.one_shot(|cmd| s.record(ctx, cmd, None, None)).unwrap();
             let p = s.read_points(ctx).unwrap();
-            drop(s);
             p
         });
         let d = diag(&fx.cage);
@@ -75,7 +74,6 @@ fn evaluate(
             .unwrap();
             jumps.push(max_jump_coincident(&s.read_vertices(ctx).unwrap(), level));
         }
-        drop(s);
         (first, jumps, d)
     })
 }
@@ -266,9 +264,6 @@ fn gpu_g1_over_100_random_deformations_of_one_percent() {
                 "the control (no residuals) should exceed 1e-3 rad on these deformations: {worst_plain}"
             );
         }
-        drop(plain_out);
-        drop(control);
-        drop(s);
     });
 }
 

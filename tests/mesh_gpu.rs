@@ -41,10 +41,6 @@ fn gpu_normals(m: &MeshMatrix, positions: &[DVec3]) -> Vec<DVec3> {
         ctx.one_shot(|cmd| pass.record(ctx, cmd, &gm, &pb, &out))
             .unwrap();
         let n: Vec<[f32; 4]> = ctx.read_pod(&out).unwrap();
-        drop(pb);
-        drop(out);
-        drop(gm);
-        drop(pass);
         n.iter()
             .map(|v| DVec3::new(v[0] as f64, v[1] as f64, v[2] as f64))
             .collect()
@@ -149,9 +145,6 @@ fn repeated_subdivision_is_one_gpu_spmv_per_level() {
         })
         .unwrap();
         let out: Vec<[f32; 4]> = ctx.read_pod(bufs.last().unwrap()).unwrap();
-        drop(bufs);
-        drop(mats);
-        drop(pass);
         out
     });
     assert_eq!(gpu.len(), cpu.len());

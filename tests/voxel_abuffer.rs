@@ -29,9 +29,6 @@ fn both(
         let (gp, _) = p
             .voxelize(ctx, &t.geometry(), frame, &[axis], rule, None)
             .unwrap();
-        drop(t);
-        drop(p);
-        drop(a);
         (ga, gp, sa[0].layers)
     })
 }
@@ -155,8 +152,6 @@ fn slabs_below_the_binding_limit_give_the_same_grid() {
                 None,
             )
             .unwrap();
-        drop(t);
-        drop(a);
         assert!(whole.count() > 0);
         assert_eq!(whole, slabbed);
     });
@@ -196,8 +191,6 @@ fn an_empty_projection_and_bad_axis_counts_are_handled() {
                 None,
             )
             .unwrap();
-        drop(t);
-        drop(a);
         assert_eq!(err.unwrap(), "voxelize along 1 or 3 axes, not 2");
         assert_eq!((g.count(), s[0].layers), (0, 0));
     });
@@ -246,7 +239,6 @@ fn the_prefix_sum_is_exact_across_levels_up_to_2048_squared_columns() {
             })
             .unwrap();
             let out = ctx.read_buffer_range(&buf, 0, n * 4).unwrap();
-            drop(buf);
             let out: &[u32] = bytemuck::cast_slice(&out);
             let mut run = 0u32;
             for (i, (&o, &d)) in out.iter().zip(&data).enumerate() {
@@ -255,6 +247,5 @@ fn the_prefix_sum_is_exact_across_levels_up_to_2048_squared_columns() {
             }
             eprintln!("scan n = {n}: {} levels, total {run}", scan_levels(n).len());
         }
-        drop(pass);
     });
 }

@@ -26,7 +26,6 @@ fn the_gpu_surface_voxelizes_like_the_cpu_scanline_of_the_same_triangles() {
             voxelize_gregory_surface(ctx, &s, res, &[Axis::Z], FillRule::Winding, 64, None)
                 .unwrap();
         let v: Vec<SurfaceVertex> = s.read_vertices(ctx).unwrap();
-        drop(s);
         (g, stats[0].layers, v)
     });
     let tri = TriMesh {

@@ -135,9 +135,6 @@ fn gpu_run<T>(
     let abuf = AbufferVoxelizer::new(ctx, 12).unwrap();
     let tris = GpuTriangles::upload(ctx, mesh).unwrap();
     let out = f(&peel, &abuf, &tris);
-    drop(tris);
-    drop(abuf);
-    drop(peel);
     out
 }
 

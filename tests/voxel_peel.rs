@@ -22,8 +22,6 @@ fn gpu_voxelize(
         let (g, stats) = v
             .voxelize(ctx, &tris.geometry(), frame, axes, rule, None)
             .unwrap();
-        drop(tris);
-        drop(v);
         (g, stats.iter().map(|s| s.layers).collect())
     })
 }
@@ -244,8 +242,6 @@ fn output_slabs_below_the_binding_limit_give_the_same_grid() {
             )
             .unwrap()
             .0;
-        drop(tris);
-        drop(v);
         (whole, sliced)
     });
     assert!(whole.count() > 1000);
@@ -285,8 +281,6 @@ fn too_many_layers_is_a_clear_error() {
             )
             .unwrap();
         assert_eq!(ok.1[0].layers, 2);
-        drop(tris);
-        drop(v);
     });
 }
 

@@ -320,6 +320,29 @@ impl Gpu {
         &self.ctx
     }
 
+    /// Waits for the device and reports what should not be left: GPU allocations still alive (call it after
+    /// dropping what the work made) and validation messages (when the layer is on). Examples and tools end
+    /// with it; dropping a `Gpu` without it is fine.
+    pub fn finish(self) -> Result<()> {
+        self.ctx.wait_idle()?;
+        let live = self.ctx.live_allocations();
+        if !live.is_empty() {
+            return Err(Error::Invalid(format!(
+                "internal error: GPU allocations still alive: {}",
+                live.join(", ")
+            )));
+        }
+        let n = self.ctx.validation.count();
+        if n > 0 {
+            let first = self.ctx.validation.messages().into_iter().next();
+            return Err(Error::Invalid(format!(
+                "internal error: {n} Vulkan validation message(s), the first: {}",
+                first.unwrap_or_default()
+            )));
+        }
+        Ok(())
+    }
+
     /// A timestamp profiler for the calls that take one (one frame slot, up to 4,096 scopes).
     pub fn profiler(&self) -> Result<Profiler> {
         Profiler::new(&self.ctx, 1, 4096)

@@ -16,7 +16,7 @@ use super::peak::Peak;
 use super::peers::{self, Peer};
 use super::{num, speedup, time_cpu, time_gpu, BenchConfig, Curve, Report, Series, Table};
 use crate::engine::gregory::{GregorySurface, GregoryTopology};
-use crate::gpu::{Buffer, Context, MemoryLocation, Profiler};
+use crate::gpu::{Context, MemoryLocation, Profiler};
 use crate::mesh::{catmull_clark, load_obj, Mesh};
 use crate::passes::gregory_eval::{vertex_count, GregoryEvalPass};
 use crate::passes::patch_pull::PatchKind;
@@ -386,7 +386,7 @@ pub fn scaling(ctx: &Context, cfg: &BenchConfig, report: &mut Report) -> anyhow:
 }
 
 /// Uniform vs screen-space adaptive tessellation of spot at the same maximum level: the GPU time of the
-/// whole chain (control points, [levels,] evaluation) and the vertices each actually produces, from a near
+/// whole chain (control points, (levels,) evaluation) and the vertices each actually produces, from a near
 /// view (the model fills a 1280×720 frame) and a far one (a tenth of the frame).
 pub fn adaptive(cfg: &BenchConfig, report: &mut Report) -> anyhow::Result<()> {
     use crate::passes::adaptive_levels::AdaptiveParams;

@@ -7,7 +7,7 @@
 //! GPU objects release themselves when dropped, through the release queue of `gpu::lifetime`, so a buffer
 //! earlier frames used may be replaced or dropped at any point. Every GPU pass a scene records is in a
 //! profiler scope.
-//! Surface scenes draw through [`SurfaceLook`]: shadow map → [curvature] → ground + surface (lit path), or the
+//! Surface scenes draw through [`SurfaceLook`]: shadow map → (curvature) → ground + surface (lit path), or the
 //! vertex-pull path for the surface when `ViewState::path` asks for it and the scene has control points.
 use crate::engine::flag::FlagSurface;
 use crate::engine::gregory::GregorySurface;
@@ -334,7 +334,7 @@ impl SurfaceLook {
         Ok(())
     }
 
-    /// Records shadow map → [curvature] → ground + surface for `surface` (its compute passes already
+    /// Records shadow map → (curvature) → ground + surface for `surface` (its compute passes already
     /// recorded), each in a profiler scope.
     #[allow(clippy::too_many_arguments)]
     pub fn record(

@@ -1,5 +1,5 @@
-//! The Gregory surface on the GPU: cage (rest) → [deform] → cage → [SpMV] control points = W·cage →
-//! [evaluate] device-local vertex buffer, which the graphics pipelines and the voxelizer read directly.
+//! The Gregory surface on the GPU: cage (rest) → (deform) → cage → (SpMV) control points = W·cage →
+//! (evaluate) device-local vertex buffer, which the graphics pipelines and the voxelizer read directly.
 //!
 //! Invariants:
 //! - `GregorySurface` owns every buffer of the chain and the passes; nothing is copied to the host per frame.
@@ -470,7 +470,7 @@ impl GregorySurface {
         &self.patch_points
     }
 
-    /// Records a whole update: [deform] → W·cage → evaluate. `deform` = None evaluates the rest cage.
+    /// Records a whole update: (deform) → W·cage → evaluate. `deform` = None evaluates the rest cage.
     pub fn record(
         &self,
         ctx: &Context,
