@@ -210,8 +210,7 @@ fn the_cpu_wave_deformation_matches_the_gpu_pass() {
         };
         ctx.one_shot(|cmd| s.record(ctx, cmd, Some(&d), None))
             .unwrap();
-        let p = s.read_points(ctx).unwrap();
-        p
+        s.read_points(ctx).unwrap()
     });
     assert_eq!(got.len(), want.len());
     // f32 sin of arguments up to ~10 rad on a cage of extent 3: a few ulps of 10 → 1e-5 is ample.

@@ -71,8 +71,7 @@ fn gpu_compute(patches: &[BeziexPatch], level: u32) -> Vec<SurfaceVertex> {
         );
         ctx.one_shot(|cmd| pass.record(ctx, cmd, &nb, patches.len() as u32, level, &out))
             .unwrap();
-        let v = ctx.read_pod(&out).unwrap();
-        v
+        ctx.read_pod::<SurfaceVertex>(&out).unwrap()
     })
 }
 
@@ -277,8 +276,7 @@ fn vertex_pull(
             )
         })
         .unwrap();
-        let v = ctx.read_pod(&cap).unwrap();
-        v
+        ctx.read_pod::<SurfaceVertex>(&cap).unwrap()
     })
 }
 
@@ -362,8 +360,7 @@ fn vertex_pull_equals_compute_for_beziex_and_gregory_patches() {
             )
         })
         .unwrap();
-        let v = ctx.read_pod(&out).unwrap();
-        v
+        ctx.read_pod::<SurfaceVertex>(&out).unwrap()
     });
     let (dp, dn) = max_diff(&pulled, &computed);
     eprintln!("gregory: vertex-pull vs compute |Δp| {dp:.2e}, |Δn| {dn:.2e}");

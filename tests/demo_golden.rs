@@ -611,8 +611,7 @@ fn shadow_map_darkens_exactly_the_ground_the_cpu_ray_cast_puts_in_shadow() {
         })
         .unwrap();
         target.present(ctx, &img).unwrap();
-        let px = target.read_rgba(0).unwrap();
-        px
+        target.read_rgba(0).unwrap()
     });
     let inv = view_proj.inverse();
     let occluder_hit = |o: DVec3, d: DVec3| -> Vec<f64> {

@@ -22,9 +22,7 @@ use gregvox::engine::voxelize::{voxelize_gregory_surface, PeelVoxelizer};
 use gregvox::geom::bezier::Bezier;
 use gregvox::gpu::present::begin_color_target;
 use gregvox::gpu::resources::image_barrier;
-use gregvox::gpu::{
-    Context, Image, ImageDesc, MemoryLocation, OffscreenTarget, PresentTarget, Profiler,
-};
+use gregvox::gpu::{Context, Image, ImageDesc, MemoryLocation, OffscreenTarget, Profiler};
 use gregvox::passes::cage_deform::Deformation;
 use gregvox::passes::peel::PeelGeometry;
 use gregvox::passes::surface_draw::ShadingMode;

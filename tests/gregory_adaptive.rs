@@ -83,8 +83,7 @@ fn uniform<'a>(
     cache.entry(level).or_insert_with(|| {
         let s = GregorySurface::new(ctx, topo, cage, level).unwrap();
         ctx.one_shot(|cmd| s.record(ctx, cmd, None, None)).unwrap();
-        let v = s.read_vertices(ctx).unwrap();
-        v
+        s.read_vertices(ctx).unwrap()
     })
 }
 

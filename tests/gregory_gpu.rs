@@ -55,8 +55,7 @@ fn spmv_equals_the_cpu_gather_bit_for_bit_on_the_bunny_subdivision_matrix() {
         let yb = out_buffer(ctx, "y", s.n_rows as u64 * 16);
         ctx.one_shot(|cmd| pass.record(ctx, cmd, &a, &xb, &yb))
             .unwrap();
-        let y: Vec<[f32; 4]> = bytemuck::pod_collect_to_vec(&ctx.read_buffer(&yb).unwrap());
-        y
+        bytemuck::pod_collect_to_vec::<u8, [f32; 4]>(&ctx.read_buffer(&yb).unwrap())
     });
     assert_eq!(gpu.len(), cpu.len());
     let differing = gpu
@@ -146,8 +145,7 @@ fn eval_on_gpu(
             )
         })
         .unwrap();
-        let v: Vec<SurfaceVertex> = bytemuck::pod_collect_to_vec(&ctx.read_buffer(&out).unwrap());
-        v
+        bytemuck::pod_collect_to_vec::<u8, SurfaceVertex>(&ctx.read_buffer(&out).unwrap())
     })
 }
 

@@ -144,8 +144,7 @@ fn repeated_subdivision_is_one_gpu_spmv_per_level() {
             Ok(())
         })
         .unwrap();
-        let out: Vec<[f32; 4]> = ctx.read_pod(bufs.last().unwrap()).unwrap();
-        out
+        ctx.read_pod::<[f32; 4]>(bufs.last().unwrap()).unwrap()
     });
     assert_eq!(gpu.len(), cpu.len());
     let diag = 2.0; // spot fits in about [-1, 1]³

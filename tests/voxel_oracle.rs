@@ -134,8 +134,7 @@ fn gpu_run<T>(
     let peel = PeelVoxelizer::new(ctx, 12).unwrap();
     let abuf = AbufferVoxelizer::new(ctx, 12).unwrap();
     let tris = GpuTriangles::upload(ctx, mesh).unwrap();
-    let out = f(&peel, &abuf, &tris);
-    out
+    f(&peel, &abuf, &tris)
 }
 
 #[test]

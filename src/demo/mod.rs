@@ -411,7 +411,7 @@ fn run_offscreen(args: &DemoArgs) -> anyhow::Result<()> {
         );
         Ok(())
     });
-    // Dropped in reverse order of declaration: renderer, target, context.
+    // `renderer`, `target` and `ctx` drop here, in that order (the module invariant).
     report
 }
 
