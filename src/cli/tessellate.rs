@@ -2,9 +2,9 @@
 //! `Gpu::tessellate` (api::tessellate), which evaluates every patch on the GPU (compute or vertex-pull path)
 //! in the contract order of docs/ARCHITECTURE.md (one (L+1)² grid per patch, u along the face's first edge,
 //! rows of u inner).
-use crate::args::ProfileArgs;
 use crate::api::tessellate::{is_beziex, AdaptiveView, EvalPath, Patches, TessellateOptions};
 use crate::api::{Deformation, Gpu, Tangents};
+use crate::args::ProfileArgs;
 use crate::gpu::Profiler;
 use anyhow::{bail, Context as _};
 use clap::{Args, ValueEnum};

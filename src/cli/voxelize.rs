@@ -1,11 +1,11 @@
 //! `gregvox voxelize IN.obj --res R [--out OUT.binvox] …`: argument parsing and printing over
 //! `Gpu::voxelize` / `voxelize_on_cpu` of the library API (which holds the policy: hygiene, open-mesh
 //! detection, axis choice, the memory estimate).
-use crate::args::ProfileArgs;
 use crate::api::{
     load_mesh, voxelize_on_cpu, Axes, Axis, FillRule, Gpu, Method, Voxelization, VoxelizeOptions,
     MAX_RES,
 };
+use crate::args::ProfileArgs;
 use anyhow::bail;
 use clap::Args;
 use std::path::PathBuf;

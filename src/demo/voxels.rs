@@ -12,12 +12,10 @@
 use super::scene::{draw_surface, FrameTargets, Orbit, Scene, ViewState, DEPTH_FORMAT};
 use super::DemoArgs;
 use crate::engine::cage::{builtin_cage, cage_topology, load_cage_topology};
-use crate::engine::gregory::GregorySurface;
+use crate::engine::gregory::{GregorySurface, SurfaceBounds};
 use crate::engine::voxelize::{PeelVoxelizer, ResidentVoxelizer};
 use crate::gpu::{Buffer, Context, Image, MemoryLocation, Profiler};
-use crate::passes::bounds::{decode, BoundsPass};
 use crate::passes::cage_deform::{DeformParams, Deformation};
-use crate::passes::gregory_eval::vertex_count;
 use crate::passes::peel::PeelGeometry;
 use crate::passes::surface_draw::SurfaceDrawPass;
 use crate::passes::voxel_raycast::{bricks_bytes, VoxelRaycastPass};
@@ -92,27 +90,18 @@ fn plan_grid(
     mode: Deformation,
     res: u32,
 ) -> anyhow::Result<(GridFrame, u32)> {
-    let count = vertex_count(surface.patch_count(), surface.level()) as u32;
-    let bounds = BoundsPass::new(ctx)?;
-    let buf = ctx.create_buffer(
-        "voxels scene bounds",
-        24,
-        vk::BufferUsageFlags::STORAGE_BUFFER
-            | vk::BufferUsageFlags::TRANSFER_DST
-            | vk::BufferUsageFlags::TRANSFER_SRC,
-        MemoryLocation::GpuOnly,
-    )?;
+    let bounds = SurfaceBounds::new(ctx)?;
     let mut lo = [f32::INFINITY; 3];
     let mut hi = [f32::NEG_INFINITY; 3];
     for t in sample_times() {
         ctx.one_shot(|cmd| {
             surface.record(ctx, cmd, Some(&deform(surface, mode, t)), None)?;
-            bounds.record(ctx, cmd, surface.vertices(), count, 32, &buf)
+            bounds.record(ctx, cmd, surface)
         })?;
-        let w = ctx.read_pod::<u32>(&buf)?;
+        let (l, h) = bounds.read(ctx)?;
         for a in 0..3 {
-            lo[a] = lo[a].min(decode(w[a]));
-            hi[a] = hi[a].max(decode(w[a + 3]));
+            lo[a] = lo[a].min(l[a]);
+            hi[a] = hi[a].max(h[a]);
         }
     }
     let side = (0..3).map(|a| hi[a] - lo[a]).fold(0.0f32, f32::max);

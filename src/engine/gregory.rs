@@ -655,3 +655,51 @@ impl GregorySurface {
         }
     }
 }
+
+/// The bounding box of a surface's evaluated vertices, reduced on the GPU (six numbers read back): the bounds
+/// pass and its result buffer, for the voxelizers that place a grid around a surface that never leaves the
+/// device.
+pub struct SurfaceBounds {
+    pass: crate::passes::bounds::BoundsPass,
+    result: Buffer,
+}
+
+impl SurfaceBounds {
+    /// Builds the pass and its 24-byte result buffer.
+    pub fn new(ctx: &Context) -> Result<Self> {
+        Ok(SurfaceBounds {
+            pass: crate::passes::bounds::BoundsPass::new(ctx)?,
+            result: ctx.create_buffer(
+                "surface bounds",
+                24,
+                vk::BufferUsageFlags::STORAGE_BUFFER
+                    | vk::BufferUsageFlags::TRANSFER_DST
+                    | vk::BufferUsageFlags::TRANSFER_SRC,
+                MemoryLocation::GpuOnly,
+            )?,
+        })
+    }
+
+    /// Records the reduction over `surface`'s vertex buffer (after its evaluation in the same command buffer).
+    pub fn record(
+        &self,
+        ctx: &Context,
+        cmd: vk::CommandBuffer,
+        surface: &GregorySurface,
+    ) -> Result<()> {
+        let count = vertex_count(surface.patch_count(), surface.level()) as u32;
+        let stride = std::mem::size_of::<SurfaceVertex>() as u32;
+        self.pass
+            .record(ctx, cmd, surface.vertices(), count, stride, &self.result)
+    }
+
+    /// The (min, max) corners recorded last.
+    pub fn read(&self, ctx: &Context) -> Result<([f32; 3], [f32; 3])> {
+        use crate::passes::bounds::decode;
+        let w = ctx.read_pod::<u32>(&self.result)?;
+        Ok((
+            [decode(w[0]), decode(w[1]), decode(w[2])],
+            [decode(w[3]), decode(w[4]), decode(w[5])],
+        ))
+    }
+}

@@ -10,8 +10,8 @@ use crate::error::{Error, Result};
 use crate::gpu::pipeline::{Binding, DescriptorSetLayoutBuilder, GraphicsDesc, GraphicsPipeline};
 use crate::gpu::resources::memory_barrier;
 use crate::gpu::{shaders, Buffer, Context};
-use crate::passes::gregory_eval::ControlPoints;
 use crate::passes::draw::{begin_color_depth, DrawTarget};
+use crate::passes::gregory_eval::ControlPoints;
 use crate::passes::surface_draw::SurfacePush;
 use ash::vk;
 

@@ -1,0 +1,248 @@
+//! GPU solid voxelization, one module per method, and what they share (the per-axis loop with the 2-of-3
+//! vote, the slab-by-slab fill and readback, the mesh upload, progress):
+//! - `peel`: [`PeelVoxelizer`] (Harada–Koshizuka depth peeling): count pre-pass → L peeling passes → fill;
+//! - `abuffer`: [`AbufferVoxelizer`] (A-buffer): count pre-pass → prefix sum → one scatter pass → per-column
+//!   sort and fill. Two geometry passes whatever L, and no equal-depth fragment is ever lost;
+//! - `resident`: [`ResidentVoxelizer`] (the demo's live voxels) reads nothing back: its grid frame and peeling
+//!   depth are fixed when it is built, its images and grid buffer live as long as it does, and `record` only
+//!   records commands; the grid stays on the device for the next pass (ray casting);
+//! - `gregory`: [`voxelize_gregory_surface`], a Gregory surface voxelized from its vertex buffer.
+//!
+//! Progress: the one-shot voxelizers report coarse stages (count, peel/scatter, fill) to an optional
+//! [`ProgressFn`] the caller owns; the engine never draws on its own.
+//!
+//! Invariants:
+//! - Every resource created here releases itself (`gpu::lifetime`), on success and on error.
+//! - No storage binding exceeds `maxStorageBufferRange`: the output is filled and read back in slabs of
+//!   columns ([`fill_in_slabs`]).
+mod abuffer;
+mod gregory;
+mod peel;
+mod resident;
+
+pub use abuffer::AbufferVoxelizer;
+pub use gregory::voxelize_gregory_surface;
+pub use peel::PeelVoxelizer;
+pub use resident::ResidentVoxelizer;
+
+use crate::error::{Error, Result};
+use crate::gpu::{Buffer, Context, MemoryLocation, Profiler};
+use crate::passes::peel::{PeelGeometry, PeelPush};
+use crate::voxel::cpu::FillRule;
+use crate::voxel::grid::{Axis, GridFrame, VoxelGrid};
+use crate::voxel::mesh::TriMesh;
+use ash::vk;
+
+/// Per-axis figures of a GPU voxelization.
+#[derive(Clone, Debug, serde::Serialize)]
+pub struct AxisStats {
+    pub axis: Axis,
+    /// Peeling passes run (the deepest column's crossing count from the count pre-pass).
+    pub layers: u32,
+    pub solid: u64,
+}
+
+/// Upper bound on peeling passes unless the caller raises it.
+pub const DEFAULT_MAX_LAYERS: u32 = 256;
+
+/// A mesh uploaded for peeling (positions as 3×f32, u32 indices).
+pub struct GpuTriangles {
+    pub vertices: Buffer,
+    pub indices: Buffer,
+    pub index_count: u32,
+}
+
+impl GpuTriangles {
+    /// Uploads `mesh` to device-local buffers.
+    pub fn upload(ctx: &Context, mesh: &TriMesh) -> Result<Self> {
+        if mesh.triangles.is_empty() {
+            return Err(Error::Invalid(
+                "the mesh has no triangles to voxelize".into(),
+            ));
+        }
+        let vertices = ctx.upload_buffer(
+            "voxelize vertices",
+            bytemuck::cast_slice(&mesh.positions),
+            vk::BufferUsageFlags::VERTEX_BUFFER | vk::BufferUsageFlags::STORAGE_BUFFER,
+        )?;
+        let indices = ctx.upload_buffer(
+            "voxelize indices",
+            bytemuck::cast_slice(&mesh.triangles),
+            vk::BufferUsageFlags::INDEX_BUFFER | vk::BufferUsageFlags::STORAGE_BUFFER,
+        )?;
+        Ok(GpuTriangles {
+            vertices,
+            indices,
+            index_count: mesh.triangles.len() as u32 * 3,
+        })
+    }
+
+    /// The geometry view the peel pass draws.
+    pub fn geometry(&self) -> PeelGeometry<'_> {
+        PeelGeometry {
+            vertices: &self.vertices,
+            indices: &self.indices,
+            index_count: self.index_count,
+        }
+    }
+}
+
+/// A progress callback: called with a short description each time a stage of a voxelization finishes
+/// (three stages per axis). The CLI draws a bar from it; a library user may log, or ignore it.
+pub type ProgressFn = std::sync::Arc<dyn Fn(&str) + Send + Sync>;
+
+pub(crate) fn tick(progress: &Option<ProgressFn>, msg: &str) {
+    if let Some(p) = progress {
+        p(msg);
+    }
+}
+
+/// Refuses axis lists other than 1 or 3 axes before any GPU work.
+pub(crate) fn check_axes(axes: &[Axis]) -> Result<()> {
+    match axes.len() {
+        1 | 3 => Ok(()),
+        n => Err(Error::Invalid(format!(
+            "voxelize along 1 or 3 axes, not {n}"
+        ))),
+    }
+}
+
+/// One grid from the grids of 1 axis, or the 2-of-3 vote of 3.
+pub(crate) fn vote(mut grids: Vec<VoxelGrid>) -> Result<VoxelGrid> {
+    match grids.len() {
+        1 => Ok(grids.pop().unwrap()),
+        3 => Ok(VoxelGrid::majority([&grids[0], &grids[1], &grids[2]])),
+        n => Err(Error::Invalid(format!(
+            "voxelize along 1 or 3 axes, not {n}"
+        ))),
+    }
+}
+
+pub(crate) fn peel_push(frame: &GridFrame, axis: Axis) -> PeelPush {
+    let (ua, va) = axis.uv();
+    PeelPush {
+        origin_inv_pitch: [
+            frame.origin[0] as f32,
+            frame.origin[1] as f32,
+            frame.origin[2] as f32,
+            (1.0 / frame.pitch()) as f32,
+        ],
+        axes_res: [ua as u32, va as u32, axis.index() as u32, frame.res],
+    }
+}
+
+/// Bytes of device memory one axis of a voxelization needs at most: layers, two depth images, counts, one
+/// output slab.
+pub fn memory_estimate(ctx: &Context, res: u32, layers: u32) -> u64 {
+    let r2 = res as u64 * res as u64;
+    let out = VoxelGrid::bytes_for(&GridFrame {
+        res,
+        origin: [0.0; 3],
+        side: 1.0,
+    });
+    r2 * 4 * layers as u64
+        + 2 * r2 * 4
+        + (r2 + 1) * 4
+        + out.min(ctx.limits.max_storage_buffer_range as u64)
+}
+
+/// Runs `one` along each of `axes` (1 or 3, checked) and takes the 2-of-3 vote for three.
+pub(crate) fn over_axes(
+    axes: &[Axis],
+    mut one: impl FnMut(Axis) -> Result<(VoxelGrid, AxisStats)>,
+) -> Result<(VoxelGrid, Vec<AxisStats>)> {
+    check_axes(axes)?;
+    let mut grids = Vec::new();
+    let mut stats = Vec::new();
+    for &a in axes {
+        let (g, s) = one(a)?;
+        grids.push(g);
+        stats.push(s);
+    }
+    Ok((vote(grids)?, stats))
+}
+
+/// Fills `grid` slab by slab, so no storage binding passes `max_range` bytes: one slab buffer; per slab one
+/// one-shot submission in which `record(cmd, slab, first_column, column_count, profiler)` records the work
+/// (the first slab also records the geometry passes), then the slab is read back into `grid`;
+/// `after_first` runs once the first slab is done (a progress tick).
+fn fill_in_slabs(
+    ctx: &Context,
+    frame: &GridFrame,
+    max_range: u64,
+    grid: &mut VoxelGrid,
+    profiler: &mut Option<&mut Profiler>,
+    mut record: impl FnMut(
+        vk::CommandBuffer,
+        &Buffer,
+        u64,
+        u64,
+        &mut Option<&mut Profiler>,
+    ) -> Result<()>,
+    mut after_first: impl FnMut(),
+) -> Result<()> {
+    let r2 = frame.res as u64 * frame.res as u64;
+    let words = frame.words_per_column() as u64;
+    let slab_columns = (max_range / (words * 4)).min(r2).max(1);
+    let slab = ctx.create_buffer(
+        "voxel slab",
+        slab_columns * words * 4,
+        vk::BufferUsageFlags::STORAGE_BUFFER | vk::BufferUsageFlags::TRANSFER_SRC,
+        MemoryLocation::GpuOnly,
+    )?;
+    let mut first = 0u64;
+    while first < r2 {
+        let count = slab_columns.min(r2 - first);
+        ctx.one_shot(|cmd| record(cmd, &slab, first, count, profiler))?;
+        if let Some(p) = profiler.as_deref_mut() {
+            p.collect(ctx, 0)?;
+        }
+        let bytes = ctx.read_buffer_range(&slab, 0, count * words * 4)?;
+        let start = (first * words) as usize;
+        grid.words[start..start + (count * words) as usize]
+            .copy_from_slice(bytemuck::cast_slice(&bytes));
+        if first == 0 {
+            after_first();
+        }
+        first += count;
+    }
+    Ok(())
+}
+
+/// A GPU voxelizer of either method, for callers that choose at run time.
+pub enum GpuVoxelizer {
+    Peel(Box<PeelVoxelizer>),
+    Abuffer(Box<AbufferVoxelizer>),
+}
+
+impl GpuVoxelizer {
+    /// The count pre-pass only: (deepest column's crossings, columns covered).
+    pub fn count_layers(
+        &self,
+        ctx: &Context,
+        geom: &PeelGeometry,
+        frame: &GridFrame,
+        axis: Axis,
+    ) -> Result<(u32, u64)> {
+        match self {
+            GpuVoxelizer::Peel(v) => v.count_layers(ctx, geom, frame, axis),
+            GpuVoxelizer::Abuffer(v) => v.count_layers(ctx, geom, frame, axis),
+        }
+    }
+
+    /// Voxelizes along `axes` (1, or 3 with the vote).
+    pub fn voxelize(
+        &self,
+        ctx: &Context,
+        geom: &PeelGeometry,
+        frame: &GridFrame,
+        axes: &[Axis],
+        rule: FillRule,
+        profiler: Option<&mut Profiler>,
+    ) -> Result<(VoxelGrid, Vec<AxisStats>)> {
+        match self {
+            GpuVoxelizer::Peel(v) => v.voxelize(ctx, geom, frame, axes, rule, profiler),
+            GpuVoxelizer::Abuffer(v) => v.voxelize(ctx, geom, frame, axes, rule, profiler),
+        }
+    }
+}

@@ -1,0 +1,474 @@
+//! [`PeelVoxelizer`]: Harada–Koshizuka depth peeling, per axis: count pre-pass → L peeling passes → fill.
+//!
+//! Invariants: the two D32 depth images alternate between `DEPTH_ATTACHMENT_OPTIMAL` (current pass) and
+//! `DEPTH_READ_ONLY_OPTIMAL` (read by the next pass); the "previous" image of pass 0 is cleared to 0.0 so one
+//! pipeline serves every pass. The layer array is a color attachment during peeling and
+//! `SHADER_READ_ONLY_OPTIMAL` for the fill.
+use super::*;
+use crate::gpu::resources::{image_barrier, memory_barrier};
+use crate::gpu::{Image, ImageDesc, Owned};
+use crate::passes::peel::PeelPass;
+use crate::passes::voxel_fill::{FillJob, VoxelFillPass};
+use crate::voxel::cpu::FillRule;
+
+/// The depth-peeling voxelizer: its passes, built once and reused across grids.
+pub struct PeelVoxelizer {
+    pub(super) peel: PeelPass,
+    pub(super) fill: VoxelFillPass,
+    /// Refuse meshes needing more peeling passes than this.
+    pub max_layers: u32,
+    /// Largest output slab in bytes (default and upper bound: `maxStorageBufferRange`); tests lower it to
+    /// exercise the slab path.
+    pub slab_limit: Option<u64>,
+    /// Called once per finished stage (count, peel, fill) of each axis: three calls per axis.
+    pub progress: Option<ProgressFn>,
+}
+
+/// Resources of one axis run, destroyed together.
+pub(super) struct AxisResources {
+    pub(super) counts: Option<Buffer>,
+    pub(super) depth: Vec<Image>,
+    pub(super) layers: Option<Image>,
+    pub(super) layer_views: Vec<Owned<vk::ImageView>>,
+    pub(super) out: Option<Buffer>,
+}
+
+impl PeelVoxelizer {
+    /// Builds the passes (vertices of `stride` bytes, positions first).
+    pub fn new(ctx: &Context, stride: u32) -> Result<Self> {
+        if !ctx.info.features.fragment_stores_and_atomics {
+            return Err(Error::Limit {
+                what: "depth-peeling voxelization".into(),
+                detail:
+                    "the device lacks fragmentStoresAndAtomics (needed by the layer-count pre-pass)"
+                        .into(),
+            });
+        }
+        let peel = PeelPass::new(ctx, stride)?;
+        let fill = VoxelFillPass::new(ctx)?;
+        Ok(PeelVoxelizer {
+            peel,
+            fill,
+            max_layers: DEFAULT_MAX_LAYERS,
+            slab_limit: None,
+            progress: None,
+        })
+    }
+
+    /// Runs only the count pre-pass along `axis`: (layers needed, columns covered).
+    pub fn count_layers(
+        &self,
+        ctx: &Context,
+        geom: &PeelGeometry,
+        frame: &GridFrame,
+        axis: Axis,
+    ) -> Result<(u32, u64)> {
+        let push = peel_push(frame, axis);
+        let r2 = frame.res as u64 * frame.res as u64;
+        let counts = ctx.create_buffer(
+            "peel counts",
+            (r2 + 1) * 4,
+            vk::BufferUsageFlags::STORAGE_BUFFER
+                | vk::BufferUsageFlags::TRANSFER_DST
+                | vk::BufferUsageFlags::TRANSFER_SRC,
+            MemoryLocation::GpuOnly,
+        )?;
+        let result = ctx
+            .one_shot(|cmd| {
+                self.record_count(ctx, cmd, geom, &push, &counts, &mut None);
+                Ok(())
+            })
+            .and_then(|()| ctx.read_buffer(&counts));
+        let words: Vec<u32> = result?
+            .chunks_exact(4)
+            .map(|b| u32::from_le_bytes([b[0], b[1], b[2], b[3]]))
+            .collect();
+        Ok((
+            words[0],
+            words[1..].iter().filter(|&&c| c > 0).count() as u64,
+        ))
+    }
+
+    pub(super) fn record_count(
+        &self,
+        ctx: &Context,
+        cmd: vk::CommandBuffer,
+        geom: &PeelGeometry,
+        push: &PeelPush,
+        counts: &Buffer,
+        profiler: &mut Option<&mut Profiler>,
+    ) {
+        // SAFETY: recording; whole-buffer fill.
+        unsafe {
+            ctx.device
+                .cmd_fill_buffer(cmd, counts.raw(), 0, vk::WHOLE_SIZE, 0)
+        };
+        memory_barrier(
+            ctx,
+            cmd,
+            (
+                vk::PipelineStageFlags2::ALL_TRANSFER,
+                vk::AccessFlags2::TRANSFER_WRITE,
+            ),
+            (
+                vk::PipelineStageFlags2::FRAGMENT_SHADER,
+                vk::AccessFlags2::SHADER_STORAGE_READ | vk::AccessFlags2::SHADER_STORAGE_WRITE,
+            ),
+        );
+        let s = profiler
+            .as_deref_mut()
+            .map(|p| p.begin(ctx, cmd, 0, "peel count pre-pass"));
+        self.peel.record_count(ctx, cmd, geom, push, counts);
+        if let (Some(p), Some(s)) = (profiler.as_deref_mut(), s) {
+            p.end(ctx, cmd, s);
+        }
+        memory_barrier(
+            ctx,
+            cmd,
+            (
+                vk::PipelineStageFlags2::FRAGMENT_SHADER,
+                vk::AccessFlags2::SHADER_STORAGE_WRITE,
+            ),
+            (
+                vk::PipelineStageFlags2::ALL_TRANSFER,
+                vk::AccessFlags2::TRANSFER_READ,
+            ),
+        );
+    }
+
+    /// Voxelizes `geom` in `frame` with columns along `axis`.
+    pub fn voxelize_axis(
+        &self,
+        ctx: &Context,
+        geom: &PeelGeometry,
+        frame: &GridFrame,
+        axis: Axis,
+        rule: FillRule,
+        mut profiler: Option<&mut Profiler>,
+    ) -> Result<(VoxelGrid, AxisStats)> {
+        let res = frame.res;
+        let max2d = ctx.limits.max_image_dimension2_d;
+        if res > max2d {
+            return Err(Error::Limit {
+                what: format!("resolution {res}"),
+                detail: format!("the peel framebuffer is R×R and maxImageDimension2D is {max2d}"),
+            });
+        }
+        let mut res_ = AxisResources {
+            counts: None,
+            depth: Vec::new(),
+            layers: None,
+            layer_views: Vec::new(),
+            out: None,
+        };
+        let result = self.run_axis(ctx, geom, frame, axis, rule, &mut res_, &mut profiler);
+        result
+    }
+
+    #[allow(clippy::too_many_arguments)]
+    fn run_axis(
+        &self,
+        ctx: &Context,
+        geom: &PeelGeometry,
+        frame: &GridFrame,
+        axis: Axis,
+        rule: FillRule,
+        r: &mut AxisResources,
+        profiler: &mut Option<&mut Profiler>,
+    ) -> Result<(VoxelGrid, AxisStats)> {
+        let res = frame.res;
+        let push = peel_push(frame, axis);
+        let r2 = res as u64 * res as u64;
+
+        // 1. Count pre-pass: the exact number of layers.
+        let counts = ctx.create_buffer(
+            "peel counts",
+            (r2 + 1) * 4,
+            vk::BufferUsageFlags::STORAGE_BUFFER
+                | vk::BufferUsageFlags::TRANSFER_DST
+                | vk::BufferUsageFlags::TRANSFER_SRC,
+            MemoryLocation::GpuOnly,
+        )?;
+        let counts = r.counts.insert(counts);
+        ctx.one_shot(|cmd| {
+            self.record_count(ctx, cmd, geom, &push, counts, profiler);
+            Ok(())
+        })?;
+        if let Some(p) = profiler.as_deref_mut() {
+            p.collect(ctx, 0)?;
+        }
+        let max_bytes = ctx.read_buffer_range(counts, 0, 4)?;
+        let layers = u32::from_le_bytes(max_bytes[..4].try_into().unwrap());
+        tick(
+            &self.progress,
+            &format!("{}: counted {layers} layers", axis.name()),
+        );
+        let mut grid = VoxelGrid::empty(*frame, axis);
+        if layers == 0 {
+            return Ok((
+                grid,
+                AxisStats {
+                    axis,
+                    layers,
+                    solid: 0,
+                },
+            ));
+        }
+        if layers > self.max_layers || layers > ctx.limits.max_image_array_layers {
+            return Err(Error::Limit {
+                what: format!("{layers} depth layers along {}", axis.name()),
+                detail: format!(
+                    "at most {} peeling passes are allowed (maxImageArrayLayers {})",
+                    self.max_layers, ctx.limits.max_image_array_layers
+                ),
+            });
+        }
+
+        // 2. Peel every layer.
+        for i in 0..2 {
+            let d = ImageDesc::d2(
+                res,
+                res,
+                vk::Format::D32_SFLOAT,
+                vk::ImageUsageFlags::DEPTH_STENCIL_ATTACHMENT | vk::ImageUsageFlags::SAMPLED,
+            );
+            r.depth
+                .push(ctx.create_image(&format!("peel depth {i}"), &d)?);
+        }
+        let ldesc = ImageDesc::d2_array(
+            res,
+            res,
+            layers,
+            vk::Format::R32_SFLOAT,
+            vk::ImageUsageFlags::COLOR_ATTACHMENT | vk::ImageUsageFlags::SAMPLED,
+        );
+        let layer_image = r.layers.insert(ctx.create_image("peel layers", &ldesc)?);
+        for l in 0..layers {
+            r.layer_views.push(ctx.create_layer_view(layer_image, l)?);
+        }
+        let max_range =
+            (ctx.limits.max_storage_buffer_range as u64).min(self.slab_limit.unwrap_or(u64::MAX));
+        let depth = &r.depth;
+        let views = &r.layer_views;
+        let layer_image = &*layer_image;
+        fill_in_slabs(
+            ctx,
+            frame,
+            max_range,
+            &mut grid,
+            profiler,
+            |cmd, out, first, count, profiler| {
+                if first == 0 {
+                    self.record_peeling(
+                        ctx,
+                        cmd,
+                        geom,
+                        &push,
+                        depth,
+                        layer_image,
+                        views,
+                        layers,
+                        profiler,
+                    )?;
+                }
+                let s = profiler
+                    .as_deref_mut()
+                    .map(|p| p.begin(ctx, cmd, 0, "voxel fill"));
+                self.fill.record(
+                    ctx,
+                    cmd,
+                    layer_image.view(),
+                    self.peel.sampler(),
+                    out,
+                    &FillJob {
+                        res,
+                        layer_count: layers,
+                        rule,
+                        first_column: first as u32,
+                        column_count: count as u32,
+                    },
+                )?;
+                if let (Some(p), Some(s)) = (profiler.as_deref_mut(), s) {
+                    p.end(ctx, cmd, s);
+                }
+                Ok(())
+            },
+            || {
+                tick(
+                    &self.progress,
+                    &format!("{}: peeled {layers} layers", axis.name()),
+                )
+            },
+        )?;
+        tick(&self.progress, &format!("{}: filled", axis.name()));
+        let solid = grid.count();
+        Ok((
+            grid,
+            AxisStats {
+                axis,
+                layers,
+                solid,
+            },
+        ))
+    }
+
+    #[allow(clippy::too_many_arguments)]
+    pub(super) fn record_peeling(
+        &self,
+        ctx: &Context,
+        cmd: vk::CommandBuffer,
+        geom: &PeelGeometry,
+        push: &PeelPush,
+        depth: &[Image],
+        layer_image: &Image,
+        views: &[Owned<vk::ImageView>],
+        layers: u32,
+        profiler: &mut Option<&mut Profiler>,
+    ) -> Result<()> {
+        let depth_range = depth[0].range();
+        let frag_read = (
+            vk::PipelineStageFlags2::FRAGMENT_SHADER,
+            vk::AccessFlags2::SHADER_SAMPLED_READ,
+        );
+        let depth_write = (
+            vk::PipelineStageFlags2::EARLY_FRAGMENT_TESTS
+                | vk::PipelineStageFlags2::LATE_FRAGMENT_TESTS,
+            vk::AccessFlags2::DEPTH_STENCIL_ATTACHMENT_READ
+                | vk::AccessFlags2::DEPTH_STENCIL_ATTACHMENT_WRITE,
+        );
+        // depth[1] plays "previous" for pass 0: cleared to 0.0 so every fragment is behind it.
+        for (i, img) in depth.iter().enumerate() {
+            image_barrier(
+                ctx,
+                cmd,
+                img.raw(),
+                depth_range,
+                vk::ImageLayout::UNDEFINED,
+                vk::ImageLayout::DEPTH_ATTACHMENT_OPTIMAL,
+                // ALL_COMMANDS, not NONE: a resident voxelizer peels into the same images every frame,
+                // so the transition must wait for the previous frame's peel and fill.
+                (
+                    vk::PipelineStageFlags2::ALL_COMMANDS,
+                    vk::AccessFlags2::NONE,
+                ),
+                depth_write,
+            );
+            if i == 1 {
+                let att = vk::RenderingAttachmentInfo::default()
+                    .image_view(img.view())
+                    .image_layout(vk::ImageLayout::DEPTH_ATTACHMENT_OPTIMAL)
+                    .load_op(vk::AttachmentLoadOp::CLEAR)
+                    .store_op(vk::AttachmentStoreOp::STORE)
+                    .clear_value(vk::ClearValue {
+                        depth_stencil: vk::ClearDepthStencilValue {
+                            depth: 0.0,
+                            stencil: 0,
+                        },
+                    });
+                let extent = img.extent2d();
+                let info = vk::RenderingInfo::default()
+                    .render_area(vk::Rect2D {
+                        offset: vk::Offset2D::default(),
+                        extent,
+                    })
+                    .layer_count(1)
+                    .depth_attachment(&att);
+                ctx.cmd_begin_rendering(cmd, &info);
+                ctx.cmd_end_rendering(cmd);
+                image_barrier(
+                    ctx,
+                    cmd,
+                    img.raw(),
+                    depth_range,
+                    vk::ImageLayout::DEPTH_ATTACHMENT_OPTIMAL,
+                    vk::ImageLayout::DEPTH_READ_ONLY_OPTIMAL,
+                    depth_write,
+                    frag_read,
+                );
+            }
+        }
+        image_barrier(
+            ctx,
+            cmd,
+            layer_image.raw(),
+            layer_image.range(),
+            vk::ImageLayout::UNDEFINED,
+            vk::ImageLayout::COLOR_ATTACHMENT_OPTIMAL,
+            (
+                vk::PipelineStageFlags2::ALL_COMMANDS,
+                vk::AccessFlags2::NONE,
+            ),
+            (
+                vk::PipelineStageFlags2::COLOR_ATTACHMENT_OUTPUT,
+                vk::AccessFlags2::COLOR_ATTACHMENT_WRITE,
+            ),
+        );
+        for l in 0..layers as usize {
+            let (cur, prev) = (&depth[l % 2], &depth[(l + 1) % 2]);
+            if l > 0 {
+                // The previous pass's target becomes this pass's "previous"; this pass's target was read by the
+                // previous pass and is now overwritten.
+                image_barrier(
+                    ctx,
+                    cmd,
+                    prev.raw(),
+                    depth_range,
+                    vk::ImageLayout::DEPTH_ATTACHMENT_OPTIMAL,
+                    vk::ImageLayout::DEPTH_READ_ONLY_OPTIMAL,
+                    depth_write,
+                    frag_read,
+                );
+                image_barrier(
+                    ctx,
+                    cmd,
+                    cur.raw(),
+                    depth_range,
+                    vk::ImageLayout::DEPTH_READ_ONLY_OPTIMAL,
+                    vk::ImageLayout::DEPTH_ATTACHMENT_OPTIMAL,
+                    frag_read,
+                    depth_write,
+                );
+            }
+            let s = profiler
+                .as_deref_mut()
+                .map(|p| p.begin(ctx, cmd, 0, "peel layer"));
+            self.peel
+                .record_layer(ctx, cmd, geom, push, prev, cur, views[l].raw());
+            if let (Some(p), Some(s)) = (profiler.as_deref_mut(), s) {
+                p.end(ctx, cmd, s);
+            }
+        }
+        image_barrier(
+            ctx,
+            cmd,
+            layer_image.raw(),
+            layer_image.range(),
+            vk::ImageLayout::COLOR_ATTACHMENT_OPTIMAL,
+            vk::ImageLayout::SHADER_READ_ONLY_OPTIMAL,
+            (
+                vk::PipelineStageFlags2::COLOR_ATTACHMENT_OUTPUT,
+                vk::AccessFlags2::COLOR_ATTACHMENT_WRITE,
+            ),
+            (
+                vk::PipelineStageFlags2::COMPUTE_SHADER,
+                vk::AccessFlags2::SHADER_SAMPLED_READ,
+            ),
+        );
+        Ok(())
+    }
+
+    /// Voxelizes along each of `axes` and, for three axes, takes the 2-of-3 vote.
+    pub fn voxelize(
+        &self,
+        ctx: &Context,
+        geom: &PeelGeometry,
+        frame: &GridFrame,
+        axes: &[Axis],
+        rule: FillRule,
+        mut profiler: Option<&mut Profiler>,
+    ) -> Result<(VoxelGrid, Vec<AxisStats>)> {
+        over_axes(axes, |a| {
+            self.voxelize_axis(ctx, geom, frame, a, rule, profiler.as_deref_mut())
+        })
+    }
+}
