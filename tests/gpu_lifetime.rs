@@ -85,8 +85,7 @@ fn a_voxelizer_that_fails_mid_voxelization_releases_its_images_and_slabs() {
             gregvox::voxel::cpu::FillRule::Winding,
             None,
         )
-        .err()
-        .expect("over the budget");
+        .expect_err("over the budget");
     assert!(err.to_string().contains("budget"), "{err}");
     drop((v, gpu_tri));
     assert_clean(&ctx);

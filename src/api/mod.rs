@@ -359,7 +359,7 @@ impl Gpu {
         &self,
         mesh: &Mesh,
         opts: &VoxelizeOptions,
-        mut profiler: Option<&mut Profiler>,
+        profiler: Option<&mut Profiler>,
     ) -> Result<Voxelization> {
         if opts.method == Method::Cpu {
             return voxelize_on_cpu(mesh, opts);
@@ -409,14 +409,7 @@ impl Gpu {
                 vec![best.1]
             }
         };
-        let (grid, stats) = v.voxelize(
-            ctx,
-            &geom,
-            &frame,
-            &axes,
-            opts.rule,
-            profiler.as_deref_mut(),
-        )?;
+        let (grid, stats) = v.voxelize(ctx, &geom, &frame, &axes, opts.rule, profiler)?;
         report.axes = axes;
         report.layers = stats.iter().map(|s| (s.axis, s.layers)).collect();
         Ok(Voxelization { grid, report })
@@ -462,7 +455,7 @@ impl Gpu {
         cage: &Mesh,
         level: u32,
         opts: &VoxelizeOptions,
-        mut profiler: Option<&mut Profiler>,
+        profiler: Option<&mut Profiler>,
     ) -> Result<Voxelization> {
         opts.validate()?;
         if opts.method != Method::Peel {
@@ -490,7 +483,7 @@ impl Gpu {
             &axes,
             opts.rule,
             opts.max_layers,
-            profiler.as_deref_mut(),
+            profiler,
         )?;
         let report = VoxelizeReport {
             method: Method::Peel,

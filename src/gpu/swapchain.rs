@@ -60,7 +60,9 @@ impl SwapchainTarget {
         let surface =
             unsafe { ash_window::create_surface(&ctx.entry, &ctx.instance, display, window, None) }
                 .vk("vkCreate*SurfaceKHR")?;
-        let owned_surface = ctx.own(surface, "window surface");
+        // Not named: a surface is an instance-level object, and naming it through the device's debug-utils
+        // entry point crashes the validation layer on lavapipe.
+        let owned_surface = Owned::new(ctx.shared(), surface);
         // SAFETY: valid physical device and surface.
         let supported = unsafe {
             surface_fn.get_physical_device_surface_support(

@@ -72,8 +72,8 @@ impl AbufferVoxelizer {
             });
         }
         let mut r = AbufferResources::default();
-        let result = self.run_axis(ctx, geom, frame, axis, rule, &mut r, &mut profiler);
-        result
+        // What the run creates lives in `r` until it returns, then releases itself.
+        self.run_axis(ctx, geom, frame, axis, rule, &mut r, &mut profiler)
     }
 
     #[allow(clippy::too_many_arguments)]

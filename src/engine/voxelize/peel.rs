@@ -161,8 +161,8 @@ impl PeelVoxelizer {
             layer_views: Vec::new(),
             out: None,
         };
-        let result = self.run_axis(ctx, geom, frame, axis, rule, &mut res_, &mut profiler);
-        result
+        // What the run creates lives in `res_` until it returns, then releases itself.
+        self.run_axis(ctx, geom, frame, axis, rule, &mut res_, &mut profiler)
     }
 
     #[allow(clippy::too_many_arguments)]
