@@ -15,7 +15,8 @@ use crate::engine::voxelize::{
     PeelVoxelizer,
 };
 use crate::error::{Error, Result};
-use crate::gpu::{Context, ContextDesc, DeviceInfo, Profiler};
+use crate::gpu::Context;
+pub use crate::gpu::{ContextDesc, DeviceInfo, Profiler, Validation};
 use crate::passes::cage_deform::DeformParams;
 use crate::passes::gregory_eval::{grid_indices, SurfaceVertex, MAX_LEVEL};
 use crate::voxel::cpu::voxelize_cpu;

@@ -1,6 +1,6 @@
 //! `gregvox info`: the chosen device, its driver and API version, the limits gregvox depends on, timestamp
 //! support and the validation layer's presence (`--json` for machines).
-use crate::gpu::{Context, ContextDesc, DeviceInfo, Validation};
+use crate::api::{DeviceInfo, Gpu};
 use clap::Args;
 
 /// Arguments of `gregvox info`.
@@ -13,23 +13,15 @@ pub struct InfoArgs {
 
 /// Runs `gregvox info`.
 pub fn run(args: &InfoArgs) -> anyhow::Result<()> {
-    let ctx = Context::with_desc(&ContextDesc {
-        validation: Validation::Auto,
-        ..Default::default()
-    })?;
-    let info = ctx.info.clone();
-    let validation_messages = ctx.validation.count();
-    drop(ctx);
+    let gpu = Gpu::new()?;
+    let info = gpu.info().clone();
     if args.json {
         super::print_out(&format!("{}\n", serde_json::to_string_pretty(&info)?))?;
     } else {
         super::print_out(&format_info(&info))?;
     }
-    if validation_messages > 0 {
-        anyhow::bail!(
-            "{validation_messages} Vulkan validation message(s) while probing the device"
-        );
-    }
+    // Fails on a validation message while probing the device.
+    gpu.finish()?;
     Ok(())
 }
 

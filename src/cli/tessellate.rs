@@ -3,9 +3,8 @@
 //! in the contract order of docs/ARCHITECTURE.md (one (L+1)² grid per patch, u along the face's first edge,
 //! rows of u inner).
 use crate::api::tessellate::{is_beziex, AdaptiveView, EvalPath, Patches, TessellateOptions};
-use crate::api::{Deformation, Gpu, Tangents};
+use crate::api::{Deformation, Gpu, Profiler, Tangents};
 use crate::args::ProfileArgs;
-use crate::gpu::Profiler;
 use anyhow::{bail, Context as _};
 use clap::{Args, ValueEnum};
 use std::path::PathBuf;
