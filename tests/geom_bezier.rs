@@ -1,4 +1,4 @@
-//! Bézier curves and curvature: closed-form vectors of notes/mesh-matrices-and-curves.md §B.3, numpy
+//! Bézier curves and curvature: closed-form vectors of docs/notes/mesh-matrices-and-curves.md §B.3, numpy
 //! Bernstein sums (tests/fixtures/geom/bezier.json) and geomdl 5.4.0 elevation/split (ops.json).
 //!
 //! Tolerances: the notes print 6 significant digits for κ (hence 1e-6); everything computed by an oracle in

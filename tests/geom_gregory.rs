@@ -1,4 +1,4 @@
-//! The Gregory patch (notes/gregory.md §1) and the Chiyokura–Kimura correction (§2), as specifications.
+//! The Gregory patch (docs/notes/gregory.md §1) and the Chiyokura–Kimura correction (§2), as specifications.
 //!
 //! Tolerances: exact derivatives vs central differences ≤ 1e-6 relative (the figure; h = 1e-5 gives
 //! truncation ~h² and rounding ~1e-16/h, both ≪ 1e-6); equal pairs = Bézier to 1e-14 × size (same maths,

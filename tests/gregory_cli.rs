@@ -54,7 +54,7 @@ fn diag(p: &[DVec3]) -> f64 {
 #[test]
 fn tangents_exact_evaluates_the_exact_limit_tangent_patches() {
     // catmark_cube: every corner has valence 3, where the two masks differ most (|Ep − P| .2286 vs .2879 on
-    // a symmetric unit ring, gregory.md §3.5).
+    // a symmetric unit ring, docs/notes/gregory.md §3.5).
     let cube = model("opensubdiv/catmark_cube.obj");
     let level = 6;
     let mesh = load_obj(&cube).unwrap();

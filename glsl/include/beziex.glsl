@@ -1,4 +1,4 @@
-// The Beziex patch (notes/gregory.md §5): S = (u(1−u)·Ra + v(1−v)·Rb) / (u(1−u) + v(1−v)), Ra of bidegree
+// The Beziex patch (docs/notes/gregory.md §5): S = (u(1−u)·Ra + v(1−v)·Rb) / (u(1−u) + v(1−v)), Ra of bidegree
 // (6, 3) and Rb of bidegree (3, 6) from 56 points (Ra rows then Rb columns, 7 points each; see
 // gregvox::surface::beziex). At the corners S = Ra. Mirrors BeziexPatch::eval.
 #ifndef GREGVOX_BEZIEX_GLSL

@@ -9,7 +9,7 @@ use anyhow::{bail, Context as _};
 use clap::{Args, ValueEnum};
 use std::path::PathBuf;
 
-/// Edge-point masks at extraordinary vertices (gregory.md §3.5).
+/// Edge-point masks at extraordinary vertices (docs/notes/gregory.md §3.5).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
 pub enum TangentMode {
     /// OpenSubdiv's masks (its GREGORY_BASIS points).

@@ -1,5 +1,5 @@
 //! Chiyokura–Kimura compatibility correction: face points that make two Gregory patches sharing a boundary
-//! cubic G1 along the whole edge (Takeda 2008 eqs. 2.10–2.12; notes/gregory.md §2).
+//! cubic G1 along the whole edge (Takeda 2008 eqs. 2.10–2.12; docs/notes/gregory.md §2).
 //!
 //! Conventions: the shared cubic has Bézier points P0..P3 (P0 at t = 0); C_i = P_{i+1} − P_i;
 //! A_i = (A's first inner-row point at station i) − P_i, B_i likewise for B, both pointing *away* from the

@@ -1,6 +1,6 @@
 //! The bicubic Gregory patch (Chiyokura & Kimura 1983): 20 control points in OpenSubdiv's GREGORY_BASIS
 //! order, position, exact first and second partial derivatives, the corner 0/0 guard and normals with a
-//! degenerate fallback. See `notes/gregory.md` §1.
+//! degenerate fallback. See `docs/notes/gregory.md` §1.
 //!
 //! Conventions and invariants:
 //! - Corner i (CCW: (0,0), (1,0), (1,1), (0,1)) owns indices `5i..5i+4 = [P, Ep, Em, Fp, Fm]`; the Bézier

@@ -1,5 +1,5 @@
 //! ACC-2 (Loop–Schaefer–Ni–Castaño 2009) as OpenSubdiv 3.5 builds it at isolation 0: one bicubic Gregory
-//! patch per cage quad, as a sparse stencil matrix over the cage vertices (gregory.md §3–4).
+//! patch per cage quad, as a sparse stencil matrix over the cage vertices (docs/notes/gregory.md §3–4).
 //!
 //! Invariants:
 //! - Patch `k` is cage face `k`; patch corner `i` is face vertex `i` (u along v0→v1, v along v0→v3), and
@@ -15,7 +15,7 @@
 //!      are equal by construction (regular or copied face points).
 //!
 //!   Hence two patches sharing an edge reference the same rows for its 4 boundary points, and W·cage
-//!   gives them bit-identical values in any precision (gregory.md §4.2).
+//!   gives them bit-identical values in any precision (docs/notes/gregory.md §4.2).
 //! - Every row's weights sum to 1 (affine invariance), so translating the cage translates every point.
 //! - Regular faces (every corner interior valence 4, boundary with 2 faces, or a boundary corner with 1 face
 //!   — OpenSubdiv's legacy sharp-corner REGULAR patches) give the Bézier form of the bicubic B-spline patch:
@@ -27,7 +27,7 @@ use glam::DVec3;
 use std::collections::BTreeMap;
 use std::f64::consts::PI;
 
-/// Which edge-point (tangent) masks irregular interior corners use (gregory.md §3.3, §3.5).
+/// Which edge-point (tangent) masks irregular interior corners use (docs/notes/gregory.md §3.3, §3.5).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub enum Tangents {
     /// OpenSubdiv's `CatmarkLimits` masks (λ_n / σ_n); matches OpenSubdiv's GREGORY_BASIS points.
@@ -80,7 +80,7 @@ pub struct CageStencils {
     pub note: Option<String>,
 }
 
-/// Per patch corner: the CCW one-ring of its vertex (gregory.md §3.1) in OpenSubdiv's layout.
+/// Per patch corner: the CCW one-ring of its vertex (docs/notes/gregory.md §3.1) in OpenSubdiv's layout.
 #[derive(Debug, Clone)]
 struct Ring {
     v: u32,
@@ -112,7 +112,7 @@ impl Ring {
     fn is_corner(&self) -> bool {
         self.boundary && self.faces == 1
     }
-    /// The corner cosine c_i of the face-point formula (gregory.md §3.4): 0 for regular corners,
+    /// The corner cosine c_i of the face-point formula (docs/notes/gregory.md §3.4): 0 for regular corners,
     /// cos(π/F) on a boundary with F faces, cos(2π/n) inside (n = 2 gives −1).
     fn cos(&self) -> f64 {
         if self.is_regular() {
@@ -220,7 +220,7 @@ fn ring_of(m: &MeshMatrix, twin: &[u32], c: u32) -> Result<Ring> {
     })
 }
 
-/// Limit position P (gregory.md §3.2, §3.6).
+/// Limit position P (docs/notes/gregory.md §3.2, §3.6).
 fn p_row(r: &Ring) -> Row {
     if r.boundary {
         if r.faces == 1 {

@@ -1,5 +1,5 @@
 #!/bin/sh
-# Builds the OpenSubdiv oracle and regenerates tests/fixtures/surface/*.osd (gregory.md §4.3).
+# Builds the OpenSubdiv oracle and regenerates tests/fixtures/surface/*.osd (docs/notes/gregory.md §4.3).
 # Needs libosd-dev (Debian 3.5: `apt-get install -y libosd-dev`). The Rust tests only read the fixtures.
 set -eu
 here=$(cd "$(dirname "$0")" && pwd)

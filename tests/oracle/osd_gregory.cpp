@@ -1,4 +1,4 @@
-// OpenSubdiv oracle for gregvox's ACC-2 stencils (gregory.md §4.3). Not run by the tests: it writes the
+// OpenSubdiv oracle for gregvox's ACC-2 stencils (docs/notes/gregory.md §4.3). Not run by the tests: it writes the
 // fixtures in tests/fixtures/surface/ once (see build_osd.sh) and the Rust tests read them.
 //
 // Per cage: Far at isolation 0, Sdc CATMARK with VTX_BOUNDARY_EDGE_ONLY, ENDCAP_GREGORY_BASIS, double
@@ -145,7 +145,7 @@ static void bern_inverse(double inv[4][4]) {
     for (int i = 0; i < 4; ++i) for (int k = 0; k < 4; ++k) inv[i][k] = a[i][4 + k];
 }
 
-// Bezier grid b[row=v][col=u] -> GREGORY_BASIS index pairs (gregory.md §1.2).
+// Bezier grid b[row=v][col=u] -> GREGORY_BASIS index pairs (docs/notes/gregory.md §1.2).
 static const int GRID[4][4][2] = {
     {{0, 0}, {1, 1}, {7, 7}, {5, 5}},
     {{2, 2}, {3, 4}, {9, 8}, {6, 6}},
