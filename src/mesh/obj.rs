@@ -215,6 +215,9 @@ fn parse_obj_bytes(bytes: &[u8], path: &Path) -> Result<Mesh> {
             return Err(err(line, "invalid UTF-8; not an OBJ text file".into()));
         }
     };
+    // A UTF-8 byte-order mark (Windows exporters write one) is not part of the first line: skipped, so the
+    // first `v` line is read as one.
+    let text = text.strip_prefix('\u{feff}').unwrap_or(text);
     let mut positions: Vec<DVec3> = Vec::new();
     let mut face_ptr = vec![0u32];
     let mut indices: Vec<u32> = Vec::new();

@@ -238,6 +238,8 @@ pub fn load_beziex(path: impl AsRef<Path>) -> Result<Vec<BeziexPatch>> {
 
 /// Parses Beziex JSON text; `path` names the source in errors.
 pub fn parse_beziex(text: &str, path: &Path) -> Result<Vec<BeziexPatch>> {
+    // Windows tools write a UTF-8 byte-order mark; JSON parsers refuse it.
+    let text = text.strip_prefix('\u{feff}').unwrap_or(text);
     let model: FileModel = serde_json::from_str(text)
         .map_err(|e| Error::parse(path, format!("not a Beziex model: {e}")))?;
     if model.surface.is_empty() {
@@ -254,8 +256,14 @@ pub fn parse_beziex(text: &str, path: &Path) -> Result<Vec<BeziexPatch>> {
                     3 * n
                 )));
             }
-            if v.iter().any(|x| !x.is_finite()) {
-                return Err(bad(&format!("{what} has a non-finite coordinate")));
+            if let Some(x) = v.iter().find(|x| !x.is_finite()) {
+                return Err(bad(&format!("{what} has a non-finite coordinate ({x})")));
+            }
+            // The GPU evaluates in f32: a finite f64 past f32's range would become an infinity there.
+            if let Some(x) = v.iter().find(|x| !(x.abs() <= f32::MAX as f64)) {
+                return Err(bad(&format!(
+                    "{what} has the coordinate {x:e}, past the f32 range (±3.4e38) the GPU evaluates in"
+                )));
             }
             Ok(v.chunks(3).map(|c| DVec3::new(c[0], c[1], c[2])).collect())
         };
