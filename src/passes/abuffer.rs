@@ -67,6 +67,36 @@ pub struct AbufferFillJob {
     pub column_count: u32,
 }
 
+/// Push constants of the scan (`Push` in glsl/abuffer_scan.comp).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, bytemuck::Pod, bytemuck::Zeroable)]
+struct ScanPush {
+    /// First word of this level.
+    data: u32,
+    /// Elements in this level.
+    n: u32,
+    /// First word of the next level (block totals).
+    sums: u32,
+    /// 0: scan blocks, 1: add block offsets.
+    mode: u32,
+}
+
+/// Push constants of the fill (`Push` in glsl/abuffer_fill.comp).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, bytemuck::Pod, bytemuck::Zeroable)]
+struct FillPush {
+    /// Resolution R.
+    res: u32,
+    /// ceil(R/32).
+    words: u32,
+    /// 0: winding, 1: parity.
+    rule: u32,
+    /// First column (v·R + u) of this slab.
+    first_column: u32,
+    /// Columns in this slab.
+    column_count: u32,
+}
+
 /// The A-buffer passes.
 pub struct AbufferPass {
     scan: ComputePipeline,
@@ -101,7 +131,7 @@ impl AbufferPass {
             "abuffer scan",
             shaders::ABUFFER_SCAN_COMP,
             vec![scan_layout],
-            16,
+            std::mem::size_of::<ScanPush>() as u32,
             (SCAN_BLOCK / SCAN_PER_INVOCATION) as u32,
         )?;
         let scatter = Self::scatter_pipeline(ctx, stride)?;
@@ -115,7 +145,7 @@ impl AbufferPass {
             "abuffer fill",
             shaders::ABUFFER_FILL_COMP,
             vec![fill_layout],
-            20,
+            std::mem::size_of::<FillPush>() as u32,
             64,
         )?;
         Ok(AbufferPass {
@@ -168,8 +198,11 @@ impl AbufferPass {
     ) -> Result<()> {
         let levels = scan_levels(n);
         let (src, dst) = compute_to_compute();
-        let push = |data: u64, len: u64, sums: u64, mode: u32| -> [u32; 4] {
-            [data as u32, len as u32, sums as u32, mode]
+        let push = |data: u64, len: u64, sums: u64, mode: u32| ScanPush {
+            data: data as u32,
+            n: len as u32,
+            sums: sums as u32,
+            mode,
         };
         // Up: scan every level but the last (a single total).
         for l in 0..levels.len() - 1 {
@@ -178,7 +211,7 @@ impl AbufferPass {
                 ctx,
                 cmd,
                 &[(0, Binding::Storage(scan.raw()))],
-                bytemuck::cast_slice(&push(data, len, levels[l + 1].0, 0)),
+                bytemuck::bytes_of(&push(data, len, levels[l + 1].0, 0)),
             );
             self.scan
                 .dispatch_linear(ctx, cmd, len.div_ceil(SCAN_PER_INVOCATION))?;
@@ -191,7 +224,7 @@ impl AbufferPass {
                 ctx,
                 cmd,
                 &[(0, Binding::Storage(scan.raw()))],
-                bytemuck::cast_slice(&push(data, len, levels[l + 1].0, 1)),
+                bytemuck::bytes_of(&push(data, len, levels[l + 1].0, 1)),
             );
             self.scan
                 .dispatch_linear(ctx, cmd, len.div_ceil(SCAN_PER_INVOCATION))?;
@@ -289,16 +322,16 @@ impl AbufferPass {
                 out.name()
             )));
         }
-        let push: [u32; 5] = [
-            job.res,
+        let push = FillPush {
+            res: job.res,
             words,
-            match job.rule {
+            rule: match job.rule {
                 FillRule::Winding => 0,
                 FillRule::Parity => 1,
             },
-            job.first_column,
-            job.column_count,
-        ];
+            first_column: job.first_column,
+            column_count: job.column_count,
+        };
         self.fill.bind(
             ctx,
             cmd,
@@ -307,7 +340,7 @@ impl AbufferPass {
                 (1, Binding::Storage(frags.raw())),
                 (2, Binding::Storage(out.raw())),
             ],
-            bytemuck::cast_slice(&push),
+            bytemuck::bytes_of(&push),
         );
         self.fill
             .dispatch_linear(ctx, cmd, job.column_count as u64)?;

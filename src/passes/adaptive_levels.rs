@@ -155,7 +155,7 @@ pub fn patch_level(cv: &[DVec3; 20], p: &AdaptiveParams, l_max: u32) -> (u32, f6
 }
 
 /// Edge topology of a patch layout for the adaptive path: edges are identified by their four boundary
-/// control-point rows (shared W rows ⇔ bit-identical canonical edges, gregory.md §4.2).
+/// control-point rows (shared W rows ⇔ bit-identical canonical edges, docs/notes/gregory.md §4.2).
 #[derive(Clone, Debug, Default, PartialEq, Eq)]
 pub struct EdgeTopology {
     /// Per patch edge (4·patch + e), its edge id.
@@ -232,6 +232,7 @@ pub struct AdaptiveLevelsPass {
     pipeline: ComputePipeline,
 }
 
+/// Push constants of the kernel (`Push` in glsl/adaptive_levels.comp).
 #[repr(C)]
 #[derive(Clone, Copy, bytemuck::Pod, bytemuck::Zeroable)]
 struct Push {

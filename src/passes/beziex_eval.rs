@@ -10,6 +10,15 @@ use crate::gpu::{shaders, Buffer, Context};
 use crate::passes::gregory_eval::{vertex_count, MAX_LEVEL};
 use ash::vk;
 
+/// Push constants of the evaluation (`Push` in glsl/beziex_eval.comp).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, bytemuck::Pod, bytemuck::Zeroable)]
+struct Push {
+    patch_count: u32,
+    /// Level L.
+    level: u32,
+}
+
 /// The Beziex compute evaluation pass.
 pub struct BeziexEvalPass {
     pipeline: ComputePipeline,
@@ -28,7 +37,7 @@ impl BeziexEvalPass {
                 "beziex eval",
                 shaders::BEZIEX_EVAL_COMP,
                 vec![layout],
-                8,
+                std::mem::size_of::<Push>() as u32,
                 64,
             )?,
         })
@@ -53,7 +62,7 @@ impl BeziexEvalPass {
         if n * 32 > out.size() || patch_count as u64 * 56 * 16 > nets.size() {
             return Err(Error::Invalid("beziex eval: buffers too small".into()));
         }
-        let push = [patch_count, level];
+        let push = Push { patch_count, level };
         self.pipeline.bind(
             ctx,
             cmd,
@@ -61,7 +70,7 @@ impl BeziexEvalPass {
                 (0, Binding::Storage(nets.raw())),
                 (1, Binding::Storage(out.raw())),
             ],
-            bytemuck::cast_slice(&push),
+            bytemuck::bytes_of(&push),
         );
         self.pipeline.dispatch_linear(ctx, cmd, n)?;
         compute_writes_to_readers(ctx, cmd);

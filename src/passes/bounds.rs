@@ -11,6 +11,16 @@ use crate::gpu::resources::{compute_to_compute, memory_barrier, storage_chunks};
 use crate::gpu::{shaders, Buffer, Context};
 use ash::vk;
 
+/// Push constants of the reduction (`Push` in glsl/bounds.comp).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, bytemuck::Pod, bytemuck::Zeroable)]
+struct Push {
+    /// Vertices in this dispatch.
+    count: u32,
+    /// Vertex stride in floats.
+    stride_floats: u32,
+}
+
 /// The bounds compute pass.
 pub struct BoundsPass {
     pipeline: ComputePipeline,
@@ -41,7 +51,7 @@ impl BoundsPass {
                 "bounds",
                 shaders::BOUNDS_COMP,
                 vec![layout],
-                8,
+                std::mem::size_of::<Push>() as u32,
                 64,
             )?,
         })
@@ -94,7 +104,10 @@ impl BoundsPass {
             if first > 0 {
                 compute_to_compute(ctx, cmd);
             }
-            let push = [n as u32, stride / 4];
+            let push = Push {
+                count: n as u32,
+                stride_floats: stride / 4,
+            };
             self.pipeline.bind(
                 ctx,
                 cmd,
@@ -109,7 +122,7 @@ impl BoundsPass {
                     ),
                     (1, Binding::Storage(bounds.raw())),
                 ],
-                bytemuck::cast_slice(&push),
+                bytemuck::bytes_of(&push),
             );
             self.pipeline.dispatch_linear(ctx, cmd, n)?;
         }

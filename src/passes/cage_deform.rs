@@ -33,6 +33,7 @@ pub struct DeformParams {
     pub box_size: [f32; 3],
 }
 
+/// Push constants of the kernel (`Push` in glsl/cage_deform.comp).
 #[repr(C)]
 #[derive(Clone, Copy, bytemuck::Pod, bytemuck::Zeroable)]
 struct Push {

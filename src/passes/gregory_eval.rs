@@ -32,6 +32,22 @@ pub const GROUP_SIZE: u32 = 8;
 /// Highest uniform tessellation level.
 pub const MAX_LEVEL: u32 = 64;
 
+/// Push constants of both variants (`Push` in glsl/include/gregory_eval_body.glsl).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, bytemuck::Pod, bytemuck::Zeroable)]
+struct Push {
+    /// Patches in this dispatch.
+    patch_count: u32,
+    /// L (uniform) or L_max (adaptive: the slot size).
+    level: u32,
+    /// 1: canonical edge evaluation on.
+    canonical: u32,
+    /// > 0: point r's f32 residual is points[residual_rows + r].
+    residual_rows: u32,
+    /// This dispatch's first patch: the output is bound from its slot on ([`patch_batches`]).
+    patch_base: u32,
+}
+
 /// The Gregory evaluation compute pass: uniform ([`GregoryEvalPass::new`], [`GregoryEvalPass::record`]) or
 /// adaptive ([`GregoryEvalPass::new_adaptive`], [`GregoryEvalPass::record_adaptive`]).
 pub struct GregoryEvalPass {
@@ -130,7 +146,14 @@ impl GregoryEvalPass {
             ("gregory eval", shaders::GREGORY_EVAL_COMP)
         };
         Ok(GregoryEvalPass {
-            pipeline: ComputePipeline::new(ctx, name, spirv, vec![layout], 32, GROUP_SIZE)?,
+            pipeline: ComputePipeline::new(
+                ctx,
+                name,
+                spirv,
+                vec![layout],
+                std::mem::size_of::<Push>() as u32,
+                GROUP_SIZE,
+            )?,
             adaptive,
         })
     }
@@ -168,16 +191,13 @@ impl GregoryEvalPass {
         }
         let slot = (level as u64 + 1).pow(2) * std::mem::size_of::<SurfaceVertex>() as u64;
         for (first, count) in patch_batches(ctx, patch_count, slot)? {
-            let push: [u32; 8] = [
-                count,
+            let push = Push {
+                patch_count: count,
                 level,
-                canonical_edges as u32,
-                points.residual_rows,
-                first,
-                0,
-                0,
-                0,
-            ];
+                canonical: canonical_edges as u32,
+                residual_rows: points.residual_rows,
+                patch_base: first,
+            };
             let bindings = [
                 (0, Binding::Storage(points.buffer.raw())),
                 (1, Binding::Storage(patch_points.raw())),
@@ -185,7 +205,7 @@ impl GregoryEvalPass {
                 (3, output_range(out, first, count, slot)),
             ];
             self.pipeline
-                .bind(ctx, cmd, &bindings, bytemuck::cast_slice(&push));
+                .bind(ctx, cmd, &bindings, bytemuck::bytes_of(&push));
             // One workgroup per patch (see the shader).
             self.pipeline
                 .dispatch_linear(ctx, cmd, count as u64 * GROUP_SIZE as u64)?;
@@ -230,7 +250,13 @@ impl GregoryEvalPass {
         }
         let slot = (l_max as u64 + 1).pow(2) * std::mem::size_of::<SurfaceVertex>() as u64;
         for (first, count) in patch_batches(ctx, patch_count, slot)? {
-            let push: [u32; 8] = [count, l_max, 1, points.residual_rows, first, 0, 0, 0];
+            let push = Push {
+                patch_count: count,
+                level: l_max,
+                canonical: 1,
+                residual_rows: points.residual_rows,
+                patch_base: first,
+            };
             let bindings = [
                 (0, Binding::Storage(points.buffer.raw())),
                 (1, Binding::Storage(patch_points.raw())),
@@ -241,7 +267,7 @@ impl GregoryEvalPass {
                 (6, Binding::Storage(adaptive.edge_levels.raw())),
             ];
             self.pipeline
-                .bind(ctx, cmd, &bindings, bytemuck::cast_slice(&push));
+                .bind(ctx, cmd, &bindings, bytemuck::bytes_of(&push));
             self.pipeline
                 .dispatch_linear(ctx, cmd, count as u64 * GROUP_SIZE as u64)?;
         }

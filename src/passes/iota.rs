@@ -10,6 +10,15 @@ use crate::gpu::resources::compute_writes_to_readers;
 use crate::gpu::{shaders, Buffer, Context};
 use ash::vk;
 
+/// Push constants of the fill (`Push` in glsl/iota.comp).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, bytemuck::Pod, bytemuck::Zeroable)]
+struct Push {
+    count: u32,
+    scale: u32,
+    offset: u32,
+}
+
 /// The iota compute pass.
 pub struct IotaPass {
     pipeline: ComputePipeline,
@@ -21,7 +30,14 @@ impl IotaPass {
         let layout = DescriptorSetLayoutBuilder::new()
             .storage_buffer(0, vk::ShaderStageFlags::COMPUTE)
             .build(ctx, "iota set")?;
-        let pipeline = ComputePipeline::new(ctx, "iota", shaders::IOTA_COMP, vec![layout], 12, 64)?;
+        let pipeline = ComputePipeline::new(
+            ctx,
+            "iota",
+            shaders::IOTA_COMP,
+            vec![layout],
+            std::mem::size_of::<Push>() as u32,
+            64,
+        )?;
         Ok(IotaPass { pipeline })
     }
 
@@ -42,12 +58,16 @@ impl IotaPass {
                 buffer.size()
             )));
         }
-        let push: [u32; 3] = [count, scale, offset];
+        let push = Push {
+            count,
+            scale,
+            offset,
+        };
         self.pipeline.bind(
             ctx,
             cmd,
             &[(0, Binding::Storage(buffer.raw()))],
-            bytemuck::cast_slice(&push),
+            bytemuck::bytes_of(&push),
         );
         self.pipeline.dispatch_linear(ctx, cmd, count as u64)?;
         compute_writes_to_readers(ctx, cmd);

@@ -32,6 +32,14 @@ impl LineVertex {
     }
 }
 
+/// Push constants of the vertex shader (`Push` in glsl/lines.vert).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, bytemuck::Pod, bytemuck::Zeroable)]
+struct Push {
+    /// mat4, column-major.
+    view_proj: [f32; 16],
+}
+
 /// The line pass.
 pub struct LinesPass {
     pipeline: GraphicsPipeline,
@@ -63,7 +71,7 @@ impl LinesPass {
                 offset: 16,
             },
         ];
-        desc.push_constant_bytes = 64;
+        desc.push_constant_bytes = std::mem::size_of::<Push>() as u32;
         desc.push_constant_stages = vk::ShaderStageFlags::VERTEX;
         Ok(LinesPass {
             pipeline: GraphicsPipeline::new(ctx, "lines", desc)?,
@@ -94,7 +102,9 @@ impl LinesPass {
             ctx,
             cmd,
             &[],
-            bytemuck::bytes_of(&view_proj.to_cols_array()),
+            bytemuck::bytes_of(&Push {
+                view_proj: view_proj.to_cols_array(),
+            }),
             target.extent,
         );
         if vertex_count >= 2 {

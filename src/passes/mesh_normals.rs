@@ -62,6 +62,20 @@ impl GpuMeshMatrix {
     }
 }
 
+/// Push constants of the face kernel (`Push` in glsl/face_normals.comp).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, bytemuck::Pod, bytemuck::Zeroable)]
+struct FacePush {
+    faces: u32,
+}
+
+/// Push constants of the vertex kernel (`Push` in glsl/vertex_normals.comp).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, bytemuck::Pod, bytemuck::Zeroable)]
+struct VertexPush {
+    vertices: u32,
+}
+
 /// The two-kernel normal pass.
 pub struct MeshNormalsPass {
     faces: ComputePipeline,
@@ -83,7 +97,7 @@ impl MeshNormalsPass {
             "face normals",
             shaders::FACE_NORMALS_COMP,
             vec![layout(4, "face normals set")?],
-            4,
+            std::mem::size_of::<FacePush>() as u32,
             64,
         )?;
         let vertices = ComputePipeline::new(
@@ -91,7 +105,7 @@ impl MeshNormalsPass {
             "vertex normals",
             shaders::VERTEX_NORMALS_COMP,
             vec![layout(5, "vertex normals set")?],
-            4,
+            std::mem::size_of::<VertexPush>() as u32,
             64,
         )?;
         Ok(MeshNormalsPass { faces, vertices })
@@ -123,7 +137,7 @@ impl MeshNormalsPass {
                 (2, Binding::Storage(positions.raw())),
                 (3, Binding::Storage(fnb.raw())),
             ],
-            bytemuck::bytes_of(&m.faces),
+            bytemuck::bytes_of(&FacePush { faces: m.faces }),
         );
         self.faces.dispatch_linear(ctx, cmd, m.faces as u64)?;
         compute_writes_to_readers(ctx, cmd);
@@ -137,7 +151,9 @@ impl MeshNormalsPass {
                 (3, Binding::Storage(fnb.raw())),
                 (4, Binding::Storage(out.raw())),
             ],
-            bytemuck::bytes_of(&m.vertices),
+            bytemuck::bytes_of(&VertexPush {
+                vertices: m.vertices,
+            }),
         );
         self.vertices.dispatch_linear(ctx, cmd, m.vertices as u64)?;
         compute_writes_to_readers(ctx, cmd);

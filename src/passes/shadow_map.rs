@@ -34,6 +34,14 @@ pub struct LightUniform {
     pub params: [f32; 4],
 }
 
+/// Push constants of the depth pass (`ShadowPush` in glsl/shadow_depth.vert).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, bytemuck::Pod, bytemuck::Zeroable)]
+struct ShadowPush {
+    /// The light's view-projection matrix (mat4, column-major).
+    light_view_proj: [f32; 16],
+}
+
 /// An orthographic light looking along `-dir` (dir points towards the light) at a sphere (`centre`,
 /// `radius`): everything inside the sphere lands inside the map, depth 0 on the sphere's light side; depth
 /// runs on to 1 at 2·radius beyond the centre, so a ground plane under the sphere still receives shadow.
@@ -91,7 +99,7 @@ impl ShadowMap {
         }];
         // Slope-scaled bias against acne on surfaces grazing the light (set in `record`).
         desc.depth_bias = true;
-        desc.push_constant_bytes = 64;
+        desc.push_constant_bytes = std::mem::size_of::<ShadowPush>() as u32;
         desc.push_constant_stages = vk::ShaderStageFlags::VERTEX;
         let pipeline = GraphicsPipeline::new(ctx, "shadow map", desc)?;
         let image = ctx.create_image(
@@ -218,9 +226,11 @@ impl ShadowMap {
             .layer_count(1)
             .depth_attachment(&depth);
         ctx.cmd_begin_rendering(cmd, &info);
-        let push = light_view_proj.to_cols_array();
+        let push = ShadowPush {
+            light_view_proj: light_view_proj.to_cols_array(),
+        };
         self.pipeline
-            .bind(ctx, cmd, &[], bytemuck::cast_slice(&push), extent);
+            .bind(ctx, cmd, &[], bytemuck::bytes_of(&push), extent);
         // SAFETY: inside the render pass with the pipeline bound; buffers have VERTEX/INDEX usage.
         unsafe {
             // Slope-scaled bias: 1.5 × the depth slope keeps grazing surfaces from shadowing themselves.

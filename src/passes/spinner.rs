@@ -10,6 +10,18 @@ use crate::gpu::resources::compute_writes_to_readers;
 use crate::gpu::{shaders, Buffer, Context};
 use ash::vk;
 
+/// Push constants of the generator (`Push` in glsl/spinner.comp).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, bytemuck::Pod, bytemuck::Zeroable)]
+struct Push {
+    /// Triangles.
+    count: u32,
+    /// Time.
+    t: f32,
+    /// Viewport width / height.
+    aspect: f32,
+}
+
 /// The spinner compute pass.
 pub struct SpinnerPass {
     pipeline: ComputePipeline,
@@ -27,7 +39,7 @@ impl SpinnerPass {
                 "spinner",
                 shaders::SPINNER_COMP,
                 vec![layout],
-                12,
+                std::mem::size_of::<Push>() as u32,
                 64,
             )?,
         })
@@ -49,12 +61,12 @@ impl SpinnerPass {
                 out.name()
             )));
         }
-        let push: [u32; 3] = [count, t.to_bits(), aspect.to_bits()];
+        let push = Push { count, t, aspect };
         self.pipeline.bind(
             ctx,
             cmd,
             &[(0, Binding::Storage(out.raw()))],
-            bytemuck::cast_slice(&push),
+            bytemuck::bytes_of(&push),
         );
         self.pipeline.dispatch_linear(ctx, cmd, count as u64)?;
         compute_writes_to_readers(ctx, cmd);

@@ -54,6 +54,13 @@ impl GpuSparse {
     }
 }
 
+/// Push constants of both variants (`Push` in glsl/spmv.comp and glsl/gregory_points.comp).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, bytemuck::Pod, bytemuck::Zeroable)]
+struct Push {
+    rows: u32,
+}
+
 /// The SpMV compute pass.
 pub struct SpmvPass {
     pipeline: ComputePipeline,
@@ -83,7 +90,14 @@ impl SpmvPass {
             ("spmv", shaders::SPMV_COMP)
         };
         Ok(SpmvPass {
-            pipeline: ComputePipeline::new(ctx, name, spirv, vec![layout], 4, 64)?,
+            pipeline: ComputePipeline::new(
+                ctx,
+                name,
+                spirv,
+                vec![layout],
+                std::mem::size_of::<Push>() as u32,
+                64,
+            )?,
             affine_split,
         })
     }
@@ -116,8 +130,12 @@ impl SpmvPass {
             (3, Binding::Storage(x.raw())),
             (4, Binding::Storage(y.raw())),
         ];
-        self.pipeline
-            .bind(ctx, cmd, &bindings, bytemuck::bytes_of(&a.rows));
+        self.pipeline.bind(
+            ctx,
+            cmd,
+            &bindings,
+            bytemuck::bytes_of(&Push { rows: a.rows }),
+        );
         self.pipeline.dispatch_linear(ctx, cmd, a.rows as u64)?;
         compute_writes_to_readers(ctx, cmd);
         Ok(())

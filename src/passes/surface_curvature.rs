@@ -17,6 +17,19 @@ use ash::vk;
 /// Bytes per vertex of the curvature buffer: (H, K) as two f32.
 pub const CURVATURE_STRIDE: u64 = 8;
 
+/// Push constants of the curvature kernel (`Push` in glsl/surface_curvature.comp).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, bytemuck::Pod, bytemuck::Zeroable)]
+struct Push {
+    /// Patches in this dispatch.
+    patch_count: u32,
+    /// Level L.
+    level: u32,
+    /// This dispatch's first patch: the output is bound from its slot on.
+    patch_base: u32,
+    pad1: u32,
+}
+
 /// The curvature compute pass.
 pub struct SurfaceCurvaturePass {
     pipeline: ComputePipeline,
@@ -36,7 +49,7 @@ impl SurfaceCurvaturePass {
                 "surface curvature",
                 shaders::SURFACE_CURVATURE_COMP,
                 vec![layout],
-                16,
+                std::mem::size_of::<Push>() as u32,
                 64,
             )?,
         })
@@ -68,14 +81,19 @@ impl SurfaceCurvaturePass {
         }
         let slot = (level as u64 + 1).pow(2) * CURVATURE_STRIDE;
         for (first, count) in patch_batches(ctx, patch_count, slot)? {
-            let push: [u32; 4] = [count, level, first, 0];
+            let push = Push {
+                patch_count: count,
+                level,
+                patch_base: first,
+                pad1: 0,
+            };
             let bindings = [
                 (0, Binding::Storage(points.raw())),
                 (1, Binding::Storage(patch_points.raw())),
                 (2, output_range(out, first, count, slot)),
             ];
             self.pipeline
-                .bind(ctx, cmd, &bindings, bytemuck::cast_slice(&push));
+                .bind(ctx, cmd, &bindings, bytemuck::bytes_of(&push));
             // One workgroup of 64 per patch, as in the evaluation pass.
             self.pipeline.dispatch_linear(ctx, cmd, count as u64 * 64)?;
         }

@@ -9,6 +9,14 @@ use crate::gpu::pipeline::{Binding, DescriptorSetLayoutBuilder, GraphicsDesc, Gr
 use crate::gpu::{shaders, Buffer, Context};
 use ash::vk;
 
+/// Push constants of the fragment shader (`Push` in glsl/flat_triangles.frag).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, bytemuck::Pod, bytemuck::Zeroable)]
+struct Push {
+    /// rgb: the solid colour, a: 1 (solid) or 0 (per-vertex palette).
+    solid: [f32; 4],
+}
+
 /// The flat triangles pass.
 pub struct TrianglesPass {
     pipeline: GraphicsPipeline,
@@ -27,7 +35,7 @@ impl TrianglesPass {
             vk::Format::UNDEFINED,
         );
         desc.set_layouts = vec![layout];
-        desc.push_constant_bytes = 16;
+        desc.push_constant_bytes = std::mem::size_of::<Push>() as u32;
         desc.push_constant_stages = vk::ShaderStageFlags::FRAGMENT;
         Ok(TrianglesPass {
             pipeline: GraphicsPipeline::new(ctx, "triangles", desc)?,
@@ -64,15 +72,17 @@ impl TrianglesPass {
             .layer_count(1)
             .color_attachments(&color);
         ctx.cmd_begin_rendering(cmd, &info);
-        let push: [f32; 4] = match solid {
-            Some([r, g, b]) => [r, g, b, 1.0],
-            None => [0.0; 4],
+        let push = Push {
+            solid: match solid {
+                Some([r, g, b]) => [r, g, b, 1.0],
+                None => [0.0; 4],
+            },
         };
         self.pipeline.bind(
             ctx,
             cmd,
             &[(0, Binding::Storage(positions.raw()))],
-            bytemuck::cast_slice(&push),
+            bytemuck::bytes_of(&push),
             extent,
         );
         // SAFETY: inside the render pass with the pipeline bound.

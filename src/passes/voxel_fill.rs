@@ -12,6 +12,24 @@ use crate::gpu::{shaders, Buffer, Context};
 use crate::voxel::cpu::FillRule;
 use ash::vk;
 
+/// Push constants of the fill (`Push` in glsl/voxel_fill.comp).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, bytemuck::Pod, bytemuck::Zeroable)]
+struct Push {
+    /// Resolution R.
+    res: u32,
+    /// Peeled layers.
+    layer_count: u32,
+    /// ceil(R/32).
+    words: u32,
+    /// 0: winding, 1: parity.
+    rule: u32,
+    /// First column (v·R + u) of this slab.
+    first_column: u32,
+    /// Columns in this slab.
+    column_count: u32,
+}
+
 /// The fill compute pass.
 pub struct VoxelFillPass {
     pipeline: ComputePipeline,
@@ -40,7 +58,7 @@ impl VoxelFillPass {
                 "voxel fill",
                 shaders::VOXEL_FILL_COMP,
                 vec![layout],
-                24,
+                std::mem::size_of::<Push>() as u32,
                 64,
             )?,
         })
@@ -63,17 +81,17 @@ impl VoxelFillPass {
                 out.name()
             )));
         }
-        let push: [u32; 6] = [
-            job.res,
-            job.layer_count,
+        let push = Push {
+            res: job.res,
+            layer_count: job.layer_count,
             words,
-            match job.rule {
+            rule: match job.rule {
                 FillRule::Winding => 0,
                 FillRule::Parity => 1,
             },
-            job.first_column,
-            job.column_count,
-        ];
+            first_column: job.first_column,
+            column_count: job.column_count,
+        };
         let image = Binding::Sampled {
             view: layers,
             sampler,
@@ -83,7 +101,7 @@ impl VoxelFillPass {
             ctx,
             cmd,
             &[(0, image), (1, Binding::Storage(out.raw()))],
-            bytemuck::cast_slice(&push),
+            bytemuck::bytes_of(&push),
         );
         self.pipeline
             .dispatch_linear(ctx, cmd, job.column_count as u64)?;

@@ -28,9 +28,20 @@ use ash::vk;
 /// The image format the ray caster writes.
 pub const RAYCAST_FORMAT: vk::Format = vk::Format::R8G8B8A8_UNORM;
 
+/// Push constants of the brick occupancy kernel (`Push` in glsl/voxel_raycast_bricks.comp).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, bytemuck::Pod, bytemuck::Zeroable)]
-struct Push {
+struct BricksPush {
+    /// Voxels per side R.
+    res: u32,
+    /// Bricks per side.
+    nb: u32,
+}
+
+/// Push constants of the ray cast (`Push` in glsl/voxel_raycast.comp).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, bytemuck::Pod, bytemuck::Zeroable)]
+struct CastPush {
     eye: [f32; 4],
     forward: [f32; 4],
     right: [f32; 4],
@@ -39,6 +50,16 @@ struct Push {
     light: [f32; 4],
     color: [f32; 4],
     params: [u32; 4],
+}
+
+/// Push constants of the display draw (`Push` in glsl/voxel_raycast_blit.frag).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, bytemuck::Pod, bytemuck::Zeroable)]
+struct ShowPush {
+    /// The region's offset in the target, pixels.
+    offset: [i32; 2],
+    /// Target pixels per image texel.
+    scale: i32,
 }
 
 /// The ray casting pass.
@@ -71,7 +92,7 @@ impl VoxelRaycastPass {
             "voxel bricks",
             shaders::VOXEL_RAYCAST_BRICKS_COMP,
             vec![blayout],
-            8,
+            std::mem::size_of::<BricksPush>() as u32,
             64,
         )?;
         let layout = DescriptorSetLayoutBuilder::new()
@@ -85,7 +106,7 @@ impl VoxelRaycastPass {
             "voxel raycast",
             shaders::VOXEL_RAYCAST_COMP,
             vec![layout],
-            std::mem::size_of::<Push>() as u32,
+            std::mem::size_of::<CastPush>() as u32,
             64,
         )?;
         let show_layout = DescriptorSetLayoutBuilder::new()
@@ -98,7 +119,7 @@ impl VoxelRaycastPass {
             vk::Format::UNDEFINED,
         );
         desc.set_layouts = vec![show_layout];
-        desc.push_constant_bytes = 12;
+        desc.push_constant_bytes = std::mem::size_of::<ShowPush>() as u32;
         desc.push_constant_stages = vk::ShaderStageFlags::FRAGMENT;
         let show = GraphicsPipeline::new(ctx, "voxel raycast show", desc)?;
         let info = vk::SamplerCreateInfo::default()
@@ -189,14 +210,14 @@ impl VoxelRaycastPass {
                 (0, Binding::Storage(grid.raw())),
                 (1, Binding::Storage(bricks.raw())),
             ],
-            bytemuck::cast_slice(&[frame.res, nb]),
+            bytemuck::bytes_of(&BricksPush { res: frame.res, nb }),
         );
         self.bricks.dispatch_linear(ctx, cmd, (nb as u64).pow(3))?;
         compute_to_compute(ctx, cmd);
         let inv_pitch = 1.0 / frame.pitch() as f32;
         let v4 = |v: [f32; 3], w: f32| [v[0], v[1], v[2], w];
         let bg = shading.background;
-        let push = Push {
+        let push = CastPush {
             eye: v4(cam.eye, inv_pitch),
             forward: v4(cam.forward, shading.ambient),
             right: v4(cam.right, bg[0]),
@@ -307,7 +328,10 @@ impl VoxelRaycastPass {
             .layer_count(1)
             .color_attachments(&att);
         ctx.cmd_begin_rendering(cmd, &info);
-        let push = [offset.x, offset.y, scale.max(1) as i32];
+        let push = ShowPush {
+            offset: [offset.x, offset.y],
+            scale: scale.max(1) as i32,
+        };
         self.show.bind(
             ctx,
             cmd,
@@ -319,7 +343,7 @@ impl VoxelRaycastPass {
                     layout: vk::ImageLayout::SHADER_READ_ONLY_OPTIMAL,
                 },
             )],
-            bytemuck::cast_slice(&push),
+            bytemuck::bytes_of(&push),
             extent,
         );
         // SAFETY: inside the render pass with the pipeline bound; viewport and scissor are dynamic.
