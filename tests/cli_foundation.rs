@@ -10,6 +10,16 @@ fn gregvox(args: &[&str]) -> Output {
         .expect("run gregvox")
 }
 
+/// Names in `dir` that an interrupted or failed atomic write would leave (`.NAME.PID.tmp`, see src/io.rs):
+/// any hidden file or any `.tmp` file.
+fn temporaries(dir: &std::path::Path) -> Vec<String> {
+    std::fs::read_dir(dir)
+        .unwrap()
+        .filter_map(|e| e.ok()?.file_name().into_string().ok())
+        .filter(|n| n.starts_with('.') || n.ends_with(".tmp"))
+        .collect()
+}
+
 fn text(b: &[u8]) -> String {
     String::from_utf8_lossy(b).into_owned()
 }
@@ -137,7 +147,7 @@ fn offscreen_demo_writes_the_asked_frames_and_the_profiles() {
     let t: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(&trace).unwrap()).unwrap();
     assert_eq!(t["traceEvents"].as_array().unwrap().len(), 14);
-    assert!(!dir.join("profile.json.tmp").exists());
+    assert_eq!(temporaries(&dir), Vec::<String>::new());
     let _ = std::fs::remove_dir_all(&dir);
 }
 

@@ -22,7 +22,10 @@ fn a_utf8_byte_order_mark_before_the_first_vertex_is_skipped() {
     let text = std::fs::read_to_string(model("opensubdiv/catmark_cube.obj")).unwrap();
     let plain = gregvox::mesh::parse_obj(&text, "cube.obj").unwrap();
     let marked = gregvox::mesh::parse_obj(&format!("\u{feff}{text}"), "cube.obj").unwrap();
-    assert_eq!(marked.positions, plain.positions, "the first v line was lost");
+    assert_eq!(
+        marked.positions, plain.positions,
+        "the first v line was lost"
+    );
     assert_eq!(marked.indices, plain.indices);
     // Through a file and the CLI: the same topology report as without the mark.
     let dir = scratch("bom");
@@ -42,15 +45,12 @@ fn a_utf8_byte_order_mark_before_the_first_vertex_is_skipped() {
 #[test]
 fn a_beziex_file_with_a_byte_order_mark_loads_the_same_patches() {
     let mut json = String::new();
-    flate2::read::GzDecoder::new(
-        std::fs::File::open(model("beziex/19_Sphere1.gzjson")).unwrap(),
-    )
-    .read_to_string(&mut json)
-    .unwrap();
+    flate2::read::GzDecoder::new(std::fs::File::open(model("beziex/19_Sphere1.gzjson")).unwrap())
+        .read_to_string(&mut json)
+        .unwrap();
     let path = std::path::Path::new("sphere.json");
     let plain = gregvox::surface::beziex::parse_beziex(&json, path).unwrap();
-    let marked =
-        gregvox::surface::beziex::parse_beziex(&format!("\u{feff}{json}"), path).unwrap();
+    let marked = gregvox::surface::beziex::parse_beziex(&format!("\u{feff}{json}"), path).unwrap();
     assert_eq!(marked.len(), plain.len());
     assert_eq!(marked[0].to_gpu(), plain[0].to_gpu());
 }
@@ -58,11 +58,9 @@ fn a_beziex_file_with_a_byte_order_mark_loads_the_same_patches() {
 #[test]
 fn a_beziex_coordinate_past_the_f32_range_is_refused_by_name() {
     let mut json = String::new();
-    flate2::read::GzDecoder::new(
-        std::fs::File::open(model("beziex/19_Sphere1.gzjson")).unwrap(),
-    )
-    .read_to_string(&mut json)
-    .unwrap();
+    flate2::read::GzDecoder::new(std::fs::File::open(model("beziex/19_Sphere1.gzjson")).unwrap())
+        .read_to_string(&mut json)
+        .unwrap();
     let mut v: serde_json::Value = serde_json::from_str(&json).unwrap();
     v["surface"][3]["vertex"][1] = serde_json::json!(1e39);
     let dir = scratch("beziex-range");
@@ -82,6 +80,13 @@ fn a_beziex_coordinate_past_the_f32_range_is_refused_by_name() {
         err.contains("huge.json") && err.contains("patch 3") && err.contains("f32 range"),
         "{err}"
     );
-    let left: Vec<_> = std::fs::read_dir(&dir).unwrap().map(|e| e.unwrap().file_name()).collect();
-    assert_eq!(left, [std::ffi::OsString::from("huge.json")], "something was written");
+    let left: Vec<_> = std::fs::read_dir(&dir)
+        .unwrap()
+        .map(|e| e.unwrap().file_name())
+        .collect();
+    assert_eq!(
+        left,
+        [std::ffi::OsString::from("huge.json")],
+        "something was written"
+    );
 }

@@ -19,6 +19,18 @@ use crate::passes::gregory_eval::{
 use ash::vk;
 use glam::DVec3;
 
+/// Push constants of glsl/flag_patches.comp (its `layout(push_constant)` block).
+#[repr(C)]
+#[derive(Clone, Copy, bytemuck::Pod, bytemuck::Zeroable)]
+struct FlagPush {
+    columns: u32,
+    rows: u32,
+    correct: u32,
+    pad: u32,
+    t: f32,
+    amplitude: f32,
+}
+
 /// The animated flag's shape parameters.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct FlagParams {
@@ -180,7 +192,7 @@ impl FlagSurface {
             "flag patches",
             shaders::FLAG_PATCHES_COMP,
             vec![layout],
-            24,
+            std::mem::size_of::<FlagPush>() as u32,
             64,
         )?;
         let eval = GregoryEvalPass::new(ctx)?;
@@ -287,17 +299,7 @@ impl FlagSurface {
         let s = profiler
             .as_mut()
             .map(|(p, slot)| p.begin(ctx, cmd, *slot, name));
-        #[repr(C)]
-        #[derive(Clone, Copy, bytemuck::Pod, bytemuck::Zeroable)]
-        struct Push {
-            columns: u32,
-            rows: u32,
-            correct: u32,
-            pad: u32,
-            t: f32,
-            amplitude: f32,
-        }
-        let push = Push {
+        let push = FlagPush {
             columns: self.columns,
             rows: self.rows,
             correct: correct as u32,

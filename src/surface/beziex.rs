@@ -260,7 +260,7 @@ pub fn parse_beziex(text: &str, path: &Path) -> Result<Vec<BeziexPatch>> {
                 return Err(bad(&format!("{what} has a non-finite coordinate ({x})")));
             }
             // The GPU evaluates in f32: a finite f64 past f32's range would become an infinity there.
-            if let Some(x) = v.iter().find(|x| !(x.abs() <= f32::MAX as f64)) {
+            if let Some(x) = v.iter().find(|x| x.abs() > f32::MAX as f64) {
                 return Err(bad(&format!(
                     "{what} has the coordinate {x:e}, past the f32 range (±3.4e38) the GPU evaluates in"
                 )));
