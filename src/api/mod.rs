@@ -48,6 +48,46 @@ pub fn topology(mesh: &Mesh) -> TopologyReport {
     MeshMatrix::from_mesh(mesh).report()
 }
 
+/// Subdivision schemes.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[cfg_attr(feature = "cli", derive(clap::ValueEnum))]
+pub enum Scheme {
+    /// Catmull–Clark (any polygon mesh; boundaries with the edge-only rule).
+    CatmullClark,
+    /// Loop with Warren's β (triangles only; = libigl `igl::loop`).
+    LoopWarren,
+    /// Loop with Loop's original β (triangles only; = trimesh `subdivide_loop`).
+    Loop,
+}
+
+/// Subdivides `mesh` `levels` times, each level one sparse matrix applied to the positions. Refuses, before
+/// any work, a result whose corner count would pass u32 indices; Loop schemes refuse non-triangle meshes.
+pub fn subdivide(mesh: &Mesh, levels: u32, scheme: Scheme) -> Result<Mesh> {
+    // Each level multiplies the corner count by 4.
+    let mut corners = mesh.indices.len() as u128;
+    for _ in 0..levels {
+        corners = corners.saturating_mul(4);
+    }
+    if corners >= u32::MAX as u128 {
+        return Err(Error::Invalid(format!(
+            "--levels {levels}: the result would have about {corners} corners, more than u32 indices allow"
+        )));
+    }
+    let to_mesh_error = |e: Error| match e {
+        Error::Invalid(msg) => Error::Mesh(msg),
+        e => e,
+    };
+    Ok(match scheme {
+        Scheme::CatmullClark => crate::mesh::catmull_clark(mesh, levels),
+        Scheme::LoopWarren => {
+            crate::mesh::loop_subdivide(mesh, levels, crate::mesh::LoopBeta::Warren)
+                .map_err(to_mesh_error)?
+        }
+        Scheme::Loop => crate::mesh::loop_subdivide(mesh, levels, crate::mesh::LoopBeta::Loop)
+            .map_err(to_mesh_error)?,
+    })
+}
+
 /// How a mesh becomes voxels.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize)]
 #[cfg_attr(feature = "cli", derive(clap::ValueEnum))]

@@ -1,7 +1,8 @@
 //! `gregvox mesh` (topology report, human-readable or `--json`) and `gregvox subdivide` (Catmull–Clark or
 //! Loop, written as OBJ through a temporary file that is renamed into place).
-use crate::mesh::{self, LoopBeta, MeshMatrix, TopologyReport};
-use clap::{Args, ValueEnum};
+use crate::api::{load_mesh, subdivide, topology, Scheme, TopologyReport};
+use crate::mesh;
+use clap::Args;
 use std::path::PathBuf;
 
 /// Arguments of `gregvox mesh`.
@@ -18,17 +19,6 @@ pub struct MeshArgs {
     /// Fan-triangulate polygons before the analysis (loading keeps polygons).
     #[arg(long)]
     pub triangulate: bool,
-}
-
-/// Subdivision schemes of `gregvox subdivide`.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
-pub enum Scheme {
-    /// Catmull–Clark (any polygon mesh; boundaries with the edge-only rule).
-    CatmullClark,
-    /// Loop with Warren's β (triangles only; = libigl `igl::loop`).
-    LoopWarren,
-    /// Loop with Loop's original β (triangles only; = trimesh `subdivide_loop`).
-    Loop,
 }
 
 /// Arguments of `gregvox subdivide`.
@@ -49,7 +39,7 @@ pub struct SubdivideArgs {
 
 /// Runs `gregvox mesh`.
 pub fn run_mesh(args: &MeshArgs) -> anyhow::Result<()> {
-    let mut m = mesh::load_obj(&args.input)?;
+    let mut m = load_mesh(&args.input)?;
     if let Some(tol) = args.weld {
         if !(tol.is_finite() && tol >= 0.0) {
             anyhow::bail!("--weld {tol}: the tolerance must be a finite number ≥ 0");
@@ -65,8 +55,7 @@ pub fn run_mesh(args: &MeshArgs) -> anyhow::Result<()> {
     if args.triangulate {
         m = m.triangulated();
     }
-    let mm = MeshMatrix::from_mesh(&m);
-    let report = mm.report();
+    let report = topology(&m);
     if args.json {
         println!("{}", serde_json::to_string_pretty(&report)?);
     } else {
@@ -148,26 +137,8 @@ fn human_report(name: &str, r: &TopologyReport) -> String {
 
 /// Runs `gregvox subdivide`.
 pub fn run_subdivide(args: &SubdivideArgs) -> anyhow::Result<()> {
-    let m = mesh::load_obj(&args.input)?;
-    // Each level after the first multiplies the corner count by 4; refuse before running out of u32.
-    let mut corners = m.indices.len() as u128;
-    for _ in 0..args.levels {
-        corners = corners.saturating_mul(4);
-    }
-    if corners >= u32::MAX as u128 {
-        anyhow::bail!(
-            "--levels {}: the result would have about {} corners, more than u32 indices allow",
-            args.levels,
-            corners
-        );
-    }
-    let out = match args.scheme {
-        Scheme::CatmullClark => mesh::catmull_clark(&m, args.levels),
-        Scheme::LoopWarren => mesh::loop_subdivide(&m, args.levels, LoopBeta::Warren)
-            .map_err(|e| anyhow::anyhow!("{}: {e}", args.input.display()))?,
-        Scheme::Loop => mesh::loop_subdivide(&m, args.levels, LoopBeta::Loop)
-            .map_err(|e| anyhow::anyhow!("{}: {e}", args.input.display()))?,
-    };
+    let m = load_mesh(&args.input)?;
+    let out = subdivide(&m, args.levels, args.scheme).map_err(|e| e.for_input(&args.input))?;
     mesh::write_obj(&args.out, &out)?;
     eprintln!(
         "wrote {} ({} vertices, {} faces)",
