@@ -5,15 +5,6 @@ use crate::gpu::resources::memory_barrier;
 use crate::passes::abuffer::{scan_words, AbufferFillJob, AbufferPass};
 use crate::voxel::cpu::FillRule;
 
-/// Buffers of one A-buffer axis run, destroyed together.
-#[derive(Default)]
-struct AbufferResources {
-    counts: Option<Buffer>,
-    scan: Option<Buffer>,
-    cursor: Option<Buffer>,
-    frags: Option<Buffer>,
-}
-
 /// The A-buffer voxelizer (`--method abuffer`): the peel pass's count pre-pass, a prefix sum, one scatter
 /// pass and a per-column sort + fill. Device memory per axis: 4·(2R² + Φ) bytes + one output slab, with Φ the
 /// fragment count (≈ 1.24·R² on the stanford bunny).
@@ -71,9 +62,7 @@ impl AbufferVoxelizer {
                 ),
             });
         }
-        let mut r = AbufferResources::default();
-        // What the run creates lives in `r` until it returns, then releases itself.
-        self.run_axis(ctx, geom, frame, axis, rule, &mut r, &mut profiler)
+        self.run_axis(ctx, geom, frame, axis, rule, &mut profiler)
     }
 
     #[allow(clippy::too_many_arguments)]
@@ -84,7 +73,6 @@ impl AbufferVoxelizer {
         frame: &GridFrame,
         axis: Axis,
         rule: FillRule,
-        r: &mut AbufferResources,
         profiler: &mut Option<&mut Profiler>,
     ) -> Result<(VoxelGrid, AxisStats)> {
         let res = frame.res;
@@ -94,18 +82,18 @@ impl AbufferVoxelizer {
             | vk::BufferUsageFlags::TRANSFER_DST
             | vk::BufferUsageFlags::TRANSFER_SRC;
         // 1. Count pre-pass, then the prefix sum of the R² counts plus one trailing zero: slot R² = Φ.
-        let counts = &*r.counts.insert(ctx.create_buffer(
+        let counts = &ctx.create_buffer(
             "abuffer counts",
             (r2 + 1) * 4,
             storage,
             MemoryLocation::GpuOnly,
-        )?);
-        let scan = &*r.scan.insert(ctx.create_buffer(
+        )?;
+        let scan = &ctx.create_buffer(
             "abuffer scan",
             scan_words(r2 + 1) * 4,
             storage,
             MemoryLocation::GpuOnly,
-        )?);
+        )?;
         ctx.one_shot(|cmd| {
             self.counter
                 .record_count(ctx, cmd, geom, &push, counts, profiler);
@@ -179,18 +167,14 @@ impl AbufferVoxelizer {
             });
         }
         // 2. Scatter, then sort + fill slab by slab.
-        let cursor = &*r.cursor.insert(ctx.create_buffer(
-            "abuffer cursor",
-            r2 * 4,
-            storage,
-            MemoryLocation::GpuOnly,
-        )?);
-        let frags = &*r.frags.insert(ctx.create_buffer(
+        let cursor =
+            &ctx.create_buffer("abuffer cursor", r2 * 4, storage, MemoryLocation::GpuOnly)?;
+        let frags = &ctx.create_buffer(
             "abuffer fragments",
             total * 4,
             storage,
             MemoryLocation::GpuOnly,
-        )?);
+        )?;
         let max_range = max_range.min(self.slab_limit.unwrap_or(u64::MAX));
         fill_in_slabs(
             ctx,

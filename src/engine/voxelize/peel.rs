@@ -24,13 +24,42 @@ pub struct PeelVoxelizer {
     pub progress: Option<ProgressFn>,
 }
 
-/// Resources of one axis run, destroyed together.
-pub(super) struct AxisResources {
-    pub(super) counts: Option<Buffer>,
+/// The images of `layers` peeling passes at R×R: two D32 depth images that alternate, the R32 layer array
+/// and a view per layer (the one-shot and the resident voxelizer make them alike).
+pub(super) struct PeelImages {
     pub(super) depth: Vec<Image>,
-    pub(super) layers: Option<Image>,
+    pub(super) layers: Image,
     pub(super) layer_views: Vec<Owned<vk::ImageView>>,
-    pub(super) out: Option<Buffer>,
+}
+
+impl PeelImages {
+    pub(super) fn new(ctx: &Context, res: u32, layers: u32, prefix: &str) -> Result<Self> {
+        let depth_desc = ImageDesc::d2(
+            res,
+            res,
+            vk::Format::D32_SFLOAT,
+            vk::ImageUsageFlags::DEPTH_STENCIL_ATTACHMENT | vk::ImageUsageFlags::SAMPLED,
+        );
+        let depth = (0..2)
+            .map(|i| ctx.create_image(&format!("{prefix} depth {i}"), &depth_desc))
+            .collect::<Result<Vec<_>>>()?;
+        let layer_desc = ImageDesc::d2_array(
+            res,
+            res,
+            layers,
+            vk::Format::R32_SFLOAT,
+            vk::ImageUsageFlags::COLOR_ATTACHMENT | vk::ImageUsageFlags::SAMPLED,
+        );
+        let layer_image = ctx.create_image(&format!("{prefix} layers"), &layer_desc)?;
+        let layer_views = (0..layers)
+            .map(|l| ctx.create_layer_view(&layer_image, l))
+            .collect::<Result<Vec<_>>>()?;
+        Ok(PeelImages {
+            depth,
+            layers: layer_image,
+            layer_views,
+        })
+    }
 }
 
 impl PeelVoxelizer {
@@ -154,15 +183,7 @@ impl PeelVoxelizer {
                 detail: format!("the peel framebuffer is R×R and maxImageDimension2D is {max2d}"),
             });
         }
-        let mut res_ = AxisResources {
-            counts: None,
-            depth: Vec::new(),
-            layers: None,
-            layer_views: Vec::new(),
-            out: None,
-        };
-        // What the run creates lives in `res_` until it returns, then releases itself.
-        self.run_axis(ctx, geom, frame, axis, rule, &mut res_, &mut profiler)
+        self.run_axis(ctx, geom, frame, axis, rule, &mut profiler)
     }
 
     #[allow(clippy::too_many_arguments)]
@@ -173,7 +194,6 @@ impl PeelVoxelizer {
         frame: &GridFrame,
         axis: Axis,
         rule: FillRule,
-        r: &mut AxisResources,
         profiler: &mut Option<&mut Profiler>,
     ) -> Result<(VoxelGrid, AxisStats)> {
         let res = frame.res;
@@ -189,7 +209,7 @@ impl PeelVoxelizer {
                 | vk::BufferUsageFlags::TRANSFER_SRC,
             MemoryLocation::GpuOnly,
         )?;
-        let counts = r.counts.insert(counts);
+        let counts = &counts;
         ctx.one_shot(|cmd| {
             self.record_count(ctx, cmd, geom, &push, counts, profiler);
             Ok(())
@@ -225,32 +245,12 @@ impl PeelVoxelizer {
         }
 
         // 2. Peel every layer.
-        for i in 0..2 {
-            let d = ImageDesc::d2(
-                res,
-                res,
-                vk::Format::D32_SFLOAT,
-                vk::ImageUsageFlags::DEPTH_STENCIL_ATTACHMENT | vk::ImageUsageFlags::SAMPLED,
-            );
-            r.depth
-                .push(ctx.create_image(&format!("peel depth {i}"), &d)?);
-        }
-        let ldesc = ImageDesc::d2_array(
-            res,
-            res,
-            layers,
-            vk::Format::R32_SFLOAT,
-            vk::ImageUsageFlags::COLOR_ATTACHMENT | vk::ImageUsageFlags::SAMPLED,
-        );
-        let layer_image = r.layers.insert(ctx.create_image("peel layers", &ldesc)?);
-        for l in 0..layers {
-            r.layer_views.push(ctx.create_layer_view(layer_image, l)?);
-        }
+        let images = PeelImages::new(ctx, res, layers, "peel")?;
         let max_range =
             (ctx.limits.max_storage_buffer_range as u64).min(self.slab_limit.unwrap_or(u64::MAX));
-        let depth = &r.depth;
-        let views = &r.layer_views;
-        let layer_image = &*layer_image;
+        let depth = &images.depth;
+        let views = &images.layer_views;
+        let layer_image = &images.layers;
         fill_in_slabs(
             ctx,
             frame,

@@ -1,8 +1,7 @@
 //! [`ResidentVoxelizer`]: depth peeling whose grid never leaves the GPU (the demo's live voxels).
-use super::peel::AxisResources;
+use super::peel::PeelImages;
 use super::*;
 use crate::gpu::resources::memory_barrier;
-use crate::gpu::{Image, ImageDesc, Owned};
 use crate::passes::voxel_fill::FillJob;
 use crate::voxel::cpu::FillRule;
 
@@ -20,9 +19,7 @@ pub struct ResidentVoxelizer {
     pub frame: GridFrame,
     pub layers: u32,
     pub rule: FillRule,
-    depth: Vec<Image>,
-    layer_image: Image,
-    layer_views: Vec<Owned<vk::ImageView>>,
+    images: PeelImages,
     grid: Buffer,
 }
 
@@ -62,61 +59,19 @@ impl ResidentVoxelizer {
                 ),
             });
         }
-        let peel = PeelVoxelizer::new(ctx, stride)?;
-        let mut r = AxisResources {
-            counts: None,
-            depth: Vec::new(),
-            layers: None,
-            layer_views: Vec::new(),
-            out: None,
-        };
-        match Self::create(ctx, &frame, layers, &mut r) {
-            Ok(()) => Ok(ResidentVoxelizer {
-                peel,
-                frame,
-                layers,
-                rule,
-                depth: std::mem::take(&mut r.depth),
-                layer_image: r.layers.take().unwrap(),
-                layer_views: std::mem::take(&mut r.layer_views),
-                grid: r.out.take().unwrap(),
-            }),
-            Err(e) => Err(e),
-        }
-    }
-
-    fn create(ctx: &Context, frame: &GridFrame, layers: u32, r: &mut AxisResources) -> Result<()> {
-        let res = frame.res;
-        for i in 0..2 {
-            let d = ImageDesc::d2(
-                res,
-                res,
-                vk::Format::D32_SFLOAT,
-                vk::ImageUsageFlags::DEPTH_STENCIL_ATTACHMENT | vk::ImageUsageFlags::SAMPLED,
-            );
-            r.depth
-                .push(ctx.create_image(&format!("resident peel depth {i}"), &d)?);
-        }
-        let ldesc = ImageDesc::d2_array(
-            res,
-            res,
+        Ok(ResidentVoxelizer {
+            peel: PeelVoxelizer::new(ctx, stride)?,
+            frame,
             layers,
-            vk::Format::R32_SFLOAT,
-            vk::ImageUsageFlags::COLOR_ATTACHMENT | vk::ImageUsageFlags::SAMPLED,
-        );
-        let layer_image = r
-            .layers
-            .insert(ctx.create_image("resident peel layers", &ldesc)?);
-        for l in 0..layers {
-            r.layer_views.push(ctx.create_layer_view(layer_image, l)?);
-        }
-        r.out = Some(ctx.create_buffer(
-            "resident voxel grid",
-            VoxelGrid::bytes_for(frame),
-            vk::BufferUsageFlags::STORAGE_BUFFER | vk::BufferUsageFlags::TRANSFER_SRC,
-            MemoryLocation::GpuOnly,
-        )?);
-        Ok(())
+            rule,
+            images: PeelImages::new(ctx, res, layers, "resident peel")?,
+            grid: ctx.create_buffer(
+                "resident voxel grid",
+                bytes,
+                vk::BufferUsageFlags::STORAGE_BUFFER | vk::BufferUsageFlags::TRANSFER_SRC,
+                MemoryLocation::GpuOnly,
+            )?,
+        })
     }
 
     /// The device-local bit grid (bit axis z, `VoxelGrid` layout).
@@ -133,9 +88,9 @@ impl ResidentVoxelizer {
             cmd,
             geom,
             &push,
-            &self.depth,
-            &self.layer_image,
-            &self.layer_views,
+            &self.images.depth,
+            &self.images.layers,
+            &self.images.layer_views,
             self.layers,
             &mut None,
         )?;
@@ -156,7 +111,7 @@ impl ResidentVoxelizer {
         self.peel.fill.record(
             ctx,
             cmd,
-            self.layer_image.view(),
+            self.images.layers.view(),
             self.peel.peel.sampler(),
             &self.grid,
             &FillJob {
