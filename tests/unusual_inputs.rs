@@ -90,3 +90,31 @@ fn a_beziex_coordinate_past_the_f32_range_is_refused_by_name() {
         "something was written"
     );
 }
+
+#[test]
+fn the_voxelize_summary_is_short_unless_a_profile_is_asked_for() {
+    let dir = scratch("summary");
+    let run = |extra: &[&str]| {
+        let o = gregvox()
+            .arg("voxelize")
+            .arg(model("opensubdiv/catmark_cube.obj"))
+            .args(["--res", "8"])
+            .args(extra)
+            .current_dir(&dir)
+            .output()
+            .unwrap();
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        (
+            String::from_utf8(o.stdout).unwrap(),
+            String::from_utf8(o.stderr).unwrap(),
+        )
+    };
+    let (plain, plain_err) = run(&[]);
+    assert!(!plain_err.contains("peel"), "{plain_err}");
+    // Input and grid, layers per axis, solid voxels, total time.
+    assert_eq!(plain.lines().count(), 4, "{plain}");
+    assert!(!plain.contains("peel layer"), "{plain}");
+    // --profile adds the per-pass table (on stderr, as for every command).
+    let (_, profiled) = run(&["--profile"]);
+    assert!(profiled.contains("peel"), "{profiled}");
+}

@@ -175,14 +175,7 @@ pub fn run(args: &VoxelizeArgs) -> anyhow::Result<()> {
         grid.count(),
         seconds * 1e3
     ));
-    if let Some(p) = &profiler {
-        for s in p.stats() {
-            text.push_str(&format!(
-                "{}: {} call(s), {:.2} ms total\n",
-                s.name, s.calls, s.total_ms
-            ));
-        }
-    }
+    // Per-pass GPU times only when asked for (--profile, --profile-json, --trace): the summary stays short.
     super::print_out(&text)?;
     Ok(())
 }
