@@ -14,7 +14,7 @@
 //! Invariants:
 //! - Every resource created here releases itself (`gpu::lifetime`), on success and on error.
 //! - No storage binding exceeds `maxStorageBufferRange`: the output is filled and read back in slabs of
-//!   columns ([`fill_in_slabs`]).
+//!   columns (`fill_in_slabs`).
 mod abuffer;
 mod gregory;
 mod peel;
