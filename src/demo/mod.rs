@@ -102,8 +102,14 @@ pub struct DemoArgs {
     pub profile: ProfileArgs,
 }
 
-/// Prints this process's resident set size (`VmRSS` of /proc/self/status, KiB) for the soak test.
-fn soak_report(frame: &str) {
+/// Prints this process's resident set size (`VmRSS` of /proc/self/status, KiB) and the GPU bytes allocated
+/// with the objects still awaiting release, for the soak test.
+fn soak_report(ctx: &Context, frame: &str) {
+    eprintln!(
+        "gregvox demo: soak gpu_bytes {frame} {} awaiting {}",
+        ctx.allocated_bytes(),
+        ctx.objects_awaiting_release()
+    );
     let rss = std::fs::read_to_string("/proc/self/status")
         .ok()
         .and_then(|s| {
@@ -447,7 +453,7 @@ fn offscreen_loop(
             pending[begun.0] = Some(f);
         }
         if soak_at == Some(f + 1) {
-            soak_report("warm");
+            soak_report(ctx, "warm");
         }
     }
     renderer.frames.wait_all(ctx)?;
@@ -455,7 +461,7 @@ fn offscreen_loop(
         save(target, slot, &mut pending)?;
     }
     if soak_at.is_some() {
-        soak_report("end");
+        soak_report(ctx, "end");
     }
     Ok(written)
 }
