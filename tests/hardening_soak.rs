@@ -8,6 +8,7 @@
 //! - RSS within 2 % of the warm figure: the host heap and the validation layer's bookkeeping settle slowly
 //!   (measured at 1,000 frames: +0.2 % to +1.3 % from run to run; voxels +1.7 % at 3,000 and +2.8 % at
 //!   20,000 frames, so flattening out), while a per-frame host leak of 3 KiB already passes 2 %.
+//!
 //! CI runs FRAMES frames; the full 10,000-frame run and its measured figure are in README ("Errors and
 //! limits").
 //! To add a scene, add its name to SCENES.
