@@ -3,18 +3,28 @@
 //!     cargo run --release --example voxelize -- assets/models/stanford-bunny.obj 128 bunny.binvox
 //!
 //! The output format comes from the extension: .binvox, .npy, .nrrd, .raw (+ .json sidecar) or .vox.
-//! With `cpu` as a fourth argument the CPU scanline runs instead of the GPU (no Vulkan needed).
+//! A fourth argument names the method: `auto` (the default: the CPU scanline on a CPU device such as
+//! lavapipe, the A-buffer on a GPU), `peel`, `abuffer`, or `cpu` (no Vulkan needed).
 use gregvox::{load_mesh, voxelize_on_cpu, Gpu, Method, VoxelizeOptions};
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let args: Vec<String> = std::env::args().skip(1).collect();
     let [input, res, output, rest @ ..] = args.as_slice() else {
-        return Err("usage: voxelize IN.obj RES OUT.{binvox,npy,nrrd,raw,vox} [cpu]".into());
+        return Err(
+            "usage: voxelize IN RES OUT.{binvox,npy,nrrd,raw,vox} [auto|peel|abuffer|cpu]".into(),
+        );
     };
     let mesh = load_mesh(input)?;
-    let opts = VoxelizeOptions::default().res(res.parse()?);
-    let voxels = if rest.first().map(String::as_str) == Some("cpu") {
-        voxelize_on_cpu(&mesh, &opts.method(Method::Cpu))?
+    let method = match rest.first().map(String::as_str) {
+        None | Some("auto") => Method::Auto,
+        Some("peel") => Method::Peel,
+        Some("abuffer") => Method::Abuffer,
+        Some("cpu") => Method::Cpu,
+        Some(m) => return Err(format!("unknown method '{m}'").into()),
+    };
+    let opts = VoxelizeOptions::default().res(res.parse()?).method(method);
+    let voxels = if method == Method::Cpu {
+        voxelize_on_cpu(&mesh, &opts)?
     } else {
         let gpu = Gpu::new()?;
         println!("device: {}", gpu.info().name);
@@ -27,10 +37,11 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     }
     voxels.grid.save(output)?;
     println!(
-        "{input}: {} triangles, {} solid voxels of {}³, written to {output}",
+        "{input}: {} triangles, {} solid voxels of {:?} by {}, written to {output}",
         voxels.report.triangles,
         voxels.grid.count(),
-        voxels.report.res
+        voxels.grid.frame.dims,
+        voxels.report.method.name()
     );
     Ok(())
 }

@@ -3,18 +3,21 @@
 // place: columns hold few crossings) by (|s|, s) — a total order, so equal depths sort deterministically —
 // then fills exactly as voxel_fill.comp: a crossing at z starts at voxel k = ceil(z_grid - 1/2); the segment
 // before it is solid where the running winding is non-zero (rule 0) or the crossing count is odd (rule 1);
-// nothing after the last crossing. Each invocation owns its ceil(R/32) output words (zeros included).
+// nothing after the last crossing. Each invocation owns its ceil(depth/32) output words (zeros included).
 #include "dispatch.glsl"
 layout(local_size_x = 64) in;
 layout(std430, set = 0, binding = 0) readonly buffer Offsets { uint offsets[]; };
 layout(std430, set = 0, binding = 1) buffer Frags { float frags[]; };
 layout(std430, set = 0, binding = 2) buffer Bits { uint bits[]; };
 layout(push_constant) uniform Push {
-    uint res;          // R
-    uint words;        // ceil(R/32)
+    uint width;        // columns per row (voxels along u)
+    uint words;        // ceil(depth/32)
     uint rule;         // 0 winding, 1 parity
-    uint first_column; // first column (v*R + u) of this slab
+    uint first_column; // first column (v*width + u) of this slab
     uint column_count; // columns in this slab
+    uint depth;        // voxels along the peel axis
+    float depth_lo;    // depth range start (grid units), as in peel_common.glsl
+    float depth_span;  // depth range length (grid units)
 } pc;
 
 bool before(float a, float b) {
@@ -52,10 +55,10 @@ void main() {
     int winding = 0;
     uint crossings = 0u;
     uint k_prev = 0u;
-    float r = float(pc.res);
+    float r = float(pc.depth);
     for (uint a = b; a < e; ++a) {
         float s = frags[a];
-        float z_grid = (abs(s) - 1.0 - 0.25) * 2.0 * r;
+        float z_grid = (abs(s) - 1.0 - 0.25) * 2.0 * pc.depth_span + pc.depth_lo;
         uint k = uint(clamp(ceil(z_grid - 0.5), 0.0, r));
         bool inside = pc.rule == 0u ? winding != 0 : (crossings & 1u) == 1u;
         if (inside && k > k_prev) set_range(base, k_prev, k);

@@ -10,7 +10,7 @@ layout(std430, set = 0, binding = 1) buffer Cursor { uint cursor[]; };
 layout(std430, set = 0, binding = 2) writeonly buffer Frags { float frags[]; };
 void main() {
     uvec2 p = uvec2(gl_FragCoord.xy);
-    uint col = p.y * pc.axes_res.w + p.x;
+    uint col = p.y * pc.extent.x + p.x;
     uint slot = atomicAdd(cursor[col], 1u);
     uint begin = offsets[col];
     if (slot < offsets[col + 1u] - begin) {

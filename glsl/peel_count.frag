@@ -5,6 +5,6 @@
 layout(std430, set = 0, binding = 1) buffer Counts { uint max_count; uint counts[]; };
 void main() {
     uvec2 p = uvec2(gl_FragCoord.xy);
-    uint c = atomicAdd(counts[p.y * pc.axes_res.w + p.x], 1u) + 1u;
+    uint c = atomicAdd(counts[p.y * pc.extent.x + p.x], 1u) + 1u;
     atomicMax(max_count, c);
 }

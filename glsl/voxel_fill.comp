@@ -1,6 +1,6 @@
 #version 460
 // Turns the peeled layers of each column into bit-packed solid voxels. One invocation per column owns its
-// ceil(R/32) words (no atomics). Walking front to back, a crossing at depth z starts at voxel
+// ceil(depth/32) words (no atomics). Walking front to back, a crossing at depth z starts at voxel
 // k = ceil(z_grid - 1/2); the segment before it is solid where the running winding is non-zero (rule 0) or
 // the crossing count is odd (rule 1, Harada & Koshizuka's pairing). Nothing after the last crossing.
 #include "dispatch.glsl"
@@ -8,12 +8,15 @@ layout(local_size_x = 64) in;
 layout(set = 0, binding = 0) uniform sampler2DArray layers;
 layout(std430, set = 0, binding = 1) buffer Bits { uint bits[]; };
 layout(push_constant) uniform Push {
-    uint res;          // R
+    uint width;        // columns per row (voxels along u)
     uint layer_count;  // peeled layers
-    uint words;        // ceil(R/32)
+    uint words;        // ceil(depth/32)
     uint rule;         // 0 winding, 1 parity
-    uint first_column; // first column (v*R + u) of this slab
+    uint first_column; // first column (v*width + u) of this slab
     uint column_count; // columns in this slab
+    uint depth;        // voxels along the peel axis
+    float depth_lo;    // depth range start (grid units), as in peel_common.glsl
+    float depth_span;  // depth range length (grid units)
 } pc;
 
 void set_range(uint base, uint k0, uint k1) {
@@ -31,17 +34,17 @@ void main() {
     uint i = linear_invocation();
     if (i >= pc.column_count) return;
     uint column = pc.first_column + i;
-    ivec2 uv = ivec2(column % pc.res, column / pc.res);
+    ivec2 uv = ivec2(column % pc.width, column / pc.width);
     uint base = i * pc.words;
     for (uint w = 0u; w < pc.words; ++w) bits[base + w] = 0u;
     int winding = 0;
     uint crossings = 0u;
     uint k_prev = 0u;
-    float r = float(pc.res);
+    float r = float(pc.depth);
     for (uint l = 0u; l < pc.layer_count; ++l) {
         float s = texelFetch(layers, ivec3(uv, int(l)), 0).r;
         if (s == 0.0) break;
-        float z_grid = (abs(s) - 1.0 - 0.25) * 2.0 * r;
+        float z_grid = (abs(s) - 1.0 - 0.25) * 2.0 * pc.depth_span + pc.depth_lo;
         uint k = uint(clamp(ceil(z_grid - 0.5), 0.0, r));
         bool inside = pc.rule == 0u ? winding != 0 : (crossings & 1u) == 1u;
         if (inside && k > k_prev) set_range(base, k_prev, k);

@@ -19,6 +19,11 @@ pub struct ProfileArgs {
 }
 
 impl ProfileArgs {
+    /// Whether any profile output was asked for.
+    pub fn wanted(&self) -> bool {
+        self.profile || self.profile_json.is_some() || self.trace.is_some()
+    }
+
     /// Prints and writes what was asked for.
     pub fn emit(&self, profiler: &Profiler) -> anyhow::Result<()> {
         if self.profile {

@@ -38,6 +38,11 @@
 //! assert!(topology(&cube).closed);
 //! let voxels = voxelize_on_cpu(&cube, &VoxelizeOptions::default().res(16))?;
 //! assert_eq!(voxels.grid.count(), 16 * 16 * 16);
+//! // A chosen voxel size, one empty voxel around, every voxel a face touches as well as the solid:
+//! let opts = VoxelizeOptions::default().voxel_size(0.25).pad(1).fill(gregvox::Fill::Both);
+//! let voxels = voxelize_on_cpu(&cube, &opts)?;
+//! assert_eq!(voxels.grid.frame.dims, [6, 6, 6]);
+//! assert_eq!(voxels.grid.frame.centre(0, 0, 0), [-0.125; 3]);
 //! # Ok(())
 //! # }
 //! ```
@@ -71,7 +76,7 @@ pub mod surface;
 pub mod voxel;
 
 pub use api::{
-    load_mesh, topology, voxelize_on_cpu, Axes, Deformation, Gpu, Method, Surface, Voxelization,
-    VoxelizeOptions, VoxelizeReport,
+    load_mesh, topology, voxelize, voxelize_on_cpu, Axes, Deformation, Fill, Gpu, Method, Surface,
+    Voxelization, VoxelizeOptions, VoxelizeReport,
 };
 pub use error::{Error, Result};

@@ -29,7 +29,7 @@ use gregvox::passes::surface_draw::ShadingMode;
 use gregvox::passes::voxel_raycast::{bricks_bytes, ids_bytes, VoxelRaycastPass};
 use gregvox::surface::Tangents;
 use gregvox::voxel::cpu::FillRule;
-use gregvox::voxel::grid::{Axis, GridFrame, VoxelGrid};
+use gregvox::voxel::grid::{Axis, GridFrame, GridSpec, VoxelGrid};
 use gregvox::voxel::raycast::{raycast_grid, RayCamera, RayShading, MISS};
 
 const FORMAT: vk::Format = vk::Format::B8G8R8A8_UNORM;
@@ -45,7 +45,7 @@ fn shading() -> RayShading {
 
 /// Two cameras looking at the grid's centre from oblique directions (no ray runs along a grid plane).
 fn cameras(frame: &GridFrame, aspect: f32) -> Vec<RayCamera> {
-    let side = frame.side as f32;
+    let side = (frame.voxel_size[0] * frame.dims[0] as f64) as f32;
     let c = Vec3::from_array(frame.origin.map(|x| x as f32)) + Vec3::splat(0.5 * side);
     [
         Vec3::new(0.8, -0.55, 0.45),
@@ -79,7 +79,7 @@ fn gpu_raycast(
     let bricks = ctx
         .create_buffer(
             "test bricks",
-            bricks_bytes(z.frame.res),
+            bricks_bytes(z.frame.dims[0]),
             vk::BufferUsageFlags::STORAGE_BUFFER,
             MemoryLocation::GpuOnly,
         )
@@ -114,22 +114,14 @@ fn gpu_raycast(
 }
 
 fn single_voxel() -> VoxelGrid {
-    let frame = GridFrame {
-        res: 8,
-        origin: [-1.0, 0.5, 2.0],
-        side: 4.0,
-    };
+    let frame = GridFrame::cubic(8, [-1.0, 0.5, 2.0], 4.0);
     let mut g = VoxelGrid::empty(frame, Axis::Z);
     g.set(3, 4, 5, true);
     g
 }
 
 fn sphere() -> VoxelGrid {
-    let frame = GridFrame {
-        res: 32,
-        origin: [0.0; 3],
-        side: 2.0,
-    };
+    let frame = GridFrame::cubic(32, [0.0; 3], 2.0);
     let mut g = VoxelGrid::empty(frame, Axis::X);
     for k in 0..32 {
         for j in 0..32 {
@@ -144,11 +136,7 @@ fn sphere() -> VoxelGrid {
 }
 
 fn cube() -> VoxelGrid {
-    let frame = GridFrame {
-        res: 8,
-        origin: [0.0; 3],
-        side: 1.0,
-    };
+    let frame = GridFrame::cubic(8, [0.0; 3], 1.0);
     let mut g = VoxelGrid::empty(frame, Axis::Z);
     for w in g.words.iter_mut() {
         *w = 0xff; // 8 bits per column: every voxel solid
@@ -165,9 +153,16 @@ fn gregory_grid(ctx: &Context) -> VoxelGrid {
     let surface = builtin_surface(ctx, 6);
     ctx.one_shot(|cmd| surface.record(ctx, cmd, None, None))
         .unwrap();
-    let (grid, _) =
-        voxelize_gregory_surface(ctx, &surface, 32, &[Axis::Z], FillRule::Winding, 64, None)
-            .unwrap();
+    let (grid, _) = voxelize_gregory_surface(
+        ctx,
+        &surface,
+        &GridSpec::res(32),
+        &[Axis::Z],
+        FillRule::Winding,
+        64,
+        None,
+    )
+    .unwrap();
     grid
 }
 
@@ -262,13 +257,14 @@ fn the_cpu_dda_finds_the_nearest_solid_voxel_of_a_brute_force_search() {
     ] {
         let f = grid.frame;
         let (w, h) = (40, 30);
-        let solid: Vec<[u32; 3]> = (0..f.res)
-            .flat_map(|k| (0..f.res).flat_map(move |j| (0..f.res).map(move |i| [i, j, k])))
+        let res = f.dims[0];
+        let solid: Vec<[u32; 3]> = (0..res)
+            .flat_map(|k| (0..res).flat_map(move |j| (0..res).map(move |i| [i, j, k])))
             .filter(|&[i, j, k]| grid.get(i, j, k))
             .collect();
         for cam in cameras(&f, w as f32 / h as f32) {
             let hits = raycast_grid(&grid, &cam, w, h, &s);
-            let inv_pitch = 1.0 / f.pitch() as f32;
+            let inv_pitch = 1.0 / f.voxel_size[0] as f32;
             let o: [f32; 3] =
                 std::array::from_fn(|a| (cam.eye[a] - f.origin[a] as f32) * inv_pitch);
             let mut grazing = 0;
@@ -291,7 +287,7 @@ fn the_cpu_dda_finds_the_nearest_solid_voxel_of_a_brute_force_search() {
                                 grazing += 1;
                                 continue;
                             }
-                            let r = f.res;
+                            let r = f.dims[0];
                             let g = [got % r, (got / r) % r, got / (r * r)];
                             let (g0, _) =
                                 cell_interval(o, d, g).expect("the hit voxel meets the ray");
@@ -405,6 +401,7 @@ fn the_voxels_scene_grid_after_one_frame_equals_the_one_shot_gpu_voxelizer() {
             vertices: s.vertices(),
             indices: s.indices(),
             index_count: s.index_count(),
+            bounds: None,
         };
         let one_shot = PeelVoxelizer::new(ctx, 32).unwrap();
         let (reference, stats) = one_shot
@@ -421,7 +418,7 @@ fn the_voxels_scene_grid_after_one_frame_equals_the_one_shot_gpu_voxelizer() {
         eprintln!(
             "resident grid: {} solid voxels of {}³, {} peeling passes planned, {} needed",
             resident.count(),
-            resident.frame.res,
+            resident.frame.dims[0],
             scene.voxelizer().layers,
             stats.layers
         );
@@ -439,6 +436,7 @@ fn the_voxels_scene_grid_after_one_frame_equals_the_one_shot_gpu_voxelizer() {
             vertices: s.vertices(),
             indices: s.indices(),
             index_count: s.index_count(),
+            bounds: None,
         };
         let one_shot = PeelVoxelizer::new(ctx, 32).unwrap();
         let (reference, _) = one_shot

@@ -65,6 +65,7 @@ fn a_voxelizer_that_fails_mid_voxelization_releases_its_images_and_slabs() {
     .unwrap();
     let opts = VoxelizeOptions::default()
         .res(64)
+        .method(gregvox::Method::Peel)
         .axes(Axes::Three)
         .max_layers(1);
     let err = gpu.voxelize(&bunny, &opts).unwrap_err().to_string();

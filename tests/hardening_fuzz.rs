@@ -292,8 +292,8 @@ proptest! {
         };
         let rule = if parity { FillRule::Parity } else { FillRule::Winding };
         let grid = voxelize_cpu(&tri, &frame, Axis::from_index(axis), rule);
-        prop_assert_eq!(grid.frame.res, res);
-        prop_assert_eq!(grid.words.len() as u64 * 4, gregvox::voxel::grid::VoxelGrid::bytes_for(&frame));
+        prop_assert_eq!(grid.frame.dims, [res; 3]);
+        prop_assert_eq!(grid.words.len() as u64 * 4, gregvox::voxel::grid::VoxelGrid::bytes_for(&frame, Axis::from_index(axis)));
         let r = res as u64;
         let count = grid.count();
         prop_assert!(count <= r * r * r);

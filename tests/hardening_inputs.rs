@@ -959,7 +959,16 @@ fn an_allocation_budget_gives_a_clear_out_of_memory_error() {
     let budget = [("GREGVOX_MEMORY_BUDGET", "8M")];
     let vox = dir.path("v.binvox");
     let out = gregvox_env(
-        &["voxelize", &suzanne, "--res", "512", "--out", &s(&vox)],
+        &[
+            "voxelize",
+            &suzanne,
+            "--res",
+            "512",
+            "--method",
+            "peel",
+            "--out",
+            &s(&vox),
+        ],
         &budget,
     );
     assert_clear_failure(

@@ -98,7 +98,7 @@ fn the_voxelize_summary_is_short_unless_a_profile_is_asked_for() {
         let o = gregvox()
             .arg("voxelize")
             .arg(model("opensubdiv/catmark_cube.obj"))
-            .args(["--res", "8"])
+            .args(["--res", "8", "--method", "peel"])
             .args(extra)
             .current_dir(&dir)
             .output()
@@ -111,8 +111,8 @@ fn the_voxelize_summary_is_short_unless_a_profile_is_asked_for() {
     };
     let (plain, plain_err) = run(&[]);
     assert!(!plain_err.contains("peel"), "{plain_err}");
-    // Input and grid, layers per axis, solid voxels, total time.
-    assert_eq!(plain.lines().count(), 4, "{plain}");
+    // Input and grid, method, layers per axis, solid voxels, total time.
+    assert_eq!(plain.lines().count(), 5, "{plain}");
     assert!(!plain.contains("peel layer"), "{plain}");
     // --profile adds the per-pass table (on stderr, as for every command).
     let (_, profiled) = run(&["--profile"]);

@@ -176,11 +176,7 @@ fn an_empty_projection_and_bad_axis_counts_are_handled() {
             .err()
             .map(|e| e.to_string());
         // A frame far from the mesh: no fragment lands, the grid is empty and nothing is allocated for Φ = 0.
-        let far = GridFrame {
-            res: 8,
-            origin: [10.0; 3],
-            side: 1.0,
-        };
+        let far = GridFrame::cubic(8, [10.0; 3], 1.0);
         let (g, s) = a
             .voxelize(
                 ctx,

@@ -57,6 +57,8 @@ fn peel_and_cpu_agree_on_spot_and_the_binvox_parses_back() {
         "64",
         "--axis",
         "z",
+        "--method",
+        "peel",
         "--out",
         out_peel.to_str().unwrap(),
         "--json",
@@ -102,7 +104,15 @@ fn peel_and_cpu_agree_on_spot_and_the_binvox_parses_back() {
 
 #[test]
 fn open_meshes_are_reported_and_peeled_along_three_axes() {
-    let out = gregvox(&["voxelize", &model("suzanne.obj"), "--res", "32", "--json"]);
+    let out = gregvox(&[
+        "voxelize",
+        &model("suzanne.obj"),
+        "--res",
+        "32",
+        "--method",
+        "peel",
+        "--json",
+    ]);
     assert!(
         out.status.success(),
         "{}",
@@ -174,6 +184,8 @@ fn bad_inputs_end_with_one_clear_line() {
             "16",
             "--axis",
             "x",
+            "--method",
+            "peel",
             "--max-layers",
             "4",
         ]),

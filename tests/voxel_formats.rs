@@ -1,23 +1,26 @@
 //! Specification of the exporters by round trip: `.vox` read back by the independent `dot_vox` crate
 //! (single model at R = 256, a 2×2×2 scene graph at R = 300), NRRD and NPY parsed here from their published
 //! layouts (headers checked line by line), all compared voxel by voxel with the source grid.
-use gregvox::voxel::export::{npy_bytes, nrrd_bytes, vox_bytes, write_grid, VOX_MODEL_MAX};
+use gregvox::voxel::export::{
+    npy_bytes, npy_packed_bytes, nrrd_bytes, vox_bytes, write_grid, SaveOptions, VOX_MODEL_MAX,
+};
 use gregvox::voxel::grid::{Axis, GridFrame, VoxelGrid};
 use std::collections::HashSet;
 
 /// A deterministic pattern with structure at every scale: a solid ball, a hollow in it, and hashed noise
 /// (about 1 voxel in 7) so a swapped axis or an off-by-one in any chunk changes the set.
 fn pattern(res: u32) -> VoxelGrid {
-    let frame = GridFrame {
-        res,
-        origin: [-1.5, 0.25, 2.0],
-        side: 3.0,
-    };
+    pattern_in(GridFrame::cubic(res, [-1.5, 0.25, 2.0], 3.0))
+}
+
+/// The same pattern in any frame (non-cubic, anisotropic).
+fn pattern_in(frame: GridFrame) -> VoxelGrid {
     let mut g = VoxelGrid::empty(frame, Axis::Y);
-    let c = res as f64 / 2.0;
-    for i in 0..res {
-        for j in 0..res {
-            for k in 0..res {
+    let c = frame.dims[0] as f64 / 2.0;
+    let [nx, ny, nz] = frame.dims;
+    for i in 0..nx {
+        for j in 0..ny {
+            for k in 0..nz {
                 let d2 = (i as f64 - c * 0.8).powi(2)
                     + (j as f64 - c).powi(2)
                     + (k as f64 - c * 1.1).powi(2);
@@ -36,11 +39,11 @@ fn pattern(res: u32) -> VoxelGrid {
 }
 
 fn set_of(g: &VoxelGrid) -> HashSet<[u32; 3]> {
-    let r = g.frame.res;
+    let [nx, ny, nz] = g.frame.dims;
     let mut s = HashSet::new();
-    for i in 0..r {
-        for j in 0..r {
-            for k in 0..r {
+    for i in 0..nx {
+        for j in 0..ny {
+            for k in 0..nz {
                 if g.get(i, j, k) {
                     s.insert([i, j, k]);
                 }
@@ -120,14 +123,7 @@ fn vox_round_trips_through_dot_vox_at_300_in_eight_models() {
 
 #[test]
 fn vox_of_an_empty_grid_is_a_valid_file_with_no_voxel() {
-    let g = VoxelGrid::empty(
-        GridFrame {
-            res: 300,
-            origin: [0.0; 3],
-            side: 1.0,
-        },
-        Axis::Z,
-    );
+    let g = VoxelGrid::empty(GridFrame::cubic(300, [0.0; 3], 1.0), Axis::Z);
     let (read, models) = vox_voxels(&vox_bytes(&g), 300);
     assert_eq!((read.len(), models), (0, 1));
 }
@@ -175,9 +171,9 @@ fn nrrd_round_trips_with_x_fastest_and_the_grid_in_the_header() {
 }
 
 #[test]
-fn npy_round_trips_as_packed_z_bits_with_a_64_byte_aligned_header() {
+fn npy_packed_round_trips_as_packed_z_bits_with_a_64_byte_aligned_header() {
     let g = pattern(37);
-    let b = npy_bytes(&g);
+    let b = npy_packed_bytes(&g);
     assert_eq!(&b[..8], b"\x93NUMPY\x01\x00");
     let hlen = u16::from_le_bytes([b[8], b[9]]) as usize;
     assert_eq!(
@@ -214,13 +210,15 @@ fn write_grid_writes_vox_with_a_sidecar_and_rejects_unknown_extensions() {
     std::fs::create_dir_all(&dir).unwrap();
     let g = pattern(20);
     let path = dir.join("p.vox");
-    write_grid(&g, &path).unwrap();
+    write_grid(&g, &path, &SaveOptions::default()).unwrap();
     assert_eq!(std::fs::read(&path).unwrap(), vox_bytes(&g));
     let side: serde_json::Value =
         serde_json::from_slice(&std::fs::read(dir.join("p.json")).unwrap()).unwrap();
     assert_eq!(side["dims"], serde_json::json!([20, 20, 20]));
-    assert_eq!(side["pitch"].as_f64().unwrap(), 3.0 / 20.0);
-    let err = write_grid(&g, &dir.join("p.stl")).unwrap_err().to_string();
+    assert_eq!(side["voxel_size"], serde_json::json!([0.15, 0.15, 0.15]));
+    let err = write_grid(&g, &dir.join("p.stl"), &SaveOptions::default())
+        .unwrap_err()
+        .to_string();
     assert!(err.contains("unknown voxel format '.stl'"), "{err}");
     std::fs::remove_dir_all(&dir).unwrap();
 }
@@ -228,20 +226,159 @@ fn write_grid_writes_vox_with_a_sidecar_and_rejects_unknown_extensions() {
 #[test]
 fn vox_refuses_grids_past_its_4_gib_chunk_limit_with_one_clear_error() {
     // 1024³ all solid: 2^30 voxels × 4 bytes = 4 GiB > u32::MAX; refused before anything is built.
-    let mut g = VoxelGrid::empty(
-        GridFrame {
-            res: 1024,
-            origin: [0.0; 3],
-            side: 1.0,
-        },
-        Axis::Z,
-    );
+    let mut g = VoxelGrid::empty(GridFrame::cubic(1024, [0.0; 3], 1.0), Axis::Z);
     g.words.fill(u32::MAX);
     let path = std::env::temp_dir().join(format!("gregvox-big-{}.vox", std::process::id()));
-    let err = write_grid(&g, &path).unwrap_err().to_string();
+    let err = write_grid(&g, &path, &SaveOptions::default())
+        .unwrap_err()
+        .to_string();
     assert!(
         err.contains("1073741824 solid voxels do not fit a .vox file"),
         "{err}"
     );
     assert!(!path.exists());
+}
+
+/// A non-cubic grid of anisotropic voxels: dims with partial words on every axis, sizes unlike each other.
+fn odd_frame() -> GridFrame {
+    GridFrame {
+        dims: [13, 7, 37],
+        origin: [-1.5, 0.25, 2.0],
+        voxel_size: [0.5, 0.125, 0.0625],
+    }
+}
+
+#[test]
+fn npy_is_a_plain_bool_array_indexed_x_y_z_on_a_non_cubic_grid() {
+    let g = pattern_in(odd_frame());
+    let b = npy_bytes(&g);
+    let hlen = u16::from_le_bytes([b[8], b[9]]) as usize;
+    assert_eq!((10 + hlen) % 64, 0);
+    let header = std::str::from_utf8(&b[10..10 + hlen]).unwrap();
+    assert_eq!(
+        header.trim_end(),
+        "{'descr': '|b1', 'fortran_order': False, 'shape': (13, 7, 37), }"
+    );
+    let data = &b[10 + hlen..];
+    assert_eq!(data.len(), 13 * 7 * 37);
+    for (n, &v) in data.iter().enumerate() {
+        // C order: the last index (z) runs fastest.
+        let (x, y, z) = (n / (7 * 37), n / 37 % 7, n % 37);
+        assert!(v <= 1);
+        assert_eq!(v == 1, g.get(x as u32, y as u32, z as u32), "({x},{y},{z})");
+    }
+}
+
+#[test]
+fn nrrd_of_a_non_cubic_grid_gives_each_axis_its_size_and_spacing() {
+    let g = pattern_in(odd_frame());
+    let b = nrrd_bytes(&g);
+    let split = b.windows(2).position(|w| w == b"\n\n").unwrap() + 2;
+    let header = std::str::from_utf8(&b[..split]).unwrap();
+    assert!(header.contains("sizes: 13 7 37\n"), "{header}");
+    assert!(header.contains("space directions: (0.5,0,0) (0,0.125,0) (0,0,0.0625)\n"));
+    assert!(
+        header.contains("space origin: (-1.25,0.3125,2.03125)\n"),
+        "{header}"
+    );
+    let data = &b[split..];
+    assert_eq!(data.len(), 13 * 7 * 37);
+    for (n, &v) in data.iter().enumerate() {
+        let (x, y, z) = (n % 13, n / 13 % 7, n / (13 * 7));
+        assert_eq!(v == 1, g.get(x as u32, y as u32, z as u32), "({x},{y},{z})");
+    }
+}
+
+#[test]
+fn every_sidecar_places_the_grid_so_index_to_world_gives_each_voxel_centre() {
+    let dir = std::env::temp_dir().join(format!("gregvox-sidecar-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let g = pattern_in(odd_frame());
+    for ext in ["npy", "raw", "vox"] {
+        let path = dir.join(format!("g.{ext}"));
+        write_grid(&g, &path, &SaveOptions::default()).unwrap();
+        let side: serde_json::Value =
+            serde_json::from_slice(&std::fs::read(dir.join("g.json")).unwrap()).unwrap();
+        assert_eq!(side["dims"], serde_json::json!([13, 7, 37]), "{ext}");
+        assert_eq!(side["voxel_size"], serde_json::json!([0.5, 0.125, 0.0625]));
+        assert_eq!(side["origin"], serde_json::json!([-1.5, 0.25, 2.0]));
+        let m: Vec<Vec<f64>> = serde_json::from_value(side["index_to_world"].clone()).unwrap();
+        for (i, j, k) in [(0, 0, 0), (12, 6, 36), (5, 3, 20)] {
+            let c = g.frame.centre(i, j, k);
+            for a in 0..3 {
+                let w = m[a][0] * i as f64 + m[a][1] * j as f64 + m[a][2] * k as f64 + m[a][3];
+                assert!(
+                    (w - c[a]).abs() <= 1e-6 * g.frame.voxel_size[a],
+                    "{ext} {a}"
+                );
+            }
+            assert_eq!(m[3], [0.0, 0.0, 0.0, 1.0]);
+        }
+    }
+    // The raw words: ((y·X + x)·ceil(Z/32) + z/32), bit z%32.
+    let raw = std::fs::read(dir.join("g.raw")).unwrap();
+    let words: Vec<u32> = raw
+        .chunks_exact(4)
+        .map(|b| u32::from_le_bytes(b.try_into().unwrap()))
+        .collect();
+    assert_eq!(words.len(), 13 * 7 * 2);
+    for x in 0..13 {
+        for y in 0..7 {
+            for z in 0..37 {
+                let w = words[(y * 13 + x) * 2 + z / 32];
+                assert_eq!(w >> (z % 32) & 1 == 1, g.get(x as u32, y as u32, z as u32));
+            }
+        }
+    }
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+#[test]
+fn binvox_refuses_non_cubic_grids_before_writing_anything() {
+    let dir = std::env::temp_dir().join(format!("gregvox-binvox-odd-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let path = dir.join("g.binvox");
+    // Anisotropic voxels, and cubic voxels in a non-cubic grid: binvox has one scale and readers disagree
+    // on the axis order of unequal dims.
+    let cubic_voxels = GridFrame {
+        dims: [8, 4, 2],
+        origin: [0.0; 3],
+        voxel_size: [0.25; 3],
+    };
+    for frame in [odd_frame(), cubic_voxels] {
+        let err = write_grid(&pattern_in(frame), &path, &SaveOptions::default())
+            .unwrap_err()
+            .to_string();
+        assert!(
+            err.contains("binvox holds only cubic grids of cubic voxels"),
+            "{err}"
+        );
+        assert!(err.contains("g.binvox"), "{err}");
+        assert_eq!(
+            std::fs::read_dir(&dir).unwrap().count(),
+            0,
+            "nothing written"
+        );
+    }
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+#[test]
+fn vox_of_a_non_cubic_grid_past_256_splits_each_axis_into_models() {
+    let frame = GridFrame {
+        dims: [300, 20, 260],
+        origin: [0.0; 3],
+        voxel_size: [1.0, 2.0, 0.5],
+    };
+    let g = pattern_in(frame);
+    let data = dot_vox::load_bytes(&vox_bytes(&g)).unwrap();
+    // 2 × 1 × 2 chunks, every one holding voxels of the pattern's noise.
+    assert_eq!(data.models.len(), 4);
+    for m in &data.models {
+        assert!(
+            m.size.x <= VOX_MODEL_MAX && m.size.y <= VOX_MODEL_MAX && m.size.z <= VOX_MODEL_MAX
+        );
+    }
+    let total: usize = data.models.iter().map(|m| m.voxels.len()).sum();
+    assert_eq!(total as u64, g.count());
 }

@@ -22,9 +22,16 @@ fn the_gpu_surface_voxelizes_like_the_cpu_scanline_of_the_same_triangles() {
     let (grid, layers, verts) = with_gpu(|ctx| {
         let s = GregorySurface::new(ctx, &topo, &cage, level).unwrap();
         ctx.one_shot(|cmd| s.record(ctx, cmd, None, None)).unwrap();
-        let (g, stats) =
-            voxelize_gregory_surface(ctx, &s, res, &[Axis::Z], FillRule::Winding, 64, None)
-                .unwrap();
+        let (g, stats) = voxelize_gregory_surface(
+            ctx,
+            &s,
+            &gregvox::voxel::grid::GridSpec::res(res),
+            &[Axis::Z],
+            FillRule::Winding,
+            64,
+            None,
+        )
+        .unwrap();
         let v: Vec<SurfaceVertex> = s.read_vertices(ctx).unwrap();
         (g, stats[0].layers, v)
     });

@@ -34,7 +34,7 @@ fn wrong_outside_band(
     dist: impl Fn([f64; 3]) -> f64,
     band: f64,
 ) -> (u64, u64) {
-    let r = grid.frame.res;
+    let r = grid.frame.dims[0];
     let (mut wrong, mut solid_truth) = (0, 0);
     for i in 0..r {
         for j in 0..r {
@@ -104,7 +104,7 @@ fn overlapping_spheres_are_exact_with_winding_and_parity_measurably_fails() {
     let dist = |p: [f64; 3]| (len(p, c1) - rad).abs().min((len(p, c2) - rad).abs());
     // Band: half a voxel diagonal plus the polygonal sphere's sagitta r(1 − cos(π/48)).
     let band =
-        3f64.sqrt() / 2.0 * frame.pitch() + rad * (1.0 - (std::f64::consts::PI / 48.0).cos());
+        3f64.sqrt() / 2.0 * frame.voxel_size[0] + rad * (1.0 - (std::f64::consts::PI / 48.0).cos());
     let winding = voxelize_cpu(&mesh, &frame, Axis::Z, FillRule::Winding);
     let parity = voxelize_cpu(&mesh, &frame, Axis::Z, FillRule::Parity);
     let (w_wrong, truth) = wrong_outside_band(&winding, inside, dist, band);
@@ -137,7 +137,7 @@ fn a_sphere_inside_an_inverted_sphere_stays_hollow() {
     let o = [0.0; 3];
     let inside = |p: [f64; 3]| len(p, o) < 1.0 && len(p, o) > 0.5;
     let dist = |p: [f64; 3]| (len(p, o) - 1.0).abs().min((len(p, o) - 0.5).abs());
-    let band = 3f64.sqrt() / 2.0 * frame.pitch() + 1.0 - (std::f64::consts::PI / 32.0).cos();
+    let band = 3f64.sqrt() / 2.0 * frame.voxel_size[0] + 1.0 - (std::f64::consts::PI / 32.0).cos();
     for axis in Axis::ALL {
         let cpu = voxelize_cpu(&mesh, &frame, axis, FillRule::Winding);
         assert_eq!(
@@ -291,9 +291,10 @@ fn binvox_round_trips_and_follows_the_format() {
     let g = voxelize_cpu(&torus, &frame, Axis::X, FillRule::Winding);
     let bytes = binvox_bytes(&g);
     let back = parse_binvox(&bytes).unwrap();
-    assert_eq!(back.frame.res, 37);
+    assert_eq!(back.frame.dims, [37; 3]);
     assert_eq!(back.count_differences(&g), 0);
-    assert!((back.frame.side - frame.side).abs() < 1e-9 * frame.side);
+    let h = frame.voxel_size[0];
+    assert!((back.frame.voxel_size[0] - h).abs() < 1e-9 * h);
     // The run-length data: counts in 1..=255 summing to R³.
     let data = &bytes[bytes.windows(5).position(|w| w == b"data\n").unwrap() + 5..];
     let total: u64 = data
@@ -305,14 +306,7 @@ fn binvox_round_trips_and_follows_the_format() {
         .sum();
     assert_eq!(total, 37u64.pow(3));
     // An empty 256³ grid is exactly header + 2·ceil(256³/255) bytes.
-    let empty = VoxelGrid::empty(
-        GridFrame {
-            res: 256,
-            origin: [0.0; 3],
-            side: 1.0,
-        },
-        Axis::Z,
-    );
+    let empty = VoxelGrid::empty(GridFrame::cubic(256, [0.0; 3], 1.0), Axis::Z);
     let b = binvox_bytes(&empty);
     let header = b.windows(5).position(|w| w == b"data\n").unwrap() + 5;
     assert_eq!(b.len() - header, 2 * 65_794);

@@ -76,7 +76,8 @@ fn peel_at_2048_counts_the_hollow_cube_exactly() {
     let j = voxelize_2048("peel");
     assert_eq!(j["layers"]["z"].as_u64(), Some(4), "{j}");
     assert_eq!(j["solid_voxels"].as_u64(), Some(EXACT));
-    assert_eq!(j["pitch"].as_f64(), Some(1.0 / 2048.0));
+    let h = 1.0 / 2048.0;
+    assert_eq!(j["voxel_size"], serde_json::json!([h, h, h]));
 }
 
 #[test]

@@ -32,10 +32,12 @@ pub use crate::passes::cage_deform::Deformation;
 pub use crate::passes::gregory_eval::SurfaceVertex as Vertex;
 pub use crate::surface::Tangents;
 pub use crate::voxel::cpu::FillRule;
-pub use crate::voxel::grid::{Axis, GridFrame, VoxelGrid};
+pub use crate::voxel::export::SaveOptions;
+pub use crate::voxel::grid::{Axis, Bounds, GridFrame, GridSize, GridSpec, VoxelGrid};
+pub use crate::voxel::surface::Fill;
 
-/// Largest grid resolution accepted (2048³ bits = 1 GiB).
-pub const MAX_RES: u32 = 2048;
+/// Largest number of voxels along any axis (2048³ bits = 1 GiB).
+pub const MAX_RES: u32 = crate::voxel::grid::MAX_DIM;
 
 /// Loads a mesh file (Wavefront OBJ: polygons of any size, 1-based or negative indices). Errors name the
 /// file, and the line for malformed content.
@@ -93,6 +95,9 @@ pub fn subdivide(mesh: &Mesh, levels: u32, scheme: Scheme) -> Result<Mesh> {
 #[cfg_attr(feature = "cli", derive(clap::ValueEnum))]
 #[serde(rename_all = "lowercase")]
 pub enum Method {
+    /// The fastest for the device: the CPU scanline on a CPU Vulkan device (lavapipe) or with no Vulkan
+    /// device at all; the A-buffer on a GPU (depth peeling when the A-buffer's fragments pass one binding).
+    Auto,
     /// Raster depth peeling + compute fill on the GPU.
     Peel,
     /// GPU A-buffer: count, prefix sum, one scatter pass, per-column sort + fill (no equal-depth loss).
@@ -105,6 +110,7 @@ impl Method {
     /// The name used on the command line and in reports.
     pub fn name(self) -> &'static str {
         match self {
+            Method::Auto => "auto",
             Method::Peel => "peel",
             Method::Abuffer => "abuffer",
             Method::Cpu => "cpu",
@@ -126,14 +132,16 @@ pub enum Axes {
     Three,
 }
 
-/// What [`Gpu::voxelize`] does; `VoxelizeOptions::default().res(256)` is a 256³ grid by depth peeling with
-/// the winding rule.
+/// What [`Gpu::voxelize`] does; `VoxelizeOptions::default().res(256)` is a 256³ grid over the mesh's box,
+/// solid by the winding rule, by the fastest method for the device.
 #[derive(Clone)]
 pub struct VoxelizeOptions {
-    /// Voxels per side of the cubic grid (1–[`MAX_RES`]).
-    pub res: u32,
+    /// The grid: its size (`res`, `dims` or `voxel_size`), box and padding.
+    pub grid: GridSpec,
     pub method: Method,
     pub rule: FillRule,
+    /// Solid, surface (every voxel a triangle touches) or both.
+    pub fill: Fill,
     pub axes: Axes,
     /// Refuse meshes needing more peeling passes than this.
     pub max_layers: u32,
@@ -144,9 +152,10 @@ pub struct VoxelizeOptions {
 impl Default for VoxelizeOptions {
     fn default() -> Self {
         VoxelizeOptions {
-            res: 128,
-            method: Method::Peel,
+            grid: GridSpec::res(128),
+            method: Method::Auto,
             rule: FillRule::Winding,
+            fill: Fill::Solid,
             axes: Axes::Auto,
             max_layers: DEFAULT_MAX_LAYERS,
             progress: None,
@@ -157,9 +166,10 @@ impl Default for VoxelizeOptions {
 impl std::fmt::Debug for VoxelizeOptions {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         f.debug_struct("VoxelizeOptions")
-            .field("res", &self.res)
+            .field("grid", &self.grid)
             .field("method", &self.method)
             .field("rule", &self.rule)
+            .field("fill", &self.fill)
             .field("axes", &self.axes)
             .field("max_layers", &self.max_layers)
             .field("progress", &self.progress.is_some())
@@ -168,9 +178,29 @@ impl std::fmt::Debug for VoxelizeOptions {
 }
 
 impl VoxelizeOptions {
-    /// Voxels per side.
+    /// A cubic R³ grid whose side is the box's longest extent.
     pub fn res(mut self, res: u32) -> Self {
-        self.res = res;
+        self.grid.size = GridSize::Res(res);
+        self
+    }
+    /// The box divided into X×Y×Z voxels.
+    pub fn dims(mut self, dims: [u32; 3]) -> Self {
+        self.grid.size = GridSize::Dims(dims);
+        self
+    }
+    /// Cubic voxels of side `h` (dims = ceil(extent / h) per axis).
+    pub fn voxel_size(mut self, h: f64) -> Self {
+        self.grid.size = GridSize::VoxelSize(h);
+        self
+    }
+    /// Voxelize this box instead of the mesh's (inside or outside is still decided by the whole mesh).
+    pub fn bbox(mut self, min: [f64; 3], max: [f64; 3]) -> Self {
+        self.grid.bbox = Some(Bounds { min, max });
+        self
+    }
+    /// `n` empty voxels on every side.
+    pub fn pad(mut self, n: u32) -> Self {
+        self.grid.pad = n;
         self
     }
     /// The method.
@@ -181,6 +211,11 @@ impl VoxelizeOptions {
     /// The inside rule.
     pub fn rule(mut self, rule: FillRule) -> Self {
         self.rule = rule;
+        self
+    }
+    /// Solid, surface or both.
+    pub fn fill(mut self, fill: Fill) -> Self {
+        self.fill = fill;
         self
     }
     /// The axes.
@@ -198,23 +233,18 @@ impl VoxelizeOptions {
         self.progress = Some(std::sync::Arc::new(f));
         self
     }
-
-    fn validate(&self) -> Result<()> {
-        if self.res == 0 || self.res > MAX_RES {
-            return Err(Error::Invalid(format!(
-                "--res {} is out of range: the resolution must be between 1 and {MAX_RES}",
-                self.res
-            )));
-        }
-        Ok(())
-    }
 }
 
 /// What a voxelization did, for summaries and `--json`.
 #[derive(Clone, Debug, serde::Serialize)]
 pub struct VoxelizeReport {
+    /// The method that ran (never `auto`).
     pub method: Method,
-    pub res: u32,
+    /// Why `auto` chose it (`None` when the caller named the method).
+    pub method_reason: Option<String>,
+    /// Where the grid is: dims, origin, voxel size (voxel (i,j,k) centred at origin + (index + ½)·size).
+    pub frame: GridFrame,
+    pub fill: Fill,
     /// Triangles voxelized (after cleaning).
     pub triangles: usize,
     /// Triangles removed before voxelizing.
@@ -246,18 +276,15 @@ struct Prepared {
 }
 
 fn prepare(mesh: &Mesh, opts: &VoxelizeOptions) -> Result<Prepared> {
-    opts.validate()?;
     let topo = topology(mesh);
+    // The box of the vertices the faces use: a stray unreferenced vertex must not move the grid.
+    let frame = grid_frame(mesh, opts)?;
     let (tri, removed) = TriMesh::fan(mesh).clean();
     if tri.triangles.is_empty() {
         return Err(Error::Mesh(
             "no triangle with a non-zero area to voxelize".into(),
         ));
     }
-    let frame = GridFrame::from_points(&tri.positions, opts.res).map_err(|e| match e {
-        Error::Invalid(msg) => Error::Mesh(msg),
-        e => e,
-    })?;
     let open = !topo.closed;
     let three = match opts.axes {
         Axes::Three => true,
@@ -271,7 +298,7 @@ fn prepare(mesh: &Mesh, opts: &VoxelizeOptions) -> Result<Prepared> {
             removed.duplicates, removed.cancelled, removed.zero_area
         ));
     }
-    if open {
+    if open && opts.fill != Fill::Surface {
         notes.push(format!(
             "open mesh ({} boundary and {} non-manifold edges){}",
             topo.boundary_edges,
@@ -285,7 +312,9 @@ fn prepare(mesh: &Mesh, opts: &VoxelizeOptions) -> Result<Prepared> {
     }
     let report = VoxelizeReport {
         method: opts.method,
-        res: opts.res,
+        method_reason: None,
+        frame,
+        fill: opts.fill,
         triangles: tri.triangles.len(),
         removed,
         closed: topo.closed,
@@ -303,8 +332,59 @@ fn prepare(mesh: &Mesh, opts: &VoxelizeOptions) -> Result<Prepared> {
     })
 }
 
+/// The grid `opts` gives for `mesh` (what a voxelization will use), without voxelizing: callers check an
+/// output format against it before any work.
+pub fn grid_frame(mesh: &Mesh, opts: &VoxelizeOptions) -> Result<GridFrame> {
+    let fan = TriMesh::fan(mesh);
+    let mesh_box = Bounds::of_triangles(&fan.positions, &fan.triangles).map_err(to_mesh_error)?;
+    opts.grid.frame(mesh_box).map_err(|e| match e {
+        Error::Invalid(msg) if opts.grid.bbox.is_none() && msg.contains("box") => Error::Mesh(msg),
+        e => e,
+    })
+}
+
+fn to_mesh_error(e: Error) -> Error {
+    match e {
+        Error::Invalid(msg) => Error::Mesh(msg),
+        e => e,
+    }
+}
+
+/// Adds the surface voxels to `grid` as `fill` says (solid: unchanged; surface: only them; both: the union).
+fn apply_fill(grid: Option<VoxelGrid>, tri: &TriMesh, frame: &GridFrame, fill: Fill) -> VoxelGrid {
+    let surface = || crate::voxel::surface::voxelize_surface(tri, frame);
+    match (fill, grid) {
+        (Fill::Solid, Some(g)) => g,
+        (Fill::Both, Some(g)) => g.union(&surface()),
+        _ => surface(),
+    }
+}
+
+/// Voxelizes `mesh` as `opts` says, creating a Vulkan device only when the method needs one: `auto` probes the
+/// device first (no logical device, no pipelines) and runs the CPU scanline on a CPU device such as lavapipe
+/// or when there is no Vulkan device at all; `cpu` never touches Vulkan.
+pub fn voxelize(mesh: &Mesh, opts: &VoxelizeOptions) -> Result<Voxelization> {
+    match opts.method {
+        Method::Cpu => voxelize_on_cpu(mesh, opts),
+        Method::Auto => match crate::gpu::context::probe_device() {
+            Ok((_, kind)) if kind != "CPU" => Gpu::new()?.voxelize(mesh, opts),
+            Ok((name, _)) => {
+                cpu_by_auto(mesh, opts, format!("the Vulkan device ({name}) is a CPU"))
+            }
+            Err(e) => cpu_by_auto(mesh, opts, format!("no usable Vulkan device ({e})")),
+        },
+        _ => Gpu::new()?.voxelize(mesh, opts),
+    }
+}
+
+fn cpu_by_auto(mesh: &Mesh, opts: &VoxelizeOptions, why: String) -> Result<Voxelization> {
+    let mut v = voxelize_on_cpu(mesh, opts)?;
+    v.report.method_reason = Some(format!("auto: {why}, so the CPU scanline"));
+    Ok(v)
+}
+
 /// Voxelizes `mesh` on the CPU (the column scanline, all cores), with no Vulkan device at all; `opts.method`
-/// is ignored.
+/// is ignored (reported as `cpu`).
 pub fn voxelize_on_cpu(mesh: &Mesh, opts: &VoxelizeOptions) -> Result<Voxelization> {
     let Prepared {
         tri,
@@ -313,21 +393,29 @@ pub fn voxelize_on_cpu(mesh: &Mesh, opts: &VoxelizeOptions) -> Result<Voxelizati
         three,
     } = prepare(mesh, opts)?;
     report.method = Method::Cpu;
-    report.axes = match (three, opts.axes) {
-        (true, _) => Axis::ALL.to_vec(),
-        (false, Axes::One(a)) => vec![a],
-        (false, _) => vec![Axis::Z],
-    };
-    let grids: Vec<VoxelGrid> = report
-        .axes
-        .iter()
-        .map(|&a| voxelize_cpu(&tri, &frame, a, opts.rule))
-        .collect();
-    let grid = if three {
-        VoxelGrid::majority([&grids[0], &grids[1], &grids[2]])
+    if opts.method == Method::Auto {
+        report.method_reason = Some("auto: no GPU asked for, so the CPU scanline".into());
+    }
+    let solid = if opts.fill == Fill::Surface {
+        None
     } else {
-        grids.into_iter().next().expect("one axis")
+        report.axes = match (three, opts.axes) {
+            (true, _) => Axis::ALL.to_vec(),
+            (false, Axes::One(a)) => vec![a],
+            (false, _) => vec![Axis::Z],
+        };
+        let grids: Vec<VoxelGrid> = report
+            .axes
+            .iter()
+            .map(|&a| voxelize_cpu(&tri, &frame, a, opts.rule))
+            .collect();
+        Some(if three {
+            VoxelGrid::majority([&grids[0], &grids[1], &grids[2]])
+        } else {
+            grids.into_iter().next().expect("one axis")
+        })
     };
+    let grid = apply_fill(solid, &tri, &frame, opts.fill);
     Ok(Voxelization { grid, report })
 }
 
@@ -402,8 +490,27 @@ impl Gpu {
         opts: &VoxelizeOptions,
         profiler: Option<&mut Profiler>,
     ) -> Result<Voxelization> {
-        if opts.method == Method::Cpu {
-            return voxelize_on_cpu(mesh, opts);
+        let on_cpu_device = self.ctx.info.device_type == "CPU";
+        let (method, reason) = match opts.method {
+            Method::Auto if on_cpu_device => (
+                Method::Cpu,
+                Some(format!(
+                    "auto: the Vulkan device ({}) is a CPU, so the CPU scanline",
+                    self.ctx.info.name
+                )),
+            ),
+            Method::Auto => (
+                Method::Abuffer,
+                Some(
+                    "auto: a GPU, so the A-buffer (two geometry passes whatever the depth)".into(),
+                ),
+            ),
+            m => (m, None),
+        };
+        if method == Method::Cpu || opts.fill == Fill::Surface {
+            let mut v = voxelize_on_cpu(mesh, opts)?;
+            v.report.method_reason = reason;
+            return Ok(v);
         }
         let Prepared {
             tri,
@@ -411,21 +518,62 @@ impl Gpu {
             mut report,
             three,
         } = prepare(mesh, opts)?;
+        report.method_reason = reason;
         let ctx = &self.ctx;
-        let need = memory_estimate(ctx, frame.res, 16);
+        let need = memory_estimate(ctx, &frame, 16);
         let heap = ctx.info.device_local_heap_bytes;
         if heap > 0 && need > heap {
+            let [x, y, z] = frame.dims;
             return Err(Error::Limit {
                 what: format!(
-                    "--res {} (about {} MiB of device memory)",
-                    frame.res,
+                    "a {x}×{y}×{z} grid (about {} MiB of device memory)",
                     need >> 20
                 ),
                 detail: format!("the device has {} MiB", heap >> 20),
             });
         }
+        let gpu = GpuTriangles::upload(ctx, &tri)?;
+        let geom = gpu.geometry();
+        let result = self.run_gpu_method(method, opts, &geom, &frame, three, profiler);
+        // Auto on a GPU: the A-buffer holds every fragment in one binding; past that, depth peeling.
+        let (grid, axes, stats) = match result {
+            Err(Error::Limit { what, .. })
+                if opts.method == Method::Auto && what.contains("fragments") =>
+            {
+                report.method = Method::Peel;
+                report.method_reason = Some(format!(
+                    "auto: a GPU; {what} pass one A-buffer binding, so depth peeling"
+                ));
+                self.run_gpu_method(Method::Peel, opts, &geom, &frame, three, None)?
+            }
+            r => {
+                report.method = method;
+                r?
+            }
+        };
+        report.axes = axes;
+        report.layers = stats.iter().map(|s| (s.axis, s.layers)).collect();
+        let grid = apply_fill(Some(grid), &tri, &frame, opts.fill);
+        Ok(Voxelization { grid, report })
+    }
+
+    /// One GPU method along the axes `three` and `opts.axes` give: (grid, axes, per-axis figures).
+    fn run_gpu_method(
+        &self,
+        method: Method,
+        opts: &VoxelizeOptions,
+        geom: &crate::passes::peel::PeelGeometry,
+        frame: &GridFrame,
+        three: bool,
+        profiler: Option<&mut Profiler>,
+    ) -> Result<(
+        VoxelGrid,
+        Vec<Axis>,
+        Vec<crate::engine::voxelize::AxisStats>,
+    )> {
+        let ctx = &self.ctx;
         let stride = std::mem::size_of::<[f32; 3]>() as u32;
-        let v = if opts.method == Method::Abuffer {
+        let v = if method == Method::Abuffer {
             let mut v = AbufferVoxelizer::new(ctx, stride)?;
             v.progress = opts.progress.clone();
             GpuVoxelizer::Abuffer(Box::new(v))
@@ -435,8 +583,6 @@ impl Gpu {
             v.progress = opts.progress.clone();
             GpuVoxelizer::Peel(Box::new(v))
         };
-        let gpu = GpuTriangles::upload(ctx, &tri)?;
-        let geom = gpu.geometry();
         let axes: Vec<Axis> = match (three, opts.axes) {
             (true, _) => Axis::ALL.to_vec(),
             (false, Axes::One(a)) => vec![a],
@@ -444,16 +590,14 @@ impl Gpu {
                 // The cheapest axis: fewest layers × columns covered, from the count pre-pass.
                 let mut best = (u128::MAX, Axis::Z);
                 for a in Axis::ALL {
-                    let (l, area) = v.count_layers(ctx, &geom, &frame, a)?;
+                    let (l, area) = v.count_layers(ctx, geom, frame, a)?;
                     best = best.min(((l as u128) * (area as u128), a));
                 }
                 vec![best.1]
             }
         };
-        let (grid, stats) = v.voxelize(ctx, &geom, &frame, &axes, opts.rule, profiler)?;
-        report.axes = axes;
-        report.layers = stats.iter().map(|s| (s.axis, s.layers)).collect();
-        Ok(Voxelization { grid, report })
+        let (grid, stats) = v.voxelize(ctx, geom, frame, &axes, opts.rule, profiler)?;
+        Ok((grid, axes, stats))
     }
 
     /// Builds the ACC-2 Gregory surface of a quad cage (non-quad cages are refined once, with a note) at
@@ -498,10 +642,16 @@ impl Gpu {
         opts: &VoxelizeOptions,
         profiler: Option<&mut Profiler>,
     ) -> Result<Voxelization> {
-        opts.validate()?;
-        if opts.method != Method::Peel {
+        if !matches!(opts.method, Method::Peel | Method::Auto) {
             return Err(Error::Invalid(
-                "--gregory-level voxelizes the GPU surface by depth peeling: use --method peel"
+                "--gregory-level voxelizes the GPU surface by depth peeling: use --method peel or auto"
+                    .into(),
+            ));
+        }
+        if opts.fill != Fill::Solid {
+            return Err(Error::Invalid(
+                "--gregory-level voxelizes the solid of the GPU surface: --fill surface and both need \
+                 the triangles on the CPU (tessellate to OBJ first)"
                     .into(),
             ));
         }
@@ -520,7 +670,7 @@ impl Gpu {
         let (grid, stats) = voxelize_gregory_surface(
             &self.ctx,
             &surface.inner,
-            opts.res,
+            &opts.grid,
             &axes,
             opts.rule,
             opts.max_layers,
@@ -528,7 +678,10 @@ impl Gpu {
         )?;
         let report = VoxelizeReport {
             method: Method::Peel,
-            res: opts.res,
+            method_reason: (opts.method == Method::Auto)
+                .then(|| "auto: a Gregory surface is voxelized on the GPU by depth peeling".into()),
+            frame: grid.frame,
+            fill: Fill::Solid,
             triangles: 2 * surface.patch_count() as usize * (level * level) as usize,
             removed: CleanReport::default(),
             closed: topo_report.closed,

@@ -293,7 +293,7 @@ pub fn run(
             let frame = GridFrame::from_points(&m.tri.positions, res)?;
             let mut args = vec![m.obj.display().to_string(), res.to_string()];
             args.extend(frame.origin.iter().map(|o| format!("{o:.17e}")));
-            args.push(format!("{:.17e}", frame.pitch()));
+            args.push(format!("{:.17e}", frame.voxel_size[0]));
             args.push(if cfg.quick {
                 "1".into()
             } else {

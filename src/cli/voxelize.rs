@@ -1,11 +1,12 @@
-//! `gregvox voxelize IN.obj --res R [--out OUT.binvox] …`: argument parsing and printing over
-//! `Gpu::voxelize` / `voxelize_on_cpu` of the library API (which holds the policy: hygiene, open-mesh
+//! `gregvox voxelize IN --res R | --dims X,Y,Z | --voxel-size H [--bbox …] [--pad N] [--fill …] [--out OUT]`:
+//! argument parsing and printing over `voxelize` / `Gpu::voxelize` / `voxelize_on_cpu` of the library API (which holds the policy: hygiene, open-mesh
 //! detection, axis choice, the memory estimate).
 use crate::api::{
-    load_mesh, voxelize_on_cpu, Axes, Axis, FillRule, Gpu, Method, Voxelization, VoxelizeOptions,
-    MAX_RES,
+    grid_frame, load_mesh, voxelize, voxelize_on_cpu, Axes, Axis, Fill, FillRule, Gpu, GridFrame,
+    Method, SaveOptions, Voxelization, VoxelizeOptions, MAX_RES,
 };
 use crate::args::ProfileArgs;
+use crate::voxel::export::check_format;
 use anyhow::bail;
 use clap::Args;
 use std::path::PathBuf;
@@ -13,15 +14,33 @@ use std::time::Instant;
 
 /// Arguments of `gregvox voxelize`.
 #[derive(Debug, Args)]
+#[command(group(clap::ArgGroup::new("size").required(true).args(["res", "dims", "voxel_size"])))]
 pub struct VoxelizeArgs {
-    /// The OBJ file to voxelize.
+    /// The mesh file to voxelize (OBJ).
     pub input: PathBuf,
-    /// Voxels per side of the cubic grid (1–2048).
+    /// A cubic R×R×R grid (1–2048) whose side is the box's longest extent.
     #[arg(long)]
-    pub res: u32,
-    /// Output file: .binvox, .npy, .nrrd, .raw (+ .json sidecar) or .vox (MagicaVoxel).
+    pub res: Option<u32>,
+    /// The box divided into X×Y×Z voxels (voxel size extent/dims on each axis).
+    #[arg(long, value_name = "X,Y,Z", value_parser = parse_dims)]
+    pub dims: Option<[u32; 3]>,
+    /// Cubic voxels of side H: ceil(extent/H) voxels on each axis from the box's minimum.
+    #[arg(long, value_name = "H")]
+    pub voxel_size: Option<f64>,
+    /// Voxelize this box instead of the mesh's (min corner, then max corner); inside or outside is still
+    /// decided by the whole mesh.
+    #[arg(long, value_name = "X0,Y0,Z0,X1,Y1,Z1", value_parser = parse_bbox, allow_hyphen_values = true)]
+    pub bbox: Option<[f64; 6]>,
+    /// N empty voxels added on every side (the grid grows by 2N, the origin moves by N voxels).
+    #[arg(long, value_name = "N", default_value_t = 0)]
+    pub pad: u32,
+    /// Output file: .binvox (cubic grids only), .npy, .nrrd, .raw or .vox (.npy/.raw/.vox get a .json
+    /// sidecar with dims, voxel_size, origin and the index-to-world matrix).
     #[arg(long)]
     pub out: Option<PathBuf>,
+    /// Write .npy as packed bits (uint8, X×Y×ceil(Z/8), little bit order) instead of a bool X×Y×Z array.
+    #[arg(long)]
+    pub npy_packed: bool,
     /// Peel along 1 axis, or 3 with a 2-of-3 vote (default: 3 for open meshes, else 1).
     #[arg(long, value_parser = clap::builder::PossibleValuesParser::new(["1", "3"]))]
     pub axes: Option<String>,
@@ -31,8 +50,13 @@ pub struct VoxelizeArgs {
     /// Inside rule.
     #[arg(long, value_enum, default_value = "winding")]
     pub rule: FillRule,
-    /// Method.
-    #[arg(long, value_enum, default_value = "peel")]
+    /// Which voxels: inside the solid, touched by a triangle (exact triangle–box test), or both (thin walls
+    /// kept).
+    #[arg(long, value_enum, default_value = "solid")]
+    pub fill: Fill,
+    /// Method (auto: the CPU scanline on a CPU device such as lavapipe or with no Vulkan device, the
+    /// A-buffer on a GPU).
+    #[arg(long, value_enum, default_value = "auto")]
     pub method: Method,
     /// Refuse meshes needing more peeling passes than this.
     #[arg(long, default_value_t = 256)]
@@ -48,52 +72,118 @@ pub struct VoxelizeArgs {
     pub profile: ProfileArgs,
 }
 
-/// Runs `gregvox voxelize`: argument checks, then one call of the library API, then printing.
-pub fn run(args: &VoxelizeArgs) -> anyhow::Result<()> {
-    if args.res == 0 || args.res > MAX_RES {
-        bail!(
-            "--res {} is out of range: the resolution must be between 1 and {MAX_RES}",
-            args.res
+fn parse_numbers<T: std::str::FromStr, const N: usize>(
+    s: &str,
+    what: &str,
+) -> Result<[T; N], String> {
+    let parts: Vec<&str> = s.split(',').map(str::trim).collect();
+    if parts.len() != N {
+        return Err(format!(
+            "{what} needs {N} comma-separated numbers, got {}",
+            parts.len()
+        ));
+    }
+    let mut out = Vec::with_capacity(N);
+    for p in parts {
+        out.push(
+            p.parse::<T>()
+                .map_err(|_| format!("cannot read '{p}' as a number ({what})"))?,
         );
     }
+    out.try_into().map_err(|_| "internal: count checked".into())
+}
+
+fn parse_dims(s: &str) -> Result<[u32; 3], String> {
+    let d = parse_numbers::<u32, 3>(s, "X,Y,Z")?;
+    if let Some(bad) = d.iter().find(|&&n| n == 0 || n > MAX_RES) {
+        return Err(format!(
+            "{bad} voxels: every axis needs between 1 and {MAX_RES}"
+        ));
+    }
+    Ok(d)
+}
+
+fn parse_bbox(s: &str) -> Result<[f64; 6], String> {
+    let b = parse_numbers::<f64, 6>(s, "X0,Y0,Z0,X1,Y1,Z1")?;
+    if b.iter().any(|x| !x.is_finite()) {
+        return Err("every coordinate must be finite".into());
+    }
+    if (0..3).any(|a| b[a] >= b[a + 3]) {
+        return Err("the min corner must be below the max corner on every axis".into());
+    }
+    Ok(b)
+}
+
+impl VoxelizeArgs {
+    /// The library options these flags give.
+    pub fn options(&self) -> anyhow::Result<VoxelizeOptions> {
+        let axes = match (self.axes.as_deref(), self.axis) {
+            (Some("3"), _) => Axes::Three,
+            (_, Some(a)) => Axes::One(a),
+            (Some(_), None) => Axes::Best,
+            (None, None) => Axes::Auto,
+        };
+        let mut opts = VoxelizeOptions::default()
+            .method(self.method)
+            .rule(self.rule)
+            .fill(self.fill)
+            .axes(axes)
+            .max_layers(self.max_layers)
+            .pad(self.pad);
+        opts = match (self.res, self.dims, self.voxel_size) {
+            (Some(r), _, _) => {
+                if r == 0 || r > MAX_RES {
+                    bail!(
+                        "--res {r} is out of range: the resolution must be between 1 and {MAX_RES}"
+                    );
+                }
+                opts.res(r)
+            }
+            (_, Some(d), _) => opts.dims(d),
+            (_, _, Some(h)) => {
+                if !(h.is_finite() && h > 0.0) {
+                    bail!("--voxel-size {h}: the voxel size must be a finite number > 0");
+                }
+                opts.voxel_size(h)
+            }
+            _ => bail!("give the grid size: --res R, --dims X,Y,Z or --voxel-size H"),
+        };
+        if let Some(b) = self.bbox {
+            opts = opts.bbox([b[0], b[1], b[2]], [b[3], b[4], b[5]]);
+        }
+        Ok(opts)
+    }
+}
+
+/// Runs `gregvox voxelize`: argument checks, then one call of the library API, then printing.
+pub fn run(args: &VoxelizeArgs) -> anyhow::Result<()> {
+    let mut opts = args.options()?;
     if let Some(out) = &args.out {
-        let ext = out
-            .extension()
-            .and_then(|e| e.to_str())
-            .unwrap_or("")
-            .to_ascii_lowercase();
-        if !["binvox", "npy", "nrrd", "raw", "vox"].contains(&ext.as_str()) {
-            bail!(
-                "{}: unknown voxel format '.{ext}' (use .binvox, .npy, .nrrd, .raw or .vox)",
-                out.display()
-            );
+        // Unknown formats before the mesh is even read; the grid-dependent checks once its frame is known.
+        let probe = GridFrame::cubic(1, [0.0; 3], 1.0);
+        check_format(&probe, out, None)?;
+    }
+    let mesh = load_mesh(&args.input)?;
+    let frame = grid_frame(&mesh, &opts).map_err(|e| e.for_input(&args.input))?;
+    if let Some(out) = &args.out {
+        if args.gregory_level.is_none() {
+            check_format(&frame, out, None)?;
         }
     }
-    let axes = match (args.axes.as_deref(), args.axis) {
-        (Some("3"), _) => Axes::Three,
-        (_, Some(a)) => Axes::One(a),
-        (Some(_), None) => Axes::Best,
-        (None, None) => Axes::Auto,
-    };
-    let mesh = load_mesh(&args.input)?;
-    let mut opts = VoxelizeOptions::default()
-        .res(args.res)
-        .method(args.method)
-        .rule(args.rule)
-        .axes(axes)
-        .max_layers(args.max_layers);
     let start = Instant::now();
-    // Only the GPU paths need a device (and a profiler); the CPU method runs without Vulkan.
-    let gpu = if args.method == Method::Cpu && args.gregory_level.is_none() {
-        None
-    } else {
-        Some(Gpu::new()?)
+    let profiling = args.profile.wanted();
+    // A device only where one is needed: --method cpu never touches Vulkan, and auto without --profile
+    // probes the device first (no pipelines) and stays on the CPU on a CPU device.
+    let gpu = match (args.method, args.gregory_level.is_some(), profiling) {
+        (_, true, _) => Some(Gpu::new()?),
+        (Method::Cpu, false, _) | (Method::Auto, false, false) => None,
+        _ => Some(Gpu::new()?),
     };
     let mut profiler = gpu.as_ref().map(Gpu::profiler).transpose()?;
     let bar = progress_bar(
-        args.res,
+        frame.dims.iter().copied().max().unwrap_or(1),
         mesh.n_faces(),
-        if axes == Axes::Three { 3 } else { 1 },
+        if opts.axes == Axes::Three { 3 } else { 1 },
         args.max_layers,
     );
     if let Some(bar) = &bar {
@@ -106,7 +196,8 @@ pub fn run(args: &VoxelizeArgs) -> anyhow::Result<()> {
     let result = match (&gpu, args.gregory_level) {
         (Some(gpu), Some(level)) => gpu.voxelize_gregory(&mesh, level, &opts, profiler.as_mut()),
         (Some(gpu), None) => gpu.voxelize_profiled(&mesh, &opts, profiler.as_mut()),
-        (None, _) => voxelize_on_cpu(&mesh, &opts),
+        (None, _) if args.method == Method::Cpu => voxelize_on_cpu(&mesh, &opts),
+        (None, _) => voxelize(&mesh, &opts),
     };
     if let Some(bar) = bar {
         bar.finish_and_clear();
@@ -120,19 +211,32 @@ pub fn run(args: &VoxelizeArgs) -> anyhow::Result<()> {
         args.profile.emit(p)?;
     }
     if let Some(out) = &args.out {
-        grid.save(out)?;
+        grid.save_with(
+            out,
+            &SaveOptions {
+                npy_packed: args.npy_packed,
+            },
+        )?;
     }
     let layers: std::collections::BTreeMap<String, u32> = report
         .layers
         .iter()
         .map(|(a, l)| (a.name().to_string(), *l))
         .collect();
+    let f = &grid.frame;
+    let [nx, ny, nz] = f.dims;
     if args.json {
         let summary = serde_json::json!({
             "input": args.input.display().to_string(),
             "res": args.res,
+            "dims": f.dims,
+            "voxel_size": f.voxel_size,
+            "origin": f.origin,
+            "index_to_world": f.index_to_world(),
             "method": report.method,
+            "method_reason": report.method_reason,
             "rule": format!("{:?}", args.rule).to_lowercase(),
+            "fill": report.fill,
             "gregory_level": args.gregory_level,
             "triangles": report.triangles,
             "removed": report.removed,
@@ -140,28 +244,40 @@ pub fn run(args: &VoxelizeArgs) -> anyhow::Result<()> {
             "axes": report.axes.iter().map(|a| a.name()).collect::<Vec<_>>(),
             "layers": layers,
             "solid_voxels": grid.count(),
-            "origin": grid.frame.origin,
-            "pitch": grid.frame.pitch(),
             "seconds": seconds,
             "profile": profiler.as_ref().map(|p| p.json()),
         });
         super::print_out(&format!("{}\n", serde_json::to_string_pretty(&summary)?))?;
         return Ok(());
     }
+    let size = if f.cubic_voxels() {
+        format!("voxel size {:.6}", f.voxel_size[0])
+    } else {
+        format!(
+            "voxel size {:.6}×{:.6}×{:.6}",
+            f.voxel_size[0], f.voxel_size[1], f.voxel_size[2]
+        )
+    };
     let mut text = match args.gregory_level {
         Some(level) => format!(
-            "{}: Gregory surface at level {level}, {}³ grid\n",
+            "{}: Gregory surface at level {level}, {nx}×{ny}×{nz} grid, {size}\n",
             args.input.display(),
-            args.res
         ),
         None => format!(
-            "{}: {} triangles, {}³ grid, pitch {:.6}\n",
+            "{}: {} triangles, {nx}×{ny}×{nz} grid, {size}\n",
             args.input.display(),
             report.triangles,
-            args.res,
-            grid.frame.pitch()
         ),
     };
+    text.push_str(&format!(
+        "method: {}{}\n",
+        report.method.name(),
+        report
+            .method_reason
+            .as_deref()
+            .map(|r| format!(" ({r})"))
+            .unwrap_or_default()
+    ));
     if !layers.is_empty() {
         let l: Vec<String> = report
             .layers
@@ -170,8 +286,13 @@ pub fn run(args: &VoxelizeArgs) -> anyhow::Result<()> {
             .collect();
         text.push_str(&format!("layers per axis: {}\n", l.join(", ")));
     }
+    let what = match report.fill {
+        Fill::Solid => "solid voxels",
+        Fill::Surface => "surface voxels",
+        Fill::Both => "solid + surface voxels",
+    };
     text.push_str(&format!(
-        "solid voxels: {}\ntotal time: {:.1} ms\n",
+        "{what}: {}\ntotal time: {:.1} ms\n",
         grid.count(),
         seconds * 1e3
     ));

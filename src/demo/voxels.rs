@@ -115,6 +115,7 @@ fn plan_grid(
         vertices: surface.vertices(),
         indices: surface.indices(),
         index_count: surface.index_count(),
+        bounds: None,
     };
     let mut deepest = 0;
     for t in sample_times() {
@@ -147,7 +148,7 @@ impl VoxelsScene {
         let raycast = VoxelRaycastPass::new(ctx, format)?;
         let bricks = ctx.create_buffer(
             "voxel bricks",
-            bricks_bytes(frame.res),
+            bricks_bytes(frame.dims[0]),
             vk::BufferUsageFlags::STORAGE_BUFFER,
             MemoryLocation::GpuOnly,
         )?;
@@ -225,7 +226,7 @@ impl Scene for VoxelsScene {
             "voxels: {} ({} patches, {}³ voxels every {} frame(s), {} peeling passes, {:?})",
             self.name,
             self.surface.patch_count(),
-            self.voxelizer.frame.res,
+            self.voxelizer.frame.dims[0],
             self.options.every,
             self.voxelizer.layers,
             self.options.deformation
@@ -257,6 +258,7 @@ impl Scene for VoxelsScene {
                 vertices: self.surface.vertices(),
                 indices: self.surface.indices(),
                 index_count: self.surface.index_count(),
+                bounds: None,
             };
             let vox = &self.voxelizer;
             profiler.scope(ctx, cmd, targets.slot, "voxelize (resident)", || {
@@ -345,7 +347,7 @@ impl Scene for VoxelsScene {
             Deformation::Bend => Deformation::Wave,
             Deformation::Wave => Deformation::None,
         };
-        let (frame, layers) = plan_grid(ctx, &self.surface, mode, self.voxelizer.frame.res)?;
+        let (frame, layers) = plan_grid(ctx, &self.surface, mode, self.voxelizer.frame.dims[0])?;
         self.voxelizer = ResidentVoxelizer::new(ctx, 32, frame, layers, FillRule::Winding)?;
         self.options.deformation = mode;
         // The next frame voxelizes whatever --voxel-every says.

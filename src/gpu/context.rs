@@ -226,6 +226,43 @@ fn type_name(t: vk::PhysicalDeviceType) -> &'static str {
     }
 }
 
+/// The device [`Context::new`] would pick, found with a bare instance (no layers, no logical device, no
+/// pipelines), so a caller can decide cheaply whether to create one at all: `(name, type)` with the type as
+/// [`DeviceInfo::device_type`] names it ("discrete GPU", "CPU", …). `GREGVOX_DEVICE` filters as for
+/// [`Context::new`].
+pub fn probe_device() -> Result<(String, String)> {
+    // SAFETY: loading the system Vulkan loader; failure is reported, not a panic.
+    let entry = unsafe { ash::Entry::load() }.map_err(|e| {
+        Error::NoDriver(format!(
+            "cannot load the Vulkan loader (libvulkan.so.1): {e}"
+        ))
+    })?;
+    // SAFETY: loader call.
+    let version = unsafe { entry.try_enumerate_instance_version() }
+        .vk("vkEnumerateInstanceVersion")?
+        .unwrap_or(vk::API_VERSION_1_0);
+    if version < vk::API_VERSION_1_2 {
+        return Err(Error::NoDriver(format!(
+            "the Vulkan loader supports only API {}; gregvox needs 1.2",
+            vk_version_string(version)
+        )));
+    }
+    let app_info = vk::ApplicationInfo::default()
+        .application_name(c"gregvox")
+        .api_version(vk::API_VERSION_1_2);
+    let create_info = vk::InstanceCreateInfo::default().application_info(&app_info);
+    // SAFETY: create_info lives until the call returns.
+    let instance = unsafe { entry.create_instance(&create_info, None) }.vk("vkCreateInstance")?;
+    let filter = std::env::var("GREGVOX_DEVICE")
+        .ok()
+        .filter(|s| !s.is_empty());
+    let chosen = pick_device(&instance, filter.as_deref(), false);
+    // SAFETY: nothing was created from the instance.
+    unsafe { instance.destroy_instance(None) };
+    let c = chosen?;
+    Ok((c.name, type_name(c.props.device_type).to_string()))
+}
+
 /// Whether the validation layer is installed (needs only the loader).
 pub fn validation_layer_present(entry: &ash::Entry) -> bool {
     // SAFETY: plain enumeration call on a loaded entry.

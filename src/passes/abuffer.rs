@@ -61,7 +61,7 @@ pub fn scan_words(n: u64) -> u64 {
 /// What to fill (a slab of columns).
 #[derive(Clone, Copy, Debug)]
 pub struct AbufferFillJob {
-    pub res: u32,
+    pub columns: crate::passes::peel::ColumnFrame,
     pub rule: FillRule,
     pub first_column: u32,
     pub column_count: u32,
@@ -85,16 +85,21 @@ struct ScanPush {
 #[repr(C)]
 #[derive(Clone, Copy, Debug, bytemuck::Pod, bytemuck::Zeroable)]
 struct FillPush {
-    /// Resolution R.
-    res: u32,
-    /// ceil(R/32).
+    /// Columns per row (voxels along u).
+    width: u32,
+    /// ceil(depth/32).
     words: u32,
     /// 0: winding, 1: parity.
     rule: u32,
-    /// First column (v·R + u) of this slab.
+    /// First column (v·width + u) of this slab.
     first_column: u32,
     /// Columns in this slab.
     column_count: u32,
+    /// Voxels along the peel axis.
+    depth: u32,
+    /// Depth range start and length (grid units), as the peel shaders map it.
+    depth_lo: f32,
+    depth_span: f32,
 }
 
 /// The A-buffer passes.
@@ -244,7 +249,7 @@ impl AbufferPass {
         Ok(())
     }
 
-    /// Records the scatter pass (offsets = scanned level 0 of `scan`; `cursor` zeroed, R² words; `frags` Φ
+    /// Records the scatter pass (offsets = scanned level 0 of `scan`; `cursor` zeroed, one word per column; `frags` Φ
     /// floats). On exit the fragments are visible to compute shaders.
     #[allow(clippy::too_many_arguments)]
     pub fn record_scatter(
@@ -257,11 +262,7 @@ impl AbufferPass {
         cursor: &Buffer,
         frags: &Buffer,
     ) {
-        let res = push.axes_res[3];
-        let extent = vk::Extent2D {
-            width: res,
-            height: res,
-        };
+        let extent = push.framebuffer();
         let info = vk::RenderingInfo::default()
             .render_area(vk::Rect2D {
                 offset: vk::Offset2D::default(),
@@ -315,7 +316,7 @@ impl AbufferPass {
         out: &Buffer,
         job: &AbufferFillJob,
     ) -> Result<()> {
-        let words = job.res.div_ceil(32);
+        let words = job.columns.words();
         if job.column_count as u64 * words as u64 * 4 > out.size() {
             return Err(crate::Error::Invalid(format!(
                 "voxel slab does not fit buffer '{}'",
@@ -323,7 +324,7 @@ impl AbufferPass {
             )));
         }
         let push = FillPush {
-            res: job.res,
+            width: job.columns.width,
             words,
             rule: match job.rule {
                 FillRule::Winding => 0,
@@ -331,6 +332,9 @@ impl AbufferPass {
             },
             first_column: job.first_column,
             column_count: job.column_count,
+            depth: job.columns.depth,
+            depth_lo: job.columns.depth_lo,
+            depth_span: job.columns.depth_span,
         };
         self.fill.bind(
             ctx,

@@ -1,7 +1,7 @@
 //! `PeelPass`: the raster half of solid voxelization (glsl/peel.vert, peel.frag, peel_count.frag).
 //!
 //! - `record_count` draws the mesh once with no attachments and counts fragments per column with atomics in
-//!   `counts` (word 0 = the maximum, then R² counters): the exact bound on the layers to peel.
+//!   `counts` (word 0 = the maximum, then width·height counters): the exact bound on the layers to peel.
 //! - `record_layer` draws one peeling pass: depth attachment `depth` (cleared to 1.0, LESS, writes on, no
 //!   culling), the previous pass's depth read through `prev_depth` (a D32 image in
 //!   `DEPTH_STENCIL_READ_ONLY_OPTIMAL`), and the layer written as signed depth to `layer_view` (R32_SFLOAT,
@@ -21,10 +21,54 @@ use ash::vk;
 #[repr(C)]
 #[derive(Clone, Copy, Debug, bytemuck::Pod, bytemuck::Zeroable)]
 pub struct PeelPush {
-    /// xyz: grid origin, w: 1 / pitch.
-    pub origin_inv_pitch: [f32; 4],
-    /// x: u axis, y: v axis, z: depth axis, w: resolution.
-    pub axes_res: [u32; 4],
+    /// xyz: grid origin, w: start of the depth range (grid units along the peel axis).
+    pub origin_depth_lo: [f32; 4],
+    /// xyz: 1 / voxel size per axis, w: length of the depth range (grid units).
+    pub inv_size_depth_span: [f32; 4],
+    /// x: u axis, y: v axis, z: depth axis, w: 0.
+    pub axes: [u32; 4],
+    /// x: framebuffer width (voxels along u), y: height (along v), z: voxels along the depth axis, w: 0.
+    pub extent: [u32; 4],
+}
+
+/// The columns of one peel axis as the fill shaders see them (from [`PeelPush::columns`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ColumnFrame {
+    /// Columns per row (voxels along u).
+    pub width: u32,
+    /// Voxels along the peel axis.
+    pub depth: u32,
+    /// Start of the depth range (grid units): the peel shaders' mapping, inverted by the fill.
+    pub depth_lo: f32,
+    /// Length of the depth range (grid units).
+    pub depth_span: f32,
+}
+
+impl ColumnFrame {
+    /// u32 words per column.
+    pub fn words(&self) -> u32 {
+        self.depth.div_ceil(32)
+    }
+}
+
+impl PeelPush {
+    /// What the fill passes need of this axis.
+    pub fn columns(&self) -> ColumnFrame {
+        ColumnFrame {
+            width: self.extent[0],
+            depth: self.extent[2],
+            depth_lo: self.origin_depth_lo[3],
+            depth_span: self.inv_size_depth_span[3],
+        }
+    }
+
+    /// The framebuffer extent: one pixel per column.
+    pub fn framebuffer(&self) -> vk::Extent2D {
+        vk::Extent2D {
+            width: self.extent[0],
+            height: self.extent[1],
+        }
+    }
 }
 
 /// Triangles to peel: positions in a vertex buffer and u32 indices.
@@ -33,6 +77,10 @@ pub struct PeelGeometry<'a> {
     pub vertices: &'a Buffer,
     pub indices: &'a Buffer,
     pub index_count: u32,
+    /// A box holding every vertex (world units), when known: the depth range then covers the whole mesh,
+    /// so parts outside the grid (a `--bbox` smaller than the mesh) still count as crossings. `None` when
+    /// the geometry lies inside the grid's frame.
+    pub bounds: Option<crate::voxel::grid::Bounds>,
 }
 
 /// The depth-peeling raster pass.
@@ -121,7 +169,7 @@ impl PeelPass {
         }
     }
 
-    /// Records the count pre-pass into `counts` (zeroed by the caller: 1 + R² u32).
+    /// Records the count pre-pass into `counts` (zeroed by the caller: 1 + width·height u32).
     pub fn record_count(
         &self,
         ctx: &Context,
@@ -130,11 +178,7 @@ impl PeelPass {
         push: &PeelPush,
         counts: &Buffer,
     ) {
-        let res = push.axes_res[3];
-        let extent = vk::Extent2D {
-            width: res,
-            height: res,
-        };
+        let extent = push.framebuffer();
         let info = vk::RenderingInfo::default()
             .render_area(vk::Rect2D {
                 offset: vk::Offset2D::default(),
@@ -170,11 +214,7 @@ impl PeelPass {
         depth: &Image,
         layer_view: vk::ImageView,
     ) {
-        let res = push.axes_res[3];
-        let extent = vk::Extent2D {
-            width: res,
-            height: res,
-        };
+        let extent = push.framebuffer();
         let color = [vk::RenderingAttachmentInfo::default()
             .image_view(layer_view)
             .image_layout(vk::ImageLayout::COLOR_ATTACHMENT_OPTIMAL)

@@ -1,7 +1,7 @@
 //! `VoxelFillPass`: peeled layers → bit-packed solid columns (glsl/voxel_fill.comp).
 //!
 //! Invariants: the pass owns its pipeline; the layer image (R32_SFLOAT array in `SHADER_READ_ONLY_OPTIMAL`)
-//! and the output buffer are the caller's. One invocation per column writes all `ceil(R/32)` words of its
+//! and the output buffer are the caller's. One invocation per column writes all `ceil(depth/32)` words of its
 //! column (zeros included), so the output needs no clearing; a slab of columns `[first, first + count)` is
 //! written from word 0 of `out`, which keeps every binding under `maxStorageBufferRange`. On exit the writes
 //! are visible to transfers.
@@ -16,18 +16,23 @@ use ash::vk;
 #[repr(C)]
 #[derive(Clone, Copy, Debug, bytemuck::Pod, bytemuck::Zeroable)]
 struct Push {
-    /// Resolution R.
-    res: u32,
+    /// Columns per row (voxels along u).
+    width: u32,
     /// Peeled layers.
     layer_count: u32,
-    /// ceil(R/32).
+    /// ceil(depth/32).
     words: u32,
     /// 0: winding, 1: parity.
     rule: u32,
-    /// First column (v·R + u) of this slab.
+    /// First column (v·width + u) of this slab.
     first_column: u32,
     /// Columns in this slab.
     column_count: u32,
+    /// Voxels along the peel axis.
+    depth: u32,
+    /// Depth range start and length (grid units), as the peel shaders map it.
+    depth_lo: f32,
+    depth_span: f32,
 }
 
 /// The fill compute pass.
@@ -38,7 +43,7 @@ pub struct VoxelFillPass {
 /// What to fill.
 #[derive(Clone, Copy, Debug)]
 pub struct FillJob {
-    pub res: u32,
+    pub columns: crate::passes::peel::ColumnFrame,
     pub layer_count: u32,
     pub rule: FillRule,
     pub first_column: u32,
@@ -74,7 +79,7 @@ impl VoxelFillPass {
         out: &Buffer,
         job: &FillJob,
     ) -> Result<()> {
-        let words = job.res.div_ceil(32);
+        let words = job.columns.words();
         if job.column_count as u64 * words as u64 * 4 > out.size() {
             return Err(crate::Error::Invalid(format!(
                 "voxel slab does not fit buffer '{}'",
@@ -82,7 +87,7 @@ impl VoxelFillPass {
             )));
         }
         let push = Push {
-            res: job.res,
+            width: job.columns.width,
             layer_count: job.layer_count,
             words,
             rule: match job.rule {
@@ -91,6 +96,9 @@ impl VoxelFillPass {
             },
             first_column: job.first_column,
             column_count: job.column_count,
+            depth: job.columns.depth,
+            depth_lo: job.columns.depth_lo,
+            depth_span: job.columns.depth_span,
         };
         let image = Binding::Sampled {
             view: layers,

@@ -181,12 +181,18 @@ impl VoxelRaycastPass {
                 )));
             }
         }
-        if bricks.size() < bricks_bytes(frame.res) {
+        let res = frame.cubic_res().ok_or_else(|| {
+            crate::Error::Invalid(format!(
+                "voxel raycast: the ray caster draws cubic grids of cubic voxels, not {:?} voxels of {:?}",
+                frame.dims, frame.voxel_size
+            ))
+        })?;
+        if bricks.size() < bricks_bytes(res) {
             return Err(crate::Error::Invalid(format!(
                 "voxel raycast: the brick buffer '{}' holds {} bytes, {} needed",
                 bricks.name(),
                 bricks.size(),
-                bricks_bytes(frame.res)
+                bricks_bytes(res)
             )));
         }
         // The previous ray cast's reads of the bricks are done before they are rewritten.
@@ -202,7 +208,7 @@ impl VoxelRaycastPass {
                 vk::AccessFlags2::SHADER_STORAGE_WRITE,
             ),
         );
-        let nb = frame.res.div_ceil(BRICK);
+        let nb = res.div_ceil(BRICK);
         self.bricks.bind(
             ctx,
             cmd,
@@ -210,11 +216,11 @@ impl VoxelRaycastPass {
                 (0, Binding::Storage(grid.raw())),
                 (1, Binding::Storage(bricks.raw())),
             ],
-            bytemuck::bytes_of(&BricksPush { res: frame.res, nb }),
+            bytemuck::bytes_of(&BricksPush { res, nb }),
         );
         self.bricks.dispatch_linear(ctx, cmd, (nb as u64).pow(3))?;
         compute_to_compute(ctx, cmd);
-        let inv_pitch = 1.0 / frame.pitch() as f32;
+        let inv_pitch = 1.0 / frame.voxel_size[0] as f32;
         let v4 = |v: [f32; 3], w: f32| [v[0], v[1], v[2], w];
         let bg = shading.background;
         let push = CastPush {
@@ -225,7 +231,7 @@ impl VoxelRaycastPass {
             origin: v4(frame.origin.map(|x| x as f32), bg[2]),
             light: v4(shading.light, 0.0),
             color: v4(shading.color, 1.0),
-            params: [frame.res, w, h, ids.is_some() as u32],
+            params: [res, w, h, ids.is_some() as u32],
         };
         // The image's previous reader (last frame's display draw) is done before it is overwritten.
         image_barrier(

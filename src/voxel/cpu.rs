@@ -2,14 +2,17 @@
 //! same-machine speed baseline (`--method cpu`).
 //!
 //! Sampling, shared with the raster path (`glsl/peel.*`, `glsl/voxel_fill.comp`):
-//! - Columns are voxel-centre lines along the peel axis `d`; in grid units a column (iu, iv) sits at
-//!   (iu+½, iv+½) of the (u, v) plane, which is also the pixel centre of the R×R peel framebuffer.
+//! - Positions go to grid units per axis ((x − origin) / voxel size), so anisotropic voxels are unit cubes
+//!   there. Columns are voxel-centre lines along the peel axis `d`; a column (iu, iv) sits at (iu+½, iv+½) of
+//!   the (u, v) plane, which is also the pixel centre of the dims[u]×dims[v] peel framebuffer.
 //! - Vertices are snapped to 1/256 grid unit (lavapipe's 8 sub-pixel bits) and coverage is decided exactly in
 //!   integers with the top-left rule, so ties on shared edges go to exactly one triangle.
 //! - A crossing at depth z (grid units) starts at voxel k = ceil(z − ½): the first centre behind it.
 //! - Facing: +1 where the triangle's normal points against +d (entering an outward-oriented solid), −1
 //!   otherwise. The winding rule fills where the running sum is non-zero, parity where the crossing count is
 //!   odd; nothing is filled after a column's last crossing (open meshes never leak to the grid's edge).
+//!   Crossings in front of or behind the grid count too (k clamps to 0 or dims[d]): with `--bbox` the parts
+//!   of the mesh outside the box still decide what is inside.
 use super::grid::{Axis, GridFrame, VoxelGrid};
 use super::mesh::TriMesh;
 use rayon::prelude::*;
@@ -39,12 +42,12 @@ struct Projected {
 fn project(mesh: &TriMesh, frame: &GridFrame, axis: Axis, t: [u32; 3]) -> Option<Projected> {
     let (ua, va) = axis.uv();
     let da = axis.index();
-    let inv = 1.0 / frame.pitch();
+    let inv = frame.voxel_size.map(|h| 1.0 / h);
     let mut p = [[0.0f64; 3]; 3];
     let mut q = [[0i64; 2]; 3];
     for c in 0..3 {
         let x = mesh.positions[t[c] as usize];
-        let g = |a: usize| (x[a] as f64 - frame.origin[a]) * inv;
+        let g = |a: usize| (x[a] as f64 - frame.origin[a]) * inv[a];
         p[c] = [g(ua), g(va), g(da)];
         q[c] = [
             (p[c][0] * SUBPIXEL).round() as i64,
@@ -71,8 +74,8 @@ fn top_left(a: [i64; 2], b: [i64; 2]) -> bool {
 }
 
 /// The crossings of `tri` with the columns of row `iv`, pushed as (depth in grid units, facing) into
-/// `columns[iu]`.
-fn rasterize_row(tri: &Projected, iv: i64, res: i64, columns: &mut [Vec<(f64, i8)>]) {
+/// `columns[iu]` (`width` columns in a row).
+fn rasterize_row(tri: &Projected, iv: i64, width: i64, columns: &mut [Vec<(f64, i8)>]) {
     let mut q = tri.q;
     let mut p = tri.p;
     let area2 =
@@ -86,7 +89,7 @@ fn rasterize_row(tri: &Projected, iv: i64, res: i64, columns: &mut [Vec<(f64, i8
     let umax = q.iter().map(|v| v[0]).max().unwrap();
     // Columns whose centres (iu·256 + 128) lie in [umin, umax].
     let i0 = ((umin - 128) as f64 / 256.0).ceil().max(0.0) as i64;
-    let i1 = (((umax - 128) as f64 / 256.0).floor() as i64).min(res - 1);
+    let i1 = (((umax - 128) as f64 / 256.0).floor() as i64).min(width - 1);
     // Depth plane d = d0 + a·(u − u0) + b·(v − v0) from the unsnapped vertices.
     let (e1, e2) = (
         [p[1][0] - p[0][0], p[1][1] - p[0][1], p[1][2] - p[0][2]],
@@ -137,13 +140,13 @@ pub fn set_bit_range(column: &mut [u32], k0: u32, k1: u32) {
     }
 }
 
-/// Fills one column from its crossings (sorted front to back in place).
-pub fn fill_column(crossings: &mut [(f64, i8)], res: u32, rule: FillRule, column: &mut [u32]) {
+/// Fills one column of `depth` voxels from its crossings (sorted front to back in place).
+pub fn fill_column(crossings: &mut [(f64, i8)], depth: u32, rule: FillRule, column: &mut [u32]) {
     crossings.sort_by(|a, b| a.0.total_cmp(&b.0));
     let mut winding: i32 = 0;
     let mut k_prev = 0u32;
     for (n, &(z, s)) in crossings.iter().enumerate() {
-        let k = ((z - 0.5).ceil().max(0.0) as u32).min(res);
+        let k = ((z - 0.5).ceil().max(0.0).min(depth as f64)) as u32;
         let inside = match rule {
             FillRule::Winding => winding != 0,
             FillRule::Parity => n % 2 == 1,
@@ -166,62 +169,80 @@ pub fn fill_column(crossings: &mut [(f64, i8)], res: u32, rule: FillRule, column
 /// assert_eq!(grid.count(), 512);
 /// ```
 pub fn voxelize_cpu(mesh: &TriMesh, frame: &GridFrame, axis: Axis, rule: FillRule) -> VoxelGrid {
-    let res = frame.res as i64;
+    let (ua, va) = axis.uv();
+    let (width, height, depth) = (frame.dims[ua], frame.dims[va], frame.dims[axis.index()]);
     let projected: Vec<Projected> = mesh
         .triangles
         .par_iter()
         .filter_map(|&t| project(mesh, frame, axis, t))
         .collect();
-    // Bucket triangles by the rows their snapped bounding box touches.
-    let mut rows: Vec<Vec<u32>> = vec![Vec::new(); frame.res as usize];
-    for (i, t) in projected.iter().enumerate() {
-        let vmin = t.q.iter().map(|v| v[1]).min().unwrap();
-        let vmax = t.q.iter().map(|v| v[1]).max().unwrap();
-        let r0 = ((vmin - 128) as f64 / 256.0).ceil().max(0.0) as i64;
-        let r1 = (((vmax - 128) as f64 / 256.0).floor() as i64).min(res - 1);
-        for r in r0..=r1 {
-            rows[r as usize].push(i as u32);
-        }
-    }
+    let rows = bucket_rows(&projected, height);
     let mut grid = VoxelGrid::empty(*frame, axis);
-    let w = frame.words_per_column() as usize;
-    let row_words = w * frame.res as usize;
+    let w = frame.words_per_column(axis) as usize;
+    let row_words = w * width as usize;
     grid.words
         .par_chunks_mut(row_words)
         .zip(rows.par_iter())
         .enumerate()
         .for_each(|(iv, (out, tris))| {
-            let mut columns: Vec<Vec<(f64, i8)>> = vec![Vec::new(); frame.res as usize];
+            let mut columns: Vec<Vec<(f64, i8)>> = vec![Vec::new(); width as usize];
             for &t in tris {
-                rasterize_row(&projected[t as usize], iv as i64, res, &mut columns);
+                rasterize_row(
+                    &projected[t as usize],
+                    iv as i64,
+                    width as i64,
+                    &mut columns,
+                );
             }
             for (iu, col) in columns.iter_mut().enumerate() {
                 if !col.is_empty() {
-                    fill_column(col, frame.res, rule, &mut out[iu * w..(iu + 1) * w]);
+                    fill_column(col, depth, rule, &mut out[iu * w..(iu + 1) * w]);
                 }
             }
         });
     grid
 }
 
+/// Triangles bucketed by the rows (of `height`) their snapped bounding box touches.
+fn bucket_rows(projected: &[Projected], height: u32) -> Vec<Vec<u32>> {
+    let mut rows: Vec<Vec<u32>> = vec![Vec::new(); height as usize];
+    for (i, t) in projected.iter().enumerate() {
+        let vmin = t.q.iter().map(|v| v[1]).min().unwrap();
+        let vmax = t.q.iter().map(|v| v[1]).max().unwrap();
+        let r0 = ((vmin - 128) as f64 / 256.0).ceil().max(0.0) as i64;
+        let r1 = (((vmax - 128) as f64 / 256.0).floor() as i64).min(height as i64 - 1);
+        for r in r0..=r1 {
+            rows[r as usize].push(i as u32);
+        }
+    }
+    rows
+}
+
 /// Number of crossings in the deepest column along `axis`: the layers depth peeling needs.
 pub fn max_depth_complexity(mesh: &TriMesh, frame: &GridFrame, axis: Axis) -> u32 {
-    let res = frame.res as i64;
+    let (ua, va) = axis.uv();
+    let (width, height) = (frame.dims[ua], frame.dims[va]);
     let projected: Vec<Projected> = mesh
         .triangles
         .iter()
         .filter_map(|&t| project(mesh, frame, axis, t))
         .collect();
-    let mut counts = vec![0u32; (frame.res as usize).pow(2)];
-    let mut columns: Vec<Vec<(f64, i8)>> = vec![Vec::new(); frame.res as usize];
-    for iv in 0..res {
-        for t in &projected {
-            rasterize_row(t, iv, res, &mut columns);
+    let rows = bucket_rows(&projected, height);
+    let mut deepest = 0;
+    let mut columns: Vec<Vec<(f64, i8)>> = vec![Vec::new(); width as usize];
+    for (iv, tris) in rows.iter().enumerate() {
+        for &t in tris {
+            rasterize_row(
+                &projected[t as usize],
+                iv as i64,
+                width as i64,
+                &mut columns,
+            );
         }
-        for (iu, c) in columns.iter_mut().enumerate() {
-            counts[iv as usize * frame.res as usize + iu] = c.len() as u32;
+        for c in columns.iter_mut() {
+            deepest = deepest.max(c.len() as u32);
             c.clear();
         }
     }
-    counts.into_iter().max().unwrap_or(0)
+    deepest
 }

@@ -1,10 +1,18 @@
-//! Voxel grid exporters, chosen by file extension: `.binvox`, `.npy` (packed bits + shape), `.nrrd`
-//! (uint8), `.raw` (packed bits) with a `.json` sidecar, `.vox` (MagicaVoxel, multi-model scene graph). Every
-//! header or sidecar records origin and pitch (`.vox` has no place for them: the `.json` sidecar holds them).
+//! Voxel grid exporters, chosen by file extension: `.binvox`, `.npy` (a plain `(X, Y, Z)` bool array, or
+//! packed bits with [`SaveOptions::npy_packed`]), `.nrrd` (uint8), `.raw` (packed bits), `.vox` (MagicaVoxel,
+//! multi-model scene graph).
 //!
-//! Invariants: files are written through `crate::io::write_atomic` (a temporary file and a rename), so an interrupted run never leaves a truncated
-//! output; index conventions are those of each format (binvox: x slowest, then z, y fastest).
-use super::grid::{Axis, VoxelGrid};
+//! Placement (the grid contract of `grid.rs`): voxel (i,j,k) has its centre at origin + (index + ½)·voxel
+//! size on each axis. Every output records it: binvox `dim`/`translate`/`scale`, NRRD `sizes`, `space
+//! directions` and `space origin` (the centre of voxel 0, as NRRD places samples), and for `.npy`, `.raw`
+//! and `.vox` a `PATH.json` sidecar with `dims`, `voxel_size`, `origin` and `index_to_world` (the row-major
+//! 4×4 matrix taking (i, j, k, 1) to the voxel's centre).
+//!
+//! Invariants: files are written through `crate::io::write_atomic` (a temporary file and a rename), so an
+//! interrupted run never leaves a truncated output; a grid a format cannot hold is refused before anything
+//! is written (binvox: cubic grids of cubic voxels only; `.vox`: at most [`VOX_MAX_VOXELS`] voxels); index
+//! conventions are those of each format (binvox: x slowest, then z, y fastest).
+use super::grid::{Axis, GridFrame, VoxelGrid};
 use crate::error::{Error, Result};
 use std::io::Write;
 use std::path::Path;
@@ -18,11 +26,11 @@ pub fn write_atomically(
 }
 
 /// The binvox bytes of `grid` (header + run-length data, values 0/1, runs of at most 255 crossing rows).
+/// binvox holds cubic grids of cubic voxels only (`scale` is the cube's side); [`write_grid`] refuses others.
 ///
 /// ```
 /// use gregvox::voxel::{export::binvox_bytes, grid::{Axis, GridFrame, VoxelGrid}};
-/// let frame = GridFrame { res: 2, origin: [0.0; 3], side: 1.0 };
-/// let mut g = VoxelGrid::empty(frame, Axis::Z);
+/// let mut g = VoxelGrid::empty(GridFrame::cubic(2, [0.0; 3], 1.0), Axis::Z);
 /// g.set(1, 0, 0, true); // x = 1, y = 0, z = 0: binvox index 1·4 + 0·2 + 0 = 4
 /// let b = binvox_bytes(&g);
 /// assert!(b.starts_with(b"#binvox 1\ndim 2 2 2\n"));
@@ -30,15 +38,15 @@ pub fn write_atomically(
 /// ```
 pub fn binvox_bytes(grid: &VoxelGrid) -> Vec<u8> {
     let f = &grid.frame;
-    let r = f.res;
+    let [nx, ny, nz] = f.dims;
+    let side = f.voxel_size[0] * nx as f64;
     let mut out = format!(
-        "#binvox 1\ndim {r} {r} {r}\ntranslate {} {} {}\nscale {}\ndata\n",
-        f.origin[0], f.origin[1], f.origin[2], f.side
+        "#binvox 1\ndim {nx} {ny} {nz}\ntranslate {} {} {}\nscale {}\ndata\n",
+        f.origin[0], f.origin[1], f.origin[2], side
     )
     .into_bytes();
     // binvox runs y fastest: lay the bits along y so each (x, z) column streams in order.
     let g = grid.to_axis(Axis::Y);
-    let w = f.words_per_column() as usize;
     let mut value = 0u8;
     let mut count = 0u32;
     let mut push = |bit: u8, out: &mut Vec<u8>| {
@@ -52,11 +60,11 @@ pub fn binvox_bytes(grid: &VoxelGrid) -> Vec<u8> {
             count = 1;
         }
     };
-    // For bit axis Y the columns are (u, v) = (z, x): word (x·R + z)·W.
-    for x in 0..r as usize {
-        for z in 0..r as usize {
-            let col = &g.words[(x * r as usize + z) * w..][..w];
-            for y in 0..r as usize {
+    // For bit axis Y the columns are (u, v) = (z, x).
+    for x in 0..nx {
+        for z in 0..nz {
+            let col = g.column(z, x);
+            for y in 0..ny as usize {
                 push((col[y / 32] >> (y % 32) & 1) as u8, &mut out);
             }
         }
@@ -111,7 +119,8 @@ pub fn parse_binvox(bytes: &[u8]) -> Result<VoxelGrid> {
     if res == 0 {
         return Err(bad("no dim"));
     }
-    let frame = super::grid::GridFrame { res, origin, side };
+    let frame = super::grid::GridFrame::cubic(res, origin, side);
+    frame.validate().map_err(|e| bad(&format!("header: {e}")))?;
     let mut g = VoxelGrid::empty(frame, Axis::Z);
     let total = (res as u64).pow(3);
     let mut idx = 0u64;
@@ -141,44 +150,106 @@ pub fn parse_binvox(bytes: &[u8]) -> Result<VoxelGrid> {
 impl VoxelGrid {
     /// Writes the grid in the format its extension names (see [`write_grid`]).
     pub fn save(&self, path: impl AsRef<Path>) -> Result<()> {
-        write_grid(self, path.as_ref())
+        write_grid(self, path.as_ref(), &SaveOptions::default())
+    }
+
+    /// [`VoxelGrid::save`] with options.
+    pub fn save_with(&self, path: impl AsRef<Path>, opts: &SaveOptions) -> Result<()> {
+        write_grid(self, path.as_ref(), opts)
     }
 }
 
-/// Writes `grid` to `path` in the format its extension names.
-pub fn write_grid(grid: &VoxelGrid, path: &Path) -> Result<()> {
-    let ext = path
-        .extension()
+/// Choices of the exporters.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct SaveOptions {
+    /// `.npy` as packed bits, uint8 of shape (X, Y, ceil(Z/8)), little bit order (`--npy-packed`), instead
+    /// of a bool (X, Y, Z) array.
+    pub npy_packed: bool,
+}
+
+/// The voxel formats [`write_grid`] knows, by extension.
+pub const FORMATS: [&str; 5] = ["binvox", "npy", "nrrd", "raw", "vox"];
+
+/// Refuses, before any work, a grid that `path`'s format cannot hold (an unknown extension, a non-cubic grid
+/// for binvox, too many voxels for `.vox`). `solid` is the solid-voxel count when known.
+pub fn check_format(frame: &GridFrame, path: &Path, solid: Option<u64>) -> Result<()> {
+    let ext = extension(path);
+    if !FORMATS.contains(&ext.as_str()) {
+        return Err(Error::Invalid(format!(
+            "{}: unknown voxel format '.{ext}' (use .binvox, .npy, .nrrd, .raw or .vox)",
+            path.display()
+        )));
+    }
+    if ext == "binvox" && frame.cubic_res().is_none() {
+        let [x, y, z] = frame.dims;
+        let [hx, hy, hz] = frame.voxel_size;
+        return Err(Error::Invalid(format!(
+            "{}: binvox holds only cubic grids of cubic voxels (one `scale` for the cube, and readers \
+             disagree on the axis order of unequal `dim`s), but this grid is {x}×{y}×{z} voxels of \
+             {hx}×{hy}×{hz}; use .npy, .nrrd, .raw or .vox, or --res for a cubic grid",
+            path.display()
+        )));
+    }
+    if ext == "vox" {
+        if let Some(n) = solid.filter(|&n| n > VOX_MAX_VOXELS) {
+            // MAIN's children size is a u32 and every voxel takes 4 bytes.
+            return Err(Error::Invalid(format!(
+                "{}: {n} solid voxels do not fit a .vox file (at most {VOX_MAX_VOXELS}, 4 bytes each \
+                 in one chunk of at most 4 GiB); use .binvox, .npy, .nrrd or .raw",
+                path.display()
+            )));
+        }
+    }
+    Ok(())
+}
+
+fn extension(path: &Path) -> String {
+    path.extension()
         .and_then(|e| e.to_str())
         .unwrap_or("")
-        .to_ascii_lowercase();
-    match ext.as_str() {
+        .to_ascii_lowercase()
+}
+
+/// Writes `grid` to `path` in the format its extension names.
+pub fn write_grid(grid: &VoxelGrid, path: &Path, opts: &SaveOptions) -> Result<()> {
+    check_format(&grid.frame, path, Some(grid.count()))?;
+    let [x, y, z] = grid.frame.dims;
+    match extension(path).as_str() {
         "binvox" => write_atomically(path, |w| w.write_all(&binvox_bytes(grid))),
+        "npy" if opts.npy_packed => {
+            write_atomically(path, |w| w.write_all(&npy_packed_bytes(grid)))?;
+            write_sidecar(
+                grid,
+                path,
+                &format!(
+                    "uint8 ({x}, {y}, {}): bits of z, little bit order \
+                     (np.unpackbits(a, axis=2, bitorder='little')[:, :, :{z}])",
+                    z.div_ceil(8)
+                ),
+            )
+        }
         "npy" => {
             write_atomically(path, |w| w.write_all(&npy_bytes(grid)))?;
             write_sidecar(
                 grid,
                 path,
-                "uint8 (x, y, ceil(R/8)): bits of z, little bit order",
+                &format!("bool ({x}, {y}, {z}), C order: a[i, j, k] is voxel (i, j, k)"),
             )
         }
         "nrrd" => write_atomically(path, |w| w.write_all(&nrrd_bytes(grid))),
         "vox" => {
-            // MAIN's children size is a u32 and every voxel takes 4 bytes: refuse before building the file.
-            let n = grid.count();
-            if n > VOX_MAX_VOXELS {
-                return Err(Error::Invalid(format!(
-                    "{}: {n} solid voxels do not fit a .vox file (at most {VOX_MAX_VOXELS}, 4 bytes each \
-                     in one chunk of at most 4 GiB); use .binvox, .npy, .nrrd or .raw",
-                    path.display()
-                )));
-            }
             write_atomically(path, |w| w.write_all(&vox_bytes(grid)))?;
             write_sidecar(
                 grid,
                 path,
-                "MagicaVoxel .vox: models of at most 256 per axis; grid voxel (i,j,k) is world voxel \
-                 (i,j,k) - floor(R/2); a model of size s with nTRN translation t holds world voxels t - floor(s/2) + xyz",
+                &format!(
+                    "MagicaVoxel .vox: models of at most 256 per axis; grid voxel (i,j,k) is world voxel \
+                     (i - {}, j - {}, k - {}); a model of size s with nTRN translation t holds world voxels \
+                     t - floor(s/2) + xyz",
+                    x / 2,
+                    y / 2,
+                    z / 2
+                ),
             )
         }
         "raw" => {
@@ -188,43 +259,47 @@ pub fn write_grid(grid: &VoxelGrid, path: &Path) -> Result<()> {
             write_sidecar(
                 grid,
                 path,
-                "little-endian u32; word ((y*R + x) * ceil(R/32) + z/32), bit z%32",
+                &format!(
+                    "little-endian u32; voxel (x, y, z) is word ((y*{x} + x) * {} + z/32), bit z%32",
+                    z.div_ceil(32)
+                ),
             )
         }
-        _ => Err(Error::Invalid(format!(
-            "{}: unknown voxel format '.{ext}' (use .binvox, .npy, .nrrd, .raw or .vox)",
-            path.display()
-        ))),
+        _ => unreachable!("check_format accepted only known formats"),
     }
 }
 
-/// Writes `PATH.json` beside a `.raw`/`.npy` output: dims, origin, pitch and the bit layout.
-fn write_sidecar(grid: &VoxelGrid, path: &Path, layout: &str) -> Result<()> {
+/// The JSON sidecar of a `.npy`/`.raw`/`.vox` output (see the module doc).
+pub fn sidecar_json(grid: &VoxelGrid, layout: &str) -> serde_json::Value {
     let f = &grid.frame;
-    let sidecar = serde_json::json!({
+    serde_json::json!({
         "format": "gregvox solid voxels",
-        "dims": [f.res, f.res, f.res],
+        "dims": f.dims,
+        "voxel_size": f.voxel_size,
         "origin": f.origin,
-        "pitch": f.pitch(),
-        "side": f.side,
-        "voxel_centre": "origin + (index + 0.5) * pitch",
+        "index_to_world": f.index_to_world(),
+        "voxel_centre": "origin + (index + 0.5) * voxel_size = index_to_world · (i, j, k, 1)",
         "layout": layout,
         "solid_voxels": grid.count(),
-    });
-    let text = serde_json::to_string_pretty(&sidecar).map_err(|e| Error::Invalid(e.to_string()))?;
+    })
+}
+
+/// Writes `PATH.json` beside a `.npy`/`.raw`/`.vox` output.
+fn write_sidecar(grid: &VoxelGrid, path: &Path, layout: &str) -> Result<()> {
+    let text = serde_json::to_string_pretty(&sidecar_json(grid, layout))
+        .map_err(|e| Error::Invalid(e.to_string()))?;
     write_atomically(&path.with_extension("json"), |w| {
         w.write_all(text.as_bytes())
     })
 }
 
-/// NPY (version 1.0): uint8 array of shape (R, R, ceil(R/8)) in C order, the packed bits of z for each (x, y)
-/// (`np.unpackbits(a, axis=2, bitorder='little')[:, :, :R]` gives the (x, y, z) occupancy).
-pub fn npy_bytes(grid: &VoxelGrid) -> Vec<u8> {
-    let f = &grid.frame;
-    let r = f.res as usize;
-    let zb = r.div_ceil(8);
-    // numpy rejects extra header keys: origin and pitch go to the JSON sidecar.
-    let dict = format!("{{'descr': '|u1', 'fortran_order': False, 'shape': ({r}, {r}, {zb}), }}");
+/// An NPY (version 1.0) header for `descr` and `shape`, padded to 64 bytes.
+fn npy_header(descr: &str, shape: [usize; 3]) -> Vec<u8> {
+    // numpy rejects extra header keys: the placement goes to the JSON sidecar.
+    let dict = format!(
+        "{{'descr': '{descr}', 'fortran_order': False, 'shape': ({}, {}, {}), }}",
+        shape[0], shape[1], shape[2]
+    );
     let mut h = dict.into_bytes();
     while (10 + h.len() + 1) % 64 != 0 {
         h.push(b' ');
@@ -233,38 +308,61 @@ pub fn npy_bytes(grid: &VoxelGrid) -> Vec<u8> {
     let mut out = b"\x93NUMPY\x01\x00".to_vec();
     out.extend_from_slice(&(h.len() as u16).to_le_bytes());
     out.extend_from_slice(&h);
+    out
+}
+
+/// NPY (version 1.0): a bool array of shape (X, Y, Z) in C order, `a[i, j, k]` = voxel (i, j, k), so
+/// `numpy.load` gives it ready to index.
+pub fn npy_bytes(grid: &VoxelGrid) -> Vec<u8> {
+    let [nx, ny, nz] = grid.frame.dims;
+    let mut out = npy_header("|b1", [nx as usize, ny as usize, nz as usize]);
+    out.reserve(grid.frame.voxel_count() as usize);
     let g = grid.to_axis(Axis::Z);
-    let w = f.words_per_column() as usize;
-    for x in 0..r {
-        for y in 0..r {
-            let col: &[u32] = &g.words[(y * r + x) * w..][..w];
-            let bytes: &[u8] = bytemuck::cast_slice(col);
+    for x in 0..nx {
+        for y in 0..ny {
+            // Bits along z: column (u, v) = (x, y).
+            let col = g.column(x, y);
+            out.extend((0..nz as usize).map(|z| (col[z / 32] >> (z % 32) & 1) as u8));
+        }
+    }
+    out
+}
+
+/// NPY (version 1.0): uint8 array of shape (X, Y, ceil(Z/8)) in C order, the packed bits of z for each
+/// (x, y) (`np.unpackbits(a, axis=2, bitorder='little')[:, :, :Z]` gives the (x, y, z) occupancy).
+pub fn npy_packed_bytes(grid: &VoxelGrid) -> Vec<u8> {
+    let [nx, ny, nz] = grid.frame.dims;
+    let zb = nz.div_ceil(8) as usize;
+    let mut out = npy_header("|u1", [nx as usize, ny as usize, zb]);
+    let g = grid.to_axis(Axis::Z);
+    for x in 0..nx {
+        for y in 0..ny {
+            let bytes: &[u8] = bytemuck::cast_slice(g.column(x, y));
             out.extend_from_slice(&bytes[..zb]);
         }
     }
     out
 }
 
-/// NRRD: uint8 (0/1), sizes X Y Z with x fastest, raw encoding, origin and pitch in the header.
+/// NRRD: uint8 (0/1), sizes X Y Z with x fastest, raw encoding, per-axis voxel sizes as `space directions`
+/// and the centre of voxel (0,0,0) as `space origin`.
 pub fn nrrd_bytes(grid: &VoxelGrid) -> Vec<u8> {
     let f = &grid.frame;
-    let r = f.res;
-    let p = f.pitch();
+    let [nx, ny, nz] = f.dims;
+    let [hx, hy, hz] = f.voxel_size;
+    let c = f.centre(0, 0, 0);
     let mut out = format!(
-        "NRRD0004\ntype: uint8\ndimension: 3\nsizes: {r} {r} {r}\nencoding: raw\nspace dimension: 3\n\
-         space directions: ({p},0,0) (0,{p},0) (0,0,{p})\nspace origin: ({},{},{})\n\n",
-        f.origin[0] + 0.5 * p,
-        f.origin[1] + 0.5 * p,
-        f.origin[2] + 0.5 * p
+        "NRRD0004\ntype: uint8\ndimension: 3\nsizes: {nx} {ny} {nz}\nencoding: raw\nspace dimension: 3\n\
+         space directions: ({hx},0,0) (0,{hy},0) (0,0,{hz})\nspace origin: ({},{},{})\n\n",
+        c[0], c[1], c[2]
     )
     .into_bytes();
     let g = grid.to_axis(Axis::X);
-    let w = f.words_per_column() as usize;
-    // Bit axis X: columns (u, v) = (y, z), word (z·R + y)·W: x runs fastest inside each column.
-    for z in 0..r as usize {
-        for y in 0..r as usize {
-            let col = &g.words[(z * r as usize + y) * w..][..w];
-            out.extend((0..r as usize).map(|x| (col[x / 32] >> (x % 32) & 1) as u8));
+    // Bit axis X: columns (u, v) = (y, z); x runs fastest inside each column.
+    for z in 0..nz {
+        for y in 0..ny {
+            let col = g.column(y, z);
+            out.extend((0..nx as usize).map(|x| (col[x / 32] >> (x % 32) & 1) as u8));
         }
     }
     out
@@ -302,13 +400,14 @@ fn vox_dict(out: &mut Vec<u8>, pairs: &[(&str, String)]) {
 ///
 /// The grid is cut into models of at most [`VOX_MODEL_MAX`] per axis (u8 coordinates); each model is placed
 /// by an `nTRN` whose `_t` is its centre in MagicaVoxel's convention (a model of size s at translation t
-/// covers world voxels `t − ⌊s/2⌋ … t − ⌊s/2⌋ + s − 1`), under one `nGRP`. World voxel = grid voxel − ⌊R/2⌋ on
+/// covers world voxels `t − ⌊s/2⌋ … t − ⌊s/2⌋ + s − 1`), under one `nGRP`. World voxel = grid voxel − ⌊dims/2⌋ on
 /// every axis, which keeps R ≤ 2048 inside MagicaVoxel's ±1000 world. Axes are kept as they are (x, y, z; z
-/// is up in MagicaVoxel). Models with no voxel are skipped unless the whole grid is empty.
+/// is up in MagicaVoxel). Models with no voxel are skipped unless the whole grid is empty. Non-cubic grids are
+/// cut the same way on each axis (world voxel = grid voxel − ⌊dims_a/2⌋).
 ///
 /// ```
 /// use gregvox::voxel::{export::vox_bytes, grid::{Axis, GridFrame, VoxelGrid}};
-/// let mut g = VoxelGrid::empty(GridFrame { res: 2, origin: [0.0; 3], side: 1.0 }, Axis::Z);
+/// let mut g = VoxelGrid::empty(GridFrame::cubic(2, [0.0; 3], 1.0), Axis::Z);
 /// g.set(1, 0, 1, true);
 /// let b = vox_bytes(&g);
 /// assert!(b.starts_with(b"VOX \x96\x00\x00\x00MAIN"));
@@ -318,22 +417,21 @@ fn vox_dict(out: &mut Vec<u8>, pairs: &[(&str, String)]) {
 /// ```
 pub fn vox_bytes(grid: &VoxelGrid) -> Vec<u8> {
     let f = &grid.frame;
-    let r = f.res;
+    let dims = f.dims;
     let g = grid.to_axis(Axis::Z);
-    let w = f.words_per_column() as usize;
-    let n = r.div_ceil(VOX_MODEL_MAX);
-    let half = (r / 2) as i64;
+    let n = dims.map(|d| d.div_ceil(VOX_MODEL_MAX));
+    let half = dims.map(|d| (d / 2) as i64);
     let mut models: Vec<([u32; 3], [u32; 3], Vec<u8>)> = Vec::new();
-    for cx in 0..n {
-        for cy in 0..n {
-            for cz in 0..n {
+    for cx in 0..n[0] {
+        for cy in 0..n[1] {
+            for cz in 0..n[2] {
                 let lo = [cx, cy, cz].map(|c| c * VOX_MODEL_MAX);
-                let size = lo.map(|l| (r - l).min(VOX_MODEL_MAX));
+                let size: [u32; 3] = std::array::from_fn(|a| (dims[a] - lo[a]).min(VOX_MODEL_MAX));
                 let mut xyzi = Vec::new();
                 for y in lo[1]..lo[1] + size[1] {
                     for x in lo[0]..lo[0] + size[0] {
-                        // Bits along z: column (u, v) = (x, y), word (y·R + x)·W.
-                        let col = &g.words[(y as usize * r as usize + x as usize) * w..][..w];
+                        // Bits along z: column (u, v) = (x, y).
+                        let col = g.column(x, y);
                         for z in lo[2]..lo[2] + size[2] {
                             if col[z as usize / 32] >> (z % 32) & 1 == 1 {
                                 xyzi.extend_from_slice(&[
@@ -353,7 +451,7 @@ pub fn vox_bytes(grid: &VoxelGrid) -> Vec<u8> {
         }
     }
     if models.is_empty() {
-        let size = [r.min(VOX_MODEL_MAX); 3];
+        let size = dims.map(|d| d.min(VOX_MODEL_MAX));
         models.push(([0; 3], size, Vec::new()));
     }
     let mut children = Vec::new();
@@ -385,7 +483,7 @@ pub fn vox_bytes(grid: &VoxelGrid) -> Vec<u8> {
     for (m, (lo, size, _)) in models.iter().enumerate() {
         let m = m as u32;
         let t: Vec<String> = (0..3)
-            .map(|a| (lo[a] as i64 + (size[a] / 2) as i64 - half).to_string())
+            .map(|a| (lo[a] as i64 + (size[a] / 2) as i64 - half[a]).to_string())
             .collect();
         let mut c = Vec::new();
         c.extend_from_slice(&(2 + 2 * m).to_le_bytes());

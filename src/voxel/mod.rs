@@ -1,8 +1,9 @@
 //! Solid voxelization on the CPU side: the grid contract, the CPU reference voxelizer, hygiene of the input
-//! triangles, the exporters and the CPU reference of the voxel ray caster. The GPU drivers (depth peeling,
+//! triangles, the surface (triangle–box) voxels, the exporters and the CPU reference of the voxel ray caster. The GPU drivers (depth peeling,
 //! A-buffer) are one layer up, in the engine's `voxelize` module.
 pub mod cpu;
 pub mod export;
 pub mod grid;
 pub mod mesh;
 pub mod raycast;
+pub mod surface;

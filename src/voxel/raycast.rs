@@ -102,9 +102,14 @@ pub fn unorm8(c: f32) -> u8 {
 pub const BRICK: u32 = 4;
 
 /// Brick occupancy of a grid: one flag per `BRICK`³ block (the last blocks may stick out of the grid), index
-/// `(bk·NB + bj)·NB + bi` with `NB = ceil(R / BRICK)`; what glsl/voxel_raycast_bricks.comp computes.
+/// `(bk·NB + bj)·NB + bi` with `NB = ceil(R / BRICK)`; what glsl/voxel_raycast_bricks.comp computes. The ray
+/// caster draws cubic R³ grids (the demo's); R is `dims[0]`.
 pub fn brick_occupancy(grid: &VoxelGrid) -> Vec<bool> {
-    let r = grid.frame.res;
+    debug_assert!(
+        grid.frame.cubic_res().is_some(),
+        "the ray caster draws cubic grids"
+    );
+    let r = grid.frame.dims[0];
     let nb = r.div_ceil(BRICK);
     let mut out = vec![false; (nb * nb * nb) as usize];
     for k in 0..r {
@@ -281,7 +286,8 @@ pub fn cast_ray(
     background
 }
 
-/// Ray casts `grid` into a `width`×`height` image: one [`RayHit`] per pixel, row-major from the top left.
+/// Ray casts `grid` (cubic, as [`brick_occupancy`]) into a `width`×`height` image: one [`RayHit`] per pixel,
+/// row-major from the top left.
 pub fn raycast_grid(
     grid: &VoxelGrid,
     cam: &RayCamera,
@@ -291,17 +297,18 @@ pub fn raycast_grid(
 ) -> Vec<RayHit> {
     let f = &grid.frame;
     let origin = f.origin.map(|x| x as f32);
-    let pitch = f.pitch() as f32;
+    let pitch = f.voxel_size[0] as f32;
     let solid = |i: u32, j: u32, k: u32| grid.get(i, j, k);
     let bricks = brick_occupancy(grid);
-    let nb = f.res.div_ceil(BRICK);
+    let res = f.dims[0];
+    let nb = res.div_ceil(BRICK);
     let occupied = |i: u32, j: u32, k: u32| bricks[((k * nb + j) * nb + i) as usize];
     let mut out = Vec::with_capacity(width as usize * height as usize);
     for y in 0..height {
         for x in 0..width {
             let d = pixel_direction(cam, x, y, width, height);
             out.push(cast_ray(
-                &solid, &occupied, f.res, origin, pitch, cam.eye, d, s,
+                &solid, &occupied, res, origin, pitch, cam.eye, d, s,
             ));
         }
     }

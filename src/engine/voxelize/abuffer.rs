@@ -53,15 +53,7 @@ impl AbufferVoxelizer {
         rule: FillRule,
         mut profiler: Option<&mut Profiler>,
     ) -> Result<(VoxelGrid, AxisStats)> {
-        let max2d = ctx.limits.max_image_dimension2_d;
-        if frame.res > max2d {
-            return Err(Error::Limit {
-                what: format!("resolution {}", frame.res),
-                detail: format!(
-                    "the scatter framebuffer is R×R and maxImageDimension2D is {max2d}"
-                ),
-            });
-        }
+        check_framebuffer(ctx, frame, axis)?;
         self.run_axis(ctx, geom, frame, axis, rule, &mut profiler)
     }
 
@@ -75,13 +67,12 @@ impl AbufferVoxelizer {
         rule: FillRule,
         profiler: &mut Option<&mut Profiler>,
     ) -> Result<(VoxelGrid, AxisStats)> {
-        let res = frame.res;
-        let push = peel_push(frame, axis);
-        let r2 = res as u64 * res as u64;
+        let push = peel_push(frame, axis, geom.bounds);
+        let r2 = frame.columns(axis);
         let storage = vk::BufferUsageFlags::STORAGE_BUFFER
             | vk::BufferUsageFlags::TRANSFER_DST
             | vk::BufferUsageFlags::TRANSFER_SRC;
-        // 1. Count pre-pass, then the prefix sum of the R² counts plus one trailing zero: slot R² = Φ.
+        // 1. Count pre-pass, then the prefix sum of the column counts plus one trailing zero: the last slot = Φ.
         let counts = &ctx.create_buffer(
             "abuffer counts",
             (r2 + 1) * 4,
@@ -100,7 +91,7 @@ impl AbufferVoxelizer {
             let s = profiler
                 .as_deref_mut()
                 .map(|p| p.begin(ctx, cmd, 0, "abuffer prefix sum"));
-            // SAFETY: recording; regions inside both buffers (counts word 1.. = the R² counters).
+            // SAFETY: recording; regions inside both buffers (counts word 1.. = the column counters).
             unsafe {
                 ctx.device.cmd_copy_buffer(
                     cmd,
@@ -178,7 +169,6 @@ impl AbufferVoxelizer {
         let max_range = max_range.min(self.slab_limit.unwrap_or(u64::MAX));
         fill_in_slabs(
             ctx,
-            frame,
             max_range,
             &mut grid,
             profiler,
@@ -221,7 +211,7 @@ impl AbufferVoxelizer {
                     frags,
                     out,
                     &AbufferFillJob {
-                        res,
+                        columns: push.columns(),
                         rule,
                         first_column: first as u32,
                         column_count: count as u32,

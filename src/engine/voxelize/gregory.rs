@@ -3,13 +3,13 @@
 use super::*;
 use crate::voxel::cpu::FillRule;
 
-/// Voxelizes a Gregory surface straight from its device-local vertex buffer: the grid frame comes from a GPU
-/// bounds reduction (six numbers read back), and the peel pass draws the evaluation pass's vertex and index
+/// Voxelizes a Gregory surface straight from its device-local vertex buffer: the grid frame (`spec` over the
+/// surface's box) comes from a GPU bounds reduction (six numbers read back), and the peel pass draws the evaluation pass's vertex and index
 /// buffers as they are. The surface must have been recorded (evaluated) before.
 pub fn voxelize_gregory_surface(
     ctx: &Context,
     surface: &crate::engine::gregory::GregorySurface,
-    res: u32,
+    spec: &crate::voxel::grid::GridSpec,
     axes: &[Axis],
     rule: FillRule,
     max_layers: u32,
@@ -18,13 +18,15 @@ pub fn voxelize_gregory_surface(
     let bounds = crate::engine::gregory::SurfaceBounds::new(ctx)?;
     ctx.one_shot(|cmd| bounds.record(ctx, cmd, surface))?;
     let (lo, hi) = bounds.read(ctx)?;
-    let frame = GridFrame::from_points(&[lo, hi], res)?;
+    let surface_box = Bounds::of_points([lo, hi])?;
+    let frame = spec.frame(surface_box)?;
     let mut v = PeelVoxelizer::new(ctx, 32)?;
     v.max_layers = max_layers;
     let geom = PeelGeometry {
         vertices: surface.vertices(),
         indices: surface.indices(),
         index_count: surface.index_count(),
+        bounds: Some(surface_box),
     };
     v.voxelize(ctx, &geom, &frame, axes, rule, profiler)
 }

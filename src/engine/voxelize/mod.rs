@@ -29,7 +29,7 @@ use crate::error::{Error, Result};
 use crate::gpu::{Buffer, Context, MemoryLocation, Profiler};
 use crate::passes::peel::{PeelGeometry, PeelPush};
 use crate::voxel::cpu::FillRule;
-use crate::voxel::grid::{Axis, GridFrame, VoxelGrid};
+use crate::voxel::grid::{Axis, Bounds, GridFrame, VoxelGrid};
 use crate::voxel::mesh::TriMesh;
 use ash::vk;
 
@@ -50,6 +50,8 @@ pub struct GpuTriangles {
     pub vertices: Buffer,
     pub indices: Buffer,
     pub index_count: u32,
+    /// The box of every uploaded vertex (the depth range of the peel passes covers it).
+    pub bounds: Option<Bounds>,
 }
 
 impl GpuTriangles {
@@ -74,6 +76,7 @@ impl GpuTriangles {
             vertices,
             indices,
             index_count: mesh.triangles.len() as u32 * 3,
+            bounds: Bounds::of_points(mesh.positions.iter().copied()).ok(),
         })
     }
 
@@ -83,6 +86,7 @@ impl GpuTriangles {
             vertices: &self.vertices,
             indices: &self.indices,
             index_count: self.index_count,
+            bounds: self.bounds,
         }
     }
 }
@@ -118,32 +122,69 @@ pub(crate) fn vote(mut grids: Vec<VoxelGrid>) -> Result<VoxelGrid> {
     }
 }
 
-pub(crate) fn peel_push(frame: &GridFrame, axis: Axis) -> PeelPush {
+/// The peel push constants of `frame` along `axis`. The depth range is the grid's extent along the axis,
+/// widened to `bounds` (a box around the geometry) where the geometry sticks out, so no crossing is clipped.
+pub(crate) fn peel_push(frame: &GridFrame, axis: Axis, bounds: Option<Bounds>) -> PeelPush {
     let (ua, va) = axis.uv();
+    let da = axis.index();
+    let inv = frame.voxel_size.map(|h| 1.0 / h);
+    let depth = frame.dims[da] as f64;
+    let (mut lo, mut hi) = (0.0f64, depth);
+    if let Some(b) = bounds {
+        let g = |x: f64| (x - frame.origin[da]) * inv[da];
+        lo = lo.min(g(b.min[da]).floor());
+        hi = hi.max(g(b.max[da]).ceil());
+    }
     PeelPush {
-        origin_inv_pitch: [
+        origin_depth_lo: [
             frame.origin[0] as f32,
             frame.origin[1] as f32,
             frame.origin[2] as f32,
-            (1.0 / frame.pitch()) as f32,
+            lo as f32,
         ],
-        axes_res: [ua as u32, va as u32, axis.index() as u32, frame.res],
+        inv_size_depth_span: [
+            inv[0] as f32,
+            inv[1] as f32,
+            inv[2] as f32,
+            (hi - lo) as f32,
+        ],
+        axes: [ua as u32, va as u32, da as u32, 0],
+        extent: [frame.dims[ua], frame.dims[va], frame.dims[da], 0],
     }
 }
 
+/// Refuses a peel framebuffer past the device's image limit, before any GPU work.
+pub(crate) fn check_framebuffer(ctx: &Context, frame: &GridFrame, axis: Axis) -> Result<()> {
+    let (ua, va) = axis.uv();
+    let max2d = ctx.limits.max_image_dimension2_d;
+    let (w, h) = (frame.dims[ua], frame.dims[va]);
+    if w > max2d || h > max2d {
+        return Err(Error::Limit {
+            what: format!(
+                "a {w}×{h} peel framebuffer (voxelizing along {})",
+                axis.name()
+            ),
+            detail: format!("maxImageDimension2D is {max2d}"),
+        });
+    }
+    Ok(())
+}
+
 /// Bytes of device memory one axis of a voxelization needs at most: layers, two depth images, counts, one
-/// output slab.
-pub fn memory_estimate(ctx: &Context, res: u32, layers: u32) -> u64 {
-    let r2 = res as u64 * res as u64;
-    let out = VoxelGrid::bytes_for(&GridFrame {
-        res,
-        origin: [0.0; 3],
-        side: 1.0,
-    });
-    r2 * 4 * layers as u64
-        + 2 * r2 * 4
-        + (r2 + 1) * 4
-        + out.min(ctx.limits.max_storage_buffer_range as u64)
+/// output slab (the largest framebuffer over the three axes).
+pub fn memory_estimate(ctx: &Context, frame: &GridFrame, layers: u32) -> u64 {
+    Axis::ALL
+        .iter()
+        .map(|&a| {
+            let cols = frame.columns(a);
+            let out = VoxelGrid::bytes_for(frame, a);
+            cols * 4 * layers as u64
+                + 2 * cols * 4
+                + (cols + 1) * 4
+                + out.min(ctx.limits.max_storage_buffer_range as u64)
+        })
+        .max()
+        .unwrap_or(0)
 }
 
 /// Runs `one` along each of `axes` (1 or 3, checked) and takes the 2-of-3 vote for three.
@@ -168,7 +209,6 @@ pub(crate) fn over_axes(
 /// `after_first` runs once the first slab is done (a progress tick).
 fn fill_in_slabs(
     ctx: &Context,
-    frame: &GridFrame,
     max_range: u64,
     grid: &mut VoxelGrid,
     profiler: &mut Option<&mut Profiler>,
@@ -181,8 +221,9 @@ fn fill_in_slabs(
     ) -> Result<()>,
     mut after_first: impl FnMut(),
 ) -> Result<()> {
-    let r2 = frame.res as u64 * frame.res as u64;
-    let words = frame.words_per_column() as u64;
+    let (frame, axis) = (grid.frame, grid.bit_axis);
+    let r2 = frame.columns(axis);
+    let words = frame.words_per_column(axis) as u64;
     let slab_columns = (max_range / (words * 4)).min(r2).max(1);
     let slab = ctx.create_buffer(
         "voxel slab",

@@ -24,7 +24,7 @@ pub struct PeelVoxelizer {
     pub progress: Option<ProgressFn>,
 }
 
-/// The images of `layers` peeling passes at R×R: two D32 depth images that alternate, the R32 layer array
+/// The images of `layers` peeling passes at width×height: two D32 depth images that alternate, the R32 layer array
 /// and a view per layer (the one-shot and the resident voxelizer make them alike).
 pub(super) struct PeelImages {
     pub(super) depth: Vec<Image>,
@@ -33,10 +33,15 @@ pub(super) struct PeelImages {
 }
 
 impl PeelImages {
-    pub(super) fn new(ctx: &Context, res: u32, layers: u32, prefix: &str) -> Result<Self> {
+    pub(super) fn new(
+        ctx: &Context,
+        extent: vk::Extent2D,
+        layers: u32,
+        prefix: &str,
+    ) -> Result<Self> {
         let depth_desc = ImageDesc::d2(
-            res,
-            res,
+            extent.width,
+            extent.height,
             vk::Format::D32_SFLOAT,
             vk::ImageUsageFlags::DEPTH_STENCIL_ATTACHMENT | vk::ImageUsageFlags::SAMPLED,
         );
@@ -44,8 +49,8 @@ impl PeelImages {
             .map(|i| ctx.create_image(&format!("{prefix} depth {i}"), &depth_desc))
             .collect::<Result<Vec<_>>>()?;
         let layer_desc = ImageDesc::d2_array(
-            res,
-            res,
+            extent.width,
+            extent.height,
             layers,
             vk::Format::R32_SFLOAT,
             vk::ImageUsageFlags::COLOR_ATTACHMENT | vk::ImageUsageFlags::SAMPLED,
@@ -92,8 +97,9 @@ impl PeelVoxelizer {
         frame: &GridFrame,
         axis: Axis,
     ) -> Result<(u32, u64)> {
-        let push = peel_push(frame, axis);
-        let r2 = frame.res as u64 * frame.res as u64;
+        check_framebuffer(ctx, frame, axis)?;
+        let push = peel_push(frame, axis, geom.bounds);
+        let r2 = frame.columns(axis);
         let counts = ctx.create_buffer(
             "peel counts",
             (r2 + 1) * 4,
@@ -175,14 +181,7 @@ impl PeelVoxelizer {
         rule: FillRule,
         mut profiler: Option<&mut Profiler>,
     ) -> Result<(VoxelGrid, AxisStats)> {
-        let res = frame.res;
-        let max2d = ctx.limits.max_image_dimension2_d;
-        if res > max2d {
-            return Err(Error::Limit {
-                what: format!("resolution {res}"),
-                detail: format!("the peel framebuffer is R×R and maxImageDimension2D is {max2d}"),
-            });
-        }
+        check_framebuffer(ctx, frame, axis)?;
         self.run_axis(ctx, geom, frame, axis, rule, &mut profiler)
     }
 
@@ -196,9 +195,8 @@ impl PeelVoxelizer {
         rule: FillRule,
         profiler: &mut Option<&mut Profiler>,
     ) -> Result<(VoxelGrid, AxisStats)> {
-        let res = frame.res;
-        let push = peel_push(frame, axis);
-        let r2 = res as u64 * res as u64;
+        let push = peel_push(frame, axis, geom.bounds);
+        let r2 = frame.columns(axis);
 
         // 1. Count pre-pass: the exact number of layers.
         let counts = ctx.create_buffer(
@@ -245,7 +243,7 @@ impl PeelVoxelizer {
         }
 
         // 2. Peel every layer.
-        let images = PeelImages::new(ctx, res, layers, "peel")?;
+        let images = PeelImages::new(ctx, push.framebuffer(), layers, "peel")?;
         let max_range =
             (ctx.limits.max_storage_buffer_range as u64).min(self.slab_limit.unwrap_or(u64::MAX));
         let depth = &images.depth;
@@ -253,7 +251,6 @@ impl PeelVoxelizer {
         let layer_image = &images.layers;
         fill_in_slabs(
             ctx,
-            frame,
             max_range,
             &mut grid,
             profiler,
@@ -281,7 +278,7 @@ impl PeelVoxelizer {
                     self.peel.sampler(),
                     out,
                     &FillJob {
-                        res,
+                        columns: push.columns(),
                         layer_count: layers,
                         rule,
                         first_column: first as u32,

@@ -32,18 +32,13 @@ impl ResidentVoxelizer {
         layers: u32,
         rule: FillRule,
     ) -> Result<Self> {
-        let res = frame.res;
-        let max2d = ctx.limits.max_image_dimension2_d;
-        if res == 0 || res > max2d {
-            return Err(Error::Limit {
-                what: format!("resolution {res}"),
-                detail: format!("the peel framebuffer is R×R and maxImageDimension2D is {max2d}"),
-            });
-        }
-        let bytes = VoxelGrid::bytes_for(&frame);
+        frame.validate()?;
+        check_framebuffer(ctx, &frame, Axis::Z)?;
+        let bytes = VoxelGrid::bytes_for(&frame, Axis::Z);
         if bytes > ctx.limits.max_storage_buffer_range as u64 {
+            let [x, y, z] = frame.dims;
             return Err(Error::Limit {
-                what: format!("a resident {res}³ grid ({bytes} bytes)"),
+                what: format!("a resident {x}×{y}×{z} grid ({bytes} bytes)"),
                 detail: format!(
                     "one storage binding holds at most {} bytes",
                     ctx.limits.max_storage_buffer_range
@@ -64,7 +59,12 @@ impl ResidentVoxelizer {
             frame,
             layers,
             rule,
-            images: PeelImages::new(ctx, res, layers, "resident peel")?,
+            images: PeelImages::new(
+                ctx,
+                peel_push(&frame, Axis::Z, None).framebuffer(),
+                layers,
+                "resident peel",
+            )?,
             grid: ctx.create_buffer(
                 "resident voxel grid",
                 bytes,
@@ -82,7 +82,7 @@ impl ResidentVoxelizer {
     /// Records the voxelization of `geom`: every earlier command has finished with the images and the grid
     /// before they are rewritten, and on exit the grid is visible to compute shaders and transfers.
     pub fn record(&self, ctx: &Context, cmd: vk::CommandBuffer, geom: &PeelGeometry) -> Result<()> {
-        let push = peel_push(&self.frame, Axis::Z);
+        let push = peel_push(&self.frame, Axis::Z, None);
         self.peel.record_peeling(
             ctx,
             cmd,
@@ -107,7 +107,6 @@ impl ResidentVoxelizer {
                 vk::AccessFlags2::SHADER_STORAGE_READ | vk::AccessFlags2::SHADER_STORAGE_WRITE,
             ),
         );
-        let res = self.frame.res;
         self.peel.fill.record(
             ctx,
             cmd,
@@ -115,11 +114,11 @@ impl ResidentVoxelizer {
             self.peel.peel.sampler(),
             &self.grid,
             &FillJob {
-                res,
+                columns: push.columns(),
                 layer_count: self.layers,
                 rule: self.rule,
                 first_column: 0,
-                column_count: res * res,
+                column_count: self.frame.columns(Axis::Z) as u32,
             },
         )?;
         memory_barrier(
