@@ -364,6 +364,49 @@ fn fill_surface_equals_the_separating_axis_oracle_on_a_sphere_a_cube_and_the_bun
 }
 
 #[test]
+fn the_gpu_surface_pass_marks_the_same_voxels_as_the_cpu_bit_for_bit() {
+    let bunny = load_mesh(model("stanford-bunny.obj")).unwrap();
+    let sphere = as_mesh(&TriMesh::sphere([0.1, 0.2, -0.3], 1.0, 24, 48, false));
+    let cube = as_mesh(&TriMesh::cube([0.0; 3], 1.0));
+    let gpu = Gpu::new().unwrap();
+    assert!(
+        gpu.info().features.shader_float64,
+        "lavapipe computes in f64"
+    );
+    let cases = [
+        ("sphere 64", &sphere, VoxelizeOptions::default().res(64)),
+        ("sphere 128", &sphere, VoxelizeOptions::default().res(128)),
+        ("cube 64", &cube, VoxelizeOptions::default().res(64)),
+        ("cube 128", &cube, VoxelizeOptions::default().res(128)),
+        ("bunny 64", &bunny, VoxelizeOptions::default().res(64)),
+        ("bunny 128", &bunny, VoxelizeOptions::default().res(128)),
+        (
+            "sphere anisotropic, boxed, padded",
+            &sphere,
+            VoxelizeOptions::default()
+                .dims([70, 33, 50])
+                .bbox([-0.5, -0.9, -1.4], [1.2, 1.3, 0.3])
+                .pad(2),
+        ),
+    ];
+    for (name, m, opts) in cases {
+        let cpu = voxelize_on_cpu(m, &opts.clone().fill(Fill::Surface))
+            .unwrap()
+            .grid;
+        let g = gpu
+            .voxelize(m, &opts.clone().fill(Fill::Surface).method(Method::Peel))
+            .unwrap();
+        assert!(
+            g.report.notes.iter().all(|n| !n.contains("on the CPU")),
+            "{name}"
+        );
+        assert!(cpu.count() > 100, "{name}");
+        assert_eq!(g.grid.count_differences(&cpu), 0, "{name}");
+    }
+    gpu.finish().unwrap();
+}
+
+#[test]
 fn a_sheet_a_tenth_of_a_voxel_thick_keeps_every_voxel_it_crosses_with_fill_both() {
     // A closed slab 0.1 voxel thick, tilted so it crosses voxel centres' planes everywhere.
     let h = 1.0 / 32.0;

@@ -11,8 +11,8 @@
 use crate::engine::cage::cage_topology;
 use crate::engine::gregory::GregorySurface;
 use crate::engine::voxelize::{
-    memory_estimate, voxelize_gregory_surface, AbufferVoxelizer, GpuTriangles, GpuVoxelizer,
-    PeelVoxelizer,
+    memory_estimate, voxelize_gregory_surface, voxelize_surface_gpu, AbufferVoxelizer,
+    GpuTriangles, GpuVoxelizer, PeelVoxelizer,
 };
 use crate::error::{Error, Result};
 use crate::gpu::Context;
@@ -507,7 +507,7 @@ impl Gpu {
             ),
             m => (m, None),
         };
-        if method == Method::Cpu || opts.fill == Fill::Surface {
+        if method == Method::Cpu {
             let mut v = voxelize_on_cpu(mesh, opts)?;
             v.report.method_reason = reason;
             return Ok(v);
@@ -533,6 +533,33 @@ impl Gpu {
             });
         }
         let gpu = GpuTriangles::upload(ctx, &tri)?;
+        // The voxels the triangles touch, on the GPU when it computes in f64 (the exact test), else on
+        // the CPU: the same bits either way.
+        let surface = match opts.fill {
+            Fill::Solid => None,
+            _ => {
+                let on_gpu = if ctx.info.features.shader_float64 {
+                    voxelize_surface_gpu(ctx, &gpu, &tri, &frame)?
+                } else {
+                    None
+                };
+                Some(on_gpu.unwrap_or_else(|| {
+                    report.notes.push(
+                        "surface voxels computed on the CPU (the device lacks shaderFloat64, or the \
+                         work list passes one dispatch)"
+                            .into(),
+                    );
+                    crate::voxel::surface::voxelize_surface(&tri, &frame)
+                }))
+            }
+        };
+        if opts.fill == Fill::Surface {
+            report.method = method;
+            return Ok(Voxelization {
+                grid: surface.expect("computed above"),
+                report,
+            });
+        }
         let geom = gpu.geometry();
         let result = self.run_gpu_method(method, opts, &geom, &frame, three, profiler);
         // Auto on a GPU: the A-buffer holds every fragment in one binding; past that, depth peeling.
@@ -553,7 +580,10 @@ impl Gpu {
         };
         report.axes = axes;
         report.layers = stats.iter().map(|s| (s.axis, s.layers)).collect();
-        let grid = apply_fill(Some(grid), &tri, &frame, opts.fill);
+        let grid = match surface {
+            Some(s) => grid.union(&s),
+            None => grid,
+        };
         Ok(Voxelization { grid, report })
     }
 

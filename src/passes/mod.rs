@@ -21,3 +21,4 @@ pub mod surface_draw;
 pub mod triangles;
 pub mod voxel_fill;
 pub mod voxel_raycast;
+pub mod voxel_surface;

@@ -6,7 +6,8 @@
 //! - `resident`: [`ResidentVoxelizer`] (the demo's live voxels) reads nothing back: its grid frame and peeling
 //!   depth are fixed when it is built, its images and grid buffer live as long as it does, and `record` only
 //!   records commands; the grid stays on the device for the next pass (ray casting);
-//! - `gregory`: [`voxelize_gregory_surface`], a Gregory surface voxelized from its vertex buffer.
+//! - `gregory`: [`voxelize_gregory_surface`], a Gregory surface voxelized from its vertex buffer;
+//! - [`voxelize_surface_gpu`]: the voxels the triangles touch (`--fill surface|both`), bit for bit the CPU's.
 //!
 //! Progress: the one-shot voxelizers report coarse stages (count, peel/scatter, fill) to an optional
 //! [`ProgressFn`] the caller owns; the engine never draws on its own.
@@ -28,6 +29,7 @@ pub use resident::ResidentVoxelizer;
 use crate::error::{Error, Result};
 use crate::gpu::{Buffer, Context, MemoryLocation, Profiler};
 use crate::passes::peel::{PeelGeometry, PeelPush};
+use crate::passes::voxel_surface::{SurfaceTriangles, SurfaceWork, VoxelSurfacePass};
 use crate::voxel::cpu::FillRule;
 use crate::voxel::grid::{Axis, Bounds, GridFrame, VoxelGrid};
 use crate::voxel::mesh::TriMesh;
@@ -248,6 +250,118 @@ fn fill_in_slabs(
         first += count;
     }
     Ok(())
+}
+
+/// The work list of the GPU surface pass: per triangle with work, its walk axis (the largest component of its
+/// normal in grid units, so the plane spans at most a few voxels along it over any column) and the box of
+/// columns across that axis its extent touches. `None` when the invocations would pass u32.
+pub fn surface_work(mesh: &TriMesh, frame: &GridFrame) -> Option<(Vec<SurfaceWork>, u32)> {
+    let inv = frame.voxel_size.map(|h| 1.0 / h);
+    let mut work = Vec::new();
+    let mut first = 0u64;
+    for (n, t) in mesh.triangles.iter().enumerate() {
+        // The shader's grid_point, operation for operation.
+        let g: [[f64; 3]; 3] = t.map(|v| {
+            let p = mesh.positions[v as usize];
+            std::array::from_fn(|a| (p[a] as f64 - frame.origin[a]) * inv[a])
+        });
+        let range = |a: usize| {
+            let lo = g[0][a].min(g[1][a]).min(g[2][a]);
+            let hi = g[0][a].max(g[1][a]).max(g[2][a]);
+            let i0 = (lo - 1.0).ceil().max(0.0);
+            let i1 = hi.floor().min(frame.dims[a] as f64 - 1.0);
+            (i0 <= i1).then_some((i0 as u32, i1 as u32))
+        };
+        let e1: [f64; 3] = std::array::from_fn(|a| g[1][a] - g[0][a]);
+        let e2: [f64; 3] = std::array::from_fn(|a| g[2][a] - g[0][a]);
+        let normal = [
+            e1[1] * e2[2] - e1[2] * e2[1],
+            e1[2] * e2[0] - e1[0] * e2[2],
+            e1[0] * e2[1] - e1[1] * e2[0],
+        ];
+        let full = normal == [0.0; 3];
+        // Ties go to the later axis (z first), deterministically.
+        let d = if full {
+            2
+        } else {
+            (0..3)
+                .rev()
+                .max_by(|&x, &y| normal[x].abs().total_cmp(&normal[y].abs()))
+                .expect("three axes")
+        };
+        let (a, b) = Axis::from_index(d).uv();
+        let (Some(ra), Some(rb), Some(_)) = (range(a), range(b), range(d)) else {
+            continue;
+        };
+        let (na, nb) = (ra.1 - ra.0 + 1, rb.1 - rb.0 + 1);
+        work.push(SurfaceWork {
+            first: first as u32,
+            tri: n as u32,
+            axis: d as u32,
+            a0: ra.0,
+            b0: rb.0,
+            na,
+            full: full as u32,
+            pad: 0,
+        });
+        first += na as u64 * nb as u64;
+        if first > u32::MAX as u64 {
+            return None;
+        }
+    }
+    Some((work, first as u32))
+}
+
+/// The voxels of `frame` whose boxes the triangles of `mesh` (uploaded as `tris`) touch (bits along z), on
+/// the GPU: the same bits as `voxel::surface::voxelize_surface` (see `passes::voxel_surface`), one slab of
+/// rows at a time. `None` when the work list is too long for one dispatch (the caller uses the CPU).
+pub fn voxelize_surface_gpu(
+    ctx: &Context,
+    tris: &GpuTriangles,
+    mesh: &TriMesh,
+    frame: &GridFrame,
+) -> Result<Option<VoxelGrid>> {
+    let Some((work, invocations)) = surface_work(mesh, frame) else {
+        return Ok(None);
+    };
+    let mut grid = VoxelGrid::empty(*frame, Axis::Z);
+    if work.is_empty() {
+        return Ok(Some(grid));
+    }
+    let pass = VoxelSurfacePass::new(ctx)?;
+    let work_buf = ctx.upload_buffer(
+        "voxel surface work",
+        bytemuck::cast_slice(&work),
+        vk::BufferUsageFlags::STORAGE_BUFFER,
+    )?;
+    let row_words = frame.dims[0] as u64 * frame.words_per_column(Axis::Z) as u64;
+    let max_range = ctx.limits.max_storage_buffer_range as u64;
+    let rows_per_slab = (max_range / (row_words * 4)).clamp(1, frame.dims[1] as u64) as u32;
+    let slab = ctx.create_buffer(
+        "voxel surface slab",
+        rows_per_slab as u64 * row_words * 4,
+        vk::BufferUsageFlags::STORAGE_BUFFER
+            | vk::BufferUsageFlags::TRANSFER_SRC
+            | vk::BufferUsageFlags::TRANSFER_DST,
+        MemoryLocation::GpuOnly,
+    )?;
+    let view = SurfaceTriangles {
+        vertices: &tris.vertices,
+        indices: &tris.indices,
+        work: &work_buf,
+        work_count: work.len() as u32,
+        invocations,
+    };
+    let mut row0 = 0;
+    while row0 < frame.dims[1] {
+        let rows = rows_per_slab.min(frame.dims[1] - row0);
+        ctx.one_shot(|cmd| pass.record(ctx, cmd, &view, frame, row0..row0 + rows, &slab))?;
+        let bytes = ctx.read_buffer_range(&slab, 0, rows as u64 * row_words * 4)?;
+        let start = (row0 as u64 * row_words) as usize;
+        grid.words[start..start + bytes.len() / 4].copy_from_slice(bytemuck::cast_slice(&bytes));
+        row0 += rows;
+    }
+    Ok(Some(grid))
 }
 
 /// A GPU voxelizer of either method, for callers that choose at run time.
