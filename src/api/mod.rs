@@ -377,6 +377,27 @@ pub fn voxelize(mesh: &Mesh, opts: &VoxelizeOptions) -> Result<Voxelization> {
     }
 }
 
+/// What `--method auto` runs on `device`, and why: the CPU scanline on a CPU device (lavapipe's rasterizer
+/// and compute run on the same cores the scanline uses, with pipeline and transfer costs on top), the
+/// A-buffer on a GPU (two geometry passes whatever the depth; [`Gpu::voxelize`] falls back to depth peeling
+/// when its fragments pass one binding).
+pub fn auto_method(device: &DeviceInfo) -> (Method, String) {
+    if device.device_type == "CPU" {
+        (
+            Method::Cpu,
+            format!(
+                "auto: the Vulkan device ({}) is a CPU, so the CPU scanline",
+                device.name
+            ),
+        )
+    } else {
+        (
+            Method::Abuffer,
+            "auto: a GPU, so the A-buffer (two geometry passes whatever the depth)".into(),
+        )
+    }
+}
+
 fn cpu_by_auto(mesh: &Mesh, opts: &VoxelizeOptions, why: String) -> Result<Voxelization> {
     let mut v = voxelize_on_cpu(mesh, opts)?;
     v.report.method_reason = Some(format!("auto: {why}, so the CPU scanline"));
@@ -490,21 +511,11 @@ impl Gpu {
         opts: &VoxelizeOptions,
         profiler: Option<&mut Profiler>,
     ) -> Result<Voxelization> {
-        let on_cpu_device = self.ctx.info.device_type == "CPU";
         let (method, reason) = match opts.method {
-            Method::Auto if on_cpu_device => (
-                Method::Cpu,
-                Some(format!(
-                    "auto: the Vulkan device ({}) is a CPU, so the CPU scanline",
-                    self.ctx.info.name
-                )),
-            ),
-            Method::Auto => (
-                Method::Abuffer,
-                Some(
-                    "auto: a GPU, so the A-buffer (two geometry passes whatever the depth)".into(),
-                ),
-            ),
+            Method::Auto => {
+                let (m, why) = auto_method(&self.ctx.info);
+                (m, Some(why))
+            }
             m => (m, None),
         };
         if method == Method::Cpu {

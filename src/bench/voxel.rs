@@ -1,5 +1,5 @@
 //! Suite `voxel`: Harada & Koshizuka's Table 1 (faces × resolution → depth-peeling time and fill time) for
-//! `peel`, `abuffer` and `cpu`, beside libigl's fast winding number and trimesh's voxelizer on the same grid
+//! `peel`, `abuffer`, `cpu` and `auto` (the library's choice for the device, with its ratio to the fastest), beside libigl's fast winding number and trimesh's voxelizer on the same grid
 //! (bench/peers/voxel_peers.py); and (suite `scaling`) time against resolution and against triangle count.
 //!
 //! Invariants:
@@ -38,6 +38,15 @@ impl Method {
             Method::Peel => "peel",
             Method::Abuffer => "abuffer",
             Method::Cpu => "cpu",
+        }
+    }
+
+    /// What `--method auto` runs on this device (the library's policy, `api::auto_method`).
+    pub fn auto(ctx: &Context) -> Method {
+        match crate::api::auto_method(&ctx.info).0 {
+            crate::api::Method::Peel => Method::Peel,
+            crate::api::Method::Cpu => Method::Cpu,
+            _ => Method::Abuffer,
         }
     }
 }
@@ -206,7 +215,9 @@ pub fn run(
             "Solid voxelization along z, winding rule. peeling = count pre-pass + peel layers (abuffer: count + \
              prefix sum + scatter), fill = fill pass (abuffer: sort + fill), GPU timestamps; wall = the whole \
              call including uploads and the grid readback; cpu = the rayon scanline voxelizer (wall only); fill \
-             floor = (res³/8 output bytes + layers·res²·4 depth bytes) at the measured copy bandwidth. \
+             floor = (res³/8 output bytes + layers·res²·4 depth bytes) at the measured copy bandwidth; auto = \
+             what `--method auto` runs on this device, timed as its own run; × fastest = wall / the fastest \
+             of peel, abuffer and cpu at that model and resolution. \
              Median of {} repeats (one run at ≥ 512³ or ≥ 1 M faces). The paper (2006, GeForce 7800): peeling \
              time proportional to faces, fill time independent of faces.",
             cfg.repeats
@@ -221,6 +232,7 @@ pub fn run(
             "fill ms",
             "fill floor ms",
             "wall ms",
+            "× fastest",
             "solid voxels",
         ],
     );
@@ -253,15 +265,33 @@ pub fn run(
         let big = m.tri.triangles.len() >= 1_000_000;
         for &res in resolutions {
             let reps = if big || res >= 512 { 1 } else { cfg.repeats };
-            let mut row_of = |method: Method| -> anyhow::Result<VoxTime> {
+            let mut times = Vec::new();
+            for method in Method::ALL {
                 eprintln!("gregvox bench: voxel {} {}³ {}", m.name, res, method.name());
                 let v = time_method(ctx, &m.tri, res, method, reps)?;
-                let gpu = method != Method::Cpu;
+                times.push((method.name().to_string(), method, v));
+            }
+            // `auto`: the library's choice for this device, measured as its own run.
+            let auto = Method::auto(ctx);
+            eprintln!(
+                "gregvox bench: voxel {} {}³ auto ({})",
+                m.name,
+                res,
+                auto.name()
+            );
+            let v = time_method(ctx, &m.tri, res, auto, reps)?;
+            times.push((format!("auto ({})", auto.name()), auto, v));
+            let fastest = times[..3]
+                .iter()
+                .map(|(_, _, v)| v.wall_ms)
+                .fold(f64::INFINITY, f64::min);
+            for (name, method, v) in &times {
+                let gpu = *method != Method::Cpu;
                 t.push(vec![
                     m.name.clone().into(),
                     m.tri.triangles.len().into(),
                     res.into(),
-                    method.name().into(),
+                    name.clone().into(),
                     if gpu { v.layers.into() } else { Value::Null },
                     if gpu { num(v.peeling_ms) } else { Value::Null },
                     if gpu { num(v.fill_ms) } else { Value::Null },
@@ -277,13 +307,11 @@ pub fn run(
                         _ => Value::Null,
                     },
                     num(v.wall_ms),
+                    num(v.wall_ms / fastest),
                     v.solid.into(),
                 ]);
-                Ok(v)
-            };
-            let p = row_of(Method::Peel)?;
-            let a = row_of(Method::Abuffer)?;
-            let c = row_of(Method::Cpu)?;
+            }
+            let (p, a, c) = (times[0].2, times[1].2, times[2].2);
             // Peers at the resolutions they finish in reasonable time (libigl evaluates res³ points).
             let peer_res = if cfg.quick { 64 } else { 256 };
             let run_peers = res <= peer_res && (res <= 128 || !big);
