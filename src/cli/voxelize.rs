@@ -1,4 +1,4 @@
-//! `gregvox voxelize IN.obj --res R [--out OUT.binvox] …`: argument parsing and printing over
+//! `gregvox voxelize IN.obj|.stl|.ply|.off|.gltf|.glb --res R [--out OUT.binvox] …`: argument parsing and printing over
 //! `Gpu::voxelize` / `voxelize_on_cpu` of the library API (which holds the policy: hygiene, open-mesh
 //! detection, axis choice, the memory estimate).
 use crate::api::{
@@ -14,7 +14,7 @@ use std::time::Instant;
 /// Arguments of `gregvox voxelize`.
 #[derive(Debug, Args)]
 pub struct VoxelizeArgs {
-    /// The OBJ file to voxelize.
+    /// The mesh file (OBJ, STL, PLY, OFF, glTF/GLB) to voxelize.
     pub input: PathBuf,
     /// Voxels per side of the cubic grid (1–2048).
     #[arg(long)]
