@@ -625,6 +625,56 @@ fn hostile_ply_files_are_refused_with_the_line_or_byte() {
 }
 
 #[test]
+fn ply_reads_integer_coordinates_any_list_types_and_reads_past_float_lists() {
+    let d = Scratch::new("ply-types");
+    let header = "element vertex 3\nproperty short x\nproperty int y\nproperty uchar z\n\
+                  element face 1\nproperty list ushort float texcoord\nproperty list uint ushort vertex_index\n\
+                  element edge 1\nproperty int a\n";
+    let want = Mesh::from_polygons(
+        vec![
+            DVec3::new(-2.0, 0.0, 0.0),
+            DVec3::new(1.0, 0.0, 7.0),
+            DVec3::new(0.0, 1.0, 0.0),
+        ],
+        &[vec![0, 1, 2]],
+    )
+    .unwrap();
+    let ascii = ply(
+        "ascii",
+        header,
+        b"-2 0 0\n1 0 7\n0 1 0\n3 0.5 0.5 0.25 3 0 1 2\n9\n",
+    );
+    assert_eq!(load_mesh_file(d.write("a.ply", &ascii)).unwrap(), want);
+    for (format, big) in [("binary_little_endian", false), ("binary_big_endian", true)] {
+        let mut b = Vec::new();
+        let mut put = |bytes: &[u8]| {
+            let mut v = bytes.to_vec();
+            if big {
+                v.reverse();
+            }
+            b.extend_from_slice(&v);
+        };
+        for (x, y, z) in [(-2i16, 0i32, 0u8), (1, 0, 7), (0, 1, 0)] {
+            put(&x.to_le_bytes());
+            put(&y.to_le_bytes());
+            put(&z.to_le_bytes());
+        }
+        put(&3u16.to_le_bytes());
+        for t in [0.5f32, 0.5, 0.25] {
+            put(&t.to_le_bytes());
+        }
+        put(&3u32.to_le_bytes());
+        for i in [0u16, 1, 2] {
+            put(&i.to_le_bytes());
+        }
+        put(&9i32.to_le_bytes());
+        let m =
+            load_mesh_file(d.write(&format!("{format}.ply"), &ply(format, header, &b))).unwrap();
+        assert_eq!(m, want, "{format}");
+    }
+}
+
+#[test]
 fn ply_claiming_a_billion_faces_in_a_kilobyte_is_refused_before_allocating() {
     let d = Scratch::new("ply-liar");
     for format in ["ascii", "binary_little_endian", "binary_big_endian"] {
@@ -1062,6 +1112,20 @@ fn gltf_strips_fans_transforms_and_missing_buffers() {
         "base64.gltf",
         bad64.to_string().as_bytes(),
         &["buffer 0", "invalid base64"],
+    );
+    // An empty accessor with an offset: no triangle, no panic.
+    let mut empty = doc.clone();
+    empty["accessors"][0]["count"] = json!(0);
+    empty["accessors"][0]["byteOffset"] = json!(4);
+    empty["meshes"][0]["primitives"][0]
+        .as_object_mut()
+        .unwrap()
+        .remove("indices");
+    refused(
+        &d,
+        "empty.gltf",
+        empty.to_string().as_bytes(),
+        &["empty mesh"],
     );
     refused(
         &d,

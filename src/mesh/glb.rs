@@ -43,8 +43,16 @@ fn u32_at(b: &[u8], at: usize) -> u32 {
     u32::from_le_bytes([b[at], b[at + 1], b[at + 2], b[at + 3]])
 }
 
+/// The chunks of a GLB that a mesh needs.
+struct Chunks<'a> {
+    json: &'a [u8],
+    /// Byte offset of the JSON chunk's data in the file.
+    json_at: usize,
+    bin: Option<&'a [u8]>,
+}
+
 /// The JSON and BIN chunks of a GLB, and the JSON's byte offset.
-fn split_glb<'a>(bytes: &'a [u8], path: &Path) -> Result<(&'a [u8], usize, Option<&'a [u8]>)> {
+fn split_glb<'a>(bytes: &'a [u8], path: &Path) -> Result<Chunks<'a>> {
     let err = |at: usize, msg: String| Error::parse(path, format!("byte {at}: {msg}"));
     if bytes.len() < 12 {
         return Err(err(
@@ -109,7 +117,11 @@ fn split_glb<'a>(bytes: &'a [u8], path: &Path) -> Result<(&'a [u8], usize, Optio
     let Some((json, at)) = json else {
         return Err(err(12, "the GLB has no JSON chunk".into()));
     };
-    Ok((json, at, bin))
+    Ok(Chunks {
+        json,
+        json_at: at,
+        bin,
+    })
 }
 
 /// Where a JSON syntax error is: `byte N` inside a GLB, `line N` in a `.gltf`.
@@ -136,8 +148,8 @@ fn json_error(e: &serde_json::Error, json: &[u8], glb_offset: Option<usize>, pat
 /// Reads glTF or GLB (see the module doc).
 pub(crate) fn parse_gltf(bytes: &[u8], path: &Path) -> Result<Mesh> {
     let (json, glb_offset, bin) = if bytes.starts_with(b"glTF") {
-        let (json, at, bin) = split_glb(bytes, path)?;
-        (json, Some(at), bin)
+        let c = split_glb(bytes, path)?;
+        (c.json, Some(c.json_at), c.bin)
     } else {
         if let Some(pos) = bytes.iter().position(|&b| b == 0) {
             return Err(Error::parse(
@@ -431,11 +443,12 @@ impl<'a> Loader<'a> {
             )));
         }
         let count = acc.count() as u128;
-        let need = if count == 0 {
+        let span = if count == 0 {
             0
         } else {
-            acc.offset() as u128 + (count - 1) * stride as u128 + elem as u128
+            (count - 1) * stride as u128 + elem as u128
         };
+        let need = acc.offset() as u128 + span;
         if need > view.length() as u128 {
             return Err(self.err(format!(
                 "accessor {a} ({role}): {count} elements of {elem} bytes (stride {stride}) from byte {} of \
@@ -456,8 +469,13 @@ impl<'a> Loader<'a> {
                 buffer.length()
             )));
         }
-        let need = need as usize - acc.offset(); // ≤ the view's length, so it fits
-        Ok((buffer.index(), view.offset() + acc.offset(), need, stride))
+        // span ≤ need ≤ the view's length, so it fits a usize.
+        Ok((
+            buffer.index(),
+            view.offset() + acc.offset(),
+            span as usize,
+            stride,
+        ))
     }
 
     /// The bytes an accessor covers (see [`Self::accessor_range`]) and its stride.

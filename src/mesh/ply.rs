@@ -562,19 +562,22 @@ fn read_body(h: &Header, lay: &Layout, src: &mut dyn Source, path: &Path) -> Res
                         }
                         face.clear();
                         for _ in 0..n {
-                            let v = src.int(it).map_err(|m| fail(src, m))?;
-                            if wanted {
-                                if v < 0 || v >= n_verts as i64 {
-                                    return Err(Error::parse(
-                                        path,
-                                        format!(
-                                            "{item_at}: face {item}: vertex index {v} is out of range \
-                                             (there are {n_verts} vertices, numbered from 0)"
-                                        ),
-                                    ));
-                                }
-                                face.push(v as u32);
+                            if !wanted {
+                                // Another list (texture coordinates, …): read past, of any type.
+                                src.float(it).map_err(|m| fail(src, m))?;
+                                continue;
                             }
+                            let v = src.int(it).map_err(|m| fail(src, m))?;
+                            if v < 0 || v >= n_verts as i64 {
+                                return Err(Error::parse(
+                                    path,
+                                    format!(
+                                        "{item_at}: face {item}: vertex index {v} is out of range \
+                                         (there are {n_verts} vertices, numbered from 0)"
+                                    ),
+                                ));
+                            }
+                            face.push(v as u32);
                         }
                         if wanted {
                             if let Some(msg) = check_face(&face, n_verts, 0) {
