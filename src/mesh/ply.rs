@@ -127,7 +127,7 @@ fn parse_header(bytes: &[u8], path: &Path) -> Result<Header> {
         let mut tok = line.split_whitespace();
         let key = tok.next().unwrap_or("");
         if line_no == 1 {
-            if line != "ply" {
+            if line.trim_end() != "ply" {
                 return Err(err(1, "not a PLY file: the first line is not 'ply'".into()));
             }
             continue;
