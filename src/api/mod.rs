@@ -39,10 +39,11 @@ pub use crate::voxel::surface::Fill;
 /// Largest number of voxels along any axis (2048³ bits = 1 GiB).
 pub const MAX_RES: u32 = crate::voxel::grid::MAX_DIM;
 
-/// Loads a mesh file (Wavefront OBJ: polygons of any size, 1-based or negative indices). Errors name the
-/// file, and the line for malformed content.
+/// Loads a mesh file: OBJ, STL (ASCII or binary), PLY (ASCII or binary), OFF, glTF 2.0 or GLB, detected
+/// from the content, else the extension ([`crate::mesh::load_mesh_file`]; STL and glTF are welded exactly).
+/// Errors name the file, then the line (text) or byte offset (binary data), then the problem.
 pub fn load_mesh(path: impl AsRef<Path>) -> Result<Mesh> {
-    crate::mesh::load_obj(path)
+    crate::mesh::load_mesh_file(path)
 }
 
 /// The topology report of a mesh, computed from its mesh matrices (`gregvox mesh --json`).

@@ -17,7 +17,7 @@ use super::peers::{self, Peer};
 use super::{num, speedup, time_cpu, time_gpu, BenchConfig, Curve, Report, Series, Table};
 use crate::engine::gregory::{GregorySurface, GregoryTopology};
 use crate::gpu::{Context, MemoryLocation, Profiler};
-use crate::mesh::{catmull_clark, load_obj, Mesh};
+use crate::mesh::{catmull_clark, load_mesh_file, Mesh};
 use crate::passes::gregory_eval::{vertex_count, GregoryEvalPass};
 use crate::passes::patch_pull::PatchKind;
 use crate::surface::{tessellate, GregoryStencils, Tangents};
@@ -196,7 +196,7 @@ pub fn run(
     report: &mut Report,
 ) -> anyhow::Result<()> {
     let spot_path = cfg.model("spot_quadrangulated.obj")?;
-    let spot = load_obj(&spot_path)?;
+    let spot = load_mesh_file(&spot_path)?;
     let mut cages: Vec<(String, Mesh, std::path::PathBuf, Vec<u32>)> = vec![(
         "spot_quadrangulated".into(),
         spot.clone(),
@@ -391,7 +391,7 @@ pub fn scaling(ctx: &Context, cfg: &BenchConfig, report: &mut Report) -> anyhow:
 pub fn adaptive(cfg: &BenchConfig, report: &mut Report) -> anyhow::Result<()> {
     use crate::passes::adaptive_levels::AdaptiveParams;
     use glam::{Mat4, Vec3};
-    let spot = load_obj(&cfg.model("spot_quadrangulated.obj")?)?;
+    let spot = load_mesh_file(&cfg.model("spot_quadrangulated.obj")?)?;
     let (topo, cage) = topology(&spot)?;
     let (lo, hi) = cage.iter().fold(
         (DVec3::splat(f64::MAX), DVec3::splat(f64::MIN)),

@@ -9,7 +9,7 @@ use super::peak::Peak;
 use super::peers::{self, Peer};
 use super::{num, speedup, time_cpu, BenchConfig, Report, Table};
 use crate::mesh::{
-    catmull_clark_matrix, load_obj, loop_matrix, loop_subdivide, LoopBeta, MeshMatrix,
+    catmull_clark_matrix, load_mesh_file, loop_matrix, loop_subdivide, LoopBeta, MeshMatrix,
     NormalWeighting,
 };
 use serde_json::Value;
@@ -24,7 +24,7 @@ pub const SPMV_BYTES_PER_NNZ: f64 = 4.0 + 8.0 + 24.0;
 
 /// Runs the suite.
 pub fn run(cfg: &BenchConfig, peak: Option<&Peak>, report: &mut Report) -> anyhow::Result<()> {
-    let bunny = load_obj(cfg.model("stanford-bunny.obj")?)?;
+    let bunny = load_mesh_file(cfg.model("stanford-bunny.obj")?)?;
     let mut meshes = vec![("bunny", bunny.clone())];
     if !cfg.quick {
         meshes.push(("bunny_loop2", loop_subdivide(&bunny, 2, LoopBeta::Warren)?));

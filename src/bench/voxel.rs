@@ -14,7 +14,7 @@ use super::peers::{self, Peer};
 use super::{median, num, speedup, BenchConfig, Curve, Report, Series, Table};
 use crate::engine::voxelize::{AbufferVoxelizer, GpuTriangles, GpuVoxelizer, PeelVoxelizer};
 use crate::gpu::{Context, Profiler};
-use crate::mesh::{load_obj, loop_subdivide, LoopBeta};
+use crate::mesh::{load_mesh_file, loop_subdivide, LoopBeta};
 use crate::voxel::cpu::{voxelize_cpu, FillRule};
 use crate::voxel::grid::{Axis, GridFrame};
 use crate::voxel::mesh::TriMesh;
@@ -142,7 +142,7 @@ pub fn time_method(
 
 /// A model as cleaned triangles.
 fn model_triangles(path: &std::path::Path) -> anyhow::Result<TriMesh> {
-    let mesh = load_obj(path)?;
+    let mesh = load_mesh_file(path)?;
     Ok(TriMesh::fan(&mesh).clean().0)
 }
 
@@ -189,7 +189,7 @@ pub fn run(
             temp: false,
         });
         // The bunny after two Loop levels (Warren β): about 1.1 M triangles.
-        let fine = loop_subdivide(&load_obj(&bunny_path)?, 2, LoopBeta::Warren)?;
+        let fine = loop_subdivide(&load_mesh_file(&bunny_path)?, 2, LoopBeta::Warren)?;
         let tri = TriMesh::fan(&fine).clean().0;
         let obj = std::env::temp_dir().join(format!(
             "gregvox-bench-bunny-loop2-{}.obj",

@@ -8,7 +8,7 @@ use std::path::PathBuf;
 /// Arguments of `gregvox mesh`.
 #[derive(Debug, Args)]
 pub struct MeshArgs {
-    /// The OBJ file to analyse.
+    /// The mesh file (OBJ, STL, PLY, OFF, glTF/GLB) to analyse.
     pub input: PathBuf,
     /// Print the report as JSON.
     #[arg(long)]
@@ -24,7 +24,7 @@ pub struct MeshArgs {
 /// Arguments of `gregvox subdivide`.
 #[derive(Debug, Args)]
 pub struct SubdivideArgs {
-    /// The OBJ file to subdivide.
+    /// The mesh file (OBJ, STL, PLY, OFF, glTF/GLB) to subdivide.
     pub input: PathBuf,
     /// Number of subdivision levels.
     #[arg(long, default_value_t = 1)]

@@ -22,13 +22,13 @@ pub struct Cli {
 pub enum Command {
     /// Print the chosen Vulkan device, its limits and the validation layer's presence.
     Info(info::InfoArgs),
-    /// Print a topology report of a mesh (OBJ).
+    /// Print a topology report of a mesh file (OBJ, STL, PLY, OFF, glTF/GLB).
     Mesh(mesh::MeshArgs),
-    /// Catmull–Clark subdivide a mesh and write the result as OBJ.
+    /// Catmull–Clark subdivide a mesh file (OBJ, STL, PLY, OFF, glTF/GLB) and write the result as OBJ.
     Subdivide(mesh::SubdivideArgs),
     /// Evaluate Gregory (ACC-2 from a quad cage) or Beziex patches on the GPU and write the grid as OBJ.
     Tessellate(tessellate::TessellateArgs),
-    /// Voxelize a mesh into a solid bit grid (depth peeling on the GPU, or the CPU scanline).
+    /// Voxelize a mesh file (OBJ, STL, PLY, OFF, glTF/GLB) into a solid bit grid (depth peeling on the GPU, or the CPU scanline).
     Voxelize(voxelize::VoxelizeArgs),
     /// Run the live demo in a window, or offscreen writing PNG frames.
     Demo(crate::demo::DemoArgs),

@@ -1,4 +1,4 @@
-//! `gregvox tessellate IN.obj|IN.gzjson --level N --out OUT.obj`: argument parsing and printing over
+//! `gregvox tessellate CAGE|IN.gzjson --level N --out OUT.obj` (CAGE: any mesh file): argument parsing and printing over
 //! `Gpu::tessellate` (api::tessellate), which evaluates every patch on the GPU (compute or vertex-pull path)
 //! in the contract order of docs/ARCHITECTURE.md (one (L+1)² grid per patch, u along the face's first edge,
 //! rows of u inner).
@@ -30,7 +30,7 @@ impl From<TangentMode> for Tangents {
 /// Arguments of `gregvox tessellate`.
 #[derive(Debug, Args)]
 pub struct TessellateArgs {
-    /// A quad cage (.obj, ACC-2 Gregory patches) or a Beziex model (.gzjson).
+    /// A quad cage as a mesh file (OBJ, STL, PLY, OFF, glTF/GLB), for ACC-2 Gregory patches, or a Beziex model (.gzjson).
     pub input: PathBuf,
     /// Tessellation level L (1–64): (L+1)² vertices per patch.
     #[arg(long, default_value_t = 8)]

@@ -1,5 +1,6 @@
-//! `gregvox voxelize IN --res R | --dims X,Y,Z | --voxel-size H [--bbox …] [--pad N] [--fill …] [--out OUT]`:
-//! argument parsing and printing over `voxelize` / `Gpu::voxelize` / `voxelize_on_cpu` of the library API (which holds the policy: hygiene, open-mesh
+//! `gregvox voxelize IN.{obj,stl,ply,off,gltf,glb} --res R | --dims X,Y,Z | --voxel-size H [--bbox …] [--pad N]
+//! [--fill …] [--out OUT]`: argument parsing and printing over `voxelize` / `Gpu::voxelize` /
+//! `voxelize_on_cpu` of the library API (which holds the policy: hygiene, open-mesh
 //! detection, axis choice, the memory estimate).
 use crate::api::{
     grid_frame, load_mesh, voxelize, voxelize_on_cpu, Axes, Axis, Fill, FillRule, Gpu, GridFrame,
@@ -16,7 +17,7 @@ use std::time::Instant;
 #[derive(Debug, Args)]
 #[command(group(clap::ArgGroup::new("size").required(true).args(["res", "dims", "voxel_size"])))]
 pub struct VoxelizeArgs {
-    /// The mesh file to voxelize (OBJ).
+    /// The mesh file (OBJ, STL, PLY, OFF, glTF/GLB) to voxelize.
     pub input: PathBuf,
     /// A cubic R×R×R grid (1–2048) whose side is the box's longest extent.
     #[arg(long)]

@@ -2,18 +2,18 @@
 //! Catmull–Clark step for non-quad cages), a built-in box cage, and measuring normal jumps across shared
 //! patch edges of an evaluated grid.
 use crate::engine::gregory::{canonical_edge_flags, GregoryTopology};
-use crate::mesh::{load_obj, Mesh};
+use crate::mesh::{load_mesh_file, Mesh};
 use crate::passes::gregory_eval::SurfaceVertex;
 use crate::surface::{GregoryStencils, Tangents};
 use glam::{DVec3, Vec3};
 use std::collections::HashMap;
 use std::path::Path;
 
-/// Loads an OBJ quad cage and builds its ACC-2 topology (refining non-quad cages once, with a note).
+/// Loads a quad cage (any mesh file format) and builds its ACC-2 topology (refining non-quad cages once, with a note).
 pub fn load_cage_topology(
     path: &Path,
 ) -> crate::Result<(GregoryTopology, Vec<DVec3>, Option<String>)> {
-    let mesh = load_obj(path)?;
+    let mesh = load_mesh_file(path)?;
     cage_topology(&mesh, Tangents::OpenSubdiv).map_err(|e| match e {
         crate::Error::Invalid(msg) => crate::Error::parse(path, msg),
         e => e,

@@ -1,4 +1,4 @@
-//! OBJ loading and mesh connectivity as sparse matrices (`MeshMatrix`): topology, normals, subdivision.
+//! Mesh loading (OBJ, STL, PLY, OFF, glTF/GLB: [`load_mesh_file`]) and mesh connectivity as sparse matrices (`MeshMatrix`): topology, normals, subdivision.
 //!
 //! Ownership: [`Mesh`] (positions + polygon faces as read) is the input; [`MeshMatrix`] owns the
 //! connectivity (M, Mᵀ, E) and answers every topology question; positions stay outside it as
@@ -16,13 +16,19 @@
 //! let n = m.vertex_normals(&mesh.positions, NormalWeighting::Area);
 //! assert!(n.iter().all(|v| (v.length() - 1.0).abs() < 1e-12));
 //! ```
+mod glb;
+mod load;
 mod matrix;
 mod normals;
 mod obj;
+mod off;
+mod ply;
 mod sparse;
+mod stl;
 mod subdivision;
 mod topology;
 
+pub use load::{load_mesh_file, parse_mesh_bytes, MeshFormat};
 pub use matrix::{ActionMap, FaceLayout, HalfEdgeFace, MeshMatrix, VertexCorners, NONE};
 pub use normals::{
     face_centroids, face_normals, face_normals_unnormalized, vertex_normals, vertex_normals_f32,

@@ -124,7 +124,7 @@ impl Mesh {
         }
         for f in 0..self.n_faces() {
             let face = self.face(f);
-            if let Some(msg) = check_face(face, self.positions.len()) {
+            if let Some(msg) = check_face(face, self.positions.len(), 1) {
                 return Err(Error::Invalid(format!("face {f}: {msg}")));
             }
         }
@@ -132,8 +132,9 @@ impl Mesh {
     }
 }
 
-/// Checks one face (0-based indices): size, range, repeated vertices.
-fn check_face(face: &[u32], n_verts: usize) -> Option<String> {
+/// Checks one face (0-based indices): size, range, repeated vertices. Messages number vertices from
+/// `base` (1 for OBJ and in-memory meshes, 0 for formats whose files count from 0).
+pub(crate) fn check_face(face: &[u32], n_verts: usize, base: u64) -> Option<String> {
     if face.len() < 3 {
         return Some(format!(
             "has {} vertices (a face needs at least 3)",
@@ -143,12 +144,13 @@ fn check_face(face: &[u32], n_verts: usize) -> Option<String> {
     for &v in face {
         if v as usize >= n_verts {
             return Some(format!(
-                "vertex index {} is out of range (there are {n_verts} vertices)",
-                v as u64 + 1
+                "vertex index {} is out of range (there are {n_verts} vertices{})",
+                v as u64 + base,
+                if base == 0 { ", numbered from 0" } else { "" }
             ));
         }
     }
-    first_repeated(face).map(|v| format!("vertex {} appears twice in one face", v as u64 + 1))
+    first_repeated(face).map(|v| format!("vertex {} appears twice in one face", v as u64 + base))
 }
 
 /// A vertex that appears more than once in `face`, if any. A quadratic scan for ordinary faces (no
@@ -198,7 +200,7 @@ pub fn parse_obj(text: &str, path: impl AsRef<Path>) -> Result<Mesh> {
     parse_obj_bytes(text.as_bytes(), path.as_ref())
 }
 
-fn parse_obj_bytes(bytes: &[u8], path: &Path) -> Result<Mesh> {
+pub(crate) fn parse_obj_bytes(bytes: &[u8], path: &Path) -> Result<Mesh> {
     let err = |line: usize, msg: String| Error::parse(path, format!("line {line}: {msg}"));
     if let Some(pos) = bytes.iter().position(|&b| b == 0) {
         let line = 1 + bytes[..pos].iter().filter(|&&b| b == b'\n').count();
@@ -321,7 +323,7 @@ fn parse_obj_bytes(bytes: &[u8], path: &Path) -> Result<Mesh> {
     // Indices are checked after the whole file is read: OBJ does not forbid forward references.
     for (f, &line) in face_line.iter().enumerate() {
         let face = &indices[face_ptr[f] as usize..face_ptr[f + 1] as usize];
-        if let Some(msg) = check_face(face, positions.len()) {
+        if let Some(msg) = check_face(face, positions.len(), 1) {
             return Err(err(line as usize, format!("face {}: {msg}", f + 1)));
         }
     }

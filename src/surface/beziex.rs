@@ -220,20 +220,88 @@ struct FileModel {
     surface: Vec<FilePatch>,
 }
 
+/// Inflated bytes a `.gzjson` may reach: 64 × its compressed size, at least 64 MiB, at most 2 GiB. Real
+/// models compress 3–10×; a deflate stream can reach about 1000× (a compression bomb).
+pub fn inflate_limit(compressed: u64) -> u64 {
+    compressed.saturating_mul(64).clamp(64 << 20, 2 << 30)
+}
+
+/// Counts the bytes read through it and fails once more than `limit` come (`hit` says why it failed).
+struct Capped<'a, R> {
+    inner: R,
+    left: u64,
+    hit: &'a std::cell::Cell<bool>,
+}
+
+impl<R: Read> Read for Capped<'_, R> {
+    fn read(&mut self, buf: &mut [u8]) -> std::io::Result<usize> {
+        // One byte past the limit is asked for, so reaching the limit exactly is not a failure.
+        let want = buf
+            .len()
+            .min(self.left.saturating_add(1).min(usize::MAX as u64) as usize);
+        let n = self.inner.read(&mut buf[..want])?;
+        if n as u64 > self.left {
+            self.hit.set(true);
+            return Err(std::io::Error::other("inflate limit reached"));
+        }
+        self.left -= n as u64;
+        Ok(n)
+    }
+}
+
 /// Loads a `.gzjson` Beziex model (gzip-compressed JSON; plain JSON is accepted too).
+///
+/// Memory is bounded by the input: the JSON is parsed as it inflates (never held as text), and a stream
+/// inflating past [`inflate_limit`] of its compressed size is refused as a likely compression bomb.
 pub fn load_beziex(path: impl AsRef<Path>) -> Result<Vec<BeziexPatch>> {
     let path = path.as_ref();
     let bytes = std::fs::read(path).map_err(|e| Error::io(path, e))?;
-    let text = if bytes.starts_with(&[0x1f, 0x8b]) {
-        let mut s = String::new();
-        flate2::read::GzDecoder::new(&bytes[..])
-            .read_to_string(&mut s)
-            .map_err(|e| Error::parse(path, format!("not a gzip stream of UTF-8 JSON: {e}")))?;
-        s
-    } else {
-        String::from_utf8(bytes).map_err(|_| Error::parse(path, "neither gzip nor UTF-8 JSON"))?
+    if !bytes.starts_with(&[0x1f, 0x8b]) {
+        let text = std::str::from_utf8(&bytes)
+            .map_err(|_| Error::parse(path, "neither gzip nor UTF-8 JSON"))?;
+        return parse_beziex(text, path);
+    }
+    let limit = inflate_limit(bytes.len() as u64);
+    let hit = std::cell::Cell::new(false);
+    let mut inflated = std::io::BufReader::with_capacity(
+        1 << 16,
+        Capped {
+            inner: flate2::read::GzDecoder::new(&bytes[..]),
+            left: limit,
+            hit: &hit,
+        },
+    );
+    // Windows tools write a UTF-8 byte-order mark; JSON parsers refuse it.
+    let bom = {
+        use std::io::BufRead;
+        let head = inflated.fill_buf().unwrap_or(&[]);
+        head.starts_with(b"\xef\xbb\xbf")
     };
-    parse_beziex(&text, path)
+    if bom {
+        use std::io::BufRead;
+        inflated.consume(3);
+    }
+    let model: std::result::Result<FileModel, _> = serde_json::from_reader(&mut inflated);
+    let model = match model {
+        Ok(m) => m,
+        Err(_) if hit.get() => {
+            return Err(Error::parse(
+                path,
+                format!(
+                    "inflates past {limit} bytes ({}× its compressed size); refusing a likely compression bomb",
+                    limit / (bytes.len() as u64).max(1)
+                ),
+            ))
+        }
+        Err(e) if e.classify() == serde_json::error::Category::Io => {
+            return Err(Error::parse(
+                path,
+                format!("not a gzip stream of UTF-8 JSON: {e}"),
+            ))
+        }
+        Err(e) => return Err(Error::parse(path, format!("not a Beziex model: {e}"))),
+    };
+    patches(model, path)
 }
 
 /// Parses Beziex JSON text; `path` names the source in errors.
@@ -242,6 +310,11 @@ pub fn parse_beziex(text: &str, path: &Path) -> Result<Vec<BeziexPatch>> {
     let text = text.strip_prefix('\u{feff}').unwrap_or(text);
     let model: FileModel = serde_json::from_str(text)
         .map_err(|e| Error::parse(path, format!("not a Beziex model: {e}")))?;
+    patches(model, path)
+}
+
+/// The patches of a parsed model, checked.
+fn patches(model: FileModel, path: &Path) -> Result<Vec<BeziexPatch>> {
     if model.surface.is_empty() {
         return Err(Error::parse(path, "the model has no patches"));
     }
