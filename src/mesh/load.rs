@@ -14,8 +14,9 @@
 //!   ([`crate::mesh::weld`] with tolerance 0: bitwise-equal positions, `-0.0 == 0.0`), so their topology
 //!   (open/closed, components, boundary loops: `gregvox mesh --json`) is that of the OBJ of the same mesh.
 //!   Kept vertices are in first-use order. A triangle that welding collapses (two corners at the same
-//!   position) is refused like an OBJ face naming a vertex twice, except in glTF triangle strips and fans,
-//!   where degenerate triangles are the usual way to join strips and are skipped.
+//!   position: real STL exports carry such slivers) is dropped with a warning (silently in glTF strips and
+//!   fans, where degenerate triangles are the usual way to join strips); a mesh with no face left is
+//!   refused.
 //!
 //! Format detection, content first (a file's name can lie, its bytes cannot):
 //! 1. binary STL: an 80-byte header and a `u32` triangle count `n` with the file exactly `84 + 50·n` bytes
@@ -151,40 +152,40 @@ pub fn parse_mesh_bytes(bytes: &[u8], path: &Path) -> Result<Mesh> {
     }
 }
 
-/// Welds exact duplicates (see the module doc) and refuses a face that welding collapses, unless
-/// `skippable(face)` says it may be dropped; `describe(face)` says where the face is, for the message.
+/// Welds exact duplicates (see the module doc) and drops the faces welding collapses: with a warning naming
+/// the first (`describe(face)` says where it is), unless `expected(face)` says such faces are normal there
+/// (the joins of glTF strips). Refuses a mesh left with no face.
 pub(crate) fn weld_exact(
     mesh: &Mesh,
     path: &Path,
     describe: impl Fn(usize) -> String,
-    skippable: impl Fn(usize) -> bool,
+    expected: impl Fn(usize) -> bool,
 ) -> Result<Mesh> {
     let (welded, map) = weld(mesh, 0.0);
+    let mut dropped = 0usize;
+    let mut first = None;
     for f in 0..mesh.n_faces() {
         let face = mesh.face(f);
         let mapped: Vec<u32> = face.iter().map(|&v| map[v as usize]).collect();
-        if let Some(v) = obj::first_repeated(&mapped) {
-            if skippable(f) {
-                continue;
-            }
-            let p = welded.positions[v as usize];
-            return Err(Error::parse(
-                path,
-                format!(
-                    "{}: two corners at the same position ({}, {}, {}); a degenerate face",
-                    describe(f),
-                    p.x,
-                    p.y,
-                    p.z
-                ),
-            ));
+        if obj::first_repeated(&mapped).is_some() && !expected(f) {
+            dropped += 1;
+            first.get_or_insert(f);
         }
     }
     if welded.n_faces() == 0 {
         return Err(Error::parse(
             path,
-            "empty mesh: every triangle is degenerate",
+            "empty mesh: every triangle is degenerate (two corners at the same position)",
         ));
+    }
+    if let Some(f) = first {
+        // Real STL exports carry slivers whose corners coincide: they have no area and no inside, so they
+        // are dropped (an OBJ face naming a vertex twice is refused: there the file says it on purpose).
+        log::warn!(
+            "{}: skipped {dropped} degenerate triangle(s) with two corners at the same position (the first: {})",
+            path.display(),
+            describe(f)
+        );
     }
     Ok(welded)
 }
