@@ -182,6 +182,16 @@ fn moved_glb_is_the_mesh_under_its_node_transforms_exactly() {
         *p = 2.0 * *p + DVec3::new(8.0, -4.0, 2.0);
     }
     assert!(canonical(&load("m_moved.glb")) == canonical(&m));
+    // The same occupancy, voxel for voxel, in a grid scaled and moved the same way (exact: powers of two).
+    let opts = VoxelizeOptions::default().res(32);
+    let here = voxelize_on_cpu(&load("m.obj"), &opts).unwrap().grid;
+    let moved = voxelize_on_cpu(&load("m_moved.glb"), &opts).unwrap().grid;
+    assert_eq!(moved.words, here.words);
+    for a in 0..3 {
+        let t = [8.0, -4.0, 2.0][a];
+        assert_eq!(moved.frame.origin[a], 2.0 * here.frame.origin[a] + t);
+        assert_eq!(moved.frame.voxel_size[a], 2.0 * here.frame.voxel_size[a]);
+    }
 }
 
 #[test]
