@@ -1016,9 +1016,9 @@ fn an_allocation_budget_gives_a_clear_out_of_memory_error() {
     );
     assert_success("voxelize 32 in 1G", &out);
     std::fs::remove_file(&vox).unwrap();
-    // A malformed budget names the variable.
+    // A malformed budget names the variable (on a command that creates a device).
     let out = gregvox_env(
-        &["voxelize", &suzanne, "--res", "8"],
+        &["voxelize", &suzanne, "--res", "8", "--method", "peel"],
         &[("GREGVOX_MEMORY_BUDGET", "lots")],
     );
     assert_clear_failure(

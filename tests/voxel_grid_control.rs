@@ -407,6 +407,30 @@ fn the_gpu_surface_pass_marks_the_same_voxels_as_the_cpu_bit_for_bit() {
 }
 
 #[test]
+fn the_gpu_surface_pass_gives_the_same_bits_slab_by_slab() {
+    use gregvox::engine::voxelize::{voxelize_surface_gpu, GpuTriangles};
+    let tri = TriMesh::fan(&load_mesh(model("stanford-bunny.obj")).unwrap())
+        .clean()
+        .0;
+    let frame = gregvox::api::grid_frame(
+        &as_mesh(&tri),
+        &VoxelizeOptions::default().dims([40, 37, 70]),
+    )
+    .unwrap();
+    let cpu = gregvox::voxel::surface::voxelize_surface(&tri, &frame);
+    common::with_gpu(|ctx| {
+        let gpu = GpuTriangles::upload(ctx, &tri).unwrap();
+        // One row of 40 columns × 3 words is 480 bytes: slabs of 1, 5 and 37 rows (5 does not divide 37).
+        for rows in [1u64, 5, 37] {
+            let g = voxelize_surface_gpu(ctx, &gpu, &tri, &frame, Some(rows * 480))
+                .unwrap()
+                .unwrap();
+            assert_eq!(g.count_differences(&cpu), 0, "slabs of {rows} rows");
+        }
+    });
+}
+
+#[test]
 fn a_sheet_a_tenth_of_a_voxel_thick_keeps_every_voxel_it_crosses_with_fill_both() {
     // A closed slab 0.1 voxel thick, tilted so it crosses voxel centres' planes everywhere.
     let h = 1.0 / 32.0;

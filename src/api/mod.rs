@@ -551,7 +551,7 @@ impl Gpu {
             Fill::Solid => None,
             _ => {
                 let on_gpu = if ctx.info.features.shader_float64 {
-                    voxelize_surface_gpu(ctx, &gpu, &tri, &frame)?
+                    voxelize_surface_gpu(ctx, &gpu, &tri, &frame, None)?
                 } else {
                     None
                 };

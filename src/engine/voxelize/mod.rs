@@ -314,12 +314,14 @@ pub fn surface_work(mesh: &TriMesh, frame: &GridFrame) -> Option<(Vec<SurfaceWor
 
 /// The voxels of `frame` whose boxes the triangles of `mesh` (uploaded as `tris`) touch (bits along z), on
 /// the GPU: the same bits as `voxel::surface::voxelize_surface` (see `passes::voxel_surface`), one slab of
-/// rows at a time. `None` when the work list is too long for one dispatch (the caller uses the CPU).
+/// rows at a time (slabs of at most `slab_limit` bytes, `maxStorageBufferRange` by default; tests lower it).
+/// `None` when the work list is too long for one dispatch (the caller uses the CPU).
 pub fn voxelize_surface_gpu(
     ctx: &Context,
     tris: &GpuTriangles,
     mesh: &TriMesh,
     frame: &GridFrame,
+    slab_limit: Option<u64>,
 ) -> Result<Option<VoxelGrid>> {
     let Some((work, invocations)) = surface_work(mesh, frame) else {
         return Ok(None);
@@ -335,7 +337,8 @@ pub fn voxelize_surface_gpu(
         vk::BufferUsageFlags::STORAGE_BUFFER,
     )?;
     let row_words = frame.dims[0] as u64 * frame.words_per_column(Axis::Z) as u64;
-    let max_range = ctx.limits.max_storage_buffer_range as u64;
+    let max_range =
+        (ctx.limits.max_storage_buffer_range as u64).min(slab_limit.unwrap_or(u64::MAX));
     let rows_per_slab = (max_range / (row_words * 4)).clamp(1, frame.dims[1] as u64) as u32;
     let slab = ctx.create_buffer(
         "voxel surface slab",
