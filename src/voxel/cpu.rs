@@ -4,14 +4,14 @@
 //! Sampling, shared with the raster path (`glsl/peel.*`, `glsl/voxel_fill.comp`):
 //! - Positions go to grid units per axis ((x − origin) / voxel size), so anisotropic voxels are unit cubes
 //!   there. Columns are voxel-centre lines along the peel axis `d`; a column (iu, iv) sits at (iu+½, iv+½) of
-//!   the (u, v) plane, which is also the pixel centre of the dims[u]×dims[v] peel framebuffer.
+//!   the (u, v) plane, which is also the pixel centre of the `dims[u]`×`dims[v]` peel framebuffer.
 //! - Vertices are snapped to 1/256 grid unit (lavapipe's 8 sub-pixel bits) and coverage is decided exactly in
 //!   integers with the top-left rule, so ties on shared edges go to exactly one triangle.
 //! - A crossing at depth z (grid units) starts at voxel k = ceil(z − ½): the first centre behind it.
 //! - Facing: +1 where the triangle's normal points against +d (entering an outward-oriented solid), −1
 //!   otherwise. The winding rule fills where the running sum is non-zero, parity where the crossing count is
 //!   odd; nothing is filled after a column's last crossing (open meshes never leak to the grid's edge).
-//!   Crossings in front of or behind the grid count too (k clamps to 0 or dims[d]): with `--bbox` the parts
+//!   Crossings in front of or behind the grid count too (k clamps to 0 or `dims[d]`): with `--bbox` the parts
 //!   of the mesh outside the box still decide what is inside.
 use super::grid::{Axis, GridFrame, VoxelGrid};
 use super::mesh::TriMesh;

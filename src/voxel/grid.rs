@@ -143,7 +143,7 @@ impl GridFrame {
         self.dims[axis.index()].div_ceil(32)
     }
 
-    /// Columns of bit axis `axis`: dims[u] · dims[v].
+    /// Columns of bit axis `axis`: `dims[u] · dims[v]`.
     pub fn columns(&self, axis: Axis) -> u64 {
         let (u, v) = axis.uv();
         self.dims[u] as u64 * self.dims[v] as u64
