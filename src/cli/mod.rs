@@ -28,7 +28,7 @@ pub enum Command {
     Subdivide(mesh::SubdivideArgs),
     /// Evaluate Gregory (ACC-2 from a quad cage) or Beziex patches on the GPU and write the grid as OBJ.
     Tessellate(tessellate::TessellateArgs),
-    /// Voxelize a mesh file (OBJ, STL, PLY, OFF, glTF/GLB) into a solid bit grid (depth peeling on the GPU, or the CPU scanline).
+    /// Voxelize a mesh file (OBJ, STL, PLY, OFF, glTF/GLB) into a voxel grid of a chosen size, box and fill (the CPU scanline, depth peeling or the A-buffer; auto picks for the device).
     Voxelize(voxelize::VoxelizeArgs),
     /// Run the live demo in a window, or offscreen writing PNG frames.
     Demo(crate::demo::DemoArgs),
