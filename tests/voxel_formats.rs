@@ -382,3 +382,59 @@ fn vox_of_a_non_cubic_grid_past_256_splits_each_axis_into_models() {
     let total: usize = data.models.iter().map(|m| m.voxels.len()).sum();
     assert_eq!(total as u64, g.count());
 }
+
+/// binvox data encoded voxel by voxel, straight from the format's description: x slowest, then z, y
+/// fastest; (value, count) pairs, counts 1..=255.
+fn binvox_reference(g: &VoxelGrid) -> Vec<u8> {
+    let [nx, ny, nz] = g.frame.dims;
+    let mut out = Vec::new();
+    let (mut value, mut count) = (0u8, 0u32);
+    for x in 0..nx {
+        for z in 0..nz {
+            for y in 0..ny {
+                let bit = g.get(x, y, z) as u8;
+                if bit == value && count < 255 {
+                    count += 1;
+                } else {
+                    if count > 0 {
+                        out.extend_from_slice(&[value, count as u8]);
+                    }
+                    (value, count) = (bit, 1);
+                }
+            }
+        }
+    }
+    if count > 0 {
+        out.extend_from_slice(&[value, count as u8]);
+    }
+    out
+}
+
+#[test]
+fn binvox_run_lengths_by_words_equal_the_voxel_by_voxel_encoding() {
+    let mut full = VoxelGrid::empty(GridFrame::cubic(96, [0.0; 3], 1.0), Axis::Z); // whole words: no bit past the grid
+    full.words.fill(u32::MAX);
+    // Bits past the grid's end in the last word of each column must not count.
+    let mut solid_block = VoxelGrid::empty(GridFrame::cubic(45, [0.0; 3], 1.0), Axis::X);
+    for i in 3..40 {
+        for j in 0..45 {
+            for k in 10..33 {
+                solid_block.set(i, j, k, true);
+            }
+        }
+    }
+    for (name, g) in [
+        ("pattern 37", pattern(37)),
+        ("pattern 64", pattern(64)),
+        (
+            "empty 33",
+            VoxelGrid::empty(GridFrame::cubic(33, [0.0; 3], 1.0), Axis::Y),
+        ),
+        ("full 96", full.clone()),
+        ("block 45", solid_block),
+    ] {
+        let b = gregvox::voxel::export::binvox_bytes(&g);
+        let data = &b[b.windows(5).position(|w| w == b"data\n").unwrap() + 5..];
+        assert!(data == binvox_reference(&g).as_slice(), "{name}");
+    }
+}

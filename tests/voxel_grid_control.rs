@@ -764,3 +764,40 @@ fn bad_grid_flags_give_one_clear_error_and_write_nothing() {
     let j: serde_json::Value = serde_json::from_slice(&ok.stdout).unwrap();
     assert!(j["solid_voxels"].as_u64().unwrap() >= 10, "{j}");
 }
+
+#[test]
+fn an_empty_result_says_why() {
+    // A sheet with no thickness encloses no centre: the solid is empty, and the report says so.
+    let sheet = "v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nf 1 2 3 4\n";
+    let path = tmp("sheet.obj");
+    std::fs::write(&path, sheet).unwrap();
+    let out = gregvox(&[
+        "voxelize",
+        path.to_str().unwrap(),
+        "--dims",
+        "4,4,4",
+        "--bbox",
+        "0,0,-0.5,1,1,0.5",
+    ]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        err.contains("no voxel is solid") && err.contains("--fill both"),
+        "{err}"
+    );
+    let full = gregvox(&[
+        "voxelize",
+        path.to_str().unwrap(),
+        "--dims",
+        "4,4,4",
+        "--bbox",
+        "0,0,-0.5,1,1,0.5",
+        "--fill",
+        "both",
+    ]);
+    assert!(!String::from_utf8_lossy(&full.stderr).contains("no voxel"));
+}

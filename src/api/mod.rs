@@ -268,6 +268,25 @@ pub struct Voxelization {
     pub report: VoxelizeReport,
 }
 
+impl Voxelization {
+    /// The result, with a note when it is empty: a flat mesh, or parts thinner than a voxel, give no solid
+    /// voxel, and that must not pass unsaid.
+    fn new(grid: VoxelGrid, mut report: VoxelizeReport) -> Voxelization {
+        if grid.count() == 0 {
+            report.notes.push(match report.fill {
+                Fill::Solid => {
+                    "no voxel is solid: the mesh encloses no voxel centre (flat, open, or \
+                                thinner than a voxel); --fill both keeps thin parts"
+                        .into()
+                }
+                _ => "no voxel is set: no triangle touches the grid (is --bbox around the mesh?)"
+                    .into(),
+            });
+        }
+        Voxelization { grid, report }
+    }
+}
+
 /// A mesh made ready to voxelize: triangles, grid frame, and the report so far.
 struct Prepared {
     tri: TriMesh,
@@ -438,7 +457,7 @@ pub fn voxelize_on_cpu(mesh: &Mesh, opts: &VoxelizeOptions) -> Result<Voxelizati
         })
     };
     let grid = apply_fill(solid, &tri, &frame, opts.fill);
-    Ok(Voxelization { grid, report })
+    Ok(Voxelization::new(grid, report))
 }
 
 /// A Vulkan device and everything gregvox needs on it. Cheap to keep for many calls; dropping it releases
@@ -567,10 +586,7 @@ impl Gpu {
         };
         if opts.fill == Fill::Surface {
             report.method = method;
-            return Ok(Voxelization {
-                grid: surface.expect("computed above"),
-                report,
-            });
+            return Ok(Voxelization::new(surface.expect("computed above"), report));
         }
         let geom = gpu.geometry();
         let result = self.run_gpu_method(method, opts, &geom, &frame, three, profiler);
@@ -596,7 +612,7 @@ impl Gpu {
             Some(s) => grid.union(&s),
             None => grid,
         };
-        Ok(Voxelization { grid, report })
+        Ok(Voxelization::new(grid, report))
     }
 
     /// One GPU method along the axes `three` and `opts.axes` give: (grid, axes, per-axis figures).
@@ -733,7 +749,7 @@ impl Gpu {
             layers: stats.iter().map(|s| (s.axis, s.layers)).collect(),
             notes: surface.note().map(String::from).into_iter().collect(),
         };
-        Ok(Voxelization { grid, report })
+        Ok(Voxelization::new(grid, report))
     }
 }
 

@@ -45,34 +45,69 @@ pub fn binvox_bytes(grid: &VoxelGrid) -> Vec<u8> {
         f.origin[0], f.origin[1], f.origin[2], side
     )
     .into_bytes();
-    // binvox runs y fastest: lay the bits along y so each (x, z) column streams in order.
+    // binvox runs y fastest: lay the bits along y so each (x, z) column streams in order. Whole words of
+    // one value (the bulk of any grid: empty space and solid interiors) extend the run by 32 at once, so a
+    // 1024³ grid encodes in word steps, not 10⁹ voxel steps.
     let g = grid.to_axis(Axis::Y);
-    let mut value = 0u8;
-    let mut count = 0u32;
-    let mut push = |bit: u8, out: &mut Vec<u8>| {
-        if bit == value && count < 255 {
-            count += 1;
-        } else {
-            if count > 0 {
-                out.extend_from_slice(&[value, count as u8]);
-            }
-            value = bit;
-            count = 1;
-        }
-    };
+    let mut runs = Runs::default();
     // For bit axis Y the columns are (u, v) = (z, x).
     for x in 0..nx {
         for z in 0..nz {
             let col = g.column(z, x);
-            for y in 0..ny as usize {
-                push((col[y / 32] >> (y % 32) & 1) as u8, &mut out);
+            for (w, &word) in col.iter().enumerate() {
+                let bits = (ny - 32 * w as u32).min(32);
+                let full = if bits == 32 {
+                    u32::MAX
+                } else {
+                    (1u32 << bits) - 1
+                };
+                match word & full {
+                    0 => runs.push(0, bits),
+                    m if m == full => runs.push(1, bits),
+                    m => (0..bits).for_each(|b| runs.push((m >> b & 1) as u8, 1)),
+                }
             }
         }
     }
-    if count > 0 {
-        out.extend_from_slice(&[value, count as u8]);
-    }
+    runs.finish(&mut out);
     out
+}
+
+/// The run-length pairs of binvox data: (value, count) with counts of at most 255.
+#[derive(Default)]
+struct Runs {
+    bytes: Vec<u8>,
+    value: u8,
+    count: u32,
+}
+
+impl Runs {
+    /// Appends `n` voxels of `value`.
+    fn push(&mut self, value: u8, mut n: u32) {
+        if value != self.value && self.count > 0 {
+            self.bytes
+                .extend_from_slice(&[self.value, self.count as u8]);
+            self.count = 0;
+        }
+        self.value = value;
+        while n > 0 {
+            if self.count == 255 {
+                self.bytes.extend_from_slice(&[value, 255]);
+                self.count = 0;
+            }
+            let take = n.min(255 - self.count);
+            self.count += take;
+            n -= take;
+        }
+    }
+
+    fn finish(mut self, out: &mut Vec<u8>) {
+        if self.count > 0 {
+            self.bytes
+                .extend_from_slice(&[self.value, self.count as u8]);
+        }
+        out.append(&mut self.bytes);
+    }
 }
 
 /// Parses binvox bytes back into a grid (bits along Z).
