@@ -76,10 +76,6 @@ pub fn subdivide(mesh: &Mesh, levels: u32, scheme: Scheme) -> Result<Mesh> {
             "--levels {levels}: the result would have about {corners} corners, more than u32 indices allow"
         )));
     }
-    let to_mesh_error = |e: Error| match e {
-        Error::Invalid(msg) => Error::Mesh(msg),
-        e => e,
-    };
     Ok(match scheme {
         Scheme::CatmullClark => crate::mesh::catmull_clark(mesh, levels),
         Scheme::LoopWarren => {
@@ -298,8 +294,9 @@ struct Prepared {
 fn prepare(mesh: &Mesh, opts: &VoxelizeOptions) -> Result<Prepared> {
     let topo = topology(mesh);
     // The box of the vertices the faces use: a stray unreferenced vertex must not move the grid.
-    let frame = grid_frame(mesh, opts)?;
-    let (tri, removed) = TriMesh::fan(mesh).clean();
+    let fan = TriMesh::fan(mesh);
+    let frame = frame_of(&fan, opts)?;
+    let (tri, removed) = fan.clean();
     if tri.triangles.is_empty() {
         return Err(Error::Mesh(
             "no triangle with a non-zero area to voxelize".into(),
@@ -355,7 +352,11 @@ fn prepare(mesh: &Mesh, opts: &VoxelizeOptions) -> Result<Prepared> {
 /// The grid `opts` gives for `mesh` (what a voxelization will use), without voxelizing: callers check an
 /// output format against it before any work.
 pub fn grid_frame(mesh: &Mesh, opts: &VoxelizeOptions) -> Result<GridFrame> {
-    let fan = TriMesh::fan(mesh);
+    frame_of(&TriMesh::fan(mesh), opts)
+}
+
+/// The grid `opts` gives for the fanned triangles `fan` (before cleaning: every face counts for the box).
+fn frame_of(fan: &TriMesh, opts: &VoxelizeOptions) -> Result<GridFrame> {
     let mesh_box = Bounds::of_triangles(&fan.positions, &fan.triangles).map_err(to_mesh_error)?;
     opts.grid.frame(mesh_box).map_err(|e| match e {
         Error::Invalid(msg) if opts.grid.bbox.is_none() && msg.contains("box") => Error::Mesh(msg),
@@ -676,10 +677,7 @@ impl Gpu {
                 "--level {level} is out of range: the tessellation level must be between 1 and {MAX_LEVEL}"
             )));
         }
-        let (topo, rest, note) = cage_topology(cage, tangents).map_err(|e| match e {
-            Error::Invalid(msg) => Error::Mesh(msg),
-            e => e,
-        })?;
+        let (topo, rest, note) = cage_topology(cage, tangents).map_err(to_mesh_error)?;
         let inner = GregorySurface::new(&self.ctx, &topo, &rest, level)?;
         let surface = Surface {
             gpu: self,
