@@ -11,7 +11,7 @@
 use crate::engine::cage::cage_topology;
 use crate::engine::gregory::GregorySurface;
 use crate::engine::voxelize::{
-    memory_estimate, voxelize_gregory_surface, voxelize_surface_gpu, AbufferVoxelizer,
+    memory_estimate, resolve_gpu, voxelize_gregory_surface, voxelize_surface_gpu, AbufferVoxelizer,
     GpuTriangles, GpuVoxelizer, PeelVoxelizer,
 };
 use crate::error::{Error, Result};
@@ -20,6 +20,7 @@ pub use crate::gpu::{ContextDesc, DeviceInfo, Profiler, Validation};
 use crate::passes::cage_deform::DeformParams;
 use crate::passes::gregory_eval::{grid_indices, SurfaceVertex, MAX_LEVEL};
 use crate::voxel::cpu::voxelize_cpu;
+use crate::voxel::gwn::{resolve_cpu, Cap};
 use crate::voxel::mesh::{CleanReport, TriMesh};
 use glam::DVec3;
 use std::path::Path;
@@ -34,6 +35,7 @@ pub use crate::surface::Tangents;
 pub use crate::voxel::cpu::FillRule;
 pub use crate::voxel::export::SaveOptions;
 pub use crate::voxel::grid::{Axis, Bounds, GridFrame, GridSize, GridSpec, VoxelGrid};
+pub use crate::voxel::gwn::GwnStats;
 pub use crate::voxel::surface::Fill;
 
 /// Largest number of voxels along any axis (2048³ bits = 1 GiB).
@@ -118,19 +120,21 @@ impl Method {
 /// Which axes to cast along.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Axes {
-    /// Open meshes: x, y and z with a 2-of-3 vote; closed meshes: the cheapest single axis (fewest layers ×
-    /// covered columns; z for the CPU method).
+    /// The cheapest single axis (fewest layers × covered columns; z for the CPU method); x, y and z with a
+    /// 2-of-3 vote for open meshes under the winding or parity rule.
     Auto,
     /// One axis: the cheapest (fewest layers × covered columns; z for the CPU method), also on open meshes.
     Best,
     /// This one axis.
     One(Axis),
-    /// x, y and z with a 2-of-3 vote (forgives small holes).
+    /// x, y and z with a 2-of-3 vote of the winding (or parity) rule on the uncapped mesh (forgives small
+    /// holes); with [`FillRule::Gwn`] the vote replaces the generalized winding number.
     Three,
 }
 
 /// What [`Gpu::voxelize`] does; `VoxelizeOptions::default().res(256)` is a 256³ grid over the mesh's box,
-/// solid by the winding rule, by the fastest method for the device.
+/// solid where the generalized winding number is at least ½ (exact on open meshes and soups; the winding
+/// rule on closed ones), by the fastest method for the device.
 #[derive(Clone)]
 pub struct VoxelizeOptions {
     /// The grid: its size (`res`, `dims` or `voxel_size`), box and padding.
@@ -144,18 +148,25 @@ pub struct VoxelizeOptions {
     pub max_layers: u32,
     /// Called once per finished stage of a GPU voxelization (three per axis).
     pub progress: Option<ProgressFn>,
+    /// Bytes the generalized winding number may spend on the voxels it evaluates directly
+    /// ([`FillRule::Gwn`]); a mesh whose caps need more is refused with [`Error::Limit`].
+    pub gwn_budget: u64,
 }
+
+/// The default [`VoxelizeOptions::gwn_budget`]: 1 GiB.
+pub const DEFAULT_GWN_BUDGET: u64 = 1 << 30;
 
 impl Default for VoxelizeOptions {
     fn default() -> Self {
         VoxelizeOptions {
             grid: GridSpec::res(128),
             method: Method::Auto,
-            rule: FillRule::Winding,
+            rule: FillRule::Gwn,
             fill: Fill::Solid,
             axes: Axes::Auto,
             max_layers: DEFAULT_MAX_LAYERS,
             progress: None,
+            gwn_budget: DEFAULT_GWN_BUDGET,
         }
     }
 }
@@ -170,6 +181,7 @@ impl std::fmt::Debug for VoxelizeOptions {
             .field("axes", &self.axes)
             .field("max_layers", &self.max_layers)
             .field("progress", &self.progress.is_some())
+            .field("gwn_budget", &self.gwn_budget)
             .finish()
     }
 }
@@ -225,6 +237,11 @@ impl VoxelizeOptions {
         self.max_layers = max_layers;
         self
     }
+    /// The memory budget of the generalized winding number's direct voxels.
+    pub fn gwn_budget(mut self, bytes: u64) -> Self {
+        self.gwn_budget = bytes;
+        self
+    }
     /// A progress callback.
     pub fn on_progress(mut self, f: impl Fn(&str) + Send + Sync + 'static) -> Self {
         self.progress = Some(std::sync::Arc::new(f));
@@ -255,6 +272,10 @@ pub struct VoxelizeReport {
     pub layers: Vec<(Axis, u32)>,
     /// Notes worth telling the user (removed triangles, open mesh, …).
     pub notes: Vec<String>,
+    /// The inside rule applied (`gwn` becomes `winding` under a 3-axis vote).
+    pub rule: FillRule,
+    /// What the generalized winding number did (its rule on a solid fill only).
+    pub gwn: Option<GwnStats>,
 }
 
 /// A voxel grid and how it was made.
@@ -285,10 +306,28 @@ impl Voxelization {
 
 /// A mesh made ready to voxelize: triangles, grid frame, and the report so far.
 struct Prepared {
+    /// The cleaned triangles (M).
     tri: TriMesh,
+    /// Under the generalized winding number on a mesh with a boundary: the cap and M ∪ C (M's positions and
+    /// triangles first), whose winding rule the cap term corrects.
+    capped: Option<(Cap, TriMesh)>,
     frame: GridFrame,
     report: VoxelizeReport,
     three: bool,
+}
+
+impl Prepared {
+    /// The triangles the solid pass voxelizes: M ∪ C when capped, else M.
+    fn solid_mesh(&self) -> &TriMesh {
+        self.capped.as_ref().map(|c| &c.1).unwrap_or(&self.tri)
+    }
+    /// The rule the solid pass applies (the cap term does the rest).
+    fn solid_rule(&self) -> FillRule {
+        match self.report.rule {
+            FillRule::Gwn => FillRule::Winding,
+            r => r,
+        }
+    }
 }
 
 fn prepare(mesh: &Mesh, opts: &VoxelizeOptions) -> Result<Prepared> {
@@ -303,19 +342,46 @@ fn prepare(mesh: &Mesh, opts: &VoxelizeOptions) -> Result<Prepared> {
         ));
     }
     let open = !topo.closed;
+    let gwn = opts.rule == FillRule::Gwn;
     let three = match opts.axes {
         Axes::Three => true,
         Axes::One(_) | Axes::Best => false,
-        Axes::Auto => open,
+        Axes::Auto => open && !gwn,
     };
     let mut notes = Vec::new();
+    let rule = if gwn && three {
+        notes.push(
+            "--axes 3: the 2-of-3 vote of the winding rule replaces the generalized winding number"
+                .into(),
+        );
+        FillRule::Winding
+    } else {
+        opts.rule
+    };
+    // The cap is built from the welded soup: a mesh open only by its indices (unwelded duplicates) has none.
+    let capped = if rule == FillRule::Gwn && opts.fill != Fill::Surface {
+        let cap = Cap::of(&tri)?;
+        (!cap.triangles.is_empty()).then(|| {
+            let closed = cap.close(&tri);
+            (cap, closed)
+        })
+    } else {
+        None
+    };
     if removed.duplicates + removed.cancelled + removed.zero_area > 0 {
         notes.push(format!(
             "removed {} duplicate, {} cancelling and {} zero-area triangles",
             removed.duplicates, removed.cancelled, removed.zero_area
         ));
     }
-    if open && opts.fill != Fill::Surface {
+    if let Some((cap, _)) = &capped {
+        notes.push(format!(
+            "open mesh ({} boundary edges after welding): {} boundary loops capped; the generalized \
+             winding number decides near them",
+            cap.boundary_edges,
+            cap.loops.len()
+        ));
+    } else if open && opts.fill != Fill::Surface && rule != FillRule::Gwn {
         notes.push(format!(
             "open mesh ({} boundary and {} non-manifold edges){}",
             topo.boundary_edges,
@@ -340,9 +406,12 @@ fn prepare(mesh: &Mesh, opts: &VoxelizeOptions) -> Result<Prepared> {
         axes: Vec::new(),
         layers: Vec::new(),
         notes,
+        rule,
+        gwn: None,
     };
     Ok(Prepared {
         tri,
+        capped,
         frame,
         report,
         three,
@@ -428,12 +497,9 @@ fn cpu_by_auto(mesh: &Mesh, opts: &VoxelizeOptions, why: String) -> Result<Voxel
 /// Voxelizes `mesh` on the CPU (the column scanline, all cores), with no Vulkan device at all; `opts.method`
 /// is ignored (reported as `cpu`).
 pub fn voxelize_on_cpu(mesh: &Mesh, opts: &VoxelizeOptions) -> Result<Voxelization> {
-    let Prepared {
-        tri,
-        frame,
-        mut report,
-        three,
-    } = prepare(mesh, opts)?;
+    let prepared = prepare(mesh, opts)?;
+    let (frame, three) = (prepared.frame, prepared.three);
+    let mut report = prepared.report.clone();
     report.method = Method::Cpu;
     if opts.method == Method::Auto {
         report.method_reason = Some("auto: no GPU asked for, so the CPU scanline".into());
@@ -446,18 +512,23 @@ pub fn voxelize_on_cpu(mesh: &Mesh, opts: &VoxelizeOptions) -> Result<Voxelizati
             (false, Axes::One(a)) => vec![a],
             (false, _) => vec![Axis::Z],
         };
+        let (solid_mesh, rule) = (prepared.solid_mesh(), prepared.solid_rule());
         let grids: Vec<VoxelGrid> = report
             .axes
             .iter()
-            .map(|&a| voxelize_cpu(&tri, &frame, a, opts.rule))
+            .map(|&a| voxelize_cpu(solid_mesh, &frame, a, rule))
             .collect();
-        Some(if three {
+        let mut grid = if three {
             VoxelGrid::majority([&grids[0], &grids[1], &grids[2]])
         } else {
             grids.into_iter().next().expect("one axis")
-        })
+        };
+        if let Some((cap, _)) = &prepared.capped {
+            report.gwn = Some(resolve_cpu(&mut grid, &prepared.tri, cap, opts.gwn_budget)?);
+        }
+        Some(grid)
     };
-    let grid = apply_fill(solid, &tri, &frame, opts.fill);
+    let grid = apply_fill(solid, &prepared.tri, &frame, opts.fill);
     Ok(Voxelization::new(grid, report))
 }
 
@@ -544,12 +615,14 @@ impl Gpu {
             v.report.method_reason = reason;
             return Ok(v);
         }
-        let Prepared {
-            tri,
-            frame,
-            mut report,
-            three,
-        } = prepare(mesh, opts)?;
+        let prepared = prepare(mesh, opts)?;
+        let (tri, frame, three, rule) = (
+            &prepared.tri,
+            prepared.frame,
+            prepared.three,
+            prepared.solid_rule(),
+        );
+        let mut report = prepared.report.clone();
         report.method_reason = reason;
         let ctx = &self.ctx;
         let need = memory_estimate(ctx, &frame, 16);
@@ -564,14 +637,16 @@ impl Gpu {
                 detail: format!("the device has {} MiB", heap >> 20),
             });
         }
-        let gpu = GpuTriangles::upload(ctx, &tri)?;
+        // M ∪ C when capped: M's positions and triangles come first, so the surface pass and the cap term's
+        // direct sum read M from the same buffers.
+        let gpu = GpuTriangles::upload(ctx, prepared.solid_mesh())?;
         // The voxels the triangles touch, on the GPU when it computes in f64 (the exact test), else on
         // the CPU: the same bits either way.
         let surface = match opts.fill {
             Fill::Solid => None,
             _ => {
                 let on_gpu = if ctx.info.features.shader_float64 {
-                    voxelize_surface_gpu(ctx, &gpu, &tri, &frame, None)?
+                    voxelize_surface_gpu(ctx, &gpu, tri, &frame, None)?
                 } else {
                     None
                 };
@@ -581,7 +656,7 @@ impl Gpu {
                          work list passes one dispatch)"
                             .into(),
                     );
-                    crate::voxel::surface::voxelize_surface(&tri, &frame)
+                    crate::voxel::surface::voxelize_surface(tri, &frame)
                 }))
             }
         };
@@ -590,7 +665,7 @@ impl Gpu {
             return Ok(Voxelization::new(surface.expect("computed above"), report));
         }
         let geom = gpu.geometry();
-        let result = self.run_gpu_method(method, opts, &geom, &frame, three, profiler);
+        let result = self.run_gpu_method(method, opts, rule, &geom, &frame, three, profiler);
         // Auto on a GPU: the A-buffer holds every fragment in one binding; past that, depth peeling.
         let (grid, axes, stats) = match result {
             Err(Error::Limit { what, .. })
@@ -600,7 +675,7 @@ impl Gpu {
                 report.method_reason = Some(format!(
                     "auto: a GPU; {what} pass one A-buffer binding, so depth peeling"
                 ));
-                self.run_gpu_method(Method::Peel, opts, &geom, &frame, three, None)?
+                self.run_gpu_method(Method::Peel, opts, rule, &geom, &frame, three, None)?
             }
             r => {
                 report.method = method;
@@ -609,6 +684,27 @@ impl Gpu {
         };
         report.axes = axes;
         report.layers = stats.iter().map(|s| (s.axis, s.layers)).collect();
+        let mut grid = grid;
+        if let Some((cap, _)) = &prepared.capped {
+            // The cap term on the GPU when it computes in f64 (the same operations as the CPU's), else on
+            // the CPU: the same bits either way.
+            let on_gpu = if ctx.info.features.shader_float64 {
+                resolve_gpu(ctx, &mut grid, &gpu, tri, cap, opts.gwn_budget)?
+            } else {
+                None
+            };
+            report.gwn = Some(match on_gpu {
+                Some(stats) => stats,
+                None => {
+                    report.notes.push(
+                        "the cap term ran on the CPU (the device lacks shaderFloat64, or the caps pass \
+                         one invocation's loop)"
+                            .into(),
+                    );
+                    resolve_cpu(&mut grid, tri, cap, opts.gwn_budget)?
+                }
+            });
+        }
         let grid = match surface {
             Some(s) => grid.union(&s),
             None => grid,
@@ -621,6 +717,7 @@ impl Gpu {
         &self,
         method: Method,
         opts: &VoxelizeOptions,
+        rule: FillRule,
         geom: &crate::passes::peel::PeelGeometry,
         frame: &GridFrame,
         three: bool,
@@ -655,7 +752,7 @@ impl Gpu {
                 vec![best.1]
             }
         };
-        let (grid, stats) = v.voxelize(ctx, geom, frame, &axes, opts.rule, profiler)?;
+        let (grid, stats) = v.voxelize(ctx, geom, frame, &axes, rule, profiler)?;
         Ok((grid, axes, stats))
     }
 
@@ -723,12 +820,28 @@ impl Gpu {
             (false, Axes::One(a)) => vec![a],
             (false, _) => vec![Axis::Z],
         };
+        let mut notes: Vec<String> = surface.note().map(String::from).into_iter().collect();
+        // The Gregory surface stays on the GPU: no cap is built from it, so the generalized winding number
+        // is the winding rule there (exact on the closed surfaces of closed cages).
+        let rule = match opts.rule {
+            FillRule::Gwn => {
+                if !topo_report.closed {
+                    notes.push(
+                        "--gregory-level: the open surface is voxelized by the winding rule (no cap is \
+                         built on the GPU surface)"
+                            .into(),
+                    );
+                }
+                FillRule::Winding
+            }
+            r => r,
+        };
         let (grid, stats) = voxelize_gregory_surface(
             &self.ctx,
             &surface.inner,
             &opts.grid,
             &axes,
-            opts.rule,
+            rule,
             opts.max_layers,
             profiler,
         )?;
@@ -745,7 +858,9 @@ impl Gpu {
             non_manifold_edges: topo_report.non_manifold_edges,
             axes,
             layers: stats.iter().map(|s| (s.axis, s.layers)).collect(),
-            notes: surface.note().map(String::from).into_iter().collect(),
+            notes,
+            rule,
+            gwn: None,
         };
         Ok(Voxelization::new(grid, report))
     }

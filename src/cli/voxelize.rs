@@ -42,14 +42,17 @@ pub struct VoxelizeArgs {
     /// Write .npy as packed bits (uint8, X×Y×ceil(Z/8), little bit order) instead of a bool X×Y×Z array.
     #[arg(long)]
     pub npy_packed: bool,
-    /// Peel along 1 axis, or 3 with a 2-of-3 vote (default: 3 for open meshes, else 1).
+    /// Peel along 1 axis, or 3 with a 2-of-3 vote of the winding rule on the uncapped mesh (default: 1; 3
+    /// for open meshes under --rule winding or parity).
     #[arg(long, value_parser = clap::builder::PossibleValuesParser::new(["1", "3"]))]
     pub axes: Option<String>,
     /// The single peel axis (default: the smallest layers × covered area).
     #[arg(long, value_enum)]
     pub axis: Option<Axis>,
-    /// Inside rule.
-    #[arg(long, value_enum, default_value = "winding")]
+    /// Inside rule: gwn = the exact generalized winding number, |w| ≥ ½ at the voxel centre (open meshes and
+    /// soups are capped; on closed meshes it is the winding rule, bit for bit); winding = non-zero crossing
+    /// count; parity = odd crossing count.
+    #[arg(long, value_enum, default_value = "gwn")]
     pub rule: FillRule,
     /// Which voxels: inside the solid, touched by a triangle (exact triangle–box test), or both (thin walls
     /// kept).
@@ -236,7 +239,8 @@ pub fn run(args: &VoxelizeArgs) -> anyhow::Result<()> {
             "index_to_world": f.index_to_world(),
             "method": report.method,
             "method_reason": report.method_reason,
-            "rule": format!("{:?}", args.rule).to_lowercase(),
+            "rule": format!("{:?}", report.rule).to_lowercase(),
+            "gwn": report.gwn,
             "fill": report.fill,
             "gregory_level": args.gregory_level,
             "triangles": report.triangles,
@@ -286,6 +290,13 @@ pub fn run(args: &VoxelizeArgs) -> anyhow::Result<()> {
             .map(|(a, l)| format!("{} {l}", a.name()))
             .collect();
         text.push_str(&format!("layers per axis: {}\n", l.join(", ")));
+    }
+    if let Some(g) = &report.gwn {
+        text.push_str(&format!(
+            "generalized winding number: {} boundary loops capped ({} edges); cap term at {} voxels, {} \
+             summed directly, {} flipped\n",
+            g.loops_capped, g.boundary_edges, g.cap_term_voxels, g.direct_voxels, g.flipped
+        ));
     }
     let what = match report.fill {
         Fill::Solid => "solid voxels",

@@ -327,7 +327,7 @@ impl AbufferPass {
             width: job.columns.width,
             words,
             rule: match job.rule {
-                FillRule::Winding => 0,
+                FillRule::Winding | FillRule::Gwn => 0,
                 FillRule::Parity => 1,
             },
             first_column: job.first_column,

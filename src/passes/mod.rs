@@ -8,6 +8,7 @@ pub mod bounds;
 pub mod cage_deform;
 pub mod draw;
 pub mod gregory_eval;
+pub mod gwn;
 pub mod iota;
 pub mod lines;
 pub mod mesh_normals;

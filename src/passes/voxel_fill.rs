@@ -91,7 +91,7 @@ impl VoxelFillPass {
             layer_count: job.layer_count,
             words,
             rule: match job.rule {
-                FillRule::Winding => 0,
+                FillRule::Winding | FillRule::Gwn => 0,
                 FillRule::Parity => 1,
             },
             first_column: job.first_column,

@@ -25,6 +25,10 @@ pub enum FillRule {
     Winding,
     /// Harada & Koshizuka's entry/exit pairing (odd crossing count inside): kept for comparison.
     Parity,
+    /// The generalized winding number: inside iff |w| ≥ ½ at the voxel centre, exact on any triangle soup
+    /// (`voxel::gwn`: the winding rule of the mesh closed by caps, and the cap term near the holes). On a
+    /// closed mesh it is the winding rule, bit for bit.
+    Gwn,
 }
 
 /// Sub-pixel snapping of the rasterizer: 2^8 steps per grid unit.
@@ -148,7 +152,7 @@ pub fn fill_column(crossings: &mut [(f64, i8)], depth: u32, rule: FillRule, colu
     for (n, &(z, s)) in crossings.iter().enumerate() {
         let k = ((z - 0.5).ceil().max(0.0).min(depth as f64)) as u32;
         let inside = match rule {
-            FillRule::Winding => winding != 0,
+            FillRule::Winding | FillRule::Gwn => winding != 0,
             FillRule::Parity => n % 2 == 1,
         };
         if inside && k > k_prev {

@@ -4,6 +4,7 @@
 pub mod cpu;
 pub mod export;
 pub mod grid;
+pub mod gwn;
 pub mod mesh;
 pub mod raycast;
 pub mod surface;
