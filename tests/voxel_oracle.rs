@@ -25,15 +25,6 @@ fn fixtures() -> PathBuf {
 }
 
 /// Decodes the fixtures' (value, run) byte pairs.
-fn unrle(b: &[u8]) -> Vec<u8> {
-    assert_eq!(b.len() % 2, 0, "run-length data comes in pairs");
-    let mut out = Vec::new();
-    for p in b.chunks_exact(2) {
-        out.extend(std::iter::repeat_n(p[0], p[1] as usize));
-    }
-    out
-}
-
 /// One fixture case: the oracle grids and the mesh as the CLI sees it.
 struct Case {
     name: String,
@@ -74,24 +65,10 @@ fn case(name: &str, res: u32) -> Case {
         "{name}: the oracle sampled another grid"
     );
     let load = |kind: &str| {
-        let file = c["files"][kind].as_str().unwrap();
-        let bytes = unrle(&std::fs::read(fixtures().join(file)).unwrap());
-        let r = res as usize;
-        assert_eq!(bytes.len(), (r * r * r).div_ceil(8), "{file}");
-        let mut g = VoxelGrid::empty(frame, Axis::Z);
-        for i in 0..r {
-            for j in 0..r {
-                for k in 0..r {
-                    let n = (i * r + j) * r + k;
-                    if bytes[n / 8] >> (n % 8) & 1 == 1 {
-                        g.set(i as u32, j as u32, k as u32, true);
-                    }
-                }
-            }
-        }
-        assert_eq!(g.count(), c[kind].as_u64().unwrap(), "{file}: popcount");
-        g
+        let file = fixtures().join(c["files"][kind].as_str().unwrap());
+        common::load_mask(&file, frame, res, c[kind].as_u64().unwrap())
     };
+
     Case {
         name: name.into(),
         res,

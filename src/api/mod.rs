@@ -688,22 +688,19 @@ impl Gpu {
         if let Some((cap, _)) = &prepared.capped {
             // The cap term on the GPU when it computes in f64 (the same operations as the CPU's), else on
             // the CPU: the same bits either way.
-            let on_gpu = if ctx.info.features.shader_float64 {
-                resolve_gpu(ctx, &mut grid, &gpu, tri, cap, opts.gwn_budget)?
-            } else {
-                None
-            };
-            report.gwn = Some(match on_gpu {
-                Some(stats) => stats,
-                None => {
-                    report.notes.push(
+            report.gwn = Some(
+                match resolve_gpu(ctx, &mut grid, &gpu, tri, cap, opts.gwn_budget)? {
+                    Some(stats) => stats,
+                    None => {
+                        report.notes.push(
                         "the cap term ran on the CPU (the device lacks shaderFloat64, or the caps pass \
                          one invocation's loop)"
                             .into(),
                     );
-                    resolve_cpu(&mut grid, tri, cap, opts.gwn_budget)?
-                }
-            });
+                        resolve_cpu(&mut grid, tri, cap, opts.gwn_budget)?
+                    }
+                },
+            );
         }
         let grid = match surface {
             Some(s) => grid.union(&s),
@@ -713,6 +710,7 @@ impl Gpu {
     }
 
     /// One GPU method along the axes `three` and `opts.axes` give: (grid, axes, per-axis figures).
+    #[allow(clippy::too_many_arguments)]
     fn run_gpu_method(
         &self,
         method: Method,

@@ -128,6 +128,7 @@ impl GwnPasses {
 
     /// Stage 1: lists into `bricks` ({count, brick index…}, room for every brick) the bricks of `frame` whose
     /// bound does not clear them of the `ball_count` balls in `balls`.
+    #[allow(clippy::too_many_arguments)]
     pub fn record_bricks(
         &self,
         ctx: &Context,

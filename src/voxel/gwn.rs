@@ -38,6 +38,7 @@
 //!   beyond it); nothing is allocated per voxel of the grid.
 use super::grid::{GridFrame, VoxelGrid};
 use super::mesh::TriMesh;
+use super::surface::{cross, dot, sub};
 use crate::error::{Error, Result};
 use rayon::prelude::*;
 use std::collections::HashMap;
@@ -312,28 +313,14 @@ pub struct GwnStats {
 
 // ---- f64 kernels, mirrored operation for operation by glsl/include/gwn.glsl ----
 
-fn sub(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
-    [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
-}
-
-fn cross(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
-    [
-        a[1] * b[2] - a[2] * b[1],
-        a[2] * b[0] - a[0] * b[2],
-        a[0] * b[1] - a[1] * b[0],
-    ]
-}
-
-fn dot(a: [f64; 3], b: [f64; 3]) -> f64 {
-    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
-}
-
 fn norm(a: [f64; 3]) -> f64 {
     dot(a, a).sqrt()
 }
 
 /// atan on f64 (Cephes' `atan`: range reduction to |x| ≤ 0.66, then a 4/5 rational), written out so that the
 /// GPU, whose GLSL has no double-precision atan, computes the very same value.
+// The constants are Cephes' text, digit for digit (the GLSL copy parses the same text to the same f64).
+#[allow(clippy::excessive_precision)]
 pub fn atan_f64(x: f64) -> f64 {
     const P: [f64; 5] = [
         -8.750_608_600_031_904_122_785e-1,

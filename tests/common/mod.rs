@@ -42,3 +42,40 @@ pub fn model(name: &str) -> std::path::PathBuf {
         .join("assets/models")
         .join(name)
 }
+
+/// Decodes the oracle fixtures' (value, run) byte pairs (tests/oracle/gen_voxel.py, gen_gwn.py).
+pub fn unrle(b: &[u8]) -> Vec<u8> {
+    assert_eq!(b.len() % 2, 0, "run-length data comes in pairs");
+    let mut out = Vec::new();
+    for p in b.chunks_exact(2) {
+        out.extend(std::iter::repeat_n(p[0], p[1] as usize));
+    }
+    out
+}
+
+/// An oracle mask file (bool [i][j][k] of a res³ grid, C order, packed little-endian bits, run-length
+/// coded) as a grid in `frame`, its popcount checked against `count`.
+pub fn load_mask(
+    file: &std::path::Path,
+    frame: gregvox::voxel::grid::GridFrame,
+    res: u32,
+    count: u64,
+) -> gregvox::voxel::grid::VoxelGrid {
+    use gregvox::voxel::grid::{Axis, VoxelGrid};
+    let bytes = unrle(&std::fs::read(file).unwrap());
+    let r = res as usize;
+    assert_eq!(bytes.len(), (r * r * r).div_ceil(8), "{}", file.display());
+    let mut g = VoxelGrid::empty(frame, Axis::Z);
+    for i in 0..r {
+        for j in 0..r {
+            for k in 0..r {
+                let n = (i * r + j) * r + k;
+                if bytes[n / 8] >> (n % 8) & 1 == 1 {
+                    g.set(i as u32, j as u32, k as u32, true);
+                }
+            }
+        }
+    }
+    assert_eq!(g.count(), count, "{}: popcount", file.display());
+    g
+}
