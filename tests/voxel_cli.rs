@@ -103,29 +103,50 @@ fn peel_and_cpu_agree_on_spot_and_the_binvox_parses_back() {
 }
 
 #[test]
-fn open_meshes_are_reported_and_peeled_along_three_axes() {
-    let out = gregvox(&[
-        "voxelize",
-        &model("suzanne.obj"),
-        "--res",
-        "32",
-        "--method",
-        "peel",
-        "--json",
-    ]);
+fn open_meshes_are_capped_for_the_generalized_winding_number_and_voted_with_axes_3() {
+    let run = |extra: &[&str]| {
+        let mut args = vec![
+            "voxelize".to_string(),
+            model("suzanne.obj"),
+            "--res".into(),
+            "32".into(),
+            "--method".into(),
+            "peel".into(),
+            "--json".into(),
+        ];
+        args.extend(extra.iter().map(|s| s.to_string()));
+        let args: Vec<&str> = args.iter().map(String::as_str).collect();
+        let out = gregvox(&args);
+        assert!(
+            out.status.success(),
+            "{}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        let err = String::from_utf8_lossy(&out.stderr).into_owned();
+        assert!(err.contains("open mesh (42 boundary"), "{err}");
+        let j: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+        assert_eq!(
+            j["removed"]["cancelled"], 2,
+            "suzanne's duplicate face pair"
+        );
+        (j, err)
+    };
+    // Default: the generalized winding number over one axis, its cap and flips reported.
+    let (j, _) = run(&[]);
+    assert_eq!(j["rule"], "gwn");
+    assert_eq!(j["layers"].as_object().unwrap().len(), 1);
+    let gwn = &j["gwn"];
+    assert!(gwn["loops_capped"].as_u64().unwrap() >= 1, "{gwn}");
+    assert_eq!(gwn["boundary_edges"], 42, "{gwn}");
     assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
+        gwn["cap_term_voxels"].as_u64().unwrap() >= gwn["flipped"].as_u64().unwrap(),
+        "{gwn}"
     );
-    let err = String::from_utf8_lossy(&out.stderr);
-    assert!(err.contains("open mesh (42 boundary"), "{err}");
-    let j: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    // --axes 3 keeps the old 2-of-3 vote of the winding rule, and says so.
+    let (j, err) = run(&["--axes", "3"]);
     assert_eq!(j["layers"].as_object().unwrap().len(), 3);
-    assert_eq!(
-        j["removed"]["cancelled"], 2,
-        "suzanne's duplicate face pair"
-    );
+    assert!(j["gwn"].is_null(), "{}", j["gwn"]);
+    assert!(err.contains("2-of-3 vote"), "{err}");
 }
 
 #[test]
@@ -241,6 +262,8 @@ fn abuffer_method_equals_peel_on_teapot_and_writes_vox() {
         "cpu",
         "--axes",
         "1",
+        "--rule",
+        "winding",
     ]);
     assert!(o.status.success());
     let err = String::from_utf8_lossy(&o.stderr);

@@ -6,17 +6,19 @@
 #ifndef GREGVOX_GWN_GLSL
 #define GREGVOX_GWN_GLSL
 
-// A cap triangle in grid-local world coordinates (CapTriangle in src/voxel/gwn.rs).
+// A cap triangle in grid-local world coordinates (CapTriangle in src/voxel/gwn.rs): a.w is the length of its
+// boundary edge a-b, b.w the radius of a ball round its centroid that holds it.
 struct CapTriangle {
     dvec4 a;
     dvec4 b;
     dvec4 c;
 };
 
-// A loop's bounding ball (xyz: apex, w: radius) and its fan's area in .x (CapBall in src/voxel/gwn.rs).
-struct CapBall {
-    dvec4 centre_radius;
-    dvec4 area;
+// A voxel the cap-term pass lists (Listed in src/voxel/gwn.rs): xyz the voxel, w 1 for a direct voxel (near
+// the cap), 0 for a crossing voxel; w_cap.x the cap term.
+struct GwnListed {
+    uvec4 voxel;
+    dvec2 w_cap;
 };
 
 const double GWN_FOUR_PI = 12.566370614359172lf;
@@ -24,7 +26,8 @@ const double GWN_PI = 3.141592653589793lf;
 const double GWN_FRAC_PI_2 = 1.5707963267948966lf;
 const double GWN_FRAC_PI_4 = 0.7853981633974483lf;
 const double GWN_MARGIN = 1e-6lf;
-const uint GWN_BRICK = 8u;
+const uint GWN_CELL = 2u;
+const uint GWN_SPLIT = 2u;
 
 dvec3 gwn_sub(dvec3 a, dvec3 b) {
     precise double x = a.x - b.x;
@@ -121,7 +124,42 @@ dvec3 gwn_centre(uvec3 ijk, dvec3 size) {
     return dvec3(x, y, z);
 }
 
-// Within `near` of the plane of t and inside its box grown by `near` (src/voxel/gwn.rs::near_triangle).
+// Squared distance from p to the segment a-b (src/voxel/gwn.rs::segment_distance2).
+double gwn_segment_distance2(dvec3 p, dvec3 a, dvec3 b) {
+    dvec3 ab = gwn_sub(b, a), ap = gwn_sub(p, a);
+    double l2 = gwn_dot(ab, ab);
+    double t = 0.0lf;
+    if (l2 > 0.0lf) {
+        precise double q = gwn_dot(ap, ab) / l2;
+        t = min(max(q, 0.0lf), 1.0lf);
+    }
+    precise double qx = a.x + t * ab.x;
+    precise double qy = a.y + t * ab.y;
+    precise double qz = a.z + t * ab.z;
+    dvec3 d = gwn_sub(p, dvec3(qx, qy, qz));
+    return gwn_dot(d, d);
+}
+
+// Distance from p to cap triangle t (src/voxel/gwn.rs::triangle_distance).
+double gwn_triangle_distance(dvec3 p, CapTriangle t) {
+    dvec3 a = t.a.xyz, b = t.b.xyz, c = t.c.xyz;
+    dvec3 n = gwn_cross(gwn_sub(b, a), gwn_sub(c, a));
+    double nn = gwn_dot(n, n);
+    if (nn > 0.0lf
+        && gwn_dot(gwn_cross(gwn_sub(b, a), gwn_sub(p, a)), n) >= 0.0lf
+        && gwn_dot(gwn_cross(gwn_sub(c, b), gwn_sub(p, b)), n) >= 0.0lf
+        && gwn_dot(gwn_cross(gwn_sub(a, c), gwn_sub(p, c)), n) >= 0.0lf) {
+        precise double r = abs(gwn_dot(n, gwn_sub(p, a))) / sqrt(nn);
+        return r;
+    }
+    precise double m = min(min(gwn_segment_distance2(p, a, b), gwn_segment_distance2(p, b, c)),
+                           gwn_segment_distance2(p, c, a));
+    precise double r = sqrt(m);
+    return r;
+}
+
+// Within `near` of t: its plane and box grown by `near` first, then the exact distance
+// (src/voxel/gwn.rs::near_triangle).
 bool gwn_near_triangle(dvec3 p, CapTriangle t, double near) {
     dvec3 a = t.a.xyz, b = t.b.xyz, c = t.c.xyz;
     dvec3 n = gwn_cross(gwn_sub(b, a), gwn_sub(c, a));
@@ -136,6 +174,26 @@ bool gwn_near_triangle(dvec3 p, CapTriangle t, double near) {
         precise double hi = max(max(a[k], b[k]), c[k]) + near;
         if (!(p[k] >= lo && p[k] <= hi)) return false;
     }
-    return true;
+    return gwn_triangle_distance(p, t) <= near;
+}
+
+// A lower bound on the distance from p to t: to its ball (src/voxel/gwn.rs::ball_distance).
+double gwn_ball_distance(dvec3 p, CapTriangle t) {
+    precise double mx = (t.a.x + t.b.x + t.c.x) / 3.0lf;
+    precise double my = (t.a.y + t.b.y + t.c.y) / 3.0lf;
+    precise double mz = (t.a.z + t.b.z + t.c.z) / 3.0lf;
+    precise double r = gwn_norm(gwn_sub(p, dvec3(mx, my, mz))) - t.b.w;
+    return r;
+}
+
+// The distance bound past r of the box test (src/voxel/gwn.rs::box_needs_cap_term's `gap`).
+double gwn_gap(dvec3 c, double r, CapTriangle t, double near) {
+    precise double g = gwn_ball_distance(c, t) - r;
+    precise double lim = 4.0lf * t.b.w + near;
+    if (g <= lim) {
+        precise double e = gwn_triangle_distance(c, t) - r;
+        return e;
+    }
+    return g;
 }
 #endif

@@ -523,8 +523,14 @@ pub fn voxelize_on_cpu(mesh: &Mesh, opts: &VoxelizeOptions) -> Result<Voxelizati
         } else {
             grids.into_iter().next().expect("one axis")
         };
-        if let Some((cap, _)) = &prepared.capped {
-            report.gwn = Some(resolve_cpu(&mut grid, &prepared.tri, cap, opts.gwn_budget)?);
+        if let Some((cap, closed)) = &prepared.capped {
+            report.gwn = Some(resolve_cpu(
+                &mut grid,
+                &prepared.tri,
+                closed,
+                cap,
+                opts.gwn_budget,
+            )?);
         }
         Some(grid)
     };
@@ -685,11 +691,11 @@ impl Gpu {
         report.axes = axes;
         report.layers = stats.iter().map(|s| (s.axis, s.layers)).collect();
         let mut grid = grid;
-        if let Some((cap, _)) = &prepared.capped {
+        if let Some((cap, closed)) = &prepared.capped {
             // The cap term on the GPU when it computes in f64 (the same operations as the CPU's), else on
             // the CPU: the same bits either way.
             report.gwn = Some(
-                match resolve_gpu(ctx, &mut grid, &gpu, tri, cap, opts.gwn_budget)? {
+                match resolve_gpu(ctx, &mut grid, &gpu, tri, closed, cap, opts.gwn_budget)? {
                     Some(stats) => stats,
                     None => {
                         report.notes.push(
@@ -697,7 +703,7 @@ impl Gpu {
                          one invocation's loop)"
                             .into(),
                     );
-                        resolve_cpu(&mut grid, tri, cap, opts.gwn_budget)?
+                        resolve_cpu(&mut grid, tri, closed, cap, opts.gwn_budget)?
                     }
                 },
             );

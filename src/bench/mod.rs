@@ -27,7 +27,9 @@ use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 /// The suites, in run order. `peak` runs first: the floors of the other tables divide by its figures.
-pub const SUITES: [&str; 6] = ["peak", "thesis", "gregory", "voxel", "mesh", "scaling"];
+pub const SUITES: [&str; 7] = [
+    "peak", "thesis", "gregory", "voxel", "gwn", "mesh", "scaling",
+];
 
 /// What a run measures and where the inputs are.
 #[derive(Clone, Debug)]
@@ -603,6 +605,7 @@ pub fn run(cfg: &BenchConfig, command: &str) -> anyhow::Result<Report> {
                     gregory::adaptive(cfg, &mut report)?;
                 }
                 "voxel" => voxel::run(&ctx, cfg, peak.as_ref(), &mut report)?,
+                "gwn" => voxel::gwn_table(cfg, &mut report)?,
                 "mesh" => mesh::run(cfg, peak.as_ref(), &mut report)?,
                 "scaling" => {
                     gregory::scaling(&ctx, cfg, &mut report)?;

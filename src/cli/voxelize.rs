@@ -294,8 +294,13 @@ pub fn run(args: &VoxelizeArgs) -> anyhow::Result<()> {
     if let Some(g) = &report.gwn {
         text.push_str(&format!(
             "generalized winding number: {} boundary loops capped ({} edges); cap term at {} voxels, {} \
-             summed directly, {} flipped\n",
-            g.loops_capped, g.boundary_edges, g.cap_term_voxels, g.direct_voxels, g.flipped
+             from the crossing count, {} summed directly, {} flipped\n",
+            g.loops_capped,
+            g.boundary_edges,
+            g.cap_term_voxels,
+            g.crossing_voxels,
+            g.direct_voxels,
+            g.flipped
         ));
     }
     let what = match report.fill {

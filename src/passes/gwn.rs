@@ -1,10 +1,11 @@
 //! The generalized winding number's three compute passes (`glsl/gwn_bricks.comp`, `glsl/gwn_cap_term.comp`,
-//! `glsl/gwn_direct.comp`), the GPU side of `voxel::gwn`'s stages 1–3, operation for operation the CPU's.
+//! `glsl/gwn_direct.comp`), the GPU side of `voxel::gwn`'s stages 1–3 (the crossing count of stage 3 is the
+//! CPU scanline's, on the host), operation for operation the CPU's.
 //!
 //! Invariants: each pass owns its pipeline; every buffer is the caller's (`engine::voxelize::resolve_gpu`).
 //! The list buffers start with their u32 count, which `record` zeroes; counts are exact even past a list's
 //! capacity (writes past it are dropped), so the caller detects an overflow. Loops in a shader run over the
-//! loops or cap triangles (at most [`MAX_LOOP`]) or one chunk of the mesh: lavapipe silently cuts loops
+//! cap triangles (at most [`MAX_LOOP`]) or one chunk of the mesh: lavapipe silently cuts loops
 //! past 65,535 iterations. The shaders compute in f64: [`GwnPasses::new`] refuses a device without
 //! `shaderFloat64`. On exit of each `record` the outputs are visible to transfers and later compute.
 use crate::error::{Error, Result};
@@ -12,10 +13,12 @@ use crate::gpu::pipeline::{Binding, ComputePipeline, DescriptorSetLayoutBuilder}
 use crate::gpu::resources::memory_barrier;
 use crate::gpu::{shaders, Buffer, Context};
 use crate::voxel::grid::GridFrame;
-use crate::voxel::gwn::{brick_dims, DIRECT_CHUNK};
+use crate::voxel::gwn::{
+    level_dims, level_edge, CELL, DIRECT_CHUNK, LEVELS, LISTED_VOXEL_BYTES, SPLIT,
+};
 use ash::vk;
 
-/// The longest loop a shader runs over balls or cap triangles.
+/// The longest loop a shader runs over cap triangles.
 pub const MAX_LOOP: usize = 16384;
 
 /// Push constants of the brick and cap-term passes (`Push` in glsl/gwn_bricks.comp, gwn_cap_term.comp).
@@ -24,10 +27,13 @@ pub const MAX_LOOP: usize = 16384;
 struct CapPush {
     /// xyz: voxel size, w: the near distance.
     voxel_size: [f64; 4],
-    /// xyz: voxels per axis, w: balls (bricks pass) or cap triangles (cap-term pass).
+    /// xyz: voxels per axis, w: cap triangles.
     dims: [u32; 4],
-    /// xyz: bricks per axis, w: bricks in all (bricks pass) or the direct list's capacity (cap-term pass).
+    /// xyz: boxes per axis (bricks pass: of its level; cap-term pass: cells), w: invocations (bricks pass) or
+    /// the list's capacity (cap-term pass).
     bdims: [u32; 4],
+    /// x: the bricks pass's level (0: the coarsest boxes), y: its box edge in voxels.
+    level: [u32; 4],
 }
 
 /// Push constants of the direct pass (`Push` in glsl/gwn_direct.comp).
@@ -103,7 +109,7 @@ impl GwnPasses {
                 ctx,
                 "gwn bricks",
                 shaders::GWN_BRICKS_COMP,
-                vec![layout(2, "gwn bricks set")?],
+                vec![layout(3, "gwn bricks set")?],
                 cap_push,
                 64,
             )?,
@@ -126,8 +132,10 @@ impl GwnPasses {
         })
     }
 
-    /// Stage 1: lists into `bricks` ({count, brick index…}, room for every brick) the bricks of `frame` whose
-    /// bound does not clear them of the `ball_count` balls in `balls`.
+    /// Stage 1, one level (boxes of [`level_edge`]³ voxels). Level 0 lists into `outs`
+    /// ({count, index…}) the boxes (linear index) of `frame` that the `triangle_count` cap triangles' bound
+    /// does not clear; the next levels list those among the children of the `in_count` boxes of the level
+    /// above listed in `ins`. `outs` has room for every box of its level.
     #[allow(clippy::too_many_arguments)]
     pub fn record_bricks(
         &self,
@@ -135,40 +143,56 @@ impl GwnPasses {
         cmd: vk::CommandBuffer,
         frame: &GridFrame,
         near: f64,
-        balls: &Buffer,
-        ball_count: u32,
-        bricks: &Buffer,
+        triangles: &Buffer,
+        triangle_count: u32,
+        level: u32,
+        ins: &Buffer,
+        in_count: u32,
+        outs: &Buffer,
     ) -> Result<()> {
-        let bd = brick_dims(frame);
-        let total = bd.iter().map(|&b| b as u64).product::<u64>();
-        if ball_count as usize > MAX_LOOP || (total + 1) * 4 > bricks.size() {
+        let bd = level_dims(frame, level);
+        let room = bd.iter().map(|&b| b as u64).product::<u64>();
+        let invocations = if level == 0 {
+            room
+        } else {
+            in_count as u64 * (SPLIT * SPLIT * SPLIT) as u64
+        };
+        if level >= LEVELS
+            || triangle_count as usize > MAX_LOOP
+            || invocations > u32::MAX as u64
+            || (room + 1) * 4 > outs.size()
+        {
             return Err(Error::Invalid(format!(
-                "gwn bricks: {ball_count} balls or {total} bricks pass the pass's limits"
+                "gwn boxes: level {level}, {triangle_count} cap triangles or {invocations} boxes pass the \
+                 pass's limits"
             )));
         }
-        zero_count(ctx, cmd, bricks);
+        zero_count(ctx, cmd, outs);
         let h = frame.voxel_size;
         let push = CapPush {
             voxel_size: [h[0], h[1], h[2], near],
-            dims: [frame.dims[0], frame.dims[1], frame.dims[2], ball_count],
-            bdims: [bd[0], bd[1], bd[2], total as u32],
+            dims: [frame.dims[0], frame.dims[1], frame.dims[2], triangle_count],
+            bdims: [bd[0], bd[1], bd[2], invocations as u32],
+            level: [level, level_edge(level), 0, 0],
         };
         self.bricks.bind(
             ctx,
             cmd,
             &[
-                (0, Binding::Storage(balls.raw())),
-                (1, Binding::Storage(bricks.raw())),
+                (0, Binding::Storage(triangles.raw())),
+                (1, Binding::Storage(ins.raw())),
+                (2, Binding::Storage(outs.raw())),
             ],
             bytemuck::bytes_of(&push),
         );
-        self.bricks.dispatch_linear(ctx, cmd, total)?;
+        self.bricks.dispatch_linear(ctx, cmd, invocations)?;
         compute_to_compute_and_copy(ctx, cmd);
         Ok(())
     }
 
-    /// Stage 2: the cap term at every voxel of the `brick_count` listed bricks; direct voxels appended to
-    /// `direct` ({count, pad, uvec4 voxel…}, room for `capacity`).
+    /// Stage 2: the cap term at every voxel of the `cell_count` cells listed in `cells`; crossing and direct voxels
+    /// appended to `listed` ({count, pad, `Listed`…: uvec4 voxel + dvec2 w_C, 32 bytes}, room for
+    /// `capacity`).
     #[allow(clippy::too_many_arguments)]
     pub fn record_cap_term(
         &self,
@@ -178,36 +202,37 @@ impl GwnPasses {
         near: f64,
         triangles: &Buffer,
         triangle_count: u32,
-        bricks: &Buffer,
-        brick_count: u32,
-        direct: &Buffer,
+        cells: &Buffer,
+        cell_count: u32,
+        listed: &Buffer,
         capacity: u32,
     ) -> Result<()> {
-        let invocations = brick_count as u64 * 512;
+        let invocations = cell_count as u64 * (CELL * CELL * CELL) as u64;
         if triangle_count as usize > MAX_LOOP
             || invocations > u32::MAX as u64
-            || 16 + capacity as u64 * 16 > direct.size()
+            || 16 + capacity as u64 * LISTED_VOXEL_BYTES > listed.size()
         {
             return Err(Error::Invalid(format!(
-                "gwn cap term: {triangle_count} cap triangles, {brick_count} bricks or a list of \
+                "gwn cap term: {triangle_count} cap triangles, {cell_count} cells or a list of \
                  {capacity} pass the pass's limits"
             )));
         }
-        zero_count(ctx, cmd, direct);
-        let bd = brick_dims(frame);
+        zero_count(ctx, cmd, listed);
+        let bd = level_dims(frame, LEVELS - 1);
         let h = frame.voxel_size;
         let push = CapPush {
             voxel_size: [h[0], h[1], h[2], near],
             dims: [frame.dims[0], frame.dims[1], frame.dims[2], triangle_count],
             bdims: [bd[0], bd[1], bd[2], capacity],
+            level: [0; 4],
         };
         self.cap_term.bind(
             ctx,
             cmd,
             &[
                 (0, Binding::Storage(triangles.raw())),
-                (1, Binding::Storage(bricks.raw())),
-                (2, Binding::Storage(direct.raw())),
+                (1, Binding::Storage(cells.raw())),
+                (2, Binding::Storage(listed.raw())),
             ],
             bytemuck::bytes_of(&push),
         );

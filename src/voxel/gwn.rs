@@ -20,22 +20,27 @@
 //!   and on a closed mesh there is no cap and the grid is bit for bit the winding rule's.
 //! - Which voxels are looked at, in three stages that the GPU (`passes::gwn`, `glsl/gwn_*.comp`) mirrors
 //!   operation for operation (same f64 operations in the same order, so both find the same voxels):
-//!   1. bricks of [`BRICK`]³ voxels: a brick is safe when every loop's ball (centre = its apex, radius = its
-//!      farthest vertex) is more than [`near_distance`] away and Σ area / (4π d²) < ½ − [`MARGIN`] (a
-//!      triangle of area A at distance ≥ d subtends at most A / d²): there |w_C| < ½ and the closed grid
-//!      stands;
-//!   2. in the other bricks, every voxel centre gets w_C exactly (Van Oosterom–Strackee solid angles of the
-//!      cap triangles). A voxel is a *direct* voxel when |w_C| ≥ ½ − [`MARGIN`], or when its centre lies
-//!      within [`near_distance`] of a cap triangle (there the rasterized crossing of the snapped cap and the
-//!      analytic cap term could disagree);
-//!   3. a direct voxel gets w_M itself, summed over every triangle of M in chunks of [`DIRECT_CHUNK`]
-//!      (chunk sums added in chunk order): inside iff |w_M| ≥ ½. A cap so large that the bound is useless
-//!      only makes stages 2 and 3 visit more voxels; the answer stays exact.
+//!   1. boxes of voxels, from 32³ down to cells of [`CELL`]³ ([`LEVELS`] levels, [`SPLIT`]³ children a
+//!      box, only the children of boxes not cleared looked at): a box is cleared when every cap triangle
+//!      lies farther than its radius r + [`near_distance`] from its centre c and
+//!      |w_C(c)| + r · Σ_edges length / (4π (d − r)²) < ½ − [`MARGIN`] (w_C is harmonic off the cap, its
+//!      gradient the Biot–Savart integral over the cap's boundary, d a lower bound on the distance to the
+//!      edge's fan triangle): there |w_C| < ½ and the closed grid stands;
+//!   2. in the cells not cleared, every voxel centre gets w_C exactly (Van Oosterom–Strackee solid angles
+//!      of the cap triangles). A voxel is listed when its centre lies within [`near_distance`] of a cap
+//!      triangle (a *direct* voxel: there the rasterized crossing of the snapped cap and the analytic cap
+//!      term could disagree), or else when |w_C| ≥ ½ − [`MARGIN`] (a *crossing* voxel);
+//!   3. a crossing voxel is inside iff |n − w_C| ≥ ½, n the closed mesh's signed crossing count along the
+//!      grid's column ([`column_windings`], the CPU scanline's own count, the integer w_{M∪C}); a direct
+//!      voxel gets w_M itself, summed over every triangle of M in chunks of [`DIRECT_CHUNK`] (chunk sums
+//!      added in chunk order): inside iff |w_M| ≥ ½. A cap so large that the bound is useless only makes
+//!      stages 2 and 3 visit more voxels; the answer stays exact.
 //! - Coordinates are local to the grid (world − origin, in f64; the centre of voxel i is (i + ½)·size), so
 //!   meshes far from the origin keep their precision. Solid angles are not affine invariant: everything is
 //!   evaluated in world units, never grid units.
-//! - The number of direct voxels is bounded by the memory budget the caller gives ([`Error::Limit`]
+//! - The number of listed voxels is bounded by the memory budget the caller gives ([`Error::Limit`]
 //!   beyond it); nothing is allocated per voxel of the grid.
+use super::cpu::column_windings;
 use super::grid::{GridFrame, VoxelGrid};
 use super::mesh::TriMesh;
 use super::surface::{cross, dot, sub};
@@ -43,16 +48,23 @@ use crate::error::{Error, Result};
 use rayon::prelude::*;
 use std::collections::HashMap;
 
-/// Edge of a brick, in voxels.
-pub const BRICK: u32 = 8;
+/// Edge of a cell, the smallest box of stage 1, in voxels: stage 2 evaluates the voxels of the cells
+/// stage 1 could not clear.
+pub const CELL: u32 = 2;
+/// Children per axis of a box of stage 1. A box whose bound clears it clears its children unseen.
+pub const SPLIT: u32 = 2;
+/// Levels of stage 1: boxes of 32³, 16³, 8³ (bricks), 4³ and 2³ ([`CELL`]) voxels.
+pub const LEVELS: u32 = 5;
+/// The level whose boxes are bricks (8³), counted in [`GwnStats::bricks_evaluated`].
+pub const BRICK_LEVEL: u32 = 2;
 /// Triangles per chunk of the direct sum (a GPU invocation sums one chunk: lavapipe cuts longer loops).
 pub const DIRECT_CHUNK: u32 = 4096;
 /// Slack on the ½ threshold for the cap term and the brick bound: far above the f64 rounding of a sum of a
 /// few thousand solid angles, far below any winding number a voxel centre off the surface has.
 pub const MARGIN: f64 = 1e-6;
-/// Bytes a direct voxel costs on the GPU method (its index, and its f64 partial sums per chunk are counted
-/// separately): the unit of the memory budget.
-pub const DIRECT_VOXEL_BYTES: u64 = 16;
+/// Bytes a listed (crossing or direct) voxel costs on the GPU method (its index and cap term; a direct
+/// voxel's f64 partial sums per chunk are counted separately): the unit of the memory budget.
+pub const LISTED_VOXEL_BYTES: u64 = 32;
 /// 4π.
 pub const FOUR_PI: f64 = 4.0 * std::f64::consts::PI;
 
@@ -82,31 +94,47 @@ pub struct Cap {
 impl Cap {
     /// The cap of `mesh` (empty for a closed mesh: every welded edge's uses cancel).
     pub fn of(mesh: &TriMesh) -> Result<Cap> {
-        // Weld exact duplicate positions (−0 and +0 alike) onto their first vertex.
+        // Weld exact duplicate positions (−0 and +0 alike) onto the lowest-numbered used vertex there: sort
+        // the used vertices by position bits (sorting, not hashing: a soup has three vertices a triangle).
         let key = |v: u32| mesh.positions[v as usize].map(|x| (x + 0.0).to_bits());
-        let mut first: HashMap<[u32; 3], u32> = HashMap::with_capacity(mesh.positions.len());
-        let mut rep = vec![u32::MAX; mesh.positions.len()];
+        let mut used = vec![false; mesh.positions.len()];
         for t in &mesh.triangles {
             for &v in t {
-                if rep[v as usize] == u32::MAX {
-                    rep[v as usize] = *first.entry(key(v)).or_insert(v);
-                }
+                used[v as usize] = true;
             }
         }
-        // Net oriented uses per undirected edge: + for lo→hi, − for hi→lo.
-        let mut uses: HashMap<(u32, u32), i64> = HashMap::new();
+        let mut order: Vec<u32> = (0..mesh.positions.len() as u32)
+            .filter(|&v| used[v as usize])
+            .collect();
+        order.par_sort_unstable_by_key(|&v| (key(v), v));
+        let mut rep = vec![u32::MAX; mesh.positions.len()];
+        let mut run = 0;
+        for (i, &v) in order.iter().enumerate() {
+            if i == 0 || key(v) != key(order[i - 1]) {
+                run = v;
+            }
+            rep[v as usize] = run;
+        }
+        // Net oriented uses per undirected edge: + for lo→hi, − for hi→lo (sorted, then summed per edge).
+        let mut uses: Vec<(u32, u32, i64)> = Vec::with_capacity(mesh.triangles.len() * 3);
         for t in &mesh.triangles {
             for k in 0..3 {
                 let (a, b) = (rep[t[k] as usize], rep[t[(k + 1) % 3] as usize]);
-                if a == b {
-                    continue;
+                if a != b {
+                    uses.push(if a < b { (a, b, 1) } else { (b, a, -1) });
                 }
-                let (key, s) = if a < b { ((a, b), 1) } else { ((b, a), -1) };
-                *uses.entry(key).or_insert(0) += s;
             }
         }
+        uses.par_sort_unstable_by_key(|&(a, b, _)| (a, b));
         let mut edges: Vec<(u32, u32)> = Vec::new();
-        for (&(lo, hi), &n) in &uses {
+        let mut i = 0;
+        while i < uses.len() {
+            let (lo, hi) = (uses[i].0, uses[i].1);
+            let mut n = 0i64;
+            while i < uses.len() && (uses[i].0, uses[i].1) == (lo, hi) {
+                n += uses[i].2;
+                i += 1;
+            }
             let e = if n > 0 { (lo, hi) } else { (hi, lo) };
             for _ in 0..n.unsigned_abs() {
                 edges.push(e);
@@ -198,31 +226,24 @@ impl Cap {
     }
 }
 
-/// A cap triangle in grid-local world coordinates (`CapTriangle` in glsl/include/gwn.glsl).
+/// A cap triangle in grid-local world coordinates (`CapTriangle` in glsl/include/gwn.glsl). A loop's fan
+/// triangle is (b, a, apex) for the mesh's boundary edge a → b, so its edge a–b (here `a`–`b`) is the cap's
+/// boundary edge and the other two cancel within the fan.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, PartialEq, bytemuck::Pod, bytemuck::Zeroable)]
 pub struct CapTriangle {
-    /// xyz of the three corners (w unused).
+    /// xyz: the first corner, w: the length of the boundary edge `a`–`b`.
     pub a: [f64; 4],
+    /// xyz: the second corner, w: the radius of a ball round the centroid that holds the triangle.
     pub b: [f64; 4],
+    /// xyz: the third corner (w unused).
     pub c: [f64; 4],
-}
-
-/// A loop's bounding ball and area in grid-local world coordinates (`CapBall` in glsl/include/gwn.glsl).
-#[repr(C)]
-#[derive(Clone, Copy, Debug, PartialEq, bytemuck::Pod, bytemuck::Zeroable)]
-pub struct CapBall {
-    /// xyz: the apex, w: the distance to the farthest loop vertex (the ball holds the whole fan).
-    pub centre_radius: [f64; 4],
-    /// x: the fan's area (y, z, w unused).
-    pub area: [f64; 4],
 }
 
 /// The cap placed in a grid: what the cap-term stages read.
 #[derive(Clone, Debug)]
 pub struct CapTerm {
     pub triangles: Vec<CapTriangle>,
-    pub balls: Vec<CapBall>,
     /// [`near_distance`] of the frame.
     pub near: f64,
 }
@@ -259,36 +280,24 @@ impl CapTerm {
             .iter()
             .map(|t| {
                 let [a, b, c] = t.map(pos);
-                CapTriangle {
-                    a: [a[0], a[1], a[2], 0.0],
+                // A hair more than the rounded length keeps the gradient bound a bound.
+                let edge = norm(sub(b, a)) * (1.0 + 1e-12);
+                let mut t = CapTriangle {
+                    a: [a[0], a[1], a[2], edge],
                     b: [b[0], b[1], b[2], 0.0],
                     c: [c[0], c[1], c[2], 0.0],
-                }
-            })
-            .collect();
-        let balls = cap
-            .loops
-            .iter()
-            .map(|l| {
-                let apex = pos(l.apex);
-                let mut radius = 0.0f64;
-                let mut area = 0.0f64;
-                for t in &triangles[l.first as usize..(l.first + l.count) as usize] {
-                    let a = [t.a[0], t.a[1], t.a[2]];
-                    let b = [t.b[0], t.b[1], t.b[2]];
-                    radius = radius.max(norm(sub(a, apex))).max(norm(sub(b, apex)));
-                    area += 0.5 * norm(cross(sub(a, apex), sub(b, apex)));
-                }
-                // Rounding of the distances above: a hair more keeps the ball a bound.
-                CapBall {
-                    centre_radius: [apex[0], apex[1], apex[2], radius * (1.0 + 1e-12)],
-                    area: [area * (1.0 + 1e-12), 0.0, 0.0, 0.0],
-                }
+                };
+                let m = centroid(&t);
+                let radius = [a, b, c]
+                    .iter()
+                    .fold(0.0f64, |r, &v| r.max(norm(sub(v, m))));
+                // A hair more: the ball holds the triangle despite rounding.
+                t.b[3] = radius * (1.0 + 1e-12) + 1e-300;
+                t
             })
             .collect();
         CapTerm {
             triangles,
-            balls,
             near: near_distance(frame),
         }
     }
@@ -301,13 +310,16 @@ pub struct GwnStats {
     pub loops_capped: usize,
     /// Boundary edges, with multiplicity.
     pub boundary_edges: usize,
-    /// Bricks whose bound did not clear them.
+    /// Bricks (8³ voxels) whose bound did not clear them.
     pub bricks_evaluated: u64,
-    /// Voxels whose cap term was evaluated (every voxel of those bricks).
+    /// Voxels whose cap term was evaluated (every voxel of the cells, 2³, not cleared).
     pub cap_term_voxels: u64,
-    /// Voxels whose winding number was summed directly over the mesh.
+    /// Voxels where |w_C| reached ½: answered from the closed mesh's signed crossing count n and the cap
+    /// term, |n − w_C| ≥ ½.
+    pub crossing_voxels: u64,
+    /// Voxels within [`near_distance`] of a cap triangle: their winding number summed directly over the mesh.
     pub direct_voxels: u64,
-    /// Direct voxels whose answer differs from the closed mesh's winding rule.
+    /// Crossing and direct voxels whose answer differs from the closed mesh's winding rule.
     pub flipped: u64,
 }
 
@@ -397,45 +409,163 @@ pub fn centre(frame: &GridFrame, ijk: [u32; 3]) -> [f64; 3] {
     std::array::from_fn(|a| (ijk[a] as f64 + 0.5) * frame.voxel_size[a])
 }
 
-/// Bricks per axis.
-pub fn brick_dims(frame: &GridFrame) -> [u32; 3] {
-    frame.dims.map(|d| d.div_ceil(BRICK))
+/// The squared distance from `p` to the segment a–b.
+fn segment_distance2(p: [f64; 3], a: [f64; 3], b: [f64; 3]) -> f64 {
+    let (ab, ap) = (sub(b, a), sub(p, a));
+    let l2 = dot(ab, ab);
+    let t = if l2 > 0.0 {
+        (dot(ap, ab) / l2).clamp(0.0, 1.0)
+    } else {
+        0.0
+    };
+    let q = [a[0] + t * ab[0], a[1] + t * ab[1], a[2] + t * ab[2]];
+    let d = sub(p, q);
+    dot(d, d)
 }
 
-/// Stage 1: whether brick `b` needs its cap term evaluated.
-pub fn brick_needs_cap_term(frame: &GridFrame, term: &CapTerm, b: [u32; 3]) -> bool {
-    let lo = centre(frame, b.map(|x| x * BRICK));
-    let hi = centre(
-        frame,
-        std::array::from_fn(|a| (b[a] * BRICK + BRICK).min(frame.dims[a]) - 1),
+/// The distance from `p` to cap triangle `t` (to its plane where p projects inside it, else to its nearest
+/// edge; a degenerate triangle is its edges).
+pub fn triangle_distance(p: [f64; 3], t: &CapTriangle) -> f64 {
+    let (a, b, c) = (
+        [t.a[0], t.a[1], t.a[2]],
+        [t.b[0], t.b[1], t.b[2]],
+        [t.c[0], t.c[1], t.c[2]],
     );
+    let n = cross(sub(b, a), sub(c, a));
+    let nn = dot(n, n);
+    if nn > 0.0
+        && dot(cross(sub(b, a), sub(p, a)), n) >= 0.0
+        && dot(cross(sub(c, b), sub(p, b)), n) >= 0.0
+        && dot(cross(sub(a, c), sub(p, c)), n) >= 0.0
+    {
+        return dot(n, sub(p, a)).abs() / nn.sqrt();
+    }
+    segment_distance2(p, a, b)
+        .min(segment_distance2(p, b, c))
+        .min(segment_distance2(p, c, a))
+        .sqrt()
+}
+
+/// Stage 1: whether the voxels `[lo, hi)` (a box of [`level_edge`]³) need their cap term evaluated. With c
+/// the centre of their centres and r the farthest centre's distance from it, they do not when every cap triangle lies farther than r + `near` from c (no centre is near the cap, and w_C is
+/// smooth over the ball) and |w_C(c)| + r · sup|∇w_C| < ½ − [`MARGIN`], where ∇w_C is the Biot–Savart
+/// integral over the cap's boundary: |∇w_C| ≤ Σ_edges length / (4π (d − r)²), d ≥ the distance from c to
+/// the edge's fan triangle.
+pub fn box_needs_cap_term(frame: &GridFrame, term: &CapTerm, lo: [u32; 3], hi: [u32; 3]) -> bool {
+    let a = centre(frame, lo);
+    let b = centre(frame, [hi[0] - 1, hi[1] - 1, hi[2] - 1]);
     let c = [
-        (lo[0] + hi[0]) * 0.5,
-        (lo[1] + hi[1]) * 0.5,
-        (lo[2] + hi[2]) * 0.5,
+        (a[0] + b[0]) * 0.5,
+        (a[1] + b[1]) * 0.5,
+        (a[2] + b[2]) * 0.5,
     ];
-    let r = 0.5 * norm(sub(hi, lo));
-    let mut bound = 0.0f64;
-    for ball in &term.balls {
-        let l = [
-            ball.centre_radius[0],
-            ball.centre_radius[1],
-            ball.centre_radius[2],
-        ];
-        let d = norm(sub(c, l)) - ball.centre_radius[3] - r;
-        if d <= term.near {
+    let r = 0.5 * norm(sub(b, a));
+    // A lower bound on each triangle's distance beyond r: its ball's where the ball lies farther than four
+    // radii (the bound then loses at most a factor 2.25 on a term that small), else the exact one. First
+    // any triangle too near (no solid angle spent on a box that fails by distance)...
+    let gap = |t: &CapTriangle| {
+        let g = ball_distance(c, t) - r;
+        if g <= 4.0 * t.b[3] + term.near {
+            triangle_distance(c, t) - r
+        } else {
+            g
+        }
+    };
+    let mut gaps = Vec::with_capacity(term.triangles.len());
+    for t in &term.triangles {
+        let g = gap(t);
+        if g <= term.near {
             return true;
         }
-        bound += ball.area[0] / (FOUR_PI * d * d);
-        if bound >= 0.5 - MARGIN {
-            return true;
+        gaps.push(g);
+    }
+    // ... then the bound (the GPU recomputes the same gaps).
+    let mut sum = 0.0f64;
+    let mut gradient = 0.0f64;
+    for (t, &g) in term.triangles.iter().zip(&gaps) {
+        sum += solid_angle(
+            c,
+            [t.a[0], t.a[1], t.a[2]],
+            [t.b[0], t.b[1], t.b[2]],
+            [t.c[0], t.c[1], t.c[2]],
+        );
+        gradient += t.a[3] / (g * g);
+    }
+    (sum.abs() + r * gradient) / FOUR_PI >= 0.5 - MARGIN
+}
+
+/// The centroid of cap triangle `t`.
+fn centroid(t: &CapTriangle) -> [f64; 3] {
+    std::array::from_fn(|k| (t.a[k] + t.b[k] + t.c[k]) / 3.0)
+}
+
+/// A lower bound on the distance from `p` to cap triangle `t`: to the ball round its centroid that holds it
+/// (radius in `b[3]`).
+fn ball_distance(p: [f64; 3], t: &CapTriangle) -> f64 {
+    norm(sub(p, centroid(t))) - t.b[3]
+}
+
+/// The voxels `[lo, hi)` of box `b` of edge `edge` voxels, clipped to the grid.
+pub fn box_range(frame: &GridFrame, b: [u32; 3], edge: u32) -> ([u32; 3], [u32; 3]) {
+    (
+        b.map(|x| x * edge),
+        std::array::from_fn(|a| (b[a] * edge + edge).min(frame.dims[a])),
+    )
+}
+
+/// Edge, in voxels, of the boxes of stage 1's `level` (0: the coarsest, `LEVELS − 1`: cells).
+pub fn level_edge(level: u32) -> u32 {
+    CELL * SPLIT.pow(LEVELS - 1 - level)
+}
+
+/// Boxes per axis at stage 1's `level`.
+pub fn level_dims(frame: &GridFrame, level: u32) -> [u32; 3] {
+    let e = level_edge(level);
+    frame.dims.map(|d| d.div_ceil(e))
+}
+
+/// The children (boxes of `level` + 1) of box `b` of `level` that lie in the grid, in (z, y, x) order.
+pub fn children(frame: &GridFrame, level: u32, b: [u32; 3]) -> impl Iterator<Item = [u32; 3]> {
+    let cd = level_dims(frame, level + 1);
+    (0..SPLIT * SPLIT * SPLIT).filter_map(move |s| {
+        let c = [
+            b[0] * SPLIT + s % SPLIT,
+            b[1] * SPLIT + (s / SPLIT) % SPLIT,
+            b[2] * SPLIT + s / (SPLIT * SPLIT),
+        ];
+        (0..3).all(|a| c[a] < cd[a]).then_some(c)
+    })
+}
+
+/// Stage 1 on the CPU: the cells whose cap term is needed, in (z, y, x) order, and how many bricks were
+/// needed on the way (what the GPU's box passes list, one a level).
+pub fn needed_cells(frame: &GridFrame, term: &CapTerm) -> (u64, Vec<[u32; 3]>) {
+    let needed = |level: u32, b: [u32; 3]| {
+        let (lo, hi) = box_range(frame, b, level_edge(level));
+        box_needs_cap_term(frame, term, lo, hi)
+    };
+    let cd = level_dims(frame, 0);
+    let mut boxes: Vec<[u32; 3]> = (0..cd[2] * cd[1] * cd[0])
+        .into_par_iter()
+        .map(|g| [g % cd[0], (g / cd[0]) % cd[1], g / (cd[0] * cd[1])])
+        .filter(|&b| needed(0, b))
+        .collect();
+    let mut bricks = 0;
+    for level in 1..LEVELS {
+        boxes = boxes
+            .par_iter()
+            .flat_map_iter(|&b| children(frame, level - 1, b).filter(move |&c| needed(level, c)))
+            .collect();
+        if level == BRICK_LEVEL {
+            bricks = boxes.len() as u64;
         }
     }
-    false
+    boxes.sort_unstable_by_key(|b| [b[2], b[1], b[0]]);
+    (bricks, boxes)
 }
 
-/// Whether `p` lies within `near` of the plane of cap triangle `t` and inside its box grown by `near` (a
-/// conservative "within `near` of the triangle"). Degenerate triangles (no area, nothing rasterized) never are.
+/// Whether `p` lies within `near` of cap triangle `t` (its plane and its box grown by `near` first, a cheap
+/// rejection, then the exact distance). Degenerate triangles (no area, nothing rasterized) never are.
 fn near_triangle(p: [f64; 3], t: &CapTriangle, near: f64) -> bool {
     let (a, b, c) = (
         [t.a[0], t.a[1], t.a[2]],
@@ -455,10 +585,11 @@ fn near_triangle(p: [f64; 3], t: &CapTriangle, near: f64) -> bool {
         let lo = a[k].min(b[k]).min(c[k]) - near;
         let hi = a[k].max(b[k]).max(c[k]) + near;
         p[k] >= lo && p[k] <= hi
-    })
+    }) && triangle_distance(p, t) <= near
 }
 
-/// Stage 2: w_C at the local point `p`, and whether `p` is a direct voxel.
+/// Stage 2: w_C at the local point `p`, and whether `p` lies within `near` of a cap triangle (a direct
+/// voxel).
 pub fn cap_term_at(term: &CapTerm, p: [f64; 3]) -> (f64, bool) {
     let mut sum = 0.0f64;
     let mut near = false;
@@ -471,20 +602,45 @@ pub fn cap_term_at(term: &CapTerm, p: [f64; 3]) -> (f64, bool) {
         );
         near = near || near_triangle(p, t, term.near);
     }
-    let w = sum / FOUR_PI;
-    (w, near || w.abs() >= 0.5 - MARGIN)
+    (sum / FOUR_PI, near)
 }
 
-/// Stage 3, one chunk: Σ Ω over triangles `[chunk·DIRECT_CHUNK, …)` of `mesh` at the local point `p`.
-pub fn direct_chunk(mesh: &TriMesh, frame: &GridFrame, p: [f64; 3], chunk: u32) -> f64 {
+/// M's triangles local to `frame` in f64 (p − origin per corner), what stage 3 sums: the GPU makes the same
+/// values from the f32 vertices.
+pub fn local_triangles(mesh: &TriMesh, frame: &GridFrame) -> Vec<[[f64; 3]; 3]> {
+    mesh.triangles
+        .par_iter()
+        .map(|t| t.map(|v| local(frame, mesh.positions[v as usize])))
+        .collect()
+}
+
+/// Stage 3, one chunk: Σ Ω over triangles `[chunk·DIRECT_CHUNK, …)` of `triangles` ([`local_triangles`]) at
+/// the local point `p`.
+pub fn direct_chunk(triangles: &[[[f64; 3]; 3]], p: [f64; 3], chunk: u32) -> f64 {
     let start = (chunk * DIRECT_CHUNK) as usize;
-    let end = (start + DIRECT_CHUNK as usize).min(mesh.triangles.len());
+    let end = (start + DIRECT_CHUNK as usize).min(triangles.len());
     let mut sum = 0.0f64;
-    for t in &mesh.triangles[start..end] {
-        let [a, b, c] = t.map(|v| local(frame, mesh.positions[v as usize]));
+    for &[a, b, c] in &triangles[start..end] {
         sum += solid_angle(p, a, b, c);
     }
     sum
+}
+
+/// Stage 3 for direct voxels on the CPU (all cores): |w_M| ≥ ½ at each centre, the chunk sums added in
+/// chunk order.
+pub fn direct_inside(mesh: &TriMesh, frame: &GridFrame, voxels: &[[u32; 3]]) -> Vec<bool> {
+    if voxels.is_empty() {
+        return Vec::new();
+    }
+    let triangles = local_triangles(mesh, frame);
+    let chunks = direct_chunks(triangles.len());
+    voxels
+        .par_iter()
+        .map(|&v| {
+            let p = centre(frame, v);
+            winding_from_chunks((0..chunks).map(|c| direct_chunk(&triangles, p, c))).abs() >= 0.5
+        })
+        .collect()
 }
 
 /// Chunks of the direct sum for `triangles`.
@@ -501,14 +657,17 @@ pub fn winding_from_chunks(chunks: impl IntoIterator<Item = f64>) -> f64 {
     sum / FOUR_PI
 }
 
-/// Refuses `direct` voxels past `budget` bytes (their indices and per-chunk sums on the GPU; the CPU keeps the
-/// same list).
-pub fn check_budget(direct: u64, chunks: u32, budget: u64) -> Result<()> {
-    let bytes = direct.saturating_mul(DIRECT_VOXEL_BYTES + 8 * chunks as u64);
+/// Refuses stage 2's list past `budget` bytes: `listed` voxels (crossing and direct, [`LISTED_VOXEL_BYTES`]
+/// each) and the per-chunk f64 sums of the `direct` ones (the GPU's buffers; the CPU keeps the same lists).
+pub fn check_budget(listed: u64, direct: u64, chunks: u32, budget: u64) -> Result<()> {
+    let bytes = listed
+        .saturating_mul(LISTED_VOXEL_BYTES)
+        .saturating_add(direct.saturating_mul(8 * chunks as u64));
     if bytes > budget {
         return Err(Error::Limit {
             what: format!(
-                "the caps of the mesh's holes: {direct} voxels to evaluate directly ({} MiB)",
+                "the caps of the mesh's holes: {listed} voxels to resolve, {direct} of them by a direct sum \
+                 ({} MiB)",
                 bytes >> 20
             ),
             detail: format!(
@@ -521,11 +680,42 @@ pub fn check_budget(direct: u64, chunks: u32, budget: u64) -> Result<()> {
     Ok(())
 }
 
-/// Stages 1–3 on the CPU (all cores) over `grid`, the winding rule of M ∪ C: sets every direct voxel to
-/// |w_M| ≥ ½. `mesh` is M (without the cap).
+/// A voxel stage 2 singled out: the cap term reached ½ (`direct` false: answered from the crossing count),
+/// or its centre is near the cap (`direct`: summed over the mesh).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Listed {
+    pub voxel: [u32; 3],
+    pub w_cap: f64,
+    pub direct: bool,
+}
+
+/// Stage 3 for the crossing voxels of `listed` (sorted (z, y, x)): |n − w_C| ≥ ½ with n the closed mesh's
+/// crossing count along the grid's bit axis ([`column_windings`]). Returns the voxels and answers, and
+/// counts them into `stats`.
+pub fn resolve_crossings(
+    grid: &VoxelGrid,
+    closed: &TriMesh,
+    listed: &[Listed],
+    stats: &mut GwnStats,
+) -> (Vec<[u32; 3]>, Vec<bool>) {
+    let crossing: Vec<&Listed> = listed.iter().filter(|l| !l.direct).collect();
+    stats.crossing_voxels = crossing.len() as u64;
+    let voxels: Vec<[u32; 3]> = crossing.iter().map(|l| l.voxel).collect();
+    let n = column_windings(closed, &grid.frame, grid.bit_axis, &voxels);
+    let inside = crossing
+        .iter()
+        .zip(&n)
+        .map(|(l, &n)| (n as f64 - l.w_cap).abs() >= 0.5)
+        .collect();
+    (voxels, inside)
+}
+
+/// Stages 1–3 on the CPU (all cores) over `grid`, the winding rule of `closed` = M ∪ C: sets every crossing
+/// and direct voxel to |w_M| ≥ ½. `mesh` is M (without the cap).
 pub fn resolve_cpu(
     grid: &mut VoxelGrid,
     mesh: &TriMesh,
+    closed: &TriMesh,
     cap: &Cap,
     budget: u64,
 ) -> Result<GwnStats> {
@@ -539,51 +729,47 @@ pub fn resolve_cpu(
         return Ok(stats);
     }
     let term = CapTerm::new(cap, mesh, &frame);
-    let bd = brick_dims(&frame);
-    let bricks: Vec<[u32; 3]> = (0..bd[2])
-        .into_par_iter()
-        .flat_map_iter(|z| {
-            let term = &term;
-            (0..bd[1]).flat_map(move |y| {
-                (0..bd[0]).filter_map(move |x| {
-                    brick_needs_cap_term(&frame, term, [x, y, z]).then_some([x, y, z])
-                })
-            })
-        })
-        .collect();
-    stats.bricks_evaluated = bricks.len() as u64;
-    let per_brick: Vec<(u64, Vec<[u32; 3]>)> = bricks
+    let (bricks, cells) = needed_cells(&frame, &term);
+    stats.bricks_evaluated = bricks;
+    let per_cell: Vec<(u64, Vec<Listed>)> = cells
         .par_iter()
         .map(|&b| {
             let mut n = 0;
-            let mut direct = Vec::new();
-            let hi: [u32; 3] = std::array::from_fn(|a| (b[a] * BRICK + BRICK).min(frame.dims[a]));
-            for k in b[2] * BRICK..hi[2] {
-                for j in b[1] * BRICK..hi[1] {
-                    for i in b[0] * BRICK..hi[0] {
+            let mut listed = Vec::new();
+            let (lo, hi) = box_range(&frame, b, CELL);
+            for k in lo[2]..hi[2] {
+                for j in lo[1]..hi[1] {
+                    for i in lo[0]..hi[0] {
                         n += 1;
-                        if cap_term_at(&term, centre(&frame, [i, j, k])).1 {
-                            direct.push([i, j, k]);
+                        let (w_cap, near) = cap_term_at(&term, centre(&frame, [i, j, k]));
+                        if near || w_cap.abs() >= 0.5 - MARGIN {
+                            listed.push(Listed {
+                                voxel: [i, j, k],
+                                w_cap,
+                                direct: near,
+                            });
                         }
                     }
                 }
             }
-            (n, direct)
+            (n, listed)
         })
         .collect();
-    stats.cap_term_voxels = per_brick.iter().map(|p| p.0).sum();
-    let direct: Vec<[u32; 3]> = per_brick.into_iter().flat_map(|p| p.1).collect();
+    stats.cap_term_voxels = per_cell.iter().map(|p| p.0).sum();
+    let mut listed: Vec<Listed> = per_cell.into_iter().flat_map(|p| p.1).collect();
+    listed.sort_unstable_by_key(|l| [l.voxel[2], l.voxel[1], l.voxel[0]]);
+    let direct: Vec<[u32; 3]> = listed
+        .iter()
+        .filter(|l| l.direct)
+        .map(|l| l.voxel)
+        .collect();
     stats.direct_voxels = direct.len() as u64;
     let chunks = direct_chunks(mesh.triangles.len());
-    check_budget(stats.direct_voxels, chunks, budget)?;
-    let inside: Vec<bool> = direct
-        .par_iter()
-        .map(|&v| {
-            let p = centre(&frame, v);
-            winding_from_chunks((0..chunks).map(|c| direct_chunk(mesh, &frame, p, c))).abs() >= 0.5
-        })
-        .collect();
-    stats.flipped = apply_direct(grid, &direct, &inside);
+    check_budget(listed.len() as u64, stats.direct_voxels, chunks, budget)?;
+    let (crossing, crossing_inside) = resolve_crossings(grid, closed, &listed, &mut stats);
+    let inside = direct_inside(mesh, &frame, &direct);
+    stats.flipped =
+        apply_direct(grid, &crossing, &crossing_inside) + apply_direct(grid, &direct, &inside);
     Ok(stats)
 }
 
@@ -684,5 +870,88 @@ mod tests {
         let cap = Cap::of(&flipped).unwrap();
         assert_eq!(cap.boundary_edges, 8);
         assert!(Cap::of(&cap.close(&flipped)).unwrap().triangles.is_empty());
+    }
+    #[test]
+    fn a_cleared_box_holds_no_voxel_the_cap_term_would_list() {
+        // A cube with its top face removed: a square hole, capped by a fan; the grid reaches past the mesh.
+        let mut open = TriMesh::cube([0.0; 3], 1.0);
+        open.triangles.truncate(10);
+        let cap = Cap::of(&open).unwrap();
+        let frame = GridFrame::from_points(&[[-0.6, -0.6, -0.6], [1.6, 1.6, 1.6]], 40).unwrap();
+        let term = CapTerm::new(&cap, &open, &frame);
+        let (mut cleared, mut needed) = (0, 0);
+        for level in 0..LEVELS {
+            let d = level_dims(&frame, level);
+            for z in 0..d[2] {
+                for y in 0..d[1] {
+                    for x in 0..d[0] {
+                        let (lo, hi) = box_range(&frame, [x, y, z], level_edge(level));
+                        if box_needs_cap_term(&frame, &term, lo, hi) {
+                            needed += 1;
+                            continue;
+                        }
+                        cleared += 1;
+                        for k in lo[2]..hi[2] {
+                            for j in lo[1]..hi[1] {
+                                for i in lo[0]..hi[0] {
+                                    let (w, near) = cap_term_at(&term, centre(&frame, [i, j, k]));
+                                    assert!(
+                                        !near && w.abs() < 0.5 - MARGIN,
+                                        "level {level} box {x},{y},{z}: voxel {i},{j},{k} w_C = {w}"
+                                    );
+                                }
+                            }
+                        }
+                    }
+                }
+            }
+        }
+        assert!(
+            cleared > 0 && needed > 0,
+            "{cleared} cleared, {needed} needed"
+        );
+        // The cells stage 1 keeps are a small part of the grid.
+        let (_, cells) = needed_cells(&frame, &term);
+        let total = level_dims(&frame, LEVELS - 1).iter().product::<u32>() as usize;
+        assert!(cells.len() * 4 < total, "{} of {total} cells", cells.len());
+    }
+
+    #[test]
+    fn the_column_winding_is_the_scanlines_crossing_count() {
+        use crate::voxel::cpu::{voxelize_cpu, FillRule};
+        use crate::voxel::grid::Axis;
+        // Two overlapping cubes, one inward: windings 0, 1, −1 and 2 show up.
+        let mut mesh = TriMesh::cube([0.0; 3], 1.0);
+        let mut inner = TriMesh::cube([0.25; 3], 0.5);
+        for t in &mut inner.triangles {
+            t.swap(1, 2);
+        }
+        let mut other = TriMesh::cube([0.5; 3], 1.0);
+        for m in [&mut inner, &mut other] {
+            let n = mesh.positions.len() as u32;
+            mesh.positions.extend_from_slice(&m.positions);
+            mesh.triangles
+                .extend(m.triangles.iter().map(|t| t.map(|v| v + n)));
+        }
+        let frame = GridFrame::from_points(&mesh.positions, 16).unwrap();
+        for axis in Axis::ALL {
+            let grid = voxelize_cpu(&mesh, &frame, axis, FillRule::Winding);
+            let voxels: Vec<[u32; 3]> = (0..16u32.pow(3))
+                .map(|g| [g % 16, (g / 16) % 16, g / 256])
+                .collect();
+            let n = column_windings(&mesh, &frame, axis, &voxels);
+            let mut seen = std::collections::BTreeSet::new();
+            for (v, &n) in voxels.iter().zip(&n) {
+                assert_eq!(grid.get(v[0], v[1], v[2]), n != 0, "{axis:?} {v:?}: {n}");
+                let p = centre(&frame, *v).map(|x| x as f32);
+                let world: [f64; 3] = std::array::from_fn(|a| p[a] as f64 + frame.origin[a]);
+                let w = winding_number(&mesh, world);
+                if (w - w.round()).abs() < 1e-6 {
+                    assert_eq!(n, w.round() as i32, "{axis:?} {v:?}");
+                }
+                seen.insert(n);
+            }
+            assert!(seen.contains(&2) && seen.contains(&0), "{seen:?}");
+        }
     }
 }
