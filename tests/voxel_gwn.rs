@@ -53,29 +53,14 @@ fn case(name: &str, res: u32) -> Case {
     let path = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join(c["obj"].as_str().unwrap());
     let mesh = load_mesh(&path).unwrap();
     let frame = gregvox::api::grid_frame(&mesh, &VoxelizeOptions::default().res(res)).unwrap();
-    let exact = |v: &serde_json::Value| v.as_str().unwrap().parse::<f64>().unwrap();
-    let origin: Vec<f64> = c["origin_text"]
-        .as_array()
-        .unwrap()
-        .iter()
-        .map(exact)
-        .collect();
-    assert_eq!(
-        (origin.as_slice(), exact(&c["side_text"])),
-        (frame.origin.as_slice(), frame.voxel_size[0] * res as f64),
-        "{name}: the oracle sampled another grid"
-    );
-    let load = |kind: &str| {
-        let file = fixtures().join(c["files"][kind].as_str().unwrap());
-        common::load_mask(&file, frame, res, c[kind].as_u64().unwrap())
-    };
+    let (inside, band) = common::oracle_masks(c, &fixtures(), frame, res);
 
     Case {
         name: name.into(),
         res,
         mesh,
-        inside: load("inside"),
-        band: load("band"),
+        inside,
+        band,
     }
 }
 

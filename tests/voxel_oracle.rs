@@ -50,32 +50,15 @@ fn case(name: &str, res: u32) -> Case {
     let mesh = gregvox::mesh::load_obj(model(&format!("{name}.obj"))).unwrap();
     let (mesh, _) = gregvox::voxel::mesh::TriMesh::fan(&mesh).clean();
     let frame = GridFrame::from_points(&mesh.positions, res).unwrap();
-    // The exact values travel as shortest round-trip text: serde_json's default float parser is not
-    // correctly rounded (1 ulp off on cow's origin), Rust's `str::parse` is.
-    let exact = |v: &serde_json::Value| v.as_str().unwrap().parse::<f64>().unwrap();
-    let origin: Vec<f64> = c["origin_text"]
-        .as_array()
-        .unwrap()
-        .iter()
-        .map(exact)
-        .collect();
-    assert_eq!(
-        (origin.as_slice(), exact(&c["side_text"])),
-        (frame.origin.as_slice(), frame.voxel_size[0] * res as f64),
-        "{name}: the oracle sampled another grid"
-    );
-    let load = |kind: &str| {
-        let file = fixtures().join(c["files"][kind].as_str().unwrap());
-        common::load_mask(&file, frame, res, c[kind].as_u64().unwrap())
-    };
+    let (inside, band) = common::oracle_masks(c, &fixtures(), frame, res);
 
     Case {
         name: name.into(),
         res,
         mesh,
         frame,
-        inside: load("inside"),
-        band: load("band"),
+        inside,
+        band,
         fractional: c["fractional"].as_u64().unwrap(),
     }
 }

@@ -323,6 +323,17 @@ pub struct GwnStats {
     pub flipped: u64,
 }
 
+impl GwnStats {
+    /// The counts of `cap`, no stage run yet.
+    pub fn of(cap: &Cap) -> GwnStats {
+        GwnStats {
+            loops_capped: cap.loops.len(),
+            boundary_edges: cap.boundary_edges,
+            ..GwnStats::default()
+        }
+    }
+}
+
 // ---- f64 kernels, mirrored operation for operation by glsl/include/gwn.glsl ----
 
 fn norm(a: [f64; 3]) -> f64 {
@@ -720,11 +731,7 @@ pub fn resolve_cpu(
     budget: u64,
 ) -> Result<GwnStats> {
     let frame = grid.frame;
-    let mut stats = GwnStats {
-        loops_capped: cap.loops.len(),
-        boundary_edges: cap.boundary_edges,
-        ..GwnStats::default()
-    };
+    let mut stats = GwnStats::of(cap);
     if cap.triangles.is_empty() {
         return Ok(stats);
     }

@@ -79,3 +79,35 @@ pub fn load_mask(
     assert_eq!(g.count(), count, "{}: popcount", file.display());
     g
 }
+
+/// The `inside` and `band` masks of oracle case `c` (an entry of a fixture folder's index.json) from `dir`,
+/// after checking that the oracle sampled `frame` (origin and side as shortest round-trip text: serde_json's
+/// default float parser is not correctly rounded, Rust's `str::parse` is).
+pub fn oracle_masks(
+    c: &serde_json::Value,
+    dir: &std::path::Path,
+    frame: gregvox::voxel::grid::GridFrame,
+    res: u32,
+) -> (
+    gregvox::voxel::grid::VoxelGrid,
+    gregvox::voxel::grid::VoxelGrid,
+) {
+    let exact = |v: &serde_json::Value| v.as_str().unwrap().parse::<f64>().unwrap();
+    let origin: Vec<f64> = c["origin_text"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(exact)
+        .collect();
+    assert_eq!(
+        (origin.as_slice(), exact(&c["side_text"])),
+        (frame.origin.as_slice(), frame.voxel_size[0] * res as f64),
+        "{}: the oracle sampled another grid",
+        c["model"]
+    );
+    let load = |kind: &str| {
+        let file = dir.join(c["files"][kind].as_str().unwrap());
+        load_mask(&file, frame, res, c[kind].as_u64().unwrap())
+    };
+    (load("inside"), load("band"))
+}

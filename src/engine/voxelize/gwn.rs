@@ -33,11 +33,7 @@ pub fn resolve_gpu(
     budget: u64,
 ) -> Result<Option<GwnStats>> {
     let frame = grid.frame;
-    let mut stats = GwnStats {
-        loops_capped: cap.loops.len(),
-        boundary_edges: cap.boundary_edges,
-        ..GwnStats::default()
-    };
+    let mut stats = GwnStats::of(cap);
     if cap.triangles.is_empty() {
         return Ok(Some(stats));
     }
