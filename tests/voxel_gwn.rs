@@ -40,16 +40,7 @@ const CASES: [&str; 7] = [
 ];
 
 fn case(name: &str, res: u32) -> Case {
-    let index: serde_json::Value = serde_json::from_slice(
-        &std::fs::read(fixtures().join("index.json")).expect("tests/fixtures/gwn/index.json"),
-    )
-    .unwrap();
-    let c = index["cases"]
-        .as_array()
-        .unwrap()
-        .iter()
-        .find(|c| c["model"] == name && c["res"] == res)
-        .unwrap_or_else(|| panic!("no fixture for {name} at {res}"));
+    let c = &common::oracle_case(&fixtures(), name, res);
     let path = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join(c["obj"].as_str().unwrap());
     let mesh = load_mesh(&path).unwrap();
     let frame = gregvox::api::grid_frame(&mesh, &VoxelizeOptions::default().res(res)).unwrap();

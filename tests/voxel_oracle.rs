@@ -37,16 +37,7 @@ struct Case {
 }
 
 fn case(name: &str, res: u32) -> Case {
-    let index: serde_json::Value = serde_json::from_slice(
-        &std::fs::read(fixtures().join("index.json")).expect("tests/fixtures/voxel/index.json"),
-    )
-    .unwrap();
-    let c = index["cases"]
-        .as_array()
-        .unwrap()
-        .iter()
-        .find(|c| c["model"] == name && c["res"] == res)
-        .unwrap_or_else(|| panic!("no fixture for {name} at {res}"));
+    let c = &common::oracle_case(&fixtures(), name, res);
     let mesh = gregvox::mesh::load_obj(model(&format!("{name}.obj"))).unwrap();
     let (mesh, _) = gregvox::voxel::mesh::TriMesh::fan(&mesh).clean();
     let frame = GridFrame::from_points(&mesh.positions, res).unwrap();

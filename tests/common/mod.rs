@@ -111,3 +111,19 @@ pub fn oracle_masks(
     };
     (load("inside"), load("band"))
 }
+
+/// The entry of `model` at `res` in the index.json of oracle fixture folder `dir`.
+pub fn oracle_case(dir: &std::path::Path, model: &str, res: u32) -> serde_json::Value {
+    let file = dir.join("index.json");
+    let index: serde_json::Value = serde_json::from_slice(
+        &std::fs::read(&file).unwrap_or_else(|e| panic!("{}: {e}", file.display())),
+    )
+    .unwrap();
+    index["cases"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .find(|c| c["model"] == model && c["res"] == res)
+        .unwrap_or_else(|| panic!("no fixture for {model} at {res}"))
+        .clone()
+}
