@@ -28,6 +28,37 @@ fn temp_path(path: &Path) -> Result<PathBuf> {
     Ok(path.with_file_name(tmp))
 }
 
+/// Removes, below `dir`, the temporary files [`write_atomic`] left behind in processes that no longer run
+/// (killed mid-write: SIGKILL skips every clean-up), and returns how many. A temporary whose process is
+/// alive, or whose liveness cannot be told (no `/proc`), is kept: a concurrent run may be writing it.
+pub fn remove_stale_temporaries(dir: &Path) -> Result<usize> {
+    let proc = Path::new("/proc");
+    if !proc.join("self").exists() || !dir.is_dir() {
+        return Ok(0);
+    }
+    let mut removed = 0;
+    for entry in walkdir::WalkDir::new(dir)
+        .into_iter()
+        .filter_map(|e| e.ok())
+    {
+        let name = entry.file_name().to_string_lossy();
+        let Some(rest) = name.strip_prefix('.').and_then(|n| n.strip_suffix(".tmp")) else {
+            continue;
+        };
+        let Some(pid) = rest.rsplit('.').next().and_then(|p| p.parse::<u32>().ok()) else {
+            continue;
+        };
+        if entry.file_type().is_file()
+            && pid != std::process::id()
+            && !proc.join(pid.to_string()).exists()
+        {
+            std::fs::remove_file(entry.path()).map_err(|e| Error::io(entry.path(), e))?;
+            removed += 1;
+        }
+    }
+    Ok(removed)
+}
+
 /// Writes an output file through `write` (see the module invariants).
 ///
 /// ```

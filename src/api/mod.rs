@@ -25,6 +25,7 @@ use crate::voxel::mesh::{CleanReport, TriMesh};
 use glam::DVec3;
 use std::path::Path;
 
+pub mod batch;
 pub mod tessellate;
 
 pub use crate::engine::voxelize::{ProgressFn, DEFAULT_MAX_LAYERS};

@@ -3,6 +3,7 @@
 use clap::{Parser, Subcommand};
 use std::process::ExitCode;
 
+pub mod batch;
 pub mod bench;
 pub mod info;
 pub mod mesh;
@@ -30,6 +31,9 @@ pub enum Command {
     Tessellate(tessellate::TessellateArgs),
     /// Voxelize a mesh file (OBJ, STL, PLY, OFF, glTF/GLB) into a voxel grid of a chosen size, box and fill (the CPU scanline, depth peeling or the A-buffer; auto picks for the device).
     Voxelize(voxelize::VoxelizeArgs),
+    /// Voxelize many models (files, folders, globs, manifests) with one device: sharding for job arrays
+    /// (--shard I/N, Slurm, RANK/WORLD_SIZE), resume, a JSONL report.
+    Batch(batch::BatchArgs),
     /// Run the live demo in a window, or offscreen writing PNG frames.
     Demo(crate::demo::DemoArgs),
     /// Run the benchmark suites: tables (markdown, CSV, JSON) and scaling plots (PNG).
@@ -58,6 +62,7 @@ pub fn main() -> ExitCode {
         Command::Subdivide(a) => mesh::run_subdivide(&a),
         Command::Demo(a) => crate::demo::run(&a),
         Command::Voxelize(a) => voxelize::run(&a),
+        Command::Batch(a) => batch::run(&a),
         Command::Tessellate(a) => tessellate::run(&a),
         Command::Bench(a) => bench::run(&a),
     };

@@ -13,12 +13,10 @@ use clap::Args;
 use std::path::PathBuf;
 use std::time::Instant;
 
-/// Arguments of `gregvox voxelize`.
+/// The grid and voxelization flags `voxelize` and `batch` share.
 #[derive(Debug, Args)]
 #[command(group(clap::ArgGroup::new("size").required(true).args(["res", "dims", "voxel_size"])))]
-pub struct VoxelizeArgs {
-    /// The mesh file (OBJ, STL, PLY, OFF, glTF/GLB) to voxelize.
-    pub input: PathBuf,
+pub struct GridArgs {
     /// A cubic R×R×R grid (1–2048) whose side is the box's longest extent.
     #[arg(long)]
     pub res: Option<u32>,
@@ -35,10 +33,6 @@ pub struct VoxelizeArgs {
     /// N empty voxels added on every side (the grid grows by 2N, the origin moves by N voxels).
     #[arg(long, value_name = "N", default_value_t = 0)]
     pub pad: u32,
-    /// Output file: .binvox (cubic grids only), .npy, .nrrd, .raw or .vox (.npy/.raw/.vox get a .json
-    /// sidecar with dims, voxel_size, origin and the index-to-world matrix).
-    #[arg(long)]
-    pub out: Option<PathBuf>,
     /// Write .npy as packed bits (uint8, X×Y×ceil(Z/8), little bit order) instead of a bool X×Y×Z array.
     #[arg(long)]
     pub npy_packed: bool,
@@ -65,6 +59,19 @@ pub struct VoxelizeArgs {
     /// Refuse meshes needing more peeling passes than this.
     #[arg(long, default_value_t = 256)]
     pub max_layers: u32,
+}
+
+/// Arguments of `gregvox voxelize`.
+#[derive(Debug, Args)]
+pub struct VoxelizeArgs {
+    /// The mesh file (OBJ, STL, PLY, OFF, glTF/GLB) to voxelize.
+    pub input: PathBuf,
+    #[command(flatten)]
+    pub grid: GridArgs,
+    /// Output file: .binvox (cubic grids only), .npy, .nrrd, .raw or .vox (.npy/.raw/.vox get a .json
+    /// sidecar with dims, voxel_size, origin and the index-to-world matrix).
+    #[arg(long)]
+    pub out: Option<PathBuf>,
     /// Treat the input as a quad cage: evaluate its ACC-2 Gregory surface at this level on the GPU and voxelize
     /// it straight from the device-local vertex buffer (no CPU round trip of the surface).
     #[arg(long, value_name = "LEVEL")]
@@ -118,7 +125,7 @@ fn parse_bbox(s: &str) -> Result<[f64; 6], String> {
     Ok(b)
 }
 
-impl VoxelizeArgs {
+impl GridArgs {
     /// The library options these flags give.
     pub fn options(&self) -> anyhow::Result<VoxelizeOptions> {
         let axes = match (self.axes.as_deref(), self.axis) {
@@ -161,7 +168,7 @@ impl VoxelizeArgs {
 
 /// Runs `gregvox voxelize`: argument checks, then one call of the library API, then printing.
 pub fn run(args: &VoxelizeArgs) -> anyhow::Result<()> {
-    let mut opts = args.options()?;
+    let mut opts = args.grid.options()?;
     if let Some(out) = &args.out {
         // Unknown formats before the mesh is even read; the grid-dependent checks once its frame is known.
         let probe = GridFrame::cubic(1, [0.0; 3], 1.0);
@@ -178,7 +185,7 @@ pub fn run(args: &VoxelizeArgs) -> anyhow::Result<()> {
     let profiling = args.profile.wanted();
     // A device only where one is needed: --method cpu never touches Vulkan, and auto without --profile
     // probes the device first (no pipelines) and stays on the CPU on a CPU device.
-    let gpu = match (args.method, args.gregory_level.is_some(), profiling) {
+    let gpu = match (args.grid.method, args.gregory_level.is_some(), profiling) {
         (_, true, _) => Some(Gpu::new()?),
         (Method::Cpu, false, _) | (Method::Auto, false, false) => None,
         _ => Some(Gpu::new()?),
@@ -188,7 +195,7 @@ pub fn run(args: &VoxelizeArgs) -> anyhow::Result<()> {
         frame.dims.iter().copied().max().unwrap_or(1),
         mesh.n_faces(),
         if opts.axes == Axes::Three { 3 } else { 1 },
-        args.max_layers,
+        args.grid.max_layers,
     );
     if let Some(bar) = &bar {
         let bar = bar.clone();
@@ -200,7 +207,7 @@ pub fn run(args: &VoxelizeArgs) -> anyhow::Result<()> {
     let result = match (&gpu, args.gregory_level) {
         (Some(gpu), Some(level)) => gpu.voxelize_gregory(&mesh, level, &opts, profiler.as_mut()),
         (Some(gpu), None) => gpu.voxelize_profiled(&mesh, &opts, profiler.as_mut()),
-        (None, _) if args.method == Method::Cpu => voxelize_on_cpu(&mesh, &opts),
+        (None, _) if args.grid.method == Method::Cpu => voxelize_on_cpu(&mesh, &opts),
         (None, _) => voxelize(&mesh, &opts),
     };
     if let Some(bar) = bar {
@@ -218,7 +225,7 @@ pub fn run(args: &VoxelizeArgs) -> anyhow::Result<()> {
         grid.save_with(
             out,
             &SaveOptions {
-                npy_packed: args.npy_packed,
+                npy_packed: args.grid.npy_packed,
             },
         )?;
     }
@@ -232,7 +239,7 @@ pub fn run(args: &VoxelizeArgs) -> anyhow::Result<()> {
     if args.json {
         let summary = serde_json::json!({
             "input": args.input.display().to_string(),
-            "res": args.res,
+            "res": args.grid.res,
             "dims": f.dims,
             "voxel_size": f.voxel_size,
             "origin": f.origin,
@@ -344,5 +351,24 @@ fn progress_bar(
         bar.set_style(style.progress_chars("=> "));
     }
     bar.enable_steady_tick(std::time::Duration::from_millis(120));
+    Some(bar)
+}
+
+/// The bar of `gregvox batch` (models done of `models`, with an ETA), on a terminal only.
+pub fn batch_bar(models: u64) -> Option<indicatif::ProgressBar> {
+    use std::io::IsTerminal;
+    if !std::io::stderr().is_terminal() {
+        return None;
+    }
+    let bar = indicatif::ProgressBar::with_draw_target(
+        Some(models),
+        indicatif::ProgressDrawTarget::stderr(),
+    );
+    if let Ok(style) = indicatif::ProgressStyle::with_template(
+        "{spinner} batch [{bar:30}] {pos}/{len} models ({per_sec}, ETA {eta})",
+    ) {
+        bar.set_style(style.progress_chars("=> "));
+    }
+    bar.enable_steady_tick(std::time::Duration::from_millis(200));
     Some(bar)
 }

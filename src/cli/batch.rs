@@ -1,0 +1,183 @@
+//! `gregvox batch INPUT… --res R --out-dir D [--format F | --name TEMPLATE] [--shard I/N] [--report FILE]`:
+//! argument parsing and printing over `api::batch` (which holds the policy: the sorted input list,
+//! sharding, resume, output names, the loader → device → writer pipeline).
+use super::voxelize::GridArgs;
+use crate::api::batch::{
+    append_record, batch_device, collect_inputs, run_batch, BatchOptions, ModelStatus, OutputNames,
+    Shard,
+};
+use crate::api::SaveOptions;
+use crate::voxel::export::check_format;
+use anyhow::{bail, Context};
+use clap::Args;
+use std::path::PathBuf;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::Arc;
+
+/// Arguments of `gregvox batch`.
+#[derive(Debug, Args)]
+pub struct BatchArgs {
+    /// Mesh files, folders (searched recursively for .obj .stl .ply .off .gltf .glb), glob patterns
+    /// (quoted: 'data/**/*.obj') or manifests (.txt/.lst: one path a line; .csv: a `path` column; .jsonl: a
+    /// "path" member).
+    #[arg(required = true)]
+    pub inputs: Vec<PathBuf>,
+    #[command(flatten)]
+    pub grid: GridArgs,
+    /// Output folder; each model's relative folder is kept.
+    #[arg(long, value_name = "D")]
+    pub out_dir: Option<PathBuf>,
+    /// Output format when no --name is given.
+    #[arg(long, value_parser = clap::builder::PossibleValuesParser::new(["binvox", "npy", "nrrd", "raw", "vox"]), default_value = "binvox")]
+    pub format: String,
+    /// Output file name template: {stem}, {name}, {dir}, {res}, {index} (e.g. '{stem}_{res}.npy').
+    #[arg(long, value_name = "TEMPLATE")]
+    pub name: Option<String>,
+    /// Redo models whose output exists (default: skip them, so a killed batch resumes).
+    #[arg(long)]
+    pub no_resume: bool,
+    /// Take every N-th model of the sorted list, starting at I (0 ≤ I < N). Without it,
+    /// SLURM_ARRAY_TASK_ID/SLURM_ARRAY_TASK_COUNT, else RANK/WORLD_SIZE, are read when set.
+    #[arg(long, value_name = "I/N")]
+    pub shard: Option<String>,
+    /// Append one JSON line a model here (input, output, status, error, triangles, watertight, boundary
+    /// loops, layers, solid voxels, method, seconds).
+    #[arg(long, value_name = "FILE")]
+    pub report: Option<PathBuf>,
+    /// Loader and writer threads (each; default: the cores, at most 8).
+    #[arg(long, value_name = "N")]
+    pub workers: Option<usize>,
+    /// Print the summary as JSON.
+    #[arg(long)]
+    pub json: bool,
+}
+
+/// Runs `gregvox batch`; fails (after finishing the list) when any model failed.
+pub fn run(args: &BatchArgs) -> anyhow::Result<()> {
+    let voxelize = args.grid.options()?;
+    let names = match (&args.out_dir, &args.name) {
+        (Some(dir), name) => Some(OutputNames {
+            dir: dir.clone(),
+            template: name.clone(),
+            format: args.format.clone(),
+        }),
+        (None, Some(_)) => bail!("--name needs --out-dir"),
+        (None, None) => None,
+    };
+    if let Some(n) = &names {
+        let probe = crate::api::GridFrame::cubic(1, [0.0; 3], 1.0);
+        let example = match &n.template {
+            Some(t) => PathBuf::from(t.replace(['{', '}'], "")),
+            None => PathBuf::from(format!("x.{}", n.format)),
+        };
+        check_format(&probe, &example, None)?;
+    }
+    let shard = match &args.shard {
+        Some(s) => Some(Shard::parse(s)?),
+        None => Shard::from_env(|k| std::env::var(k).ok())?,
+    };
+    let all = collect_inputs(&args.inputs)?;
+    let inputs = match shard {
+        Some(s) => s.select(&all),
+        None => all.clone(),
+    };
+    let stop = Arc::new(AtomicBool::new(false));
+    {
+        let stop = stop.clone();
+        // A second Ctrl-C kills as usual: the handler only asks once.
+        let _ = ctrlc::set_handler(move || {
+            if stop.swap(true, Ordering::SeqCst) {
+                std::process::exit(130);
+            }
+            eprintln!("gregvox batch: stopping after the models in flight (Ctrl-C again to kill)");
+        });
+    }
+    let gpu = batch_device(args.grid.method)?;
+    let workers = args.workers.unwrap_or_else(|| {
+        std::thread::available_parallelism()
+            .map(|n| n.get())
+            .unwrap_or(2)
+            .min(8)
+    });
+    let opts = BatchOptions {
+        voxelize,
+        names,
+        save: SaveOptions {
+            npy_packed: args.grid.npy_packed,
+        },
+        resume: !args.no_resume,
+        workers,
+        queue: 2 * workers,
+    };
+    let bar = super::voxelize::batch_bar(inputs.len() as u64);
+    let mut failures = Vec::new();
+    let summary = run_batch(gpu.as_ref(), &inputs, &opts, &stop, |rec| {
+        if let Some(path) = &args.report {
+            append_record(path, rec)?;
+        }
+        if rec.status == ModelStatus::Failed {
+            let msg = rec.error.clone().unwrap_or_default();
+            match &bar {
+                Some(b) => b.println(format!("gregvox batch: failed: {msg}")),
+                None => eprintln!("gregvox batch: failed: {msg}"),
+            }
+            failures.push(msg);
+        }
+        if let Some(b) = &bar {
+            b.inc(1);
+        }
+        Ok(())
+    })
+    .with_context(|| "gregvox batch")?;
+    if let Some(b) = bar {
+        b.finish_and_clear();
+    }
+    let rate = (summary.done as f64) / summary.seconds.max(1e-9);
+    if args.json {
+        let j = serde_json::json!({
+            "models": inputs.len(),
+            "listed": all.len(),
+            "shard": shard.map(|s| format!("{}/{}", s.index, s.count)),
+            "done": summary.done,
+            "skipped": summary.skipped,
+            "failed": summary.failed,
+            "interrupted": summary.interrupted,
+            "seconds": summary.seconds,
+            "models_per_second": rate,
+        });
+        super::print_out(&format!("{}\n", serde_json::to_string_pretty(&j)?))?;
+    } else {
+        super::print_out(&format!(
+            "{} models{}: {} done, {} skipped, {} failed in {:.1} s ({rate:.2} models/s){}\n",
+            inputs.len(),
+            shard
+                .map(|s| format!(" (shard {}/{} of {})", s.index, s.count, all.len()))
+                .unwrap_or_default(),
+            summary.done,
+            summary.skipped,
+            summary.failed,
+            summary.seconds,
+            if summary.interrupted {
+                "; interrupted"
+            } else {
+                ""
+            }
+        ))?;
+    }
+    if summary.interrupted {
+        bail!("interrupted: run the same command again to finish (finished models are skipped)");
+    }
+    if !failures.is_empty() {
+        bail!(
+            "{} of {} models failed (listed above{})",
+            failures.len(),
+            inputs.len(),
+            if args.report.is_some() {
+                " and in the report"
+            } else {
+                ""
+            }
+        );
+    }
+    Ok(())
+}

@@ -1,0 +1,394 @@
+//! Specification of `gregvox batch`: a folder of mixed, partly broken models voxelized in one run; shards
+//! run concurrently covering every model once; resume after SIGKILL giving byte-identical outputs and no
+//! temporary left; manifests, globs and the job-runner environment.
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+fn gregvox(args: &[&str], env: &[(&str, &str)]) -> Output {
+    let mut c = Command::new(env!("CARGO_BIN_EXE_gregvox"));
+    c.args(args).env("GREGVOX_VALIDATION", "1");
+    for k in [
+        "SLURM_ARRAY_TASK_ID",
+        "SLURM_ARRAY_TASK_COUNT",
+        "RANK",
+        "WORLD_SIZE",
+    ] {
+        c.env_remove(k);
+    }
+    for (k, v) in env {
+        c.env(k, v);
+    }
+    c.output().unwrap()
+}
+
+fn scratch(name: &str) -> PathBuf {
+    let d = std::env::temp_dir().join(format!("gregvox-batch-{}-{name}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&d);
+    std::fs::create_dir_all(&d).unwrap();
+    d
+}
+
+fn model(name: &str) -> PathBuf {
+    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+        .join("assets/models")
+        .join(name)
+}
+
+/// A cube of side `s` at `o` as OBJ text.
+fn cube_obj(o: f32, s: f32) -> String {
+    let mut t = String::new();
+    for i in 0..8 {
+        let p = [i & 1, (i >> 1) & 1, (i >> 2) & 1].map(|b| o + s * b as f32);
+        t += &format!("v {} {} {}\n", p[0], p[1], p[2]);
+    }
+    for f in [
+        [1, 3, 4, 2],
+        [5, 6, 8, 7],
+        [1, 2, 6, 5],
+        [3, 7, 8, 4],
+        [1, 5, 7, 3],
+        [2, 4, 8, 6],
+    ] {
+        t += &format!("f {} {} {} {}\n", f[0], f[1], f[2], f[3]);
+    }
+    t
+}
+
+/// The test dataset: vendored models, generated cubes in OBJ, STL and PLY (sub-folders included), broken
+/// files, and the `.mtl` and texture files datasets carry beside their meshes. Returns the folder and the
+/// names of the broken models.
+fn dataset(name: &str, cubes: usize) -> (PathBuf, Vec<String>) {
+    let d = scratch(name);
+    for m in ["spot.obj", "suzanne.obj", "teapot.obj"] {
+        std::fs::copy(model(m), d.join(m)).unwrap();
+    }
+    std::fs::create_dir_all(d.join("gen/deeper")).unwrap();
+    for i in 0..cubes {
+        let obj = cube_obj(i as f32 * 0.1, 1.0 + i as f32 * 0.05);
+        match i % 3 {
+            0 => std::fs::write(d.join(format!("gen/cube{i:03}.obj")), &obj).unwrap(),
+            1 => {
+                // The same cube as an ASCII STL.
+                let v: Vec<[f32; 3]> = obj
+                    .lines()
+                    .filter_map(|l| l.strip_prefix("v "))
+                    .map(|l| {
+                        let n: Vec<f32> = l.split(' ').map(|x| x.parse().unwrap()).collect();
+                        [n[0], n[1], n[2]]
+                    })
+                    .collect();
+                let mut stl = String::from("solid c\n");
+                for f in obj.lines().filter_map(|l| l.strip_prefix("f ")) {
+                    let q: Vec<usize> = f
+                        .split(' ')
+                        .map(|x| x.parse::<usize>().unwrap() - 1)
+                        .collect();
+                    for t in [[q[0], q[1], q[2]], [q[0], q[2], q[3]]] {
+                        stl += "facet normal 0 0 0\nouter loop\n";
+                        for k in t {
+                            stl += &format!("vertex {} {} {}\n", v[k][0], v[k][1], v[k][2]);
+                        }
+                        stl += "endloop\nendfacet\n";
+                    }
+                }
+                stl += "endsolid c\n";
+                std::fs::write(d.join(format!("gen/deeper/cube{i:03}.STL")), stl).unwrap();
+            }
+            _ => {
+                let v: Vec<&str> = obj.lines().filter_map(|l| l.strip_prefix("v ")).collect();
+                let f: Vec<&str> = obj.lines().filter_map(|l| l.strip_prefix("f ")).collect();
+                let mut ply = format!(
+                    "ply\nformat ascii 1.0\nelement vertex {}\nproperty float x\nproperty float y\n\
+                     property float z\nelement face {}\nproperty list uchar int vertex_indices\nend_header\n",
+                    v.len(),
+                    f.len()
+                );
+                for l in &v {
+                    ply += &format!("{l}\n");
+                }
+                for l in &f {
+                    let q: Vec<usize> = l
+                        .split(' ')
+                        .map(|x| x.parse::<usize>().unwrap() - 1)
+                        .collect();
+                    ply += &format!("4 {} {} {} {}\n", q[0], q[1], q[2], q[3]);
+                }
+                std::fs::write(d.join(format!("gen/cube{i:03}.ply")), ply).unwrap();
+            }
+        }
+    }
+    std::fs::write(d.join("gen/cube000.mtl"), "newmtl a\nKd 1 0 0\n").unwrap();
+    std::fs::write(d.join("gen/texture.png"), [0x89, b'P', b'N', b'G']).unwrap();
+    let broken = [
+        (
+            "broken_index.obj",
+            "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 99\n".as_bytes(),
+        ),
+        ("empty.stl", b"".as_slice()),
+        (
+            "lying.ply",
+            b"ply\nformat ascii 1.0\nelement vertex 1000000000\nproperty float x\nend_header\n0\n",
+        ),
+    ];
+    for (n, b) in broken {
+        std::fs::write(d.join(n), b).unwrap();
+    }
+    (d, broken.iter().map(|b| b.0.to_string()).collect())
+}
+
+fn report_lines(path: &Path) -> Vec<serde_json::Value> {
+    std::fs::read_to_string(path)
+        .unwrap_or_default()
+        .lines()
+        .map(|l| serde_json::from_str(l).unwrap())
+        .collect()
+}
+
+/// Every file below `dir` (relative path → bytes).
+fn tree(dir: &Path) -> BTreeMap<String, Vec<u8>> {
+    let mut out = BTreeMap::new();
+    let mut stack = vec![dir.to_path_buf()];
+    while let Some(d) = stack.pop() {
+        for e in std::fs::read_dir(&d).unwrap() {
+            let p = e.unwrap().path();
+            if p.is_dir() {
+                stack.push(p);
+            } else {
+                let rel = p.strip_prefix(dir).unwrap().to_string_lossy().into_owned();
+                out.insert(rel, std::fs::read(&p).unwrap());
+            }
+        }
+    }
+    out
+}
+
+fn args<'a>(data: &'a str, out: &'a str, res: &'a str, extra: &[&'a str]) -> Vec<&'a str> {
+    let mut a = vec!["batch", data, "--res", res, "--out-dir", out];
+    a.extend_from_slice(extra);
+    a
+}
+
+#[test]
+fn a_folder_with_broken_models_is_finished_and_each_failure_reported_in_one_line() {
+    let (data, broken) = dataset("folder", 9);
+    let out = data.with_extension("out");
+    let report = data.with_extension("jsonl");
+    let (d, o, r) = (
+        data.to_str().unwrap(),
+        out.to_str().unwrap(),
+        report.to_str().unwrap(),
+    );
+    let run = gregvox(&args(d, o, "24", &["--report", r]), &[]);
+    let err = String::from_utf8_lossy(&run.stderr);
+    assert!(!run.status.success(), "a failed model fails the batch");
+    assert!(err.contains("3 of 15 models failed"), "{err}");
+    assert!(
+        !err.contains("panicked") && !err.contains("validation"),
+        "{err}"
+    );
+    let lines = report_lines(&report);
+    assert_eq!(
+        lines.len(),
+        15,
+        "one line a model (mtl and png are not models)"
+    );
+    for l in &lines {
+        let input = l["input"].as_str().unwrap();
+        let is_broken = broken.iter().any(|b| input.ends_with(b.as_str()));
+        assert_eq!(
+            l["status"],
+            if is_broken { "failed" } else { "done" },
+            "{l}"
+        );
+        if is_broken {
+            let e = l["error"].as_str().unwrap();
+            assert!(e.contains(input) && !e.contains('\n'), "{e}");
+        } else {
+            assert!(l["solid_voxels"].as_u64().unwrap() > 0, "{l}");
+            assert!(Path::new(l["output"].as_str().unwrap()).is_file());
+        }
+    }
+    // Relative folders are kept; extensions of any case are found.
+    assert!(out.join("gen/deeper/cube001.binvox").is_file());
+    assert!(out.join("spot.binvox").is_file());
+    // A second run skips what is done and retries only the broken ones.
+    let again = gregvox(&args(d, o, "24", &["--json"]), &[]);
+    let j: serde_json::Value = serde_json::from_slice(&again.stdout).unwrap();
+    assert_eq!(
+        (j["skipped"].as_u64(), j["failed"].as_u64()),
+        (Some(12), Some(3))
+    );
+}
+
+#[test]
+fn shards_run_at_once_cover_every_model_exactly_once() {
+    let (data, _) = dataset("shards", 12);
+    let d = data.to_str().unwrap();
+    for n in [1usize, 3, 7] {
+        let out = data.with_extension(format!("out{n}"));
+        let report = data.with_extension(format!("r{n}.jsonl"));
+        let (o, r) = (
+            out.to_str().unwrap().to_string(),
+            report.to_str().unwrap().to_string(),
+        );
+        let children: Vec<_> = (0..n)
+            .map(|i| {
+                let shard = format!("{i}/{n}");
+                Command::new(env!("CARGO_BIN_EXE_gregvox"))
+                    .args(["batch", d, "--res", "16", "--out-dir", &o, "--report", &r])
+                    .args(["--shard", &shard])
+                    .env("GREGVOX_VALIDATION", "1")
+                    .stdout(std::process::Stdio::null())
+                    .stderr(std::process::Stdio::null())
+                    .spawn()
+                    .unwrap()
+            })
+            .collect();
+        for mut c in children {
+            c.wait().unwrap();
+        }
+        let lines = report_lines(&report);
+        let mut seen: BTreeMap<String, usize> = BTreeMap::new();
+        for l in &lines {
+            *seen
+                .entry(l["input"].as_str().unwrap().to_string())
+                .or_default() += 1;
+        }
+        assert_eq!(seen.len(), 18, "N = {n}: every model");
+        assert!(seen.values().all(|&c| c == 1), "N = {n}: {seen:?}");
+    }
+}
+
+#[test]
+fn the_job_runner_environment_picks_the_shard() {
+    let (data, _) = dataset("env", 6);
+    let d = data.to_str().unwrap();
+    let listed = |extra: &[&str], env: &[(&str, &str)]| -> Vec<String> {
+        let report = data.with_extension(format!("{}.jsonl", extra.len() + env.len()));
+        let _ = std::fs::remove_file(&report);
+        let mut a = vec![
+            "batch",
+            d,
+            "--res",
+            "8",
+            "--report",
+            report.to_str().unwrap(),
+        ];
+        a.extend_from_slice(extra);
+        gregvox(&a, env);
+        report_lines(&report)
+            .iter()
+            .map(|l| l["input"].as_str().unwrap().to_string())
+            .collect::<std::collections::BTreeSet<_>>()
+            .into_iter()
+            .collect()
+    };
+    let by_flag = listed(&["--shard", "1/3"], &[]);
+    assert_eq!(by_flag.len(), 4);
+    let slurm = listed(
+        &[],
+        &[
+            ("SLURM_ARRAY_TASK_ID", "1"),
+            ("SLURM_ARRAY_TASK_COUNT", "3"),
+        ],
+    );
+    assert_eq!(slurm, by_flag);
+    let torch = listed(&[], &[("RANK", "1"), ("WORLD_SIZE", "3")]);
+    assert_eq!(torch, by_flag);
+    let bad = gregvox(&["batch", d, "--res", "8", "--shard", "3/3"], &[]);
+    assert!(String::from_utf8_lossy(&bad.stderr).contains("--shard 3/3"));
+}
+
+#[test]
+fn manifests_and_globs_name_the_models() {
+    let (data, _) = dataset("manifest", 3);
+    let csv = data.join("list.csv");
+    std::fs::write(&csv, "id,path\n1,spot.obj\n2,gen/cube000.obj\n").unwrap();
+    let jsonl = data.join("list.jsonl");
+    std::fs::write(
+        &jsonl,
+        "{\"path\": \"suzanne.obj\"}\n\n{\"path\": \"gen/cube002.ply\"}\n",
+    )
+    .unwrap();
+    let txt = data.join("list.txt");
+    std::fs::write(&txt, "# models\nteapot.obj\n").unwrap();
+    let pattern = format!("{}/gen/**/*.STL", data.display());
+    let run = gregvox(
+        &[
+            "batch",
+            csv.to_str().unwrap(),
+            jsonl.to_str().unwrap(),
+            txt.to_str().unwrap(),
+            &pattern,
+            "--res",
+            "8",
+            "--json",
+        ],
+        &[],
+    );
+    let j: serde_json::Value = serde_json::from_slice(&run.stdout).unwrap();
+    assert_eq!(j["models"], 6, "{}", String::from_utf8_lossy(&run.stderr));
+    let missing = data.join("bad.txt");
+    std::fs::write(&missing, "nope.obj\n").unwrap();
+    let bad = gregvox(&["batch", missing.to_str().unwrap(), "--res", "8"], &[]);
+    let err = String::from_utf8_lossy(&bad.stderr);
+    assert!(!bad.status.success() && err.contains("nope.obj"), "{err}");
+}
+
+#[test]
+fn a_batch_killed_three_times_and_resumed_writes_every_output_once_byte_identical() {
+    let (data, _) = dataset("kill", 30);
+    let d = data.to_str().unwrap();
+    let clean = data.with_extension("clean");
+    let t0 = std::time::Instant::now();
+    gregvox(&args(d, clean.to_str().unwrap(), "64", &[]), &[]);
+    let clean_time = t0.elapsed();
+    let expected = tree(&clean);
+    assert_eq!(expected.len(), 33, "{:?}", expected.keys());
+    let out = data.with_extension("killed");
+    let o = out.to_str().unwrap();
+    // Kill times spread over what is left of the run: each attempt resumes where the last one died.
+    let mut interrupted = 0;
+    for fraction in [0.3, 0.3, 0.4] {
+        let mut child = Command::new(env!("CARGO_BIN_EXE_gregvox"))
+            .args(args(d, o, "64", &[]))
+            .env("GREGVOX_VALIDATION", "1")
+            .stdout(std::process::Stdio::null())
+            .stderr(std::process::Stdio::null())
+            .spawn()
+            .unwrap();
+        std::thread::sleep(clean_time.mul_f64(fraction));
+        if child.try_wait().unwrap().is_none() {
+            interrupted += 1;
+        }
+        child.kill().unwrap(); // SIGKILL
+        child.wait().unwrap();
+    }
+    assert!(
+        interrupted >= 2,
+        "only {interrupted} of 3 kills hit a running batch"
+    );
+    // What a kill mid-write leaves: a temporary of a process that is gone (past Linux's largest pid).
+    std::fs::write(out.join(".spot.binvox.4194305.tmp"), b"partial").unwrap();
+    let fin = gregvox(&args(d, o, "64", &["--json"]), &[]);
+    let j: serde_json::Value = serde_json::from_slice(&fin.stdout).unwrap();
+    assert_eq!(j["failed"], 3, "the broken models");
+    assert!(
+        j["done"].as_u64().unwrap() > 0,
+        "the kills left work to resume: {j}"
+    );
+    let got = tree(&out);
+    let temporaries: Vec<&String> = got
+        .keys()
+        .filter(|k| k.rsplit('/').next().is_some_and(|n| n.starts_with('.')) || k.ends_with(".tmp"))
+        .collect();
+    assert!(temporaries.is_empty(), "{temporaries:?}");
+    assert_eq!(
+        got.keys().collect::<Vec<_>>(),
+        expected.keys().collect::<Vec<_>>()
+    );
+    for (k, v) in &expected {
+        assert!(got[k] == *v, "{k} differs from the uninterrupted run");
+    }
+}
