@@ -11,6 +11,7 @@
 //!   peer is a row that says so and how to install it, never a number.
 //! - Every GPU resource a suite creates is dropped (released through the release queue) before the suite
 //!   returns, on success and on error.
+pub mod batch;
 pub mod gregory;
 pub mod mesh;
 pub mod peak;
@@ -27,8 +28,8 @@ use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 /// The suites, in run order. `peak` runs first: the floors of the other tables divide by its figures.
-pub const SUITES: [&str; 7] = [
-    "peak", "thesis", "gregory", "voxel", "gwn", "mesh", "scaling",
+pub const SUITES: [&str; 8] = [
+    "peak", "thesis", "gregory", "voxel", "gwn", "batch", "mesh", "scaling",
 ];
 
 /// What a run measures and where the inputs are.
@@ -606,6 +607,7 @@ pub fn run(cfg: &BenchConfig, command: &str) -> anyhow::Result<Report> {
                 }
                 "voxel" => voxel::run(&ctx, cfg, peak.as_ref(), &mut report)?,
                 "gwn" => voxel::gwn_table(cfg, &mut report)?,
+                "batch" => batch::run(cfg, &mut report)?,
                 "mesh" => mesh::run(cfg, peak.as_ref(), &mut report)?,
                 "scaling" => {
                     gregory::scaling(&ctx, cfg, &mut report)?;
