@@ -29,6 +29,21 @@ fn scratch(name: &str) -> PathBuf {
     d
 }
 
+/// Removes a test's dataset and everything named after it (outputs, reports) once the test passed.
+fn cleanup(data: &Path) {
+    let prefix = data.file_name().unwrap().to_string_lossy().into_owned();
+    for e in std::fs::read_dir(data.parent().unwrap()).unwrap().flatten() {
+        if e.file_name().to_string_lossy().starts_with(&prefix) {
+            let p = e.path();
+            let _ = if p.is_dir() {
+                std::fs::remove_dir_all(&p)
+            } else {
+                std::fs::remove_file(&p)
+            };
+        }
+    }
+}
+
 fn model(name: &str) -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR"))
         .join("assets/models")
@@ -219,6 +234,7 @@ fn a_folder_with_broken_models_is_finished_and_each_failure_reported_in_one_line
         (j["skipped"].as_u64(), j["failed"].as_u64()),
         (Some(12), Some(3))
     );
+    cleanup(&data);
 }
 
 #[test]
@@ -258,6 +274,7 @@ fn shards_run_at_once_cover_every_model_exactly_once() {
         assert_eq!(seen.len(), 18, "N = {n}: every model");
         assert!(seen.values().all(|&c| c == 1), "N = {n}: {seen:?}");
     }
+    cleanup(&data);
 }
 
 #[test]
@@ -298,6 +315,7 @@ fn the_job_runner_environment_picks_the_shard() {
     assert_eq!(torch, by_flag);
     let bad = gregvox(&["batch", d, "--res", "8", "--shard", "3/3"], &[]);
     assert!(String::from_utf8_lossy(&bad.stderr).contains("--shard 3/3"));
+    cleanup(&data);
 }
 
 #[test]
@@ -334,6 +352,7 @@ fn manifests_and_globs_name_the_models() {
     let bad = gregvox(&["batch", missing.to_str().unwrap(), "--res", "8"], &[]);
     let err = String::from_utf8_lossy(&bad.stderr);
     assert!(!bad.status.success() && err.contains("nope.obj"), "{err}");
+    cleanup(&data);
 }
 
 #[test]
@@ -391,4 +410,39 @@ fn a_batch_killed_three_times_and_resumed_writes_every_output_once_byte_identica
     for (k, v) in &expected {
         assert!(got[k] == *v, "{k} differs from the uninterrupted run");
     }
+    cleanup(&data);
+}
+
+#[test]
+fn resident_memory_stays_flat_over_a_long_batch() {
+    let (data, _) = dataset("memory", 120);
+    let out = data.with_extension("out");
+    let report = data.with_extension("jsonl");
+    let run = gregvox(
+        &[
+            "batch",
+            data.to_str().unwrap(),
+            "--res",
+            "64",
+            "--out-dir",
+            out.to_str().unwrap(),
+            "--report",
+            report.to_str().unwrap(),
+            "--workers",
+            "2",
+        ],
+        &[],
+    );
+    assert!(!run.status.success(), "3 broken models");
+    let rss: Vec<f64> = report_lines(&report)
+        .iter()
+        .filter(|l| l["status"] == "done")
+        .map(|l| l["rss_mib"].as_f64().unwrap())
+        .collect();
+    assert!(rss.len() >= 100, "{}", rss.len());
+    let settled = rss[19];
+    let worst = rss[20..].iter().cloned().fold(0.0f64, f64::max);
+    eprintln!("resident memory after model 20: {settled:.1} MiB, at most {worst:.1} MiB after");
+    assert!(worst <= settled * 1.10, "{settled:.1} MiB → {worst:.1} MiB");
+    cleanup(&data);
 }

@@ -358,6 +358,17 @@ pub struct ModelRecord {
     pub solid_voxels: Option<u64>,
     pub method: Option<Method>,
     pub seconds: f64,
+    /// The process's resident memory when the model was finished, in MiB (Linux; `None` elsewhere): flat
+    /// over a long batch.
+    pub rss_mib: Option<f64>,
+}
+
+/// The process's resident set size in MiB, from `/proc/self/status` (`None` where there is none).
+pub fn resident_mib() -> Option<f64> {
+    let status = std::fs::read_to_string("/proc/self/status").ok()?;
+    let line = status.lines().find(|l| l.starts_with("VmRSS:"))?;
+    let kib: f64 = line.split_whitespace().nth(1)?.parse().ok()?;
+    Some(kib / 1024.0)
 }
 
 impl ModelRecord {
@@ -374,6 +385,7 @@ impl ModelRecord {
             solid_voxels: None,
             method: None,
             seconds: 0.0,
+            rss_mib: None,
         }
     }
 }
@@ -557,6 +569,7 @@ pub fn run_batch(
                     }
                 }
                 rec.seconds = job.started.elapsed().as_secs_f64();
+                rec.rss_mib = resident_mib();
                 if done_tx.send(rec).is_err() {
                     return;
                 }
