@@ -41,6 +41,10 @@ pub enum Error {
     /// An argument or value is not acceptable.
     #[error("{0}")]
     Invalid(String),
+    /// A voxelization went past the caller's time limit (`VoxelizeOptions::deadline`), found at a checkpoint
+    /// between its stages.
+    #[error("past the time limit of {seconds} s ({stage})")]
+    Timeout { seconds: f64, stage: String },
     /// A mesh given in memory cannot be used (no usable triangle, no vertices…). Callers that loaded it from
     /// a file prefix the file's name ([`Error::for_input`]).
     #[error("{0}")]

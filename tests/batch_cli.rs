@@ -446,3 +446,88 @@ fn resident_memory_stays_flat_over_a_long_batch() {
     assert!(worst <= settled * 1.10, "{settled:.1} MiB → {worst:.1} MiB");
     cleanup(&data);
 }
+
+#[test]
+fn a_model_past_the_time_limit_fails_and_the_batch_goes_on() {
+    let data = scratch("timeout");
+    // A UV sphere of 300,000 triangles (13 MB of OBJ): loading it alone takes far longer than 0.1 s;
+    // the cube, a millisecond.
+    let (n, rings) = (500usize, 300usize);
+    let mut obj = String::from("v 0 0 1\n");
+    for i in 1..rings {
+        let t = std::f64::consts::PI * i as f64 / rings as f64;
+        for j in 0..n {
+            let p = 2.0 * std::f64::consts::PI * j as f64 / n as f64;
+            obj += &format!(
+                "v {:.6} {:.6} {:.6}\n",
+                t.sin() * p.cos(),
+                t.sin() * p.sin(),
+                t.cos()
+            );
+        }
+    }
+    obj += "v 0 0 -1\n";
+    let at = |i: usize, j: usize| 2 + (i - 1) * n + j % n;
+    let south = 2 + (rings - 1) * n;
+    for j in 0..n {
+        obj += &format!("f 1 {} {}\n", at(1, j), at(1, j + 1));
+        obj += &format!("f {south} {} {}\n", at(rings - 1, j + 1), at(rings - 1, j));
+    }
+    for i in 1..rings - 1 {
+        for j in 0..n {
+            obj += &format!(
+                "f {} {} {} {}\n",
+                at(i, j),
+                at(i + 1, j),
+                at(i + 1, j + 1),
+                at(i, j + 1)
+            );
+        }
+    }
+    std::fs::write(data.join("big_sphere.obj"), obj).unwrap();
+    std::fs::write(data.join("cube.obj"), cube_obj(0.0, 1.0)).unwrap();
+    let report = data.with_extension("jsonl");
+    let run = gregvox(
+        &[
+            "batch",
+            data.to_str().unwrap(),
+            "--res",
+            "16",
+            "--timeout-per-model",
+            "0.1",
+            "--report",
+            report.to_str().unwrap(),
+        ],
+        &[],
+    );
+    assert!(!run.status.success());
+    let lines = report_lines(&report);
+    let by_name = |n: &str| {
+        lines
+            .iter()
+            .find(|l| l["input"].as_str().unwrap().ends_with(n))
+            .unwrap()
+            .clone()
+    };
+    let big = by_name("big_sphere.obj");
+    assert_eq!(big["status"], "failed");
+    let e = big["error"].as_str().unwrap();
+    assert!(
+        e.contains("big_sphere.obj") && e.contains("past the time limit of 0.1 s"),
+        "{e}"
+    );
+    assert_eq!(by_name("cube.obj")["status"], "done");
+    let bad = gregvox(
+        &[
+            "batch",
+            data.to_str().unwrap(),
+            "--res",
+            "8",
+            "--timeout-per-model",
+            "0",
+        ],
+        &[],
+    );
+    assert!(String::from_utf8_lossy(&bad.stderr).contains("--timeout-per-model 0"));
+    cleanup(&data);
+}

@@ -16,7 +16,10 @@
 //!   recorded with its one-line error and the batch goes on; nothing is written for it.
 //! - Memory stays flat however long the list: at most `queue` loaded models wait for the device and at most
 //!   `queue` grids wait for their writer.
-use super::{load_mesh, voxelize, voxelize_on_cpu, Gpu, Method, Voxelization, VoxelizeOptions};
+use super::{
+    load_mesh, voxelize, voxelize_on_cpu, Deadline, Gpu, Method, Voxelization, VoxelizeOptions,
+};
+use crate::engine::voxelize::checkpoint;
 use crate::error::{Error, Result};
 use crate::voxel::export::SaveOptions;
 use serde::Serialize;
@@ -400,6 +403,9 @@ pub struct BatchOptions {
     pub save: SaveOptions,
     /// Skip models whose output exists (the default).
     pub resume: bool,
+    /// Seconds a model may take from the start of its load, checked after the load and between the stages
+    /// of its voxelization (a stage under way runs to its end): past it, the model fails.
+    pub timeout: Option<f64>,
     /// Loader and writer threads each.
     pub workers: usize,
     /// Loaded models waiting for the device, and grids waiting for a writer, at most.
@@ -540,7 +546,14 @@ pub fn run_batch(
                 match job.result {
                     Err(e) => {
                         rec.status = ModelStatus::Failed;
-                        rec.error = Some(e.for_input(&input.path).to_string());
+                        let msg = e.for_input(&input.path).to_string();
+                        let path = input.path.display().to_string();
+                        // Every report line names its model, whatever the error.
+                        rec.error = Some(if msg.contains(&path) {
+                            msg
+                        } else {
+                            format!("{path}: {msg}")
+                        });
                     }
                     Ok(v) => {
                         let r = &v.report;
@@ -613,14 +626,20 @@ pub fn run_batch(
                         pass_on(&mut summary, rec)?;
                         continue;
                     }
+                    let mut model_opts = opts.voxelize.clone();
+                    model_opts.deadline = opts.timeout.map(|seconds| Deadline {
+                        at: loaded.started + std::time::Duration::from_secs_f64(seconds.max(0.0)),
+                        seconds,
+                    });
                     let result = guarded(&input.path, || {
+                        checkpoint(&model_opts.deadline, "after loading")?;
                         frame?;
                         match (gpu, opts.voxelize.method) {
                             (_, Method::Cpu) | (None, Method::Auto) => {
-                                voxelize_on_cpu(&mesh, &opts.voxelize)
+                                voxelize_on_cpu(&mesh, &model_opts)
                             }
-                            (Some(g), _) => g.voxelize(&mesh, &opts.voxelize),
-                            (None, _) => voxelize(&mesh, &opts.voxelize),
+                            (Some(g), _) => g.voxelize(&mesh, &model_opts),
+                            (None, _) => voxelize(&mesh, &model_opts),
                         }
                     });
                     Finished {

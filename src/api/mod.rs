@@ -10,6 +10,7 @@
 //! - Errors are [`crate::Error`] values that name the input and the problem; nothing panics on bad input.
 use crate::engine::cage::cage_topology;
 use crate::engine::gregory::GregorySurface;
+use crate::engine::voxelize::checkpoint;
 use crate::engine::voxelize::{
     memory_estimate, resolve_gpu, voxelize_gregory_surface, voxelize_surface_gpu, AbufferVoxelizer,
     GpuTriangles, GpuVoxelizer, PeelVoxelizer,
@@ -28,7 +29,7 @@ use std::path::Path;
 pub mod batch;
 pub mod tessellate;
 
-pub use crate::engine::voxelize::{ProgressFn, DEFAULT_MAX_LAYERS};
+pub use crate::engine::voxelize::{Deadline, ProgressFn, DEFAULT_MAX_LAYERS};
 pub use crate::mesh::{Mesh, MeshMatrix, TopologyReport};
 pub use crate::passes::cage_deform::Deformation;
 pub use crate::passes::gregory_eval::SurfaceVertex as Vertex;
@@ -149,6 +150,8 @@ pub struct VoxelizeOptions {
     pub max_layers: u32,
     /// Called once per finished stage of a GPU voxelization (three per axis).
     pub progress: Option<ProgressFn>,
+    /// A time limit, checked between the stages of the voxelization (`Error::Timeout` past it).
+    pub deadline: Option<Deadline>,
     /// Bytes the generalized winding number may spend on the voxels it evaluates directly
     /// ([`FillRule::Gwn`]); a mesh whose caps need more is refused with [`Error::Limit`].
     pub gwn_budget: u64,
@@ -167,6 +170,7 @@ impl Default for VoxelizeOptions {
             axes: Axes::Auto,
             max_layers: DEFAULT_MAX_LAYERS,
             progress: None,
+            deadline: None,
             gwn_budget: DEFAULT_GWN_BUDGET,
         }
     }
@@ -182,6 +186,7 @@ impl std::fmt::Debug for VoxelizeOptions {
             .field("axes", &self.axes)
             .field("max_layers", &self.max_layers)
             .field("progress", &self.progress.is_some())
+            .field("deadline", &self.deadline)
             .field("gwn_budget", &self.gwn_budget)
             .finish()
     }
@@ -241,6 +246,11 @@ impl VoxelizeOptions {
     /// The memory budget of the generalized winding number's direct voxels.
     pub fn gwn_budget(mut self, bytes: u64) -> Self {
         self.gwn_budget = bytes;
+        self
+    }
+    /// A time limit of `seconds` from now on this voxelization (see [`Deadline`]).
+    pub fn time_limit(mut self, seconds: f64) -> Self {
+        self.deadline = Some(Deadline::after(seconds));
         self
     }
     /// A progress callback.
@@ -499,6 +509,7 @@ fn cpu_by_auto(mesh: &Mesh, opts: &VoxelizeOptions, why: String) -> Result<Voxel
 /// is ignored (reported as `cpu`).
 pub fn voxelize_on_cpu(mesh: &Mesh, opts: &VoxelizeOptions) -> Result<Voxelization> {
     let prepared = prepare(mesh, opts)?;
+    checkpoint(&opts.deadline, "after cleaning the mesh")?;
     let (frame, three) = (prepared.frame, prepared.three);
     let mut report = prepared.report.clone();
     report.method = Method::Cpu;
@@ -524,6 +535,7 @@ pub fn voxelize_on_cpu(mesh: &Mesh, opts: &VoxelizeOptions) -> Result<Voxelizati
         } else {
             grids.into_iter().next().expect("one axis")
         };
+        checkpoint(&opts.deadline, "after the scanline")?;
         if let Some((cap, closed)) = &prepared.capped {
             report.gwn = Some(resolve_cpu(
                 &mut grid,
@@ -692,6 +704,7 @@ impl Gpu {
         report.axes = axes;
         report.layers = stats.iter().map(|s| (s.axis, s.layers)).collect();
         let mut grid = grid;
+        checkpoint(&opts.deadline, "after the solid grid")?;
         if let Some((cap, closed)) = &prepared.capped {
             // The cap term on the GPU when it computes in f64 (the same operations as the CPU's), else on
             // the CPU: the same bits either way.
@@ -737,11 +750,13 @@ impl Gpu {
         let v = if method == Method::Abuffer {
             let mut v = AbufferVoxelizer::new(ctx, stride)?;
             v.progress = opts.progress.clone();
+            v.deadline = opts.deadline;
             GpuVoxelizer::Abuffer(Box::new(v))
         } else {
             let mut v = PeelVoxelizer::new(ctx, stride)?;
             v.max_layers = opts.max_layers;
             v.progress = opts.progress.clone();
+            v.deadline = opts.deadline;
             GpuVoxelizer::Peel(Box::new(v))
         };
         let axes: Vec<Axis> = match (three, opts.axes) {

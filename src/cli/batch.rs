@@ -44,6 +44,10 @@ pub struct BatchArgs {
     /// loops, layers, solid voxels, method, seconds).
     #[arg(long, value_name = "FILE")]
     pub report: Option<PathBuf>,
+    /// A model taking longer than S seconds from the start of its load fails (checked after the load and
+    /// between the stages of its voxelization) and the batch goes on.
+    #[arg(long, value_name = "S")]
+    pub timeout_per_model: Option<f64>,
     /// Loader and writer threads (each; default: the cores, at most 8).
     #[arg(long, value_name = "N")]
     pub workers: Option<usize>,
@@ -55,6 +59,11 @@ pub struct BatchArgs {
 /// Runs `gregvox batch`; fails (after finishing the list) when any model failed.
 pub fn run(args: &BatchArgs) -> anyhow::Result<()> {
     let voxelize = args.grid.options()?;
+    if let Some(t) = args.timeout_per_model {
+        if !(t.is_finite() && t > 0.0) {
+            bail!("--timeout-per-model {t}: give a number of seconds > 0");
+        }
+    }
     let names = match (&args.out_dir, &args.name) {
         (Some(dir), name) => Some(OutputNames {
             dir: dir.clone(),
@@ -106,6 +115,7 @@ pub fn run(args: &BatchArgs) -> anyhow::Result<()> {
             npy_packed: args.grid.npy_packed,
         },
         resume: !args.no_resume,
+        timeout: args.timeout_per_model,
         workers,
         queue: 2 * workers,
     };

@@ -16,6 +16,8 @@ pub struct AbufferVoxelizer {
     /// Advanced by one per stage (count, scatter, fill) of each axis.
     /// Called once per finished stage (count, scatter, fill) of each axis: three calls per axis.
     pub progress: Option<ProgressFn>,
+    /// Checked after the count pass and after the fill (`Error::Timeout`).
+    pub deadline: Option<Deadline>,
 }
 
 impl AbufferVoxelizer {
@@ -28,6 +30,7 @@ impl AbufferVoxelizer {
             pass,
             slab_limit: None,
             progress: None,
+            deadline: None,
         })
     }
 
@@ -136,6 +139,7 @@ impl AbufferVoxelizer {
                 axis.name()
             ),
         );
+        checkpoint(&self.deadline, &format!("{}: counted", axis.name()))?;
         let mut grid = VoxelGrid::empty(*frame, axis);
         if total == 0 {
             return Ok((
@@ -225,6 +229,7 @@ impl AbufferVoxelizer {
             || tick(&self.progress, &format!("{}: scattered", axis.name())),
         )?;
         tick(&self.progress, &format!("{}: filled", axis.name()));
+        checkpoint(&self.deadline, &format!("{}: filled", axis.name()))?;
         let solid = grid.count();
         Ok((
             grid,

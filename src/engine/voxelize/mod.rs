@@ -100,6 +100,36 @@ impl GpuTriangles {
 /// (three stages per axis). The CLI draws a bar from it; a library user may log, or ignore it.
 pub type ProgressFn = std::sync::Arc<dyn Fn(&str) + Send + Sync>;
 
+/// A time limit on one voxelization, checked between its stages (a GPU submission, once made, runs to its
+/// end: Vulkan cannot cancel one).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Deadline {
+    pub at: std::time::Instant,
+    /// The limit as given, for the message.
+    pub seconds: f64,
+}
+
+impl Deadline {
+    /// A limit of `seconds` from now.
+    pub fn after(seconds: f64) -> Deadline {
+        Deadline {
+            at: std::time::Instant::now() + std::time::Duration::from_secs_f64(seconds.max(0.0)),
+            seconds,
+        }
+    }
+}
+
+/// `Err(Error::Timeout)` once `deadline` has passed; `stage` says where it was found.
+pub(crate) fn checkpoint(deadline: &Option<Deadline>, stage: &str) -> crate::error::Result<()> {
+    match deadline {
+        Some(d) if std::time::Instant::now() >= d.at => Err(crate::error::Error::Timeout {
+            seconds: d.seconds,
+            stage: stage.into(),
+        }),
+        _ => Ok(()),
+    }
+}
+
 pub(crate) fn tick(progress: &Option<ProgressFn>, msg: &str) {
     if let Some(p) = progress {
         p(msg);

@@ -22,6 +22,8 @@ pub struct PeelVoxelizer {
     pub slab_limit: Option<u64>,
     /// Called once per finished stage (count, peel, fill) of each axis: three calls per axis.
     pub progress: Option<ProgressFn>,
+    /// Checked after the count pass and after the fill (`Error::Timeout`).
+    pub deadline: Option<Deadline>,
 }
 
 /// The images of `layers` peeling passes at width×height: two D32 depth images that alternate, the R32 layer array
@@ -86,6 +88,7 @@ impl PeelVoxelizer {
             max_layers: DEFAULT_MAX_LAYERS,
             slab_limit: None,
             progress: None,
+            deadline: None,
         })
     }
 
@@ -221,6 +224,7 @@ impl PeelVoxelizer {
             &self.progress,
             &format!("{}: counted {layers} layers", axis.name()),
         );
+        checkpoint(&self.deadline, &format!("{}: counted", axis.name()))?;
         let mut grid = VoxelGrid::empty(*frame, axis);
         if layers == 0 {
             return Ok((
@@ -298,6 +302,7 @@ impl PeelVoxelizer {
             },
         )?;
         tick(&self.progress, &format!("{}: filled", axis.name()));
+        checkpoint(&self.deadline, &format!("{}: filled", axis.name()))?;
         let solid = grid.count();
         Ok((
             grid,
