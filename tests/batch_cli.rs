@@ -531,3 +531,45 @@ fn a_model_past_the_time_limit_fails_and_the_batch_goes_on() {
     assert!(String::from_utf8_lossy(&bad.stderr).contains("--timeout-per-model 0"));
     cleanup(&data);
 }
+
+#[test]
+fn ctrl_c_stops_after_the_models_in_flight_and_a_rerun_finishes() {
+    let (data, _) = dataset("sigint", 60);
+    let d = data.to_str().unwrap();
+    let out = data.with_extension("out");
+    let o = out.to_str().unwrap();
+    let mut child = Command::new(env!("CARGO_BIN_EXE_gregvox"))
+        .args(args(d, o, "64", &[]))
+        .env("GREGVOX_VALIDATION", "1")
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    std::thread::sleep(std::time::Duration::from_millis(300));
+    let running = child.try_wait().unwrap().is_none();
+    Command::new("kill")
+        .args(["-INT", &child.id().to_string()])
+        .status()
+        .unwrap();
+    let stopped = child.wait_with_output().unwrap();
+    let err = String::from_utf8_lossy(&stopped.stderr);
+    if running {
+        assert!(!stopped.status.success(), "{err}");
+        assert!(
+            err.contains("interrupted") || err.contains("failed"),
+            "{err}"
+        );
+        assert!(
+            !err.contains("panicked") && !err.contains("validation"),
+            "{err}"
+        );
+    }
+    let fin = gregvox(&args(d, o, "64", &["--json"]), &[]);
+    let j: serde_json::Value = serde_json::from_slice(&fin.stdout).unwrap();
+    assert_eq!(
+        j["done"].as_u64().unwrap() + j["skipped"].as_u64().unwrap(),
+        63,
+        "{j}"
+    );
+    cleanup(&data);
+}
