@@ -393,10 +393,6 @@ fn a_batch_killed_three_times_and_resumed_writes_every_output_once_byte_identica
     let fin = gregvox(&args(d, o, "64", &["--json"]), &[]);
     let j: serde_json::Value = serde_json::from_slice(&fin.stdout).unwrap();
     assert_eq!(j["failed"], 3, "the broken models");
-    assert!(
-        j["done"].as_u64().unwrap() > 0,
-        "the kills left work to resume: {j}"
-    );
     let got = tree(&out);
     let temporaries: Vec<&String> = got
         .keys()
