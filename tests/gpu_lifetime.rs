@@ -129,3 +129,36 @@ fn a_pass_and_its_buffer_dropped_while_their_frame_records_stay_alive_until_it_c
         assert_eq!(ctx.objects_awaiting_release(), 0);
     });
 }
+
+#[test]
+fn one_gpu_keeps_its_voxelizers_between_calls_and_each_call_sets_its_own_options() {
+    // The batch path: many models through one `Gpu`, whose peel and A-buffer pipelines are made once.
+    // A cached voxelizer must not carry a setting (here the layer cap of a refused call) into the next
+    // call, must give the bits a fresh device gives, and must be released by `finish`.
+    let models = ["stanford-bunny.obj", "spot_quadrangulated.obj", "stanford-bunny.obj"];
+    let desc = ContextDesc {
+        validation: Validation::Required,
+        ..Default::default()
+    };
+    let kept = Gpu::with_desc(&desc).unwrap();
+    for method in [gregvox::Method::Peel, gregvox::Method::Abuffer] {
+        for (i, name) in models.iter().enumerate() {
+            let mesh = load_mesh(model(name)).unwrap();
+            let opts = VoxelizeOptions::default().res(48 + 8 * i as u32).method(method);
+            if method == gregvox::Method::Peel {
+                let refused = kept.voxelize(&mesh, &opts.clone().max_layers(1));
+                assert!(refused.is_err(), "{name}: one layer is too few");
+            }
+            let again = kept.voxelize(&mesh, &opts).unwrap();
+            let fresh_gpu = Gpu::with_desc(&desc).unwrap();
+            let fresh = fresh_gpu.voxelize(&mesh, &opts).unwrap();
+            fresh_gpu.finish().unwrap();
+            assert!(again.grid.count() > 0, "{name}");
+            assert!(
+                again.grid == fresh.grid,
+                "{name} {method:?}: a kept voxelizer gives other bits than a fresh one"
+            );
+        }
+    }
+    kept.finish().unwrap();
+}

@@ -554,7 +554,19 @@ pub fn voxelize_on_cpu(mesh: &Mesh, opts: &VoxelizeOptions) -> Result<Voxelizati
 /// A Vulkan device and everything gregvox needs on it. Cheap to keep for many calls; dropping it releases
 /// the device once the last object made from it is gone.
 pub struct Gpu {
+    /// The voxelizers' pipelines, made on first use and kept for the next call: a batch of thousands of
+    /// models builds them once (on lavapipe each build compiles shaders). Declared before `ctx` so they
+    /// are released before the device.
+    voxelizers: std::sync::Mutex<VoxelizerCache>,
     ctx: Context,
+}
+
+/// The pipelines of each GPU method, when made. They hold no per-grid state: every setting is set again
+/// at the start of each call.
+#[derive(Default)]
+struct VoxelizerCache {
+    peel: Option<GpuVoxelizer>,
+    abuffer: Option<GpuVoxelizer>,
 }
 
 impl Gpu {
@@ -567,6 +579,7 @@ impl Gpu {
     /// A device chosen and configured by `desc`.
     pub fn with_desc(desc: &ContextDesc) -> Result<Gpu> {
         Ok(Gpu {
+            voxelizers: Default::default(),
             ctx: Context::with_desc(desc)?,
         })
     }
@@ -585,17 +598,19 @@ impl Gpu {
     /// dropping what the work made) and validation messages (when the layer is on). Examples and tools end
     /// with it; dropping a `Gpu` without it is fine.
     pub fn finish(self) -> Result<()> {
-        self.ctx.wait_idle()?;
-        let live = self.ctx.live_allocations();
+        let Gpu { voxelizers, ctx } = self;
+        drop(voxelizers);
+        ctx.wait_idle()?;
+        let live = ctx.live_allocations();
         if !live.is_empty() {
             return Err(Error::Invalid(format!(
                 "internal error: GPU allocations still alive: {}",
                 live.join(", ")
             )));
         }
-        let n = self.ctx.validation.count();
+        let n = ctx.validation.count();
         if n > 0 {
-            let first = self.ctx.validation.messages().into_iter().next();
+            let first = ctx.validation.messages().into_iter().next();
             return Err(Error::Invalid(format!(
                 "internal error: {n} Vulkan validation message(s), the first: {}",
                 first.unwrap_or_default()
@@ -747,18 +762,58 @@ impl Gpu {
     )> {
         let ctx = &self.ctx;
         let stride = std::mem::size_of::<[f32; 3]>() as u32;
-        let v = if method == Method::Abuffer {
-            let mut v = AbufferVoxelizer::new(ctx, stride)?;
-            v.progress = opts.progress.clone();
-            v.deadline = opts.deadline;
-            GpuVoxelizer::Abuffer(Box::new(v))
-        } else {
-            let mut v = PeelVoxelizer::new(ctx, stride)?;
-            v.max_layers = opts.max_layers;
-            v.progress = opts.progress.clone();
-            v.deadline = opts.deadline;
-            GpuVoxelizer::Peel(Box::new(v))
+        // Take the method's voxelizer from the cache (a concurrent call on the same `Gpu` finds the slot
+        // empty and builds its own), set this call's options, and put it back whatever the outcome.
+        let cached = {
+            let mut cache = self.voxelizers.lock().unwrap_or_else(|e| e.into_inner());
+            match method {
+                Method::Abuffer => cache.abuffer.take(),
+                _ => cache.peel.take(),
+            }
         };
+        let mut v = match cached {
+            Some(v) => v,
+            None if method == Method::Abuffer => {
+                GpuVoxelizer::Abuffer(Box::new(AbufferVoxelizer::new(ctx, stride)?))
+            }
+            None => GpuVoxelizer::Peel(Box::new(PeelVoxelizer::new(ctx, stride)?)),
+        };
+        match &mut v {
+            GpuVoxelizer::Abuffer(a) => {
+                a.progress = opts.progress.clone();
+                a.deadline = opts.deadline;
+            }
+            GpuVoxelizer::Peel(p) => {
+                p.max_layers = opts.max_layers;
+                p.progress = opts.progress.clone();
+                p.deadline = opts.deadline;
+            }
+        }
+        let result = Self::run_voxelizer(&v, ctx, opts, rule, geom, frame, three, profiler);
+        let mut cache = self.voxelizers.lock().unwrap_or_else(|e| e.into_inner());
+        match method {
+            Method::Abuffer => cache.abuffer = Some(v),
+            _ => cache.peel = Some(v),
+        }
+        result
+    }
+
+    /// The axis choice and the voxelization of [`Gpu::run_gpu_method`] with a voxelizer set up for it.
+    #[allow(clippy::too_many_arguments, clippy::type_complexity)]
+    fn run_voxelizer(
+        v: &GpuVoxelizer,
+        ctx: &Context,
+        opts: &VoxelizeOptions,
+        rule: FillRule,
+        geom: &crate::passes::peel::PeelGeometry,
+        frame: &GridFrame,
+        three: bool,
+        profiler: Option<&mut Profiler>,
+    ) -> Result<(
+        VoxelGrid,
+        Vec<Axis>,
+        Vec<crate::engine::voxelize::AxisStats>,
+    )> {
         let axes: Vec<Axis> = match (three, opts.axes) {
             (true, _) => Axis::ALL.to_vec(),
             (false, Axes::One(a)) => vec![a],
