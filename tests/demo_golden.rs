@@ -181,19 +181,30 @@ fn golden_frames_of_every_scene_match_within_tolerance() {
             let frames = render(ctx, &demo_args(extra), &SAMPLED);
             for (px, f) in frames.iter().zip(SAMPLED) {
                 let shown = non_background(px);
-                assert!(
-                    shown > 0.05,
-                    "{name} frame {f}: only {:.1} % of the pixels show anything",
-                    100.0 * shown
-                );
                 let path = fixture(&format!("{name}_f{f:03}.png"));
                 if bless {
+                    // A golden must show something to be worth keeping (the thinnest, `curves`, ~5.6 %).
+                    assert!(
+                        shown > 0.01,
+                        "{name} frame {f}: only {:.2} % of the pixels show anything",
+                        100.0 * shown
+                    );
                     std::fs::create_dir_all(path.parent().unwrap()).unwrap();
                     gregvox::gpu::present::write_png_rgba(&path, SIZE.0, SIZE.1, px).unwrap();
                     continue;
                 }
                 let (w, h, golden) = read_png(&path);
                 assert_eq!((w, h), SIZE, "{}", path.display());
+                // "Not blank" relative to the golden's own content, not a fixed share of the frame: a
+                // scene of thin lines (curves) is as strictly held as one that fills the frame. The frame
+                // may lose no more content than the pixel tolerance lets move.
+                let expected = non_background(&golden);
+                assert!(
+                    shown >= expected - MAX_DIFFERING,
+                    "{name} frame {f}: {:.2} % of the pixels show anything, the golden {:.2} %",
+                    100.0 * shown,
+                    100.0 * expected
+                );
                 let d = differing(px, &golden, CHANNEL_SLACK);
                 if d > MAX_DIFFERING {
                     // Beside the test's temporary files, not the fixtures: a failure leaves the tree clean.

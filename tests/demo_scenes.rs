@@ -617,35 +617,34 @@ fn every_new_scene_renders_offscreen_not_blank_and_animated_scenes_change() {
     });
 }
 
-/// Runs the binary with `args`; returns (success, stderr).
-fn gregvox(args: &[&str]) -> (bool, String) {
-    let out = std::process::Command::new(env!("CARGO_BIN_EXE_gregvox"))
-        .args(args)
-        .output()
-        .expect("the gregvox binary runs");
-    (
-        out.status.success(),
-        String::from_utf8_lossy(&out.stderr).into_owned(),
-    )
-}
-
 #[test]
 fn bad_scene_input_gives_one_clear_message_and_a_failing_exit() {
-    let out = std::env::temp_dir().join("gregvox_demo_scenes_bad_input");
+    // The output folder's parent exists and is empty: a refused run must leave it empty (no frame, no
+    // output folder, no temporary).
+    let parent = std::env::temp_dir().join(format!(
+        "gregvox_demo_scenes_bad_input_{}",
+        std::process::id()
+    ));
+    let _ = std::fs::remove_dir_all(&parent);
+    std::fs::create_dir_all(&parent).unwrap();
+    let out = parent.join("frames");
     let out = out.to_str().unwrap();
     let missing = std::env::temp_dir().join("gregvox_no_such_model.gzjson");
-    let cases: [(&[&str], &str); 3] = [
-        (&["--scene", "voxels", "--voxel-res", "1"], "--voxel-res 1"),
+    let cases: [(&[&str], &[&str]); 3] = [
+        (
+            &["--scene", "voxels", "--voxel-res", "1"],
+            &["--voxel-res", "1"],
+        ),
         (
             &["--scene", "voxels", "--voxel-scale", "0"],
-            "--voxel-scale 0",
+            &["--voxel-scale", "0"],
         ),
         (
             &["--scene", "beziex", "--model", missing.to_str().unwrap()],
-            "gregvox_no_such_model.gzjson",
+            &["gregvox_no_such_model.gzjson", "No such file"],
         ),
     ];
-    for (args, needle) in cases {
+    for (args, needles) in cases {
         let mut argv = vec![
             "demo",
             "--offscreen",
@@ -657,12 +656,16 @@ fn bad_scene_input_gives_one_clear_message_and_a_failing_exit() {
             out,
         ];
         argv.extend_from_slice(args);
-        let (ok, stderr) = gregvox(&argv);
-        assert!(!ok, "{args:?} succeeded");
-        assert!(!stderr.contains("panicked"), "{args:?} panicked: {stderr}");
-        assert!(
-            stderr.contains(needle),
-            "{args:?}: the message does not name the input: {stderr}"
+        let o = std::process::Command::new(env!("CARGO_BIN_EXE_gregvox"))
+            .args(&argv)
+            .output()
+            .expect("the gregvox binary runs");
+        common::assert_one_error_line(&format!("{args:?}"), &o, needles);
+        assert_eq!(
+            common::entries_under(&parent),
+            Vec::<String>::new(),
+            "{args:?} left something behind"
         );
     }
+    let _ = std::fs::remove_dir_all(&parent);
 }

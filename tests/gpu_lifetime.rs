@@ -135,7 +135,11 @@ fn one_gpu_keeps_its_voxelizers_between_calls_and_each_call_sets_its_own_options
     // The batch path: many models through one `Gpu`, whose peel and A-buffer pipelines are made once.
     // A cached voxelizer must not carry a setting (here the layer cap of a refused call) into the next
     // call, must give the bits a fresh device gives, and must be released by `finish`.
-    let models = ["stanford-bunny.obj", "spot_quadrangulated.obj", "stanford-bunny.obj"];
+    let models = [
+        "stanford-bunny.obj",
+        "spot_quadrangulated.obj",
+        "stanford-bunny.obj",
+    ];
     let desc = ContextDesc {
         validation: Validation::Required,
         ..Default::default()
@@ -144,7 +148,9 @@ fn one_gpu_keeps_its_voxelizers_between_calls_and_each_call_sets_its_own_options
     for method in [gregvox::Method::Peel, gregvox::Method::Abuffer] {
         for (i, name) in models.iter().enumerate() {
             let mesh = load_mesh(model(name)).unwrap();
-            let opts = VoxelizeOptions::default().res(48 + 8 * i as u32).method(method);
+            let opts = VoxelizeOptions::default()
+                .res(48 + 8 * i as u32)
+                .method(method);
             if method == gregvox::Method::Peel {
                 let refused = kept.voxelize(&mesh, &opts.clone().max_layers(1));
                 assert!(refused.is_err(), "{name}: one layer is too few");

@@ -272,3 +272,180 @@ fn bad_adaptive_parameters_are_clear_errors() {
         assert!(s.adaptive_draw().is_none());
     });
 }
+
+/// The level rule from its definition, written out here: project the 4 × 4 Bézier net's boundary control
+/// polygons (row v = 0, column u = 1, row v = 1, column u = 0) through `view_proj` to pixels
+/// ((ndc + 1) / 2 · viewport; the offset cancels in lengths), take the longest polygon length s, and
+/// L = clamp(⌈s / pixels_per_segment⌉, 1, L_max), L_max when a control point is not in front of the eye.
+/// Returns (L, s / pixels_per_segment).
+fn level_by_definition(net: &[[DVec3; 4]; 4], p: &AdaptiveParams, l_max: u32) -> (u32, f64) {
+    let m = p.view_proj.as_dmat4();
+    let px = |q: DVec3| -> Option<glam::DVec2> {
+        let c = m * q.extend(1.0);
+        (c.w > 0.0).then(|| {
+            glam::DVec2::new(
+                c.x / c.w * p.viewport[0] as f64 / 2.0,
+                c.y / c.w * p.viewport[1] as f64 / 2.0,
+            )
+        })
+    };
+    let polygons: [[DVec3; 4]; 4] = [
+        net[0],
+        std::array::from_fn(|j| net[j][3]),
+        net[3],
+        std::array::from_fn(|j| net[j][0]),
+    ];
+    let mut longest = 0.0f64;
+    for poly in polygons {
+        let mut len = 0.0;
+        for w in poly.windows(2) {
+            match (px(w[0]), px(w[1])) {
+                (Some(a), Some(b)) => len += (b - a).length(),
+                _ => return (l_max, f64::INFINITY),
+            }
+        }
+        longest = longest.max(len);
+    }
+    let r = longest / p.pixels_per_segment as f64;
+    ((r.ceil() as u32).clamp(1, l_max), r)
+}
+
+#[test]
+fn hand_made_patches_get_the_level_of_their_projected_control_polygons_on_the_gpu_and_cpu() {
+    use gregvox::geom::gregory::PatchF64;
+    // Orthographic: 20 × 15 world units onto 1024 × 768 pixels, 51.2 px per unit in x and y.
+    let ortho = Mat4::orthographic_rh(-10.0, 10.0, -7.5, 7.5, 0.1, 100.0)
+        * Mat4::look_at_rh(Vec3::new(0.0, 0.0, 20.0), Vec3::ZERO, Vec3::Y);
+    let persp = Mat4::perspective_rh(50f32.to_radians(), 4.0 / 3.0, 0.1, 100.0)
+        * Mat4::look_at_rh(Vec3::new(0.0, 0.0, 6.0), Vec3::ZERO, Vec3::Y);
+    let view = |m: Mat4, pps: f32| AdaptiveParams {
+        view_proj: m,
+        viewport: [1024.0, 768.0],
+        pixels_per_segment: pps,
+    };
+    let square = |o: DVec3, side: f64, depth_slope: f64| -> [[DVec3; 4]; 4] {
+        std::array::from_fn(|j| {
+            std::array::from_fn(|i| {
+                let (x, y) = (i as f64 / 3.0 * side, j as f64 / 3.0 * side);
+                o + DVec3::new(x, y, depth_slope * y)
+            })
+        })
+    };
+    // Row v = 0 as a zig-zag: its control polygon (3 × √((1/3)² + ½²) ≈ 1.803 units = 92.3 px) is longer
+    // than its curve's chord (1 unit), and the rule measures the polygon.
+    let mut zigzag = square(DVec3::new(-4.0, -4.0, 0.0), 1.0, 0.0);
+    zigzag[0][1].y += 0.5;
+    zigzag[0][3].y += 0.5;
+    // (name, Bézier net, view, the level the definition must give where it is known by hand)
+    type Case = (&'static str, [[DVec3; 4]; 4], AdaptiveParams, Option<u32>);
+    let cases: Vec<Case> = vec![
+        // 1 unit = 51.2 px, 10 px per segment: 5.12 → 6.
+        (
+            "unit square",
+            square(DVec3::ZERO, 1.0, 0.0),
+            view(ortho, 10.0),
+            Some(6),
+        ),
+        ("zig-zag row", zigzag, view(ortho, 10.0), Some(10)),
+        (
+            "tiny",
+            square(DVec3::ZERO, 0.01, 0.0),
+            view(ortho, 10.0),
+            Some(1),
+        ),
+        (
+            "huge",
+            square(DVec3::new(-9.0, -7.0, 0.0), 14.0, 0.0),
+            view(ortho, 2.0),
+            Some(L_MAX),
+        ),
+        (
+            "tilted in perspective",
+            square(DVec3::new(-1.0, -1.0, 0.0), 2.0, -1.5),
+            view(persp, 20.0),
+            None,
+        ),
+        (
+            "behind the eye",
+            square(DVec3::new(0.0, 0.0, 5.0), 2.0, 1.0),
+            view(persp, 20.0),
+            Some(L_MAX),
+        ),
+    ];
+    for (name, net, params, want) in &cases {
+        let (level, ratio) = level_by_definition(net, params, L_MAX);
+        if let Some(w) = want {
+            assert_eq!(
+                level, *w,
+                "{name}: the definition gives {level} (ratio {ratio})"
+            );
+        }
+        // Far from a rounding tie, so f32 on the GPU cannot round the other way.
+        assert!(
+            ratio.is_infinite() || (ratio - ratio.round()).abs() > 0.02 || ratio > L_MAX as f64,
+            "{name}: ratio {ratio} too close to an integer for an exact test"
+        );
+        let cv = PatchF64::from_bezier(net).cv;
+        assert_eq!(
+            patch_level(&cv, params, L_MAX).0,
+            level,
+            "{name}: the CPU rule differs from the definition"
+        );
+        let gpu = with_gpu(|ctx| gpu_levels(ctx, &[cv], params));
+        assert_eq!(
+            gpu,
+            vec![level],
+            "{name}: the GPU level differs from the definition"
+        );
+    }
+}
+
+/// The adaptive-levels pass alone on isolated patches (20 points each): their levels.
+fn gpu_levels(ctx: &Context, patches: &[[DVec3; 20]], params: &AdaptiveParams) -> Vec<u32> {
+    use ash::vk;
+    use gregvox::passes::adaptive_levels::{AdaptiveBuffers, AdaptiveLevelsPass};
+    let pts: Vec<[f32; 4]> = patches
+        .iter()
+        .flat_map(|cv| cv.iter().map(|c| [c.x as f32, c.y as f32, c.z as f32, 1.0]))
+        .collect();
+    let rows: Vec<[u32; 20]> = (0..patches.len() as u32)
+        .map(|p| std::array::from_fn(|k| 20 * p + k as u32))
+        .collect();
+    let edges = EdgeTopology::new(&rows);
+    let usage = vk::BufferUsageFlags::STORAGE_BUFFER | vk::BufferUsageFlags::TRANSFER_SRC;
+    let up = |name: &str, bytes: &[u8]| ctx.upload_buffer(name, bytes, usage).unwrap();
+    let out = |name: &str, bytes: u64, extra: vk::BufferUsageFlags| {
+        ctx.create_buffer(
+            name,
+            bytes,
+            usage | extra,
+            gregvox::gpu::MemoryLocation::GpuOnly,
+        )
+        .unwrap()
+    };
+    let points = up("points", bytemuck::cast_slice(&pts));
+    let patch_points = up("patch points", bytemuck::cast_slice(&rows));
+    let edge_offsets = up("edge offsets", bytemuck::cast_slice(&edges.edge_offsets));
+    let edge_patches = up("edge patches", bytemuck::cast_slice(&edges.edge_patches));
+    let n = patches.len() as u64;
+    let levels = out("levels", 4 * n, vk::BufferUsageFlags::empty());
+    let commands = out("commands", 20 * n, vk::BufferUsageFlags::INDIRECT_BUFFER);
+    let edge_levels = out(
+        "edge levels",
+        4 * edges.edge_count() as u64,
+        vk::BufferUsageFlags::empty(),
+    );
+    let pass = AdaptiveLevelsPass::new(ctx).unwrap();
+    let b = AdaptiveBuffers {
+        points: &points,
+        patch_points: &patch_points,
+        levels: &levels,
+        commands: &commands,
+        edge_offsets: &edge_offsets,
+        edge_patches: &edge_patches,
+        edge_levels: &edge_levels,
+    };
+    ctx.one_shot(|cmd| pass.record(ctx, cmd, &b, params, (n as u32, edges.edge_count(), L_MAX)))
+        .unwrap();
+    ctx.read_pod::<u32>(&levels).unwrap()
+}

@@ -1,6 +1,7 @@
 //! Specification of `gregvox tessellate`'s Gregory options through the binary (validation layer forced on):
 //! `--tangents exact` evaluates the exact-limit-tangent ACC-2 patches, and `--adaptive` writes each patch's
 //! own grid in the documented order.
+mod common;
 use glam::DVec3;
 use gregvox::mesh::load_obj;
 use gregvox::surface::{tessellate, GregoryStencils, Tangents};
@@ -108,17 +109,21 @@ fn tangents_exact_evaluates_the_exact_limit_tangent_patches() {
 
 #[test]
 fn tangents_on_a_beziex_model_is_one_clear_error() {
+    let dir = tmp("tangents-beziex");
+    std::fs::create_dir_all(&dir).unwrap();
     let o = gregvox(&[
         "tessellate",
         &model("beziex/19_Sphere1.gzjson"),
         "--tangents",
         "exact",
+        "--out",
+        dir.join("sphere.obj").to_str().unwrap(),
     ]);
-    assert!(!o.status.success());
-    let err = String::from_utf8_lossy(&o.stderr);
-    assert!(
-        err.contains("--tangents") && err.contains("19_Sphere1"),
-        "{err}"
+    common::assert_one_error_line("--tangents on Beziex", &o, &["--tangents", "19_Sphere1"]);
+    assert_eq!(
+        common::entries_under(&dir),
+        Vec::<String>::new(),
+        "nothing written, nothing left behind"
     );
 }
 

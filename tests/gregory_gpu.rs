@@ -104,13 +104,7 @@ fn eval_on_gpu(
     canonical: bool,
     flags: &[u32],
 ) -> Vec<SurfaceVertex> {
-    let pts: Vec<[f32; 4]> = patches
-        .iter()
-        .flat_map(|p| {
-            p.cv.iter()
-                .map(|c| [c.x as f32, c.y as f32, c.z as f32, 1.0])
-        })
-        .collect();
+    let pts = common::gregory_points(patches);
     let idx: Vec<u32> = (0..patches.len() as u32 * 20).collect();
     with_gpu(|ctx| {
         let pass = GregoryEvalPass::new(ctx).unwrap();

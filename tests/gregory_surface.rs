@@ -95,7 +95,18 @@ fn the_gpu_surface_equals_the_cpu_reference_and_is_g1_before_and_after_deformati
     }
     let jump0 = max_jump_coincident(&gpu, level);
     let jump_max = jumps.iter().cloned().fold(0.0, f64::max);
-
+    // Negative control: one patch with its normals flipped must fail (the measure once folded the angle
+    // to min(θ, π − θ), which this passed).
+    let mut flipped = gpu.clone();
+    let per = ((level + 1) * (level + 1)) as usize;
+    for v in &mut flipped[7 * per..8 * per] {
+        v.normal = [-v.normal[0], -v.normal[1], -v.normal[2], v.normal[3]];
+    }
+    let flipped_jump = max_jump_coincident(&flipped, level);
+    assert!(
+        flipped_jump > 3.0,
+        "a flipped patch must show as a jump near π, got {flipped_jump}"
+    );
     eprintln!(
         "spot L={level}: GPU vs f64 |ΔP| {dp:.2e} × diag, normals {dn:.2e} rad; G1 jump {jump0:.2e} rad, after 100 deformations (±0.1 %) ≤ {jump_max:.2e} rad"
     );

@@ -585,9 +585,9 @@ fn exact_tangents_put_corner_normals_on_the_limit_tangent_plane() {
                     let vtx = m.face(f)[i] as usize;
                     perr = perr.max((pts[vtx] - lim[vtx][0]).length() / d);
                     let n_lim = lim[vtx][1].cross(lim[vtx][2]);
-                    // orientation of (tan1, tan2) is OpenSubdiv's; compare the planes (unsigned)
-                    let a = angle(p.normal(u, v), n_lim);
-                    nerr = nerr.max(a.min(std::f64::consts::PI - a));
+                    // Signed: OpenSubdiv's limit tangents (tan1, tan2) at a vertex follow the orientation of
+                    // its faces, so a flipped patch normal shows as π.
+                    nerr = nerr.max(angle(p.normal(u, v), n_lim));
                 }
             }
             eprintln!("{name}: {t:?}: P vs limit {perr:.1e}·diag, corner normal vs limit tangent plane {nerr:.2e} rad ({:.3}°)", nerr.to_degrees());

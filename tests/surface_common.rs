@@ -5,6 +5,7 @@
 use glam::DVec3;
 use gregvox::geom::gregory::PatchF64;
 use gregvox::mesh::{Mesh, MeshMatrix, NONE};
+use std::collections::HashMap;
 
 pub fn model(rel: &str) -> String {
     format!("{}/assets/models/{rel}", env!("CARGO_MANIFEST_DIR"))
@@ -153,7 +154,35 @@ pub struct G1 {
     pub skipped: usize,
 }
 
+/// Edges used by exactly two faces, counted from the face lists alone (not from the mesh matrices the G1
+/// measure pairs corners with), so that a measure which found no shared edge cannot pass.
+pub fn interior_edges(mesh: &Mesh) -> usize {
+    let mut uses: HashMap<(u32, u32), usize> = HashMap::new();
+    for f in 0..mesh.n_faces() {
+        let face = mesh.face(f);
+        for k in 0..face.len() {
+            let (a, b) = (face[k], face[(k + 1) % face.len()]);
+            *uses.entry((a.min(b), a.max(b))).or_default() += 1;
+        }
+    }
+    uses.values().filter(|&&n| n == 2).count()
+}
+
+/// G1 figures over every interior edge at `n` samples each; fails unless it checked exactly the
+/// [`interior_edges`] of `mesh` (and at least one).
 pub fn g1_figures(mesh: &Mesh, patches: &[PatchF64], n: usize) -> G1 {
+    let r = g1_figures_unchecked(mesh, patches, n);
+    let expected = interior_edges(mesh);
+    assert!(expected > 0, "the cage has no interior edge to check");
+    assert_eq!(
+        r.edges, expected,
+        "G1 checked {} of {expected} interior edges",
+        r.edges
+    );
+    r
+}
+
+fn g1_figures_unchecked(mesh: &Mesh, patches: &[PatchF64], n: usize) -> G1 {
     let m = MeshMatrix::from_mesh(mesh);
     let twin = twin_corners(&m);
     let mut r = G1::default();

@@ -126,7 +126,8 @@ pub fn builtin_cage(nx: u32, ny: u32, nz: u32) -> Mesh {
     Mesh::from_polygons(positions, &faces).expect("a valid lattice box")
 }
 
-/// Largest normal jump across shared edges (consistently oriented patches).
+/// Largest normal jump across shared edges of a cage's patches. The patches of a consistently oriented cage
+/// share its orientation, so the angle is signed: a patch whose normal flips shows as a jump near π.
 pub fn max_jump_shared_edges(
     _topo: &GregoryTopology,
     vertices: &[SurfaceVertex],
@@ -135,8 +136,11 @@ pub fn max_jump_shared_edges(
     max_jump_coincident(vertices, level)
 }
 
-/// Largest angle (rad, up to orientation) between the normals of coincident boundary vertices of different
-/// patches (within 1e-5 of the grid's bounding-box diagonal) in an evaluated (L+1)²-per-patch grid.
+/// Largest angle (rad, 0 to π) between the normals of coincident boundary vertices of different patches
+/// (within 1e-5 of the grid's bounding-box diagonal) in an evaluated (L+1)²-per-patch grid. The angle is
+/// the full one between the normals, not between tangent planes: a patch whose normal flips shows as a
+/// jump near π. (Beziex's 04_Cup1 does show π: its rim edges have a vanishing cross-boundary derivative,
+/// |S_cross| ≈ 5e-8 against |S_along| ≈ 0.7, so the normal drawn there is undefined.)
 pub fn max_jump_coincident(vertices: &[SurfaceVertex], level: u32) -> f64 {
     let n = (level + 1) as usize;
     let per = n * n;
@@ -183,7 +187,7 @@ pub fn max_jump_coincident(vertices: &[SurfaceVertex], level: u32) -> f64 {
                         let b = &vertices[o].normal;
                         let b = DVec3::new(b[0] as f64, b[1] as f64, b[2] as f64);
                         let theta = a.cross(b).length().atan2(a.dot(b));
-                        worst = worst.max(theta.min(std::f64::consts::PI - theta));
+                        worst = worst.max(theta);
                     }
                 }
             }

@@ -127,3 +127,57 @@ pub fn oracle_case(dir: &std::path::Path, model: &str, res: u32) -> serde_json::
         .unwrap_or_else(|| panic!("no fixture for {model} at {res}"))
         .clone()
 }
+
+/// The CLI's failure contract (README "Errors and limits"): exit code 1, exactly one `gregvox: error:` line,
+/// which contains every one of `needles` (the input and the problem), and no panic.
+pub fn assert_one_error_line(what: &str, out: &std::process::Output, needles: &[&str]) {
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(1), "{what}: exit code\n{err}");
+    assert!(!err.contains("panicked"), "{what}: panic:\n{err}");
+    let lines: Vec<&str> = err
+        .lines()
+        .filter(|l| l.starts_with("gregvox: error:"))
+        .collect();
+    assert_eq!(lines.len(), 1, "{what}: one error line expected:\n{err}");
+    for n in needles {
+        assert!(
+            lines[0].contains(n),
+            "{what}: '{n}' not in the error line:\n{err}"
+        );
+    }
+}
+
+/// Every entry under `dir` (relative paths, sorted; folders with a trailing `/`); empty when `dir` does
+/// not exist. Tests compare it before and after a failing command: nothing written, nothing left behind.
+pub fn entries_under(dir: &std::path::Path) -> Vec<String> {
+    fn walk(dir: &std::path::Path, base: &std::path::Path, out: &mut Vec<String>) {
+        let Ok(rd) = std::fs::read_dir(dir) else {
+            return;
+        };
+        for e in rd.flatten() {
+            let p = e.path();
+            let rel = p.strip_prefix(base).unwrap().display().to_string();
+            if p.is_dir() {
+                out.push(format!("{rel}/"));
+                walk(&p, base, out);
+            } else {
+                out.push(rel);
+            }
+        }
+    }
+    let mut v = Vec::new();
+    walk(dir, dir, &mut v);
+    v.sort();
+    v
+}
+
+/// The 20 control points of each Gregory patch as the GPU passes read them (f32 xyz, w = 1).
+pub fn gregory_points(patches: &[gregvox::geom::gregory::PatchF64]) -> Vec<[f32; 4]> {
+    patches
+        .iter()
+        .flat_map(|p| {
+            p.cv.iter()
+                .map(|c| [c.x as f32, c.y as f32, c.z as f32, 1.0])
+        })
+        .collect()
+}
