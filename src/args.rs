@@ -24,6 +24,15 @@ impl ProfileArgs {
         self.profile || self.profile_json.is_some() || self.trace.is_some()
     }
 
+    /// Checks, before any work, that the profile outputs asked for can be written
+    /// ([`crate::io::check_output`]).
+    pub fn check_outputs(&self) -> crate::Result<()> {
+        for path in self.profile_json.iter().chain(&self.trace) {
+            crate::io::check_output(path)?;
+        }
+        Ok(())
+    }
+
     /// Prints and writes what was asked for.
     pub fn emit(&self, profiler: &Profiler) -> anyhow::Result<()> {
         if self.profile {

@@ -100,7 +100,14 @@ fn subdivision_matrix_rows_are_affine_and_the_stack_is_one_spmv_per_level() {
     }
     let a = stack.apply(&moved.positions);
     let b = catmull_clark(&moved, 2).positions;
-    assert_eq!(a, b, "bit-identical: same matrices, same summation order");
+    // catmull_clark is staged (face points first, then one SpMV over old points and face points) so that
+    // its memory is linear in polygon size; the stack expands the face points: equal to rounding.
+    let worst = a
+        .iter()
+        .zip(&b)
+        .map(|(p, q)| (*p - *q).length())
+        .fold(0.0, f64::max);
+    assert!(worst <= 1e-14, "{worst}");
     // f32 path (the GPU twin) stays within 2e-5 of f64 on this 2-unit model
     let s32: Vec<_> = stack.levels.iter().map(|l| l.s.to_f32()).collect();
     let mut p32: Vec<[f32; 3]> = moved

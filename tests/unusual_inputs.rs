@@ -118,3 +118,812 @@ fn the_voxelize_summary_is_short_unless_a_profile_is_asked_for() {
     let (_, profiled) = run(&["--profile"]);
     assert!(profiled.contains("peel"), "{profiled}");
 }
+
+#[test]
+fn outputs_that_differ_only_in_extension_keep_their_own_sidecars() {
+    // Item 12: `--out a.vox` then `--out a.raw` once both wrote `a.json`, the second clobbering the first.
+    let dir = scratch("sidecars");
+    let spot = model("spot.obj");
+    for (out, dims) in [
+        ("a.vox", "20,12,16"),
+        ("a.raw", "9,30,7"),
+        ("a.npy", "5,6,7"),
+    ] {
+        let o = gregvox()
+            .args([
+                "voxelize",
+                spot.to_str().unwrap(),
+                "--dims",
+                dims,
+                "--out",
+                out,
+            ])
+            .current_dir(&dir)
+            .output()
+            .unwrap();
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    }
+    for (side, dims) in [
+        ("a.vox.json", [20, 12, 16]),
+        ("a.raw.json", [9, 30, 7]),
+        ("a.npy.json", [5, 6, 7]),
+    ] {
+        let v: serde_json::Value =
+            serde_json::from_slice(&std::fs::read(dir.join(side)).unwrap()).unwrap();
+        assert_eq!(v["dims"], serde_json::json!(dims), "{side}");
+    }
+    assert!(!dir.join("a.json").exists());
+    let help = gregvox().args(["voxelize", "--help"]).output().unwrap();
+    assert!(String::from_utf8_lossy(&help.stdout).contains("a.npy.json"));
+}
+
+/// Runs gregvox with `args` in `dir`, with extra environment.
+fn run_in(dir: &std::path::Path, args: &[&str], env: &[(&str, &str)]) -> std::process::Output {
+    let mut c = gregvox();
+    c.args(args).current_dir(dir);
+    for (k, v) in env {
+        c.env(k, v);
+    }
+    c.output().unwrap()
+}
+
+#[test]
+fn every_output_path_is_checked_before_any_work() {
+    // Item 11. The work would fail on a 1 KiB GPU memory budget (or on the missing input, for the CPU-only
+    // subdivide): an output checked first fails on its path instead, and nothing is written.
+    let dir = scratch("outputs-first");
+    let spot = model("spot_quadrangulated.obj");
+    let spot = spot.to_str().unwrap();
+    std::fs::write(dir.join("a-file"), "x").unwrap();
+    let budget = [("GREGVOX_MEMORY_BUDGET", "1K")];
+    // (arguments, SPOT standing for the model; what the error names; the problem it states)
+    let cases = [
+        (
+            "tessellate SPOT --level 64 --out missing/x.obj",
+            "missing/x.obj",
+            "No such file",
+        ),
+        (
+            "tessellate SPOT --level 8 --out x.obj --trace missing/t.json",
+            "missing/t.json",
+            "No such file",
+        ),
+        (
+            "voxelize SPOT --res 64 --method peel --out missing/x.binvox",
+            "missing/x.binvox",
+            "No such file",
+        ),
+        (
+            "voxelize SPOT --res 64 --method peel --profile-json missing/p.json",
+            "missing/p.json",
+            "No such file",
+        ),
+        (
+            "subdivide no-such-input.obj --out missing/x.obj",
+            "missing/x.obj",
+            "No such file",
+        ),
+        (
+            "demo --offscreen --frames 1 --profile-json missing/p.json",
+            "missing/p.json",
+            "No such file",
+        ),
+        (
+            "demo --offscreen --frames 1 --out a-file/frames",
+            "a-file",
+            "not a folder",
+        ),
+        (
+            "bench --quick --suite peak --out a-file/bench",
+            "a-file",
+            "not a folder",
+        ),
+        (
+            "voxelize SPOT --res 8 --out a",
+            "a: the output has no extension",
+            ".binvox",
+        ),
+    ];
+    for (line, names, problem) in cases {
+        let args: Vec<&str> = line
+            .split_whitespace()
+            .map(|a| if a == "SPOT" { spot } else { a })
+            .collect();
+        let o = run_in(&dir, &args, &budget);
+        common::assert_one_error_line(&format!("{args:?}"), &o, &[names, problem]);
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert!(
+            !err.contains("budget"),
+            "{args:?}: work started before the check:\n{err}"
+        );
+        assert_eq!(
+            common::entries_under(&dir),
+            ["a-file"],
+            "{args:?} wrote something"
+        );
+    }
+}
+
+#[test]
+fn an_interrupted_write_leaves_no_temporary_and_the_next_run_removes_stale_ones() {
+    // Item 13. A 1024³ .npy is a 1 GiB write: SIGINT or SIGTERM arrives while its temporary file exists.
+    let dir = scratch("interrupted");
+    let spot = model("spot.obj");
+    let temporaries = |dir: &std::path::Path| -> Vec<String> {
+        std::fs::read_dir(dir)
+            .unwrap()
+            .flatten()
+            .map(|e| e.file_name().to_string_lossy().into_owned())
+            .filter(|n| n.ends_with(".tmp"))
+            .collect()
+    };
+    for signal in ["INT", "TERM"] {
+        let mut child = gregvox()
+            .args([
+                "voxelize",
+                spot.to_str().unwrap(),
+                "--dims",
+                "1024,1024,1024",
+                "--method",
+                "cpu",
+            ])
+            .args(["--out", "big.npy"])
+            .current_dir(&dir)
+            .stdout(std::process::Stdio::null())
+            .stderr(std::process::Stdio::piped())
+            .spawn()
+            .unwrap();
+        let start = std::time::Instant::now();
+        // Wait for the grid's temporary file (the sidecar's comes and goes first).
+        while !temporaries(&dir).iter().any(|n| n.starts_with(".big.npy.")) {
+            assert!(
+                child.try_wait().unwrap().is_none(),
+                "finished before a write was caught"
+            );
+            assert!(start.elapsed().as_secs() < 120, "no write within 2 minutes");
+            std::thread::sleep(std::time::Duration::from_millis(2));
+        }
+        let kill = Command::new("kill")
+            .args([format!("-{signal}"), child.id().to_string()])
+            .status()
+            .unwrap();
+        assert!(kill.success());
+        let out = child.wait_with_output().unwrap();
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(130), "SIG{signal}: {err}");
+        assert!(err.contains("interrupted"), "{err}");
+        assert_eq!(
+            temporaries(&dir),
+            Vec::<String>::new(),
+            "SIG{signal} left a temporary"
+        );
+        assert!(!dir.join("big.npy").exists(), "no truncated output");
+    }
+    // A temporary of a killed run (SIGKILL cannot be caught; pid 4194305 is past Linux's pid_max) is
+    // removed by the next run writing the same target; one of another target is not its business.
+    std::fs::write(dir.join(".small.npy.4194305.tmp"), "partial").unwrap();
+    std::fs::write(dir.join(".other.npy.4194305.tmp"), "partial").unwrap();
+    let o = run_in(
+        &dir,
+        &[
+            "voxelize",
+            spot.to_str().unwrap(),
+            "--res",
+            "8",
+            "--out",
+            "small.npy",
+        ],
+        &[],
+    );
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    assert_eq!(temporaries(&dir), [".other.npy.4194305.tmp"]);
+}
+
+#[test]
+fn commands_say_what_they_wrote_and_write_to_standard_output_on_dash() {
+    // Item 15.
+    let dir = scratch("stdout");
+    let cube = model("opensubdiv/catmark_cube.obj");
+    let cube = cube.to_str().unwrap();
+    let ok = |o: &std::process::Output| {
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    };
+    // voxelize: the summary names the file; `-` is .binvox on stdout, the summary on stderr.
+    let o = run_in(
+        &dir,
+        &["voxelize", cube, "--res", "16", "--out", "v.binvox"],
+        &[],
+    );
+    ok(&o);
+    assert!(String::from_utf8_lossy(&o.stdout).contains("wrote v.binvox"));
+    let o = run_in(
+        &dir,
+        &["voxelize", cube, "--res", "16", "--out", "v.npy"],
+        &[],
+    );
+    ok(&o);
+    assert!(String::from_utf8_lossy(&o.stdout).contains("wrote v.npy and v.npy.json"));
+    let o = run_in(&dir, &["voxelize", cube, "--res", "16", "--out", "-"], &[]);
+    ok(&o);
+    assert_eq!(
+        o.stdout,
+        std::fs::read(dir.join("v.binvox")).unwrap(),
+        "the same bytes"
+    );
+    assert!(String::from_utf8_lossy(&o.stderr).contains("solid voxels"));
+    // tessellate: without --out it says nothing was written; `-` is the OBJ on stdout.
+    let o = run_in(&dir, &["tessellate", cube, "--level", "3"], &[]);
+    ok(&o);
+    assert!(String::from_utf8_lossy(&o.stderr).contains("nothing written"));
+    let o = run_in(
+        &dir,
+        &["tessellate", cube, "--level", "3", "--out", "t.obj"],
+        &[],
+    );
+    ok(&o);
+    assert!(String::from_utf8_lossy(&o.stderr).contains("wrote t.obj (6 patches, 96 vertices)"));
+    let o = run_in(
+        &dir,
+        &["tessellate", cube, "--level", "3", "--out", "-", "--stats"],
+        &[],
+    );
+    ok(&o);
+    assert_eq!(o.stdout, std::fs::read(dir.join("t.obj")).unwrap());
+    assert!(String::from_utf8_lossy(&o.stderr).contains("vertices: 96"));
+    // subdivide
+    let o = run_in(&dir, &["subdivide", cube, "--out", "s.obj"], &[]);
+    ok(&o);
+    let o = run_in(&dir, &["subdivide", cube, "--out", "-"], &[]);
+    ok(&o);
+    assert_eq!(o.stdout, std::fs::read(dir.join("s.obj")).unwrap());
+    assert!(String::from_utf8_lossy(&o.stderr).contains("wrote standard output"));
+    let left: Vec<String> = common::entries_under(&dir);
+    assert_eq!(left, ["s.obj", "t.obj", "v.binvox", "v.npy", "v.npy.json"]);
+}
+
+#[test]
+fn messages_name_what_was_really_wrong() {
+    // Item 17: each of these once gave a misleading message.
+    let dir = scratch("messages");
+    let bunny = model("stanford-bunny.obj");
+    let bunny = bunny.to_str().unwrap();
+    let cube = model("opensubdiv/catmark_cube.obj");
+    let cube = cube.to_str().unwrap();
+    let sphere = model("beziex/19_Sphere1.gzjson");
+    let sphere = sphere.to_str().unwrap();
+    let cases: Vec<(Vec<&str>, Vec<&str>)> = vec![
+        // was "exceeds the device limit … (maxImageArrayLayers 2048)"
+        (
+            vec![
+                "voxelize",
+                bunny,
+                "--res",
+                "16",
+                "--method",
+                "peel",
+                "--axis",
+                "x",
+                "--max-layers",
+                "2",
+            ],
+            vec!["exceed --max-layers 2"],
+        ),
+        // was "unknown voxel format '.'"
+        (
+            vec!["voxelize", bunny, "--res", "8", "--out", "a"],
+            vec!["no extension"],
+        ),
+        // was "is not a number"
+        (
+            vec!["tessellate", cube, "--deform", "wave:1e39"],
+            vec!["1e39", "out of range"],
+        ),
+        // was "binary data (NUL byte)"
+        (
+            vec!["voxelize", sphere, "--gregory-level", "4", "--res", "8"],
+            vec!["19_Sphere1.gzjson", "Beziex patch model, not a mesh"],
+        ),
+        // were silently ignored
+        (
+            vec![
+                "voxelize", bunny, "--res", "8", "--axes", "3", "--axis", "x",
+            ],
+            vec!["--axis x", "--axes 3"],
+        ),
+        (
+            vec!["tessellate", cube, "--viewport", "640x480"],
+            vec!["--viewport", "--adaptive"],
+        ),
+    ];
+    for (args, needles) in cases {
+        let o = run_in(&dir, &args, &[]);
+        common::assert_one_error_line(&format!("{args:?}"), &o, &needles);
+        assert!(
+            !String::from_utf8_lossy(&o.stderr).contains("device limit"),
+            "{args:?}"
+        );
+    }
+    assert_eq!(common::entries_under(&dir), Vec::<String>::new());
+    // The voxel size of a tiny mesh and of a huge one, in digits that say something.
+    for (scale, want) in [(1e-9, "e-"), (1e12, "e")] {
+        let text = std::fs::read_to_string(cube).unwrap();
+        let scaled: String = text
+            .lines()
+            .map(|l| match l.strip_prefix("v ") {
+                Some(xyz) => {
+                    let c: Vec<f64> = xyz.split_whitespace().map(|x| x.parse().unwrap()).collect();
+                    format!("v {} {} {}\n", c[0] * scale, c[1] * scale, c[2] * scale)
+                }
+                None => format!("{l}\n"),
+            })
+            .collect();
+        let path = dir.join("scaled.obj");
+        std::fs::write(&path, scaled).unwrap();
+        let o = run_in(
+            &dir,
+            &["voxelize", path.to_str().unwrap(), "--res", "8"],
+            &[],
+        );
+        let out = String::from_utf8_lossy(&o.stdout).into_owned();
+        let size = out
+            .split("voxel size ")
+            .nth(1)
+            .unwrap()
+            .lines()
+            .next()
+            .unwrap()
+            .to_string();
+        assert!(
+            size.contains(want) && size.len() <= 12,
+            "scale {scale}: voxel size '{size}'"
+        );
+        assert!(!size.starts_with("0.000000"), "{size}");
+        std::fs::remove_file(&path).unwrap();
+    }
+}
+
+#[test]
+fn a_cage_with_an_unreferenced_vertex_gives_the_same_surface_as_without_it() {
+    // Item 6: exported OBJ files often carry vertices no face uses; they once failed every Gregory command
+    // with "stencil row 8 sums to -0, not 1".
+    let dir = scratch("unreferenced");
+    let cube = std::fs::read_to_string(model("opensubdiv/catmark_cube.obj")).unwrap();
+    std::fs::write(dir.join("plain.obj"), &cube).unwrap();
+    // The stray vertex first (it shifts every index by one) and one far away at the end.
+    let shifted: String = cube
+        .lines()
+        .map(|l| match l.strip_prefix("f ") {
+            Some(f) => {
+                let idx: Vec<String> = f
+                    .split_whitespace()
+                    .map(|t| (t.split('/').next().unwrap().parse::<u32>().unwrap() + 1).to_string())
+                    .collect();
+                format!("f {}\n", idx.join(" "))
+            }
+            None => format!("{l}\n"),
+        })
+        .collect();
+    std::fs::write(
+        dir.join("extra.obj"),
+        format!("v 0.1 0.2 0.3\n{shifted}v 50 50 50\n"),
+    )
+    .unwrap();
+    let run = |args: &[&str]| {
+        let o = run_in(&dir, args, &[]);
+        assert!(
+            o.status.success(),
+            "{args:?}: {}",
+            String::from_utf8_lossy(&o.stderr)
+        );
+    };
+    for name in ["plain", "extra"] {
+        let input = format!("{name}.obj");
+        run(&[
+            "tessellate",
+            &input,
+            "--level",
+            "5",
+            "--out",
+            &format!("{name}.tess.obj"),
+        ]);
+        run(&[
+            "voxelize",
+            &input,
+            "--gregory-level",
+            "4",
+            "--res",
+            "24",
+            "--out",
+            &format!("{name}.binvox"),
+        ]);
+        run(&[
+            "demo",
+            "--offscreen",
+            "--scene",
+            "cage",
+            "--model",
+            &input,
+            "--frames",
+            "1",
+            "--size",
+            "32x32",
+            "--out",
+            &format!("{name}-frames"),
+        ]);
+    }
+    let body = |p: &str| -> Vec<String> {
+        std::fs::read_to_string(dir.join(p))
+            .unwrap()
+            .lines()
+            .filter(|l| !l.starts_with('#'))
+            .map(String::from)
+            .collect()
+    };
+    assert_eq!(
+        body("plain.tess.obj"),
+        body("extra.tess.obj"),
+        "the same tessellation"
+    );
+    assert_eq!(
+        std::fs::read(dir.join("plain.binvox")).unwrap(),
+        std::fs::read(dir.join("extra.binvox")).unwrap(),
+        "the same voxels"
+    );
+}
+
+#[test]
+fn normals_do_not_depend_on_the_size_of_the_model() {
+    // Item 3: a cube of size 1e20 or 1e-20 once tessellated to normals that were all (0, 0, 1) (the cross
+    // product of its derivatives over- or underflowed f32). Each size must give the unit cube's normals.
+    let dir = scratch("extreme-scale");
+    let cube = std::fs::read_to_string(model("opensubdiv/catmark_cube.obj")).unwrap();
+    let normals = |scale: f64| -> Vec<[f64; 3]> {
+        let text: String = cube
+            .lines()
+            .map(|l| match l.strip_prefix("v ") {
+                Some(xyz) => {
+                    let c: Vec<f64> = xyz.split_whitespace().map(|x| x.parse().unwrap()).collect();
+                    format!(
+                        "v {:e} {:e} {:e}\n",
+                        c[0] * scale,
+                        c[1] * scale,
+                        c[2] * scale
+                    )
+                }
+                None => format!("{l}\n"),
+            })
+            .collect();
+        std::fs::write(dir.join("c.obj"), text).unwrap();
+        let o = run_in(
+            &dir,
+            &["tessellate", "c.obj", "--level", "4", "--out", "t.obj"],
+            &[],
+        );
+        assert!(
+            o.status.success(),
+            "{scale}: {}",
+            String::from_utf8_lossy(&o.stderr)
+        );
+        std::fs::read_to_string(dir.join("t.obj"))
+            .unwrap()
+            .lines()
+            .filter_map(|l| l.strip_prefix("vn "))
+            .map(|n| {
+                let c: Vec<f64> = n.split_whitespace().map(|x| x.parse().unwrap()).collect();
+                [c[0], c[1], c[2]]
+            })
+            .collect()
+    };
+    let unit = normals(1.0);
+    assert!(
+        unit.iter().any(|n| n[2].abs() < 0.5),
+        "the cube has side normals"
+    );
+    for scale in [1e20, 1e-20, 1e30, 1e-30] {
+        let n = normals(scale);
+        assert_eq!(n.len(), unit.len());
+        let worst = n
+            .iter()
+            .zip(&unit)
+            .map(|(a, b)| (0..3).map(|k| (a[k] - b[k]).abs()).fold(0.0, f64::max))
+            .fold(0.0, f64::max);
+        assert!(
+            worst <= 1e-5,
+            "scale {scale}: normals differ from the unit cube's by {worst}"
+        );
+    }
+}
+
+#[test]
+fn the_normal_jump_statistic_is_linear_in_repeated_patches() {
+    // Item 9: `tessellate --stats` on a Beziex file of many coincident patches ran past 120 s (every
+    // sample compared with every coincident sample of every copy). Samples with the same position and
+    // normal are merged, so 50 copies of the sphere compare exactly the pairs one copy does.
+    use gregvox::api::tessellate::{Patches, TessellateOptions};
+    use gregvox::engine::cage::coincident_jumps;
+    let sphere = gregvox::surface::beziex::load_beziex(model("beziex/19_Sphere1.gzjson")).unwrap();
+    let gpu = gregvox::Gpu::new().unwrap();
+    let jumps = |copies: usize| {
+        let patches = Patches::Beziex(
+            sphere
+                .iter()
+                .cycle()
+                .take(copies * sphere.len())
+                .cloned()
+                .collect(),
+        );
+        let opts = TessellateOptions {
+            level: 6,
+            ..Default::default()
+        };
+        let mut profiler = gpu.profiler().unwrap();
+        let t = gpu.tessellate(&patches, &opts, &mut profiler).unwrap();
+        coincident_jumps(&t.vertices, 6)
+    };
+    let one = jumps(1);
+    let many = jumps(50);
+    assert!(one.pairs_compared > 0 && one.worst < 1e-4, "{one:?}");
+    assert_eq!(many.worst, one.worst, "the same surface, the same jump");
+    assert_eq!(
+        many.pairs_compared, one.pairs_compared,
+        "copies cost nothing"
+    );
+    drop(gpu);
+}
+
+/// A closed prism whose two caps are `n`-gons, as OBJ text.
+fn prism_obj(n: usize) -> String {
+    let mut s = String::new();
+    for z in [0.0, 1.0] {
+        for i in 0..n {
+            let a = std::f64::consts::TAU * i as f64 / n as f64;
+            s.push_str(&format!("v {} {} {z}\n", a.cos(), a.sin()));
+        }
+    }
+    let cap = |ids: Vec<usize>| {
+        let t: Vec<String> = ids.iter().map(|i| i.to_string()).collect();
+        format!("f {}\n", t.join(" "))
+    };
+    s.push_str(&cap((1..=n).rev().collect()));
+    s.push_str(&cap((n + 1..=2 * n).collect()));
+    for i in 0..n {
+        let j = (i + 1) % n;
+        s.push_str(&format!(
+            "f {} {} {} {}\n",
+            i + 1,
+            j + 1,
+            n + j + 1,
+            n + i + 1
+        ));
+    }
+    s
+}
+
+/// `gregvox ARGS` in `dir` under an address-space limit of `bytes` (prlimit --as).
+fn limited(dir: &std::path::Path, bytes: u64, args: &[&str]) -> std::process::Output {
+    Command::new("prlimit")
+        .arg(format!("--as={bytes}"))
+        .arg(env!("CARGO_BIN_EXE_gregvox"))
+        .args(args)
+        .current_dir(dir)
+        .output()
+        .expect("prlimit (util-linux) runs")
+}
+
+#[test]
+fn huge_polygons_subdivide_and_triangulate_in_linear_memory_and_time() {
+    // Item 7: a prism with 10,000-gon caps once aborted subdivide with "memory allocation of 1966080000
+    // bytes failed" (every cap edge and vertex carried all 10,000 cap weights); `mesh --triangulate` of a
+    // 100,000-gon took 14 s and more (the fan apex's 100,001 corners compared pairwise).
+    let dir = scratch("huge-polygons");
+    std::fs::write(dir.join("p10k.obj"), prism_obj(10_000)).unwrap();
+    std::fs::write(dir.join("p100k.obj"), prism_obj(100_000)).unwrap();
+    let o = limited(&dir, 2 << 30, &["subdivide", "p10k.obj", "--out", "s.obj"]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    assert!(String::from_utf8_lossy(&o.stderr).contains("(60002 vertices, 60000 faces)"));
+    let o = limited(&dir, 2 << 30, &["subdivide", "p100k.obj", "--out", "s.obj"]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let start = std::time::Instant::now();
+    let o = limited(&dir, 2 << 30, &["mesh", "p100k.obj", "--triangulate"]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    assert!(
+        String::from_utf8_lossy(&o.stdout).contains("100001:2"),
+        "the two fan apexes"
+    );
+    // A watchdog, not a benchmark: quadratic took minutes in a test build.
+    assert!(start.elapsed().as_secs() < 60, "{:?}", start.elapsed());
+    // The staged refinement (face points as variables) is the Catmull–Clark matrix's, to rounding.
+    let text = prism_obj(200);
+    std::fs::write(dir.join("p200.obj"), text).unwrap();
+    let m = gregvox::load_mesh(dir.join("p200.obj")).unwrap();
+    let staged = gregvox::mesh::catmull_clark(&m, 2);
+    let mm = gregvox::mesh::MeshMatrix::from_mesh(&m);
+    let l1 = gregvox::mesh::catmull_clark_matrix(&mm);
+    let l2 = gregvox::mesh::catmull_clark_matrix(&l1.topology);
+    let expanded = l2.s.spmv(&l1.s.spmv(&m.positions));
+    assert_eq!(staged.positions.len(), expanded.len());
+    let worst = staged
+        .positions
+        .iter()
+        .zip(&expanded)
+        .map(|(a, b)| (*a - *b).length())
+        .fold(0.0, f64::max);
+    assert!(worst < 1e-12, "{worst}");
+}
+
+#[test]
+fn subdivision_past_the_memory_left_is_refused_with_its_estimate() {
+    // Item 8: `subdivide --levels 12` of a cube once took gigabytes within seconds before failing.
+    let dir = scratch("subdivide-guard");
+    let cube = model("opensubdiv/catmark_cube.obj");
+    let cube = cube.to_str().unwrap();
+    let o = run_in(
+        &dir,
+        &["subdivide", cube, "--levels", "12", "--out", "c.obj"],
+        &[],
+    );
+    common::assert_one_error_line("--levels 12", &o, &["--levels 12", "402 M corners", "MiB"]);
+    // Under a 1 GiB address-space limit, 9 levels (6.3 M corners, ~600 MiB) is refused by the estimate
+    // or done; 8 levels is done. Never an abort.
+    for levels in ["9", "8"] {
+        let o = limited(
+            &dir,
+            1 << 30,
+            &["subdivide", cube, "--levels", levels, "--out", "c.obj"],
+        );
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert!(
+            !err.contains("memory allocation") && !err.contains("panicked"),
+            "{err}"
+        );
+        assert!(
+            o.status.code() == Some(0) || o.status.code() == Some(1),
+            "{levels}: {err}"
+        );
+        if levels == "8" {
+            assert!(o.status.success(), "{err}");
+        }
+    }
+}
+
+/// `model` with every vertex moved by `offset`, as OBJ text (f64 shortest digits).
+fn moved_obj(model_path: &std::path::Path, offset: [f64; 3]) -> String {
+    std::fs::read_to_string(model_path)
+        .unwrap()
+        .lines()
+        .map(|l| match l.strip_prefix("v ") {
+            Some(xyz) => {
+                let c: Vec<f64> = xyz.split_whitespace().map(|x| x.parse().unwrap()).collect();
+                format!(
+                    "v {} {} {}\n",
+                    c[0] + offset[0],
+                    c[1] + offset[1],
+                    c[2] + offset[2]
+                )
+            }
+            None => format!("{l}\n"),
+        })
+        .collect()
+}
+
+#[test]
+fn results_do_not_depend_on_where_the_mesh_sits() {
+    // Item 2: positions once became f32 in world space: spot moved by 10⁷ was refused ("no triangle with
+    // a non-zero area"), moved by 10⁴ gave 34 wrong voxels, and a cube moved by 10⁷ tessellated to three
+    // x values. Each is now evaluated relative to its own minimum corner (in f64).
+    let dir = scratch("far-away");
+    let spot = model("spot.obj");
+    let npy = |name: &str| -> Vec<u8> {
+        let b = std::fs::read(dir.join(name)).unwrap();
+        b[128..].to_vec() // the bool array after numpy's 128-byte header
+    };
+    for method in ["cpu", "peel"] {
+        let o = run_in(
+            &dir,
+            &[
+                "voxelize",
+                spot.to_str().unwrap(),
+                "--res",
+                "64",
+                "--method",
+                method,
+                "--out",
+                "home.npy",
+            ],
+            &[],
+        );
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        let home: serde_json::Value =
+            serde_json::from_slice(&std::fs::read(dir.join("home.npy.json")).unwrap()).unwrap();
+        for offset in [[1e4, -1e4, 1e4], [1e7, 1e7, -1e7]] {
+            std::fs::write(dir.join("far.obj"), moved_obj(&spot, offset)).unwrap();
+            let o = run_in(
+                &dir,
+                &[
+                    "voxelize", "far.obj", "--res", "64", "--method", method, "--out", "far.npy",
+                ],
+                &[],
+            );
+            assert!(
+                o.status.success(),
+                "{offset:?}: {}",
+                String::from_utf8_lossy(&o.stderr)
+            );
+            let wrong = npy("home.npy")
+                .iter()
+                .zip(npy("far.npy"))
+                .filter(|(a, b)| **a != *b)
+                .count();
+            assert_eq!(
+                wrong, 0,
+                "{method}, moved by {offset:?}: {wrong} voxels differ"
+            );
+            let far: serde_json::Value =
+                serde_json::from_slice(&std::fs::read(dir.join("far.npy.json")).unwrap()).unwrap();
+            for a in 0..3 {
+                let moved =
+                    far["origin"][a].as_f64().unwrap() - home["origin"][a].as_f64().unwrap();
+                let size = home["voxel_size"][a].as_f64().unwrap();
+                assert!(
+                    (moved - offset[a]).abs()
+                        < 1e-6 * size.max(1e-9) * offset[a].abs().max(1.0) / size.min(1.0),
+                    "{method} {offset:?}: the grid moved by {moved} on axis {a}"
+                );
+            }
+        }
+    }
+    // The cube far away tessellates to the cube's points, moved.
+    let cube = model("opensubdiv/catmark_cube.obj");
+    let points = |name: &str| -> Vec<[f64; 3]> {
+        std::fs::read_to_string(dir.join(name))
+            .unwrap()
+            .lines()
+            .filter_map(|l| l.strip_prefix("v "))
+            .map(|v| {
+                let c: Vec<f64> = v.split_whitespace().map(|x| x.parse().unwrap()).collect();
+                [c[0], c[1], c[2]]
+            })
+            .collect()
+    };
+    let o = run_in(
+        &dir,
+        &[
+            "tessellate",
+            cube.to_str().unwrap(),
+            "--level",
+            "6",
+            "--out",
+            "home.obj",
+        ],
+        &[],
+    );
+    assert!(o.status.success());
+    let offset = [1e7, -1e7, 1e7];
+    std::fs::write(dir.join("far-cube.obj"), moved_obj(&cube, offset)).unwrap();
+    let o = run_in(
+        &dir,
+        &[
+            "tessellate",
+            "far-cube.obj",
+            "--level",
+            "6",
+            "--out",
+            "far.obj",
+        ],
+        &[],
+    );
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let (home, far) = (points("home.obj"), points("far.obj"));
+    assert_eq!(home.len(), far.len());
+    let worst = home
+        .iter()
+        .zip(&far)
+        .map(|(h, f)| {
+            (0..3)
+                .map(|a| (f[a] - offset[a] - h[a]).abs())
+                .fold(0.0, f64::max)
+        })
+        .fold(0.0, f64::max);
+    // The cube is 2 units wide: f32 relative to the corner is ~1e-7; f32 world coordinates at 1e7 were 1.
+    assert!(worst < 1e-5, "the far cube's points are off by {worst}");
+}

@@ -213,7 +213,7 @@ fn write_grid_writes_vox_with_a_sidecar_and_rejects_unknown_extensions() {
     write_grid(&g, &path, &SaveOptions::default()).unwrap();
     assert_eq!(std::fs::read(&path).unwrap(), vox_bytes(&g));
     let side: serde_json::Value =
-        serde_json::from_slice(&std::fs::read(dir.join("p.json")).unwrap()).unwrap();
+        serde_json::from_slice(&std::fs::read(dir.join("p.vox.json")).unwrap()).unwrap();
     assert_eq!(side["dims"], serde_json::json!([20, 20, 20]));
     assert_eq!(side["voxel_size"], serde_json::json!([0.15, 0.15, 0.15]));
     let err = write_grid(&g, &dir.join("p.stl"), &SaveOptions::default())
@@ -298,7 +298,8 @@ fn every_sidecar_places_the_grid_so_index_to_world_gives_each_voxel_centre() {
         let path = dir.join(format!("g.{ext}"));
         write_grid(&g, &path, &SaveOptions::default()).unwrap();
         let side: serde_json::Value =
-            serde_json::from_slice(&std::fs::read(dir.join("g.json")).unwrap()).unwrap();
+            serde_json::from_slice(&std::fs::read(dir.join(format!("g.{ext}.json"))).unwrap())
+                .unwrap();
         assert_eq!(side["dims"], serde_json::json!([13, 7, 37]), "{ext}");
         assert_eq!(side["voxel_size"], serde_json::json!([0.5, 0.125, 0.0625]));
         assert_eq!(side["origin"], serde_json::json!([-1.5, 0.25, 2.0]));

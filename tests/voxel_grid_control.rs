@@ -597,9 +597,10 @@ fn every_output_reads_back_the_documented_placement_within_a_millionth_of_a_voxe
                 std::array::from_fn(|a| origin[a] + 0.5 * size[a]),
             );
         } else {
-            let side: serde_json::Value =
-                serde_json::from_slice(&std::fs::read(out.with_extension("json")).unwrap())
-                    .unwrap();
+            let side: serde_json::Value = serde_json::from_slice(
+                &std::fs::read(gregvox::voxel::export::sidecar_path(&out)).unwrap(),
+            )
+            .unwrap();
             assert_eq!(side["dims"], serde_json::json!(full));
             let v: [f64; 3] = serde_json::from_value(side["voxel_size"].clone()).unwrap();
             let o: [f64; 3] = serde_json::from_value(side["origin"].clone()).unwrap();

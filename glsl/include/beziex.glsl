@@ -70,9 +70,20 @@ void beziex_eval(in vec3 net[56], float u, float v, out vec3 p, out vec3 su, out
     sv = (n_v * d - n * dpv) * (inv * inv);
 }
 
+// x / |x|, or 0 for x = 0. Scaled first by the power of two that brings its largest component into
+// [1/2, 1) (frexp, exact): |x|² of a 1e-20-sized derivative would underflow to 0, of a 1e20-sized one
+// overflow.
+vec3 beziex_unit(vec3 x) {
+    float m = max(abs(x.x), max(abs(x.y), abs(x.z)));
+    if (!(m > 0.0) || isinf(m)) return vec3(0.0);
+    int e;
+    frexp(m, e);
+    return normalize(ldexp(x, ivec3(-e)));
+}
+
 vec3 beziex_normal(vec3 su, vec3 sv) {
-    vec3 a = length(su) > 0.0 ? normalize(su) : vec3(0.0);
-    vec3 b = length(sv) > 0.0 ? normalize(sv) : vec3(0.0);
+    vec3 a = beziex_unit(su);
+    vec3 b = beziex_unit(sv);
     vec3 n = cross(a, b);
     float l = length(n);
     return l > 0.0 ? n / l : vec3(0.0, 0.0, 1.0);

@@ -96,9 +96,24 @@ void gregory_eval(in vec3 cv[20], float u, float v, out vec3 p, out vec3 su, out
     gregory_eval_local(local, cv[0], u, v, p, su, sv, net);
 }
 
+// a and b times one power of two bringing their largest component into [1/2, 1) (frexp): exact, so every
+// test and unit vector keeps its bits, while cross products of 1e-20- or 1e20-sized vectors neither
+// underflow nor overflow. Mirrors geom::gregory's `rescaled`.
+void pow2_rescale(inout vec3 a, inout vec3 b) {
+    vec3 m3 = max(abs(a), abs(b));
+    float m = max(m3.x, max(m3.y, m3.z));
+    if (m > 0.0 && !isinf(m) && !isnan(m)) {
+        int e;
+        frexp(m, e);
+        a = ldexp(a, ivec3(-e));
+        b = ldexp(b, ivec3(-e));
+    }
+}
+
 // Unit normal with the fallback of geom::gregory (notes §1.5): S_u × S_v unless degenerate, then the
 // diagonals of the de Casteljau bilinear hull, then the corner diagonals, then +Z. Never NaN.
 vec3 gregory_normal(in vec3 net[16], vec3 su, vec3 sv, float u, float v) {
+    pow2_rescale(su, sv);
     vec3 n = cross(su, sv);
     float ln = length(n);
     float scale = length(su) + length(sv);
@@ -122,10 +137,14 @@ vec3 gregory_normal(in vec3 net[16], vec3 su, vec3 sv, float u, float v) {
         c[2 * col + 1] = mix(a1, a2, v);
     }
     // c = [c00, c01, c10, c11]
-    vec3 hull = cross(c[3] - c[0], c[1] - c[2]);
+    vec3 d0 = c[3] - c[0], d1 = c[1] - c[2];
+    pow2_rescale(d0, d1);
+    vec3 hull = cross(d0, d1);
     float lh = length(hull);
     if (lh > 0.0 && !isinf(lh)) return hull / lh;
-    vec3 corners = cross(net[15] - net[0], net[12] - net[3]);
+    vec3 e0 = net[15] - net[0], e1 = net[12] - net[3];
+    pow2_rescale(e0, e1);
+    vec3 corners = cross(e0, e1);
     float lc = length(corners);
     if (lc > 0.0 && !isinf(lc)) return corners / lc;
     return vec3(0.0, 0.0, 1.0);

@@ -7,9 +7,9 @@
 //! - The input list is sorted by path (bytes) and has no duplicates, so every process of a sharded run
 //!   sees the same list: shard I of N is the models at positions I, I + N, I + 2N, …, and the N shards
 //!   partition the list whatever N.
-//! - Outputs are written through `io::write_atomic` (temporary file, then rename; a sidecar first, the grid
-//!   last), so an output that exists is complete: resuming skips exactly the models whose output (and
-//!   sidecar) exist, and a run killed at any moment and started again does every model exactly once.
+//! - Outputs are written through `io::write_atomic` (temporary file, then rename; the grid, then its
+//!   sidecar), so a file that exists is complete: resuming skips exactly the models whose output and
+//!   sidecar both exist, and a run killed at any moment and started again does every model exactly once.
 //! - Temporaries of killed runs (their process gone) are removed from the output folder when a batch
 //!   starts.
 //! - A model that fails (unreadable, malformed, over a limit, a panic while loading or voxelizing) is
@@ -324,7 +324,7 @@ fn complete(out: &Path) -> bool {
     output_files(out).iter().all(|f| f.is_file())
 }
 
-/// The files an output path stands for: the grid, and its `.json` sidecar for `.npy`, `.raw` and `.vox`.
+/// The files an output path stands for: the grid, and its sidecar (`PATH.json`) for `.npy`, `.raw` and `.vox`.
 pub fn output_files(out: &Path) -> Vec<PathBuf> {
     let ext = out
         .extension()
@@ -332,7 +332,7 @@ pub fn output_files(out: &Path) -> Vec<PathBuf> {
         .map(|e| e.to_ascii_lowercase());
     let mut files = vec![out.to_path_buf()];
     if matches!(ext.as_deref(), Some("npy" | "raw" | "vox")) {
-        files.push(out.with_extension("json"));
+        files.push(crate::voxel::export::sidecar_path(out));
     }
     files
 }

@@ -47,6 +47,15 @@ pub const MAX_RES: u32 = crate::voxel::grid::MAX_DIM;
 /// from the content, else the extension ([`crate::mesh::load_mesh_file`]; STL and glTF are welded exactly).
 /// Errors name the file, then the line (text) or byte offset (binary data), then the problem.
 pub fn load_mesh(path: impl AsRef<Path>) -> Result<Mesh> {
+    let path = path.as_ref();
+    // A Beziex model is patches, not a mesh: say so, rather than what its gzip bytes look like to a mesh
+    // parser ("binary data").
+    if tessellate::is_beziex(path) && path.is_file() {
+        return Err(Error::parse(
+            path,
+            "a Beziex patch model, not a mesh (tessellate it first: gregvox tessellate MODEL --out MESH.obj)",
+        ));
+    }
     crate::mesh::load_mesh_file(path)
 }
 
@@ -79,6 +88,22 @@ pub fn subdivide(mesh: &Mesh, levels: u32, scheme: Scheme) -> Result<Mesh> {
         return Err(Error::Invalid(format!(
             "--levels {levels}: the result would have about {corners} corners, more than u32 indices allow"
         )));
+    }
+    // The last level's working set per output corner (the refinement rows of the level before, the
+    // refined topology, the positions and the output mesh): measured at 69 B (the cube at 9 levels peaks
+    // at 432 MB for 6.3 M corners), with a margin.
+    const BYTES_PER_CORNER: u128 = 96;
+    let need = corners * BYTES_PER_CORNER;
+    if let Some(free) = crate::io::host_memory_available() {
+        if need > free as u128 {
+            return Err(Error::Invalid(format!(
+                "--levels {levels}: the result would have about {} M corners and need about {} MiB of \
+                 memory, more than the {} MiB available",
+                corners / 1_000_000,
+                need >> 20,
+                free >> 20
+            )));
+        }
     }
     Ok(match scheme {
         Scheme::CatmullClark => crate::mesh::catmull_clark(mesh, levels),
@@ -322,9 +347,12 @@ struct Prepared {
     /// Under the generalized winding number on a mesh with a boundary: the cap and M ∪ C (M's positions and
     /// triangles first), whose winding rule the cap term corrects.
     capped: Option<(Cap, TriMesh)>,
+    /// The grid, in the local frame of `tri` (world = local + `shift`).
     frame: GridFrame,
     report: VoxelizeReport,
     three: bool,
+    /// The mesh's local origin in world coordinates (see [`local_origin`]).
+    shift: [f64; 3],
 }
 
 impl Prepared {
@@ -341,11 +369,87 @@ impl Prepared {
     }
 }
 
+/// The local origin of a mesh: the minimum corner of the box of the vertices its faces use (f64), for a
+/// mesh far from the world origin ([`is_far`]), else the world origin. Positions become f32 only relative to
+/// it, so a mesh 10⁷ units away keeps the precision of one at the origin: f32 world coordinates rounded spot
+/// moved by 10⁷ to nothing ("no triangle with a non-zero area") and moved by 10⁴ to 34 wrong voxels. A mesh
+/// near the world origin is voxelized exactly as before (its f32 world coordinates lose nothing that
+/// matters: at most 16 sizes out, the rounding stays below 1e-6 of its size).
+fn local_origin(mesh: &Mesh) -> [f64; 3] {
+    let mut lo = [f64::INFINITY; 3];
+    let mut hi = [f64::NEG_INFINITY; 3];
+    for &i in &mesh.indices {
+        let p = mesh.positions[i as usize].to_array();
+        for a in 0..3 {
+            lo[a] = lo[a].min(p[a]);
+            hi[a] = hi[a].max(p[a]);
+        }
+    }
+    if is_far(lo, hi) {
+        lo
+    } else {
+        [0.0; 3]
+    }
+}
+
+/// Whether a box lies more than 16 of its own sizes from the world origin (false for an empty or
+/// non-finite box).
+pub(crate) fn is_far(lo: [f64; 3], hi: [f64; 3]) -> bool {
+    let size = (0..3).map(|a| hi[a] - lo[a]).fold(0.0, f64::max);
+    let reach = (0..3)
+        .map(|a| lo[a].abs().max(hi[a].abs()))
+        .fold(0.0, f64::max);
+    lo.iter().chain(&hi).all(|c| c.is_finite()) && reach > 16.0 * size
+}
+
+/// The triangles of `mesh` fanned, positions relative to `shift` in f32.
+fn fan_local(mesh: &Mesh, shift: [f64; 3]) -> TriMesh {
+    let mut fan = TriMesh::fan(mesh);
+    for (q, p) in fan.positions.iter_mut().zip(&mesh.positions) {
+        *q = [
+            (p.x - shift[0]) as f32,
+            (p.y - shift[1]) as f32,
+            (p.z - shift[2]) as f32,
+        ];
+    }
+    fan
+}
+
+/// `opts.grid` with its box (`--bbox`) in the local frame of `shift`.
+fn local_grid(opts: &VoxelizeOptions, shift: [f64; 3]) -> GridSpec {
+    let mut grid = opts.grid;
+    if let Some(b) = &mut grid.bbox {
+        for (a, s) in shift.iter().enumerate() {
+            b.min[a] -= s;
+            b.max[a] -= s;
+        }
+    }
+    grid
+}
+
+/// A local grid frame moved to world coordinates.
+fn to_world(mut frame: GridFrame, shift: [f64; 3]) -> GridFrame {
+    for (o, s) in frame.origin.iter_mut().zip(shift) {
+        *o += s;
+    }
+    frame
+}
+
+impl Voxelization {
+    /// The result of a voxelization in the local frame of `shift`, moved to world coordinates.
+    fn in_world(mut self, shift: [f64; 3]) -> Voxelization {
+        self.grid.frame = to_world(self.grid.frame, shift);
+        self.report.frame = to_world(self.report.frame, shift);
+        self
+    }
+}
+
 fn prepare(mesh: &Mesh, opts: &VoxelizeOptions) -> Result<Prepared> {
     let topo = topology(mesh);
     // The box of the vertices the faces use: a stray unreferenced vertex must not move the grid.
-    let fan = TriMesh::fan(mesh);
-    let frame = frame_of(&fan, opts)?;
+    let shift = local_origin(mesh);
+    let fan = fan_local(mesh, shift);
+    let frame = frame_of(&fan, &local_grid(opts, shift))?;
     let (tri, removed) = fan.clean();
     if tri.triangles.is_empty() {
         return Err(Error::Mesh(
@@ -426,20 +530,23 @@ fn prepare(mesh: &Mesh, opts: &VoxelizeOptions) -> Result<Prepared> {
         frame,
         report,
         three,
+        shift,
     })
 }
 
 /// The grid `opts` gives for `mesh` (what a voxelization will use), without voxelizing: callers check an
 /// output format against it before any work.
 pub fn grid_frame(mesh: &Mesh, opts: &VoxelizeOptions) -> Result<GridFrame> {
-    frame_of(&TriMesh::fan(mesh), opts)
+    let shift = local_origin(mesh);
+    let local = frame_of(&fan_local(mesh, shift), &local_grid(opts, shift))?;
+    Ok(to_world(local, shift))
 }
 
-/// The grid `opts` gives for the fanned triangles `fan` (before cleaning: every face counts for the box).
-fn frame_of(fan: &TriMesh, opts: &VoxelizeOptions) -> Result<GridFrame> {
+/// The grid `grid` gives for the fanned triangles `fan` (before cleaning: every face counts for the box).
+fn frame_of(fan: &TriMesh, grid: &GridSpec) -> Result<GridFrame> {
     let mesh_box = Bounds::of_triangles(&fan.positions, &fan.triangles).map_err(to_mesh_error)?;
-    opts.grid.frame(mesh_box).map_err(|e| match e {
-        Error::Invalid(msg) if opts.grid.bbox.is_none() && msg.contains("box") => Error::Mesh(msg),
+    grid.frame(mesh_box).map_err(|e| match e {
+        Error::Invalid(msg) if grid.bbox.is_none() && msg.contains("box") => Error::Mesh(msg),
         e => e,
     })
 }
@@ -548,7 +655,7 @@ pub fn voxelize_on_cpu(mesh: &Mesh, opts: &VoxelizeOptions) -> Result<Voxelizati
         Some(grid)
     };
     let grid = apply_fill(solid, &prepared.tri, &frame, opts.fill);
-    Ok(Voxelization::new(grid, report))
+    Ok(Voxelization::new(grid, report).in_world(prepared.shift))
 }
 
 /// A Vulkan device and everything gregvox needs on it. Cheap to keep for many calls; dropping it releases
@@ -696,7 +803,8 @@ impl Gpu {
         };
         if opts.fill == Fill::Surface {
             report.method = method;
-            return Ok(Voxelization::new(surface.expect("computed above"), report));
+            return Ok(Voxelization::new(surface.expect("computed above"), report)
+                .in_world(prepared.shift));
         }
         let geom = gpu.geometry();
         let result = self.run_gpu_method(method, opts, rule, &geom, &frame, three, profiler);
@@ -741,7 +849,7 @@ impl Gpu {
             Some(s) => grid.union(&s),
             None => grid,
         };
-        Ok(Voxelization::new(grid, report))
+        Ok(Voxelization::new(grid, report).in_world(prepared.shift))
     }
 
     /// One GPU method along the axes `three` and `opts.axes` give: (grid, axes, per-axis figures).

@@ -74,6 +74,35 @@ impl Patches {
     }
 }
 
+impl Patches {
+    /// The minimum corner of the cage's used vertices or of every control point (f64): positions are
+    /// evaluated relative to it (see [`Tessellation::origin`]). Models near the world origin (not
+    /// `api::is_far`) keep it, so their output is bit for bit what it was.
+    pub fn local_origin(&self) -> [f64; 3] {
+        let mut lo = DVec3::splat(f64::INFINITY);
+        let mut hi = DVec3::splat(f64::NEG_INFINITY);
+        match self {
+            Patches::Cage { rest, .. } => {
+                for p in rest {
+                    lo = lo.min(*p);
+                    hi = hi.max(*p);
+                }
+            }
+            Patches::Beziex(list) => {
+                for p in list.iter().flat_map(|p| p.ra.iter().chain(&p.rb)).flatten() {
+                    lo = lo.min(*p);
+                    hi = hi.max(*p);
+                }
+            }
+        }
+        if super::is_far(lo.to_array(), hi.to_array()) {
+            lo.to_array()
+        } else {
+            [0.0; 3]
+        }
+    }
+}
+
 /// Whether `path` names a Beziex model (by extension).
 pub fn is_beziex(path: &Path) -> bool {
     let ext = path
@@ -141,6 +170,11 @@ pub struct Tessellation {
     pub level: u32,
     /// Per-patch levels of an adaptive tessellation (patch p holds (L_p+1)² vertices).
     pub levels: Option<Vec<u32>>,
+    /// The local origin the `vertices` positions are relative to (world = position + origin, added in
+    /// f64 by [`Tessellation::write_obj`]): the minimum corner of the cage or control points, so a model
+    /// 10⁷ units from the world origin keeps its f32 precision (a unit cube there once came out as three
+    /// x values).
+    pub origin: [f64; 3],
 }
 
 impl Tessellation {
@@ -184,8 +218,19 @@ impl Tessellation {
                     self.patches, self.level
                 )?,
             }
+            let o = self.origin;
             for v in &self.vertices {
-                writeln!(w, "v {} {} {}", v.position[0], v.position[1], v.position[2])?;
+                let p = [
+                    v.position[0] as f64 + o[0],
+                    v.position[1] as f64 + o[1],
+                    v.position[2] as f64 + o[2],
+                ];
+                // At the origin f32's own shortest digits (the file as before); away from it, f64's.
+                if o == [0.0; 3] {
+                    writeln!(w, "v {} {} {}", v.position[0], v.position[1], v.position[2])?;
+                } else {
+                    writeln!(w, "v {} {} {}", p[0], p[1], p[2])?;
+                }
             }
             for v in &self.vertices {
                 writeln!(w, "vn {} {} {}", v.normal[0], v.normal[1], v.normal[2])?;
@@ -285,17 +330,27 @@ impl Gpu {
         check(patches, opts)?;
         let ctx = self.context();
         let level = opts.level;
+        let origin = patches.local_origin();
         let done = |vertices, levels| Tessellation {
             vertices,
             patches: patches.count(),
             level,
             levels,
+            origin,
         };
+        let shift = |p: DVec3| p - DVec3::from(origin);
         match patches {
             Patches::Cage { topology, rest, .. } => {
-                let mut surface = GregorySurface::new(ctx, topology, rest, level)?;
+                let local: Vec<DVec3> = rest.iter().map(|&p| shift(p)).collect();
+                let mut surface = GregorySurface::new(ctx, topology, &local, level)?;
                 if let Some(a) = &opts.adaptive {
-                    let p = adaptive_params(a, surface.box_min(), surface.box_size());
+                    // The eye is given in world coordinates.
+                    let mut a = *a;
+                    a.eye = a.eye.map(|e| {
+                        let e = shift(DVec3::new(e[0] as f64, e[1] as f64, e[2] as f64));
+                        [e.x as f32, e.y as f32, e.z as f32]
+                    });
+                    let p = adaptive_params(&a, surface.box_min(), surface.box_size());
                     surface.set_adaptive(ctx, Some(p))?;
                 }
                 let params = opts.deform.map(|(mode, amplitude)| DeformParams {
@@ -339,7 +394,16 @@ impl Gpu {
                 Ok(done(surface.read_vertices(ctx)?, None))
             }
             Patches::Beziex(list) => {
-                let nets: Vec<[f32; 4]> = list.iter().flat_map(|p| p.to_gpu()).collect();
+                let nets: Vec<[f32; 4]> = list
+                    .iter()
+                    .flat_map(|p| {
+                        let mut local = p.clone();
+                        for q in local.ra.iter_mut().chain(local.rb.iter_mut()).flatten() {
+                            *q = shift(*q);
+                        }
+                        local.to_gpu()
+                    })
+                    .collect();
                 let n = list.len() as u32;
                 let nb = ctx.upload_buffer(
                     "beziex nets",

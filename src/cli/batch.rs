@@ -80,6 +80,16 @@ pub fn run(args: &BatchArgs) -> anyhow::Result<()> {
             None => PathBuf::from(format!("x.{}", n.format)),
         };
         check_format(&probe, &example, None)?;
+        crate::io::check_output_folder(&n.dir)?;
+    }
+    if let Some(report) = &args.report {
+        // The report's folder is made as the output folder is (`--report out/report.jsonl` beside
+        // `--out-dir out/voxels`), then the report itself is tried.
+        if let Some(parent) = report.parent().filter(|p| !p.as_os_str().is_empty()) {
+            crate::io::check_output_folder(parent)?;
+            std::fs::create_dir_all(parent).map_err(|e| crate::Error::io(parent, e))?;
+        }
+        crate::io::check_output(report)?;
     }
     let shard = match &args.shard {
         Some(s) => Some(Shard::parse(s)?),
@@ -96,7 +106,7 @@ pub fn run(args: &BatchArgs) -> anyhow::Result<()> {
         // A second Ctrl-C kills as usual: the handler only asks once.
         let _ = ctrlc::set_handler(move || {
             if stop.swap(true, Ordering::SeqCst) {
-                std::process::exit(130);
+                crate::io::exit_removing_temporaries(130);
             }
             eprintln!("gregvox batch: stopping after the models in flight (Ctrl-C again to kill)");
         });

@@ -38,6 +38,18 @@ pub struct BenchArgs {
 
 /// Runs `gregvox bench`.
 pub fn run(args: &BenchArgs) -> anyhow::Result<()> {
+    // Outputs before the measurements (minutes of them).
+    crate::io::check_output_folder(&args.out)?;
+    if let Some(doc) = &args.doc {
+        // Its folder is made if missing, as the output folder is.
+        match doc
+            .parent()
+            .filter(|p| !p.as_os_str().is_empty() && !p.exists())
+        {
+            Some(folder) => crate::io::check_output_folder(folder)?,
+            None => crate::io::check_output(doc)?,
+        }
+    }
     let report = match &args.from_json {
         Some(path) => {
             let text = std::fs::read_to_string(path)

@@ -29,7 +29,7 @@ pub struct SubdivideArgs {
     /// Number of subdivision levels.
     #[arg(long, default_value_t = 1)]
     pub levels: u32,
-    /// Where to write the subdivided OBJ.
+    /// Where to write the subdivided OBJ (`-`: standard output).
     #[arg(long)]
     pub out: PathBuf,
     /// Subdivision scheme.
@@ -137,12 +137,17 @@ fn human_report(name: &str, r: &TopologyReport) -> String {
 
 /// Runs `gregvox subdivide`.
 pub fn run_subdivide(args: &SubdivideArgs) -> anyhow::Result<()> {
+    crate::io::check_output(&args.out)?;
     let m = load_mesh(&args.input)?;
     let out = subdivide(&m, args.levels, args.scheme).map_err(|e| e.for_input(&args.input))?;
     mesh::write_obj(&args.out, &out)?;
     eprintln!(
         "wrote {} ({} vertices, {} faces)",
-        args.out.display(),
+        if crate::io::is_stdout(&args.out) {
+            "standard output".to_string()
+        } else {
+            args.out.display().to_string()
+        },
         out.positions.len(),
         out.n_faces()
     );

@@ -56,6 +56,14 @@ pub fn main() -> ExitCode {
         .format_timestamp(None)
         .try_init();
     let cli = Cli::parse();
+    if !matches!(cli.command, Command::Batch(_)) {
+        // SIGINT, SIGTERM, SIGHUP: remove the temporary file of a write in progress, then exit as a signal
+        // would (128 + 2). `gregvox batch` has its own handler (stop after the models in flight).
+        let _ = ctrlc::set_handler(|| {
+            eprintln!("gregvox: interrupted");
+            crate::io::exit_removing_temporaries(130);
+        });
+    }
     let result = match cli.command {
         Command::Info(a) => info::run(&a),
         Command::Mesh(a) => mesh::run_mesh(&a),

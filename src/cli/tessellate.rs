@@ -35,7 +35,7 @@ pub struct TessellateArgs {
     /// Tessellation level L (1–64): (L+1)² vertices per patch.
     #[arg(long, default_value_t = 8)]
     pub level: u32,
-    /// Output OBJ (v, vn and f lines).
+    /// Output OBJ (v, vn and f lines); `-` writes it to standard output (the summary then goes to stderr).
     #[arg(long)]
     pub out: Option<PathBuf>,
     /// Evaluation path.
@@ -59,9 +59,9 @@ pub struct TessellateArgs {
     /// vertical field of view). Default: on +Z, 1.5 bounding-box diagonals from the centre.
     #[arg(long, value_name = "X,Y,Z")]
     pub eye: Option<String>,
-    /// With --adaptive: the viewport `WxH` in pixels.
-    #[arg(long, value_name = "WxH", default_value = "1280x720")]
-    pub viewport: String,
+    /// With --adaptive: the viewport `WxH` in pixels (default 1280x720).
+    #[arg(long, value_name = "WxH")]
+    pub viewport: Option<String>,
     /// Print vertex count, the largest normal jump across shared patch edges and the throughput.
     #[arg(long)]
     pub stats: bool,
@@ -72,13 +72,17 @@ pub struct TessellateArgs {
 /// Parses `twist|bend|wave[:AMOUNT]`.
 pub fn parse_deform(s: &str) -> anyhow::Result<(Deformation, f32)> {
     let (name, amount) = match s.split_once(':') {
-        Some((n, a)) => (
-            n,
-            a.parse::<f32>()
+        Some((n, a)) => {
+            let x: f64 = a
+                .parse()
                 .ok()
-                .filter(|a| a.is_finite())
-                .with_context(|| format!("--deform amount '{a}' is not a number"))?,
-        ),
+                .filter(|x: &f64| !x.is_nan())
+                .with_context(|| format!("--deform amount '{a}' is not a number"))?;
+            if x.abs() > f32::MAX as f64 {
+                bail!("--deform amount {a} is out of range (at most ±3.4e38, the f32 range)");
+            }
+            (n, x as f32)
+        }
         None => (s, 1.0),
     };
     let mode = match name {
@@ -107,6 +111,11 @@ pub fn run(args: &TessellateArgs) -> anyhow::Result<()> {
             args.input.display()
         );
     }
+    // Outputs before any work: a path that cannot be written fails now, not after the evaluation.
+    if let Some(out) = &args.out {
+        crate::io::check_output(out)?;
+    }
+    args.profile.check_outputs()?;
     let patches = Patches::load(&args.input, args.tangents.into())?;
     if let Some(n) = patches.note() {
         eprintln!("gregvox tessellate: {n}");
@@ -117,8 +126,29 @@ pub fn run(args: &TessellateArgs) -> anyhow::Result<()> {
         .tessellate(&patches, &opts, &mut profiler)
         .map_err(|e| e.for_input(&args.input))?;
     args.profile.emit(&profiler)?;
-    if let Some(path) = &args.out {
-        t.write_obj(path)?;
+    let to_stdout = args.out.as_deref().is_some_and(crate::io::is_stdout);
+    // What was done and where it went, on stderr (stdout may be the OBJ itself).
+    match &args.out {
+        Some(path) => {
+            t.write_obj(path)?;
+            let target = if to_stdout {
+                "standard output".to_string()
+            } else {
+                path.display().to_string()
+            };
+            eprintln!(
+                "wrote {target} ({} patches, {} vertices)",
+                t.patches,
+                t.vertices.len()
+            );
+        }
+        None if !args.stats => eprintln!(
+            "gregvox tessellate: evaluated {} patches ({} vertices); nothing written: give --out FILE.obj \
+             (or --out - for standard output), or --stats",
+            t.patches,
+            t.vertices.len()
+        ),
+        None => {}
     }
     if args.stats {
         let jump = t.max_normal_jump(&patches);
@@ -135,13 +165,18 @@ pub fn run(args: &TessellateArgs) -> anyhow::Result<()> {
         } else {
             0.0
         };
-        super::print_out(&format!(
+        let text = format!(
             "vertices: {}\npatches: {}\nmax normal jump across shared edges: {jump:.3e} rad\n\
              evaluation: {eval_ms:.3} ms median ({:.1} M vertices/s)\n",
             t.vertices.len(),
             t.patches,
             rate / 1e6
-        ))?;
+        );
+        if to_stdout {
+            eprint!("{text}");
+        } else {
+            super::print_out(&text)?;
+        }
     }
     Ok(())
 }
@@ -151,6 +186,9 @@ fn parse_adaptive(args: &TessellateArgs) -> anyhow::Result<Option<AdaptiveView>>
     let Some(px) = args.adaptive else {
         if args.eye.is_some() {
             bail!("--eye sets the view of --adaptive, which is not given");
+        }
+        if args.viewport.is_some() {
+            bail!("--viewport sets the view of --adaptive, which is not given");
         }
         return Ok(None);
     };
@@ -167,17 +205,12 @@ fn parse_adaptive(args: &TessellateArgs) -> anyhow::Result<Option<AdaptiveView>>
             Some([c[0], c[1], c[2]])
         }
     };
-    let vp = args
-        .viewport
+    let viewport = args.viewport.as_deref().unwrap_or("1280x720");
+    let vp = viewport
         .split_once(['x', 'X'])
         .and_then(|(w, h)| Some([w.trim().parse::<u32>().ok()?, h.trim().parse::<u32>().ok()?]))
         .filter(|v| v[0] > 0 && v[1] > 0)
-        .ok_or_else(|| {
-            anyhow::anyhow!(
-                "--viewport '{}' is not WIDTHxHEIGHT in pixels",
-                args.viewport
-            )
-        })?;
+        .ok_or_else(|| anyhow::anyhow!("--viewport '{viewport}' is not WIDTHxHEIGHT in pixels"))?;
     Ok(Some(AdaptiveView {
         pixels_per_segment: px,
         eye,

@@ -68,8 +68,9 @@ pub struct VoxelizeArgs {
     pub input: PathBuf,
     #[command(flatten)]
     pub grid: GridArgs,
-    /// Output file: .binvox (cubic grids only), .npy, .nrrd, .raw or .vox (.npy/.raw/.vox get a .json
-    /// sidecar with dims, voxel_size, origin and the index-to-world matrix).
+    /// Output file: .binvox (cubic grids only), .npy, .nrrd, .raw or .vox. A .npy/.raw/.vox output gets a
+    /// sidecar named after the whole file (a.npy → a.npy.json) with dims, voxel_size, origin and the
+    /// index-to-world matrix, so a.npy and a.raw side by side keep their own.
     #[arg(long)]
     pub out: Option<PathBuf>,
     /// Treat the input as a quad cage: evaluate its ACC-2 Gregory surface at this level on the GPU and voxelize
@@ -129,6 +130,10 @@ impl GridArgs {
     /// The library options these flags give.
     pub fn options(&self) -> anyhow::Result<VoxelizeOptions> {
         let axes = match (self.axes.as_deref(), self.axis) {
+            (Some("3"), Some(a)) => bail!(
+                "--axis {} picks the one axis of --axes 1; --axes 3 votes over all three",
+                a.name()
+            ),
             (Some("3"), _) => Axes::Three,
             (_, Some(a)) => Axes::One(a),
             (Some(_), None) => Axes::Best,
@@ -170,10 +175,16 @@ impl GridArgs {
 pub fn run(args: &VoxelizeArgs) -> anyhow::Result<()> {
     let mut opts = args.grid.options()?;
     if let Some(out) = &args.out {
-        // Unknown formats before the mesh is even read; the grid-dependent checks once its frame is known.
+        // Unknown formats and unwritable paths before the mesh is even read (nothing is thrown away at the
+        // end); the grid-dependent checks once its frame is known.
         let probe = GridFrame::cubic(1, [0.0; 3], 1.0);
         check_format(&probe, out, None)?;
+        crate::io::check_output(out)?;
+        if let Some(side) = sidecar_of(out) {
+            crate::io::check_output(&side)?;
+        }
     }
+    args.profile.check_outputs()?;
     let mesh = load_mesh(&args.input)?;
     let frame = grid_frame(&mesh, &opts).map_err(|e| e.for_input(&args.input))?;
     if let Some(out) = &args.out {
@@ -221,6 +232,7 @@ pub fn run(args: &VoxelizeArgs) -> anyhow::Result<()> {
     if let Some(p) = &profiler {
         args.profile.emit(p)?;
     }
+    let mut wrote = None;
     if let Some(out) = &args.out {
         grid.save_with(
             out,
@@ -228,7 +240,14 @@ pub fn run(args: &VoxelizeArgs) -> anyhow::Result<()> {
                 npy_packed: args.grid.npy_packed,
             },
         )?;
+        wrote = Some(match sidecar_of(out) {
+            Some(side) => format!("wrote {} and {}\n", out.display(), side.display()),
+            None if crate::io::is_stdout(out) => "wrote .binvox to standard output\n".into(),
+            None => format!("wrote {}\n", out.display()),
+        });
     }
+    // With the grid on standard output, everything said goes to stderr.
+    let to_stdout = args.out.as_deref().is_some_and(crate::io::is_stdout);
     let layers: std::collections::BTreeMap<String, u32> = report
         .layers
         .iter()
@@ -259,15 +278,22 @@ pub fn run(args: &VoxelizeArgs) -> anyhow::Result<()> {
             "seconds": seconds,
             "profile": profiler.as_ref().map(|p| p.json()),
         });
-        super::print_out(&format!("{}\n", serde_json::to_string_pretty(&summary)?))?;
+        let json = format!("{}\n", serde_json::to_string_pretty(&summary)?);
+        if to_stdout {
+            eprint!("{json}");
+        } else {
+            super::print_out(&json)?;
+        }
         return Ok(());
     }
     let size = if f.cubic_voxels() {
-        format!("voxel size {:.6}", f.voxel_size[0])
+        format!("voxel size {}", significant(f.voxel_size[0]))
     } else {
         format!(
-            "voxel size {:.6}×{:.6}×{:.6}",
-            f.voxel_size[0], f.voxel_size[1], f.voxel_size[2]
+            "voxel size {}×{}×{}",
+            significant(f.voxel_size[0]),
+            significant(f.voxel_size[1]),
+            significant(f.voxel_size[2])
         )
     };
     let mut text = match args.gregory_level {
@@ -320,9 +346,34 @@ pub fn run(args: &VoxelizeArgs) -> anyhow::Result<()> {
         grid.count(),
         seconds * 1e3
     ));
+    text.push_str(wrote.as_deref().unwrap_or(""));
     // Per-pass GPU times only when asked for (--profile, --profile-json, --trace): the summary stays short.
-    super::print_out(&text)?;
+    if to_stdout {
+        eprint!("{text}");
+    } else {
+        super::print_out(&text)?;
+    }
     Ok(())
+}
+
+/// The sidecar an output gets (`.npy`, `.raw`, `.vox`), if any.
+fn sidecar_of(out: &std::path::Path) -> Option<std::path::PathBuf> {
+    let ext = out.extension()?.to_str()?.to_ascii_lowercase();
+    matches!(ext.as_str(), "npy" | "raw" | "vox").then(|| crate::voxel::export::sidecar_path(out))
+}
+
+/// `x` to 6 significant digits, in scientific notation outside 1e-4 … 1e7 (a tiny mesh's voxel is not
+/// "0.000000", nor a huge one's 29 digits).
+pub fn significant(x: f64) -> String {
+    let a = x.abs();
+    if a == 0.0 || !a.is_finite() {
+        return format!("{x}");
+    }
+    if !(1e-4..1e7).contains(&a) {
+        return format!("{x:.5e}");
+    }
+    let decimals = (5 - a.log10().floor() as i32).max(0) as usize;
+    format!("{x:.decimals$}")
 }
 
 /// A progress bar on stderr for long voxelizations, only when stderr is a terminal: piped output and tests

@@ -376,6 +376,23 @@ pub fn build_scene(
 
 /// Runs `gregvox demo`.
 pub fn run(args: &DemoArgs) -> anyhow::Result<()> {
+    // Outputs before any work. The offscreen folder is made once the scene stands, so profile outputs
+    // inside it are checked as part of it.
+    let frames_dir = args.out.as_deref().unwrap_or("out/demo".as_ref());
+    if args.offscreen {
+        crate::io::check_output_folder(frames_dir)?;
+    }
+    for path in args.profile.profile_json.iter().chain(&args.profile.trace) {
+        match path
+            .parent()
+            .filter(|p| !p.as_os_str().is_empty() && !p.exists())
+        {
+            Some(folder) if args.offscreen && folder.starts_with(frames_dir) => {
+                crate::io::check_output_folder(folder)?
+            }
+            _ => crate::io::check_output(path)?,
+        }
+    }
     if args.offscreen {
         run_offscreen(args)
     } else {

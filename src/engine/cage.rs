@@ -142,10 +142,25 @@ pub fn max_jump_shared_edges(
 /// jump near π. (Beziex's 04_Cup1 does show π: its rim edges have a vanishing cross-boundary derivative,
 /// |S_cross| ≈ 5e-8 against |S_along| ≈ 0.7, so the normal drawn there is undefined.)
 pub fn max_jump_coincident(vertices: &[SurfaceVertex], level: u32) -> f64 {
+    coincident_jumps(vertices, level).worst
+}
+
+/// What [`coincident_jumps`] measured.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct CoincidentJumps {
+    /// The largest angle (rad).
+    pub worst: f64,
+    /// Pairs of distinct samples compared: the work done, linear in the surface (a file that repeats
+    /// its patches compares as many pairs as one copy).
+    pub pairs_compared: usize,
+}
+
+/// [`max_jump_coincident`] with the number of sample pairs it compared.
+pub fn coincident_jumps(vertices: &[SurfaceVertex], level: u32) -> CoincidentJumps {
     let n = (level + 1) as usize;
     let per = n * n;
     if vertices.is_empty() || per == 0 {
-        return 0.0;
+        return CoincidentJumps::default();
     }
     let pos = |v: &SurfaceVertex| Vec3::new(v.position[0], v.position[1], v.position[2]);
     let (mut lo, mut hi) = (Vec3::splat(f32::MAX), Vec3::splat(f32::MIN));
@@ -155,23 +170,52 @@ pub fn max_jump_coincident(vertices: &[SurfaceVertex], level: u32) -> f64 {
     }
     let tol = ((hi - lo).length() * 1e-5).max(f32::MIN_POSITIVE);
     let cell = |p: Vec3| ((p - lo) / tol).floor().as_ivec3();
-    let mut grid: HashMap<glam::IVec3, Vec<usize>> = HashMap::new();
     let boundary = |k: usize| {
         let l = k % per;
         let (i, j) = (l % n, l / n);
         i == 0 || j == 0 || i == n - 1 || j == n - 1
     };
-    for (k, v) in vertices.iter().enumerate() {
-        if boundary(k) {
-            grid.entry(cell(pos(v))).or_default().push(k);
-        }
+    // Boundary samples merged by (position, normal) bits: two of them contribute an angle of 0 to each
+    // other, so only one is kept, with whether it came from more than one patch. A file of many
+    // coincident patches (the same patch repeated) then costs what one copy costs, not the square of
+    // the copies.
+    struct Sample {
+        position: Vec3,
+        normal: DVec3,
+        patch: usize,
+        several_patches: bool,
     }
-    let mut worst = 0.0f64;
+    let mut index: HashMap<([u32; 3], [u32; 3]), usize> = HashMap::new();
+    let mut samples: Vec<Sample> = Vec::new();
     for (k, v) in vertices.iter().enumerate() {
         if !boundary(k) {
             continue;
         }
-        let c = cell(pos(v));
+        let key = (
+            [v.position[0], v.position[1], v.position[2]].map(f32::to_bits),
+            [v.normal[0], v.normal[1], v.normal[2]].map(f32::to_bits),
+        );
+        match index.get(&key) {
+            Some(&s) => samples[s].several_patches |= samples[s].patch != k / per,
+            None => {
+                index.insert(key, samples.len());
+                samples.push(Sample {
+                    position: pos(v),
+                    normal: DVec3::new(v.normal[0] as f64, v.normal[1] as f64, v.normal[2] as f64),
+                    patch: k / per,
+                    several_patches: false,
+                });
+            }
+        }
+    }
+    let mut grid: HashMap<glam::IVec3, Vec<usize>> = HashMap::new();
+    for (s, sample) in samples.iter().enumerate() {
+        grid.entry(cell(sample.position)).or_default().push(s);
+    }
+    let mut worst = 0.0f64;
+    let mut pairs_compared = 0;
+    for (s, a) in samples.iter().enumerate() {
+        let c = cell(a.position);
         for dz in -1..=1 {
             for dy in -1..=1 {
                 for dx in -1..=1 {
@@ -179,19 +223,26 @@ pub fn max_jump_coincident(vertices: &[SurfaceVertex], level: u32) -> f64 {
                         continue;
                     };
                     for &o in list {
-                        if o / per == k / per || (pos(&vertices[o]) - pos(v)).length() > tol {
+                        let b = &samples[o];
+                        let other_patch =
+                            a.patch != b.patch || a.several_patches || b.several_patches;
+                        if o == s || !other_patch || (b.position - a.position).length() > tol {
                             continue;
                         }
-                        let a =
-                            DVec3::new(v.normal[0] as f64, v.normal[1] as f64, v.normal[2] as f64);
-                        let b = &vertices[o].normal;
-                        let b = DVec3::new(b[0] as f64, b[1] as f64, b[2] as f64);
-                        let theta = a.cross(b).length().atan2(a.dot(b));
+                        let theta = a
+                            .normal
+                            .cross(b.normal)
+                            .length()
+                            .atan2(a.normal.dot(b.normal));
                         worst = worst.max(theta);
+                        pairs_compared += 1;
                     }
                 }
             }
         }
     }
-    worst
+    CoincidentJumps {
+        worst,
+        pairs_compared,
+    }
 }

@@ -235,7 +235,26 @@ pub fn bezier_net_generic<S: Real, P: Point<S>>(cv: &[P; 20], u: S, v: S) -> [[P
 }
 
 macro_rules! normal_impl {
-    ($s:ty, $v:ty) => {
+    ($s:ty, $v:ty, $bits:ty, $mant:expr, $bias:expr) => {
+        /// `a` and `b` multiplied by one power of two that brings their largest component into [½, 1)
+        /// (as GLSL's `frexp`): exact, so every ratio, test and unit vector below keeps its bits, while a
+        /// cross product of 1e-20-sized derivatives no longer underflows to 0 (nor 1e20-sized ones
+        /// overflow). Zero, subnormal and non-finite inputs are left as they are.
+        fn rescaled(a: $v, b: $v) -> ($v, $v) {
+            let m = a.abs().max_element().max(b.abs().max_element());
+            let exp = ((m.to_bits() >> $mant) & ((1 << (<$bits>::BITS - 1 - $mant)) - 1)) as i32;
+            if exp == 0 || !m.is_finite() {
+                return (a, b);
+            }
+            // m = f·2^e with f in [½, 1): e = exp − bias + 1; scale by 2^−e.
+            let e = exp - $bias + 1;
+            if -e + $bias < 1 {
+                return (a, b); // 2^−e would be subnormal: m is within a factor 2 of the largest float
+            }
+            let k = <$s>::from_bits(((-e + $bias) as $bits) << $mant);
+            (a * k, b * k)
+        }
+
         /// Unit normal with the degenerate fallback (notes §1.5):
         /// 1. N = S_u × S_v if |N| > 1e-5·(|S_u| + |S_v|)² (a scale-free form of OpenSubdiv's test: it
         ///    also catches a derivative that is only rounding noise on a collapsed edge, where a pure angle
@@ -244,6 +263,7 @@ macro_rules! normal_impl {
         ///    (c11 − c00) × (c01 − c10) (OpenSubdiv `OsdEvalPatchBezier`);
         /// 3. else the same with the four corner points; 4. else +Z. Never NaN for finite points.
         pub(super) fn normal_from(net: &[[$v; 4]; 4], su: $v, sv: $v, u: $s, v: $s) -> $v {
+            let (su, sv) = rescaled(su, sv);
             let n = su.cross(sv);
             let ln = n.length();
             let scale = su.length() + sv.length();
@@ -268,12 +288,14 @@ macro_rules! normal_impl {
             let c0 = lerp2([rows[0][0], rows[1][0], rows[2][0], rows[3][0]], v);
             let c1 = lerp2([rows[0][1], rows[1][1], rows[2][1], rows[3][1]], v);
             // c0 = [c00, c01] (column u-low, v low/high), c1 = [c10, c11]
-            let hull = (c1[1] - c0[0]).cross(c0[1] - c1[0]);
+            let (d0, d1) = rescaled(c1[1] - c0[0], c0[1] - c1[0]);
+            let hull = d0.cross(d1);
             let lh = hull.length();
             if lh > 0.0 && lh.is_finite() {
                 return hull / lh;
             }
-            let corners = (net[3][3] - net[0][0]).cross(net[3][0] - net[0][3]);
+            let (d0, d1) = rescaled(net[3][3] - net[0][0], net[3][0] - net[0][3]);
+            let corners = d0.cross(d1);
             let lc = corners.length();
             if lc > 0.0 && lc.is_finite() {
                 return corners / lc;
@@ -285,11 +307,11 @@ macro_rules! normal_impl {
 
 mod normal64 {
     use super::*;
-    normal_impl!(f64, DVec3);
+    normal_impl!(f64, DVec3, u64, 52, 1023);
 }
 mod normal32 {
     use super::*;
-    normal_impl!(f32, Vec3);
+    normal_impl!(f32, Vec3, u32, 23, 127);
 }
 
 /// A Gregory patch in f64 for reference maths.

@@ -216,6 +216,14 @@ fn crease_vertex_row(rb: &mut RowBuilder, v: u32, count: u32, nb: [u32; 2]) -> b
 /// assert_eq!(sub.s.spmv(&p)[4], DVec3::new(0.5, 0.5, 0.0)); // the face point
 /// ```
 pub fn catmull_clark_matrix(m: &MeshMatrix) -> Subdivision {
+    catmull_clark_level(m, false)
+}
+
+/// One Catmull–Clark level. `staged`: the rows read the face points as variables of their own (columns
+/// `nv + f`, see [`catmull_clark`]) instead of expanding each into its face's vertices, which makes the
+/// matrix linear in the mesh: expanded, every edge and vertex of an n-gon carries n weights (a 10,000-gon
+/// cap alone would need 2·10⁸ entries, 1.9 GB).
+fn catmull_clark_level(m: &MeshMatrix, staged: bool) -> Subdivision {
     let (nv, nf, ne) = (m.n_verts(), m.n_faces(), m.n_edges());
     let vc = m.vertex_corners();
     let cf = m.corner_face();
@@ -239,6 +247,10 @@ pub fn catmull_clark_matrix(m: &MeshMatrix) -> Subdivision {
             }
             for k in vc.ptr[v]..vc.ptr[v + 1] {
                 let f = cf[vc.corner[k as usize] as usize] as usize;
+                if staged {
+                    rb.add((nv + f) as u32, 1.0 / (n * n_faces));
+                    continue;
+                }
                 let face = m.face(f);
                 let w = 1.0 / (n * n_faces * face.len() as f64);
                 for &u in face {
@@ -250,6 +262,11 @@ pub fn catmull_clark_matrix(m: &MeshMatrix) -> Subdivision {
     }
     // Face points.
     for f in 0..nf {
+        if staged {
+            rb.add((nv + f) as u32, 1.0);
+            rb.finish_row();
+            continue;
+        }
         let face = m.face(f);
         let w = 1.0 / face.len() as f64;
         for &u in face {
@@ -265,6 +282,10 @@ pub fn catmull_clark_matrix(m: &MeshMatrix) -> Subdivision {
             rb.add(a, 0.25);
             rb.add(b, 0.25);
             for f in two_faces.get(e) {
+                if staged {
+                    rb.add(nv as u32 + f, 0.25);
+                    continue;
+                }
                 let face = m.face(f as usize);
                 let w = 0.25 / face.len() as f64;
                 for &x in face {
@@ -277,7 +298,7 @@ pub fn catmull_clark_matrix(m: &MeshMatrix) -> Subdivision {
         }
         rb.finish_row();
     }
-    let s = rb.build(nv);
+    let s = rb.build(if staged { nv + nf } else { nv });
     // Topology: one quad per corner.
     let entry = m.corner_entries();
     let he_edge = m.half_edge_edge();
@@ -447,7 +468,16 @@ pub fn catmull_clark(mesh: &Mesh, levels: u32) -> Mesh {
     let mut m = MeshMatrix::from_mesh(mesh);
     let mut p = mesh.positions.clone();
     for _ in 0..levels {
-        let sub = catmull_clark_matrix(&m);
+        // Staged, linear in the mesh whatever its polygon sizes: the face points first (each face's
+        // average), then every new point from the old points and the face points.
+        let sub = catmull_clark_level(&m, true);
+        let face_points: Vec<DVec3> = (0..m.n_faces())
+            .map(|f| {
+                let face = m.face(f);
+                face.iter().map(|&u| p[u as usize]).sum::<DVec3>() / face.len() as f64
+            })
+            .collect();
+        p.extend(face_points);
         p = sub.s.spmv(&p);
         m = sub.topology;
     }

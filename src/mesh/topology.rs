@@ -248,11 +248,19 @@ impl MeshMatrix {
             .iter()
             .map(|&c| [cv[self.next(c) as usize], cv[self.prev(c) as usize]])
             .collect();
+        // Two corners are in one fan when they share a neighbour vertex: union each corner with the first
+        // corner seen at each of its two neighbours. Linear in the valence (a pairwise test was quadratic:
+        // 48 s for the 100,001-valence apex of a fan-triangulated 100,000-gon).
         let mut uf = UnionFind::new(corners.len());
-        for a in 0..nb.len() {
-            for b in 0..a {
-                if nb[a].iter().any(|x| nb[b].contains(x)) {
-                    uf.union(a as u32, b as u32);
+        let mut first_at: std::collections::HashMap<u32, u32> =
+            std::collections::HashMap::with_capacity(2 * nb.len());
+        for (a, pair) in nb.iter().enumerate() {
+            for &x in pair {
+                match first_at.entry(x) {
+                    std::collections::hash_map::Entry::Occupied(e) => uf.union(a as u32, *e.get()),
+                    std::collections::hash_map::Entry::Vacant(e) => {
+                        e.insert(a as u32);
+                    }
                 }
             }
         }

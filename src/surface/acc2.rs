@@ -430,6 +430,13 @@ impl GregoryStencils {
                 rows[r.v as usize] = p_row(r);
             }
         }
+        // A vertex no face uses (exported OBJ files often carry some) takes part in no patch: its row is
+        // the vertex itself, so every row stays an affine combination of the cage and the point is inert.
+        for (v, done) in p_done.iter().enumerate() {
+            if !done {
+                rows[v] = vec![(v as u32, 1.0)];
+            }
+        }
         // Edge rows: Ep of corner c = ring edge face_in_ring; the back row of a boundary half-edge
         // c = (a → b) is b's point toward a = the Em of b's corner in the same face (next(c)).
         for c in 0..nc {

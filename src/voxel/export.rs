@@ -5,7 +5,8 @@
 //! Placement (the grid contract of `grid.rs`): voxel (i,j,k) has its centre at origin + (index + ½)·voxel
 //! size on each axis. Every output records it: binvox `dim`/`translate`/`scale`, NRRD `sizes`, `space
 //! directions` and `space origin` (the centre of voxel 0, as NRRD places samples), and for `.npy`, `.raw`
-//! and `.vox` a `PATH.json` sidecar with `dims`, `voxel_size`, `origin` and `index_to_world` (the row-major
+//! and `.vox` a `PATH.json` sidecar named after the whole file (`a.npy` → `a.npy.json`, so `a.npy` and `a.raw` in one
+//! folder keep their own placement) with `dims`, `voxel_size`, `origin` and `index_to_world` (the row-major
 //! 4×4 matrix taking (i, j, k, 1) to the voxel's centre).
 //!
 //! Invariants: files are written through `crate::io::write_atomic` (a temporary file and a rename), so an
@@ -209,6 +210,13 @@ pub const FORMATS: [&str; 5] = ["binvox", "npy", "nrrd", "raw", "vox"];
 /// for binvox, too many voxels for `.vox`). `solid` is the solid-voxel count when known.
 pub fn check_format(frame: &GridFrame, path: &Path, solid: Option<u64>) -> Result<()> {
     let ext = extension(path);
+    if ext.is_empty() {
+        return Err(Error::Invalid(format!(
+            "{}: the output has no extension to name its voxel format (use .binvox, .npy, .nrrd, .raw or \
+             .vox, or - for .binvox on standard output)",
+            path.display()
+        )));
+    }
     if !FORMATS.contains(&ext.as_str()) {
         return Err(Error::Invalid(format!(
             "{}: unknown voxel format '.{ext}' (use .binvox, .npy, .nrrd, .raw or .vox)",
@@ -238,69 +246,65 @@ pub fn check_format(frame: &GridFrame, path: &Path, solid: Option<u64>) -> Resul
     Ok(())
 }
 
+/// The format's extension, lower case; standard output (`-`) is written as `.binvox`.
 fn extension(path: &Path) -> String {
+    if crate::io::is_stdout(path) {
+        return "binvox".into();
+    }
     path.extension()
         .and_then(|e| e.to_str())
         .unwrap_or("")
         .to_ascii_lowercase()
 }
 
-/// Writes `grid` to `path` in the format its extension names.
+/// Writes `grid` to `path` in the format its extension names, then its sidecar where the format has one.
+/// The grid goes first: a grid write that fails (a full disk) leaves the previous output and its
+/// sidecar as they were. (`gregvox batch` counts an output complete only when both files exist.)
 pub fn write_grid(grid: &VoxelGrid, path: &Path, opts: &SaveOptions) -> Result<()> {
     check_format(&grid.frame, path, Some(grid.count()))?;
     let [x, y, z] = grid.frame.dims;
-    match extension(path).as_str() {
+    let ext = extension(path);
+    let layout = match ext.as_str() {
+        "npy" if opts.npy_packed => Some(format!(
+            "uint8 ({x}, {y}, {}): bits of z, little bit order \
+             (np.unpackbits(a, axis=2, bitorder='little')[:, :, :{z}])",
+            z.div_ceil(8)
+        )),
+        "npy" => Some(format!(
+            "bool ({x}, {y}, {z}), C order: a[i, j, k] is voxel (i, j, k)"
+        )),
+        "vox" => Some(format!(
+            "MagicaVoxel .vox: models of at most 256 per axis; grid voxel (i,j,k) is world voxel \
+             (i - {}, j - {}, k - {}); a model of size s with nTRN translation t holds world voxels \
+             t - floor(s/2) + xyz",
+            x / 2,
+            y / 2,
+            z / 2
+        )),
+        "raw" => Some(format!(
+            "little-endian u32; voxel (x, y, z) is word ((y*{x} + x) * {} + z/32), bit z%32",
+            z.div_ceil(32)
+        )),
+        _ => None,
+    };
+    match ext.as_str() {
         "binvox" => write_atomically(path, |w| w.write_all(&binvox_bytes(grid))),
         "npy" if opts.npy_packed => {
-            write_atomically(path, |w| w.write_all(&npy_packed_bytes(grid)))?;
-            write_sidecar(
-                grid,
-                path,
-                &format!(
-                    "uint8 ({x}, {y}, {}): bits of z, little bit order \
-                     (np.unpackbits(a, axis=2, bitorder='little')[:, :, :{z}])",
-                    z.div_ceil(8)
-                ),
-            )
+            write_atomically(path, |w| w.write_all(&npy_packed_bytes(grid)))
         }
-        "npy" => {
-            write_atomically(path, |w| w.write_all(&npy_bytes(grid)))?;
-            write_sidecar(
-                grid,
-                path,
-                &format!("bool ({x}, {y}, {z}), C order: a[i, j, k] is voxel (i, j, k)"),
-            )
-        }
+        "npy" => write_atomically(path, |w| w.write_all(&npy_bytes(grid))),
         "nrrd" => write_atomically(path, |w| w.write_all(&nrrd_bytes(grid))),
-        "vox" => {
-            write_atomically(path, |w| w.write_all(&vox_bytes(grid)))?;
-            write_sidecar(
-                grid,
-                path,
-                &format!(
-                    "MagicaVoxel .vox: models of at most 256 per axis; grid voxel (i,j,k) is world voxel \
-                     (i - {}, j - {}, k - {}); a model of size s with nTRN translation t holds world voxels \
-                     t - floor(s/2) + xyz",
-                    x / 2,
-                    y / 2,
-                    z / 2
-                ),
-            )
-        }
+        "vox" => write_atomically(path, |w| w.write_all(&vox_bytes(grid))),
         "raw" => {
             let g = grid.to_axis(Axis::Z);
-            let bytes: Vec<u8> = bytemuck::cast_slice(&g.words).to_vec();
-            write_atomically(path, |w| w.write_all(&bytes))?;
-            write_sidecar(
-                grid,
-                path,
-                &format!(
-                    "little-endian u32; voxel (x, y, z) is word ((y*{x} + x) * {} + z/32), bit z%32",
-                    z.div_ceil(32)
-                ),
-            )
+            let bytes: &[u8] = bytemuck::cast_slice(&g.words);
+            write_atomically(path, |w| w.write_all(bytes))
         }
         _ => unreachable!("check_format accepted only known formats"),
+    }?;
+    match layout {
+        Some(layout) => write_sidecar(grid, path, &layout),
+        None => Ok(()),
     }
 }
 
@@ -319,13 +323,24 @@ pub fn sidecar_json(grid: &VoxelGrid, layout: &str) -> serde_json::Value {
     })
 }
 
-/// Writes `PATH.json` beside a `.npy`/`.raw`/`.vox` output.
+/// The sidecar of output `path`: its whole file name with `.json` appended (`a.vox` → `a.vox.json`), so
+/// that outputs differing only in extension never share one.
+///
+/// ```
+/// use gregvox::voxel::export::sidecar_path;
+/// assert_eq!(sidecar_path("out/a.vox".as_ref()), std::path::Path::new("out/a.vox.json"));
+/// ```
+pub fn sidecar_path(path: &Path) -> std::path::PathBuf {
+    let mut name = path.as_os_str().to_os_string();
+    name.push(".json");
+    name.into()
+}
+
+/// Writes [`sidecar_path`] beside a `.npy`/`.raw`/`.vox` output.
 fn write_sidecar(grid: &VoxelGrid, path: &Path, layout: &str) -> Result<()> {
     let text = serde_json::to_string_pretty(&sidecar_json(grid, layout))
         .map_err(|e| Error::Invalid(e.to_string()))?;
-    write_atomically(&path.with_extension("json"), |w| {
-        w.write_all(text.as_bytes())
-    })
+    write_atomically(&sidecar_path(path), |w| w.write_all(text.as_bytes()))
 }
 
 /// An NPY (version 1.0) header for `descr` and `shape`, padded to 64 bytes.

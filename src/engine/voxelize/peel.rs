@@ -236,12 +236,22 @@ impl PeelVoxelizer {
                 },
             ));
         }
-        if layers > self.max_layers || layers > ctx.limits.max_image_array_layers {
+        // Name the limit that was hit: the user's --max-layers, or the device's.
+        if layers > self.max_layers && self.max_layers <= ctx.limits.max_image_array_layers {
+            return Err(Error::Invalid(format!(
+                "{layers} depth layers along {} exceed --max-layers {} (raise it, up to the device's \
+                 maxImageArrayLayers {}, or use --method cpu or abuffer)",
+                axis.name(),
+                self.max_layers,
+                ctx.limits.max_image_array_layers
+            )));
+        }
+        if layers > ctx.limits.max_image_array_layers {
             return Err(Error::Limit {
                 what: format!("{layers} depth layers along {}", axis.name()),
                 detail: format!(
-                    "at most {} peeling passes are allowed (maxImageArrayLayers {})",
-                    self.max_layers, ctx.limits.max_image_array_layers
+                    "the device allows {} image layers (maxImageArrayLayers); use --method cpu or abuffer",
+                    ctx.limits.max_image_array_layers
                 ),
             });
         }
