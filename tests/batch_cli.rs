@@ -367,9 +367,28 @@ fn a_batch_killed_three_times_and_resumed_writes_every_output_once_byte_identica
     assert_eq!(expected.len(), 33, "{:?}", expected.keys());
     let out = data.with_extension("killed");
     let o = out.to_str().unwrap();
-    // Kill times spread over what is left of the run: each attempt resumes where the last one died.
+    // Kill points by progress, not by clock (a loaded machine made clock-timed kills land after the batch
+    // had finished): SIGKILL once the output folder holds 4, then 11, then 19 finished models (a kill can
+    // land mid-write of the next one), each attempt resuming where the last one died.
+    // Counted from names alone, every error ignored: the batch renames temporaries as this looks.
+    fn outputs(dir: &Path) -> usize {
+        let Ok(entries) = std::fs::read_dir(dir) else {
+            return 0;
+        };
+        entries
+            .flatten()
+            .map(|e| {
+                let p = e.path();
+                if p.is_dir() {
+                    outputs(&p)
+                } else {
+                    usize::from(p.extension().is_some_and(|x| x == "binvox"))
+                }
+            })
+            .sum()
+    }
     let mut interrupted = 0;
-    for fraction in [0.3, 0.3, 0.4] {
+    for target in [4, 11, 19] {
         let mut child = Command::new(env!("CARGO_BIN_EXE_gregvox"))
             .args(args(d, o, "64", &[]))
             .env("GREGVOX_VALIDATION", "1")
@@ -377,17 +396,18 @@ fn a_batch_killed_three_times_and_resumed_writes_every_output_once_byte_identica
             .stderr(std::process::Stdio::null())
             .spawn()
             .unwrap();
-        std::thread::sleep(clean_time.mul_f64(fraction));
+        let start = std::time::Instant::now();
+        while outputs(&out) < target && child.try_wait().unwrap().is_none() {
+            assert!(start.elapsed() < clean_time * 20 + std::time::Duration::from_secs(60));
+            std::thread::sleep(std::time::Duration::from_millis(1));
+        }
         if child.try_wait().unwrap().is_none() {
             interrupted += 1;
         }
         child.kill().unwrap(); // SIGKILL
         child.wait().unwrap();
     }
-    assert!(
-        interrupted >= 2,
-        "only {interrupted} of 3 kills hit a running batch"
-    );
+    assert_eq!(interrupted, 3, "every kill must hit a running batch");
     // What a kill mid-write leaves: a temporary of a process that is gone (past Linux's largest pid).
     std::fs::write(out.join(".spot.binvox.4194305.tmp"), b"partial").unwrap();
     let fin = gregvox(&args(d, o, "64", &["--json"]), &[]);
