@@ -11,6 +11,7 @@ packages=(
   libshaderc-dev glslang-dev spirv-tools                                  # shaderc's static libraries (build.rs)
   xvfb xauth                                                              # the windowed demo without a screen
   fonts-dejavu-core                                                       # labels of `gregvox bench`'s plots
+  procps util-linux                                                       # kill and prlimit, used by the tests
 )
 missing=()
 for p in "${packages[@]}"; do
