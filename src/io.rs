@@ -102,12 +102,17 @@ pub fn check_output(path: &Path) -> Result<()> {
     }
     let tmp = temp_path(path)?;
     remove_stale_temporaries_of(path);
+    probe(&tmp, path)
+}
+
+/// Creates the file `probe` and removes it at once; errors name `target`, what the user asked to write.
+fn probe(probe: &Path, target: &Path) -> Result<()> {
     std::fs::OpenOptions::new()
         .write(true)
         .create_new(true)
-        .open(&tmp)
-        .map_err(|e| Error::io(path, e))?;
-    std::fs::remove_file(&tmp).map_err(|e| Error::io(path, e))
+        .open(probe)
+        .map_err(|e| Error::io(target, e))?;
+    std::fs::remove_file(probe).map_err(|e| Error::io(target, e))
 }
 
 /// Checks, before any work, that output folder `dir` exists as a folder or can be created: its nearest
@@ -140,13 +145,10 @@ pub fn check_output_folder(dir: &Path) -> Result<()> {
             existing.display()
         )));
     }
-    let probe = existing.join(format!(".gregvox-probe.{}.tmp", std::process::id()));
-    std::fs::OpenOptions::new()
-        .write(true)
-        .create_new(true)
-        .open(&probe)
-        .map_err(|e| Error::io(dir, e))?;
-    std::fs::remove_file(&probe).map_err(|e| Error::io(dir, e))
+    probe(
+        &existing.join(format!(".gregvox-probe.{}.tmp", std::process::id())),
+        dir,
+    )
 }
 
 /// The pid in a temporary file name `.NAME.PID.tmp` (None for other names).

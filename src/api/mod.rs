@@ -897,46 +897,30 @@ impl Gpu {
                 p.deadline = opts.deadline;
             }
         }
-        let result = Self::run_voxelizer(&v, ctx, opts, rule, geom, frame, three, profiler);
+        // The axis choice and the voxelization; the voxelizer goes back to the cache whatever the outcome.
+        let result = (|| {
+            let axes: Vec<Axis> = match (three, opts.axes) {
+                (true, _) => Axis::ALL.to_vec(),
+                (false, Axes::One(a)) => vec![a],
+                (false, _) => {
+                    // The cheapest axis: fewest layers × columns covered, from the count pre-pass.
+                    let mut best = (u128::MAX, Axis::Z);
+                    for a in Axis::ALL {
+                        let (l, area) = v.count_layers(ctx, geom, frame, a)?;
+                        best = best.min(((l as u128) * (area as u128), a));
+                    }
+                    vec![best.1]
+                }
+            };
+            let (grid, stats) = v.voxelize(ctx, geom, frame, &axes, rule, profiler)?;
+            Ok((grid, axes, stats))
+        })();
         let mut cache = self.voxelizers.lock().unwrap_or_else(|e| e.into_inner());
         match method {
             Method::Abuffer => cache.abuffer = Some(v),
             _ => cache.peel = Some(v),
         }
         result
-    }
-
-    /// The axis choice and the voxelization of [`Gpu::run_gpu_method`] with a voxelizer set up for it.
-    #[allow(clippy::too_many_arguments, clippy::type_complexity)]
-    fn run_voxelizer(
-        v: &GpuVoxelizer,
-        ctx: &Context,
-        opts: &VoxelizeOptions,
-        rule: FillRule,
-        geom: &crate::passes::peel::PeelGeometry,
-        frame: &GridFrame,
-        three: bool,
-        profiler: Option<&mut Profiler>,
-    ) -> Result<(
-        VoxelGrid,
-        Vec<Axis>,
-        Vec<crate::engine::voxelize::AxisStats>,
-    )> {
-        let axes: Vec<Axis> = match (three, opts.axes) {
-            (true, _) => Axis::ALL.to_vec(),
-            (false, Axes::One(a)) => vec![a],
-            (false, _) => {
-                // The cheapest axis: fewest layers × columns covered, from the count pre-pass.
-                let mut best = (u128::MAX, Axis::Z);
-                for a in Axis::ALL {
-                    let (l, area) = v.count_layers(ctx, geom, frame, a)?;
-                    best = best.min(((l as u128) * (area as u128), a));
-                }
-                vec![best.1]
-            }
-        };
-        let (grid, stats) = v.voxelize(ctx, geom, frame, &axes, rule, profiler)?;
-        Ok((grid, axes, stats))
     }
 
     /// Builds the ACC-2 Gregory surface of a quad cage (non-quad cages are refined once, with a note) at
