@@ -75,6 +75,7 @@ fn tangents_exact_evaluates_the_exact_limit_tangent_patches() {
             &level.to_string(),
             "--tangents",
             mode,
+            "--no-weld",
             "--out",
             path.to_str().unwrap(),
         ]);
@@ -145,6 +146,7 @@ fn adaptive_writes_each_patch_grid_at_its_level_without_cracks() {
         "1.2,1.0,1.6",
         "--viewport",
         "800x600",
+        "--no-weld",
         "--out",
         path.to_str().unwrap(),
     ]);

@@ -455,7 +455,15 @@ fn valence_two_and_degenerate_quads_are_valid_input_with_finite_output() {
     for (name, obj, patches, unit_normals) in cases {
         let input = s(&dir.write(&format!("{name}.obj"), obj));
         let out_path = dir.path(&format!("{name}-tess.obj"));
-        let out = gregvox(&["tessellate", &input, "--level", "4", "--out", &s(&out_path)]);
+        let out = gregvox(&[
+            "tessellate",
+            &input,
+            "--level",
+            "4",
+            "--no-weld",
+            "--out",
+            &s(&out_path),
+        ]);
         assert_success(name, &out);
         let (v, n) = read_tessellation(&out_path);
         assert_eq!(v.len(), patches * (L + 1) * (L + 1), "{name}");

@@ -926,4 +926,452 @@ fn results_do_not_depend_on_where_the_mesh_sits() {
         .fold(0.0, f64::max);
     // The cube is 2 units wide: f32 relative to the corner is ~1e-7; f32 world coordinates at 1e7 were 1.
     assert!(worst < 1e-5, "the far cube's points are off by {worst}");
+    // The GPU Gregory surface voxelized (--gregory-level): once a 2-unit box at 9999999 with the wrong
+    // voxels; now the same voxels as at home, the grid moved by the offset.
+    let binvox = |input: &str, out: &str| -> (Vec<f64>, Vec<u8>) {
+        let o = run_in(
+            &dir,
+            &[
+                "voxelize",
+                input,
+                "--gregory-level",
+                "4",
+                "--res",
+                "24",
+                "--out",
+                out,
+            ],
+            &[],
+        );
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        let b = std::fs::read(dir.join(out)).unwrap();
+        let at = b.windows(5).position(|w| w == b"data\n").unwrap() + 5;
+        let head = String::from_utf8_lossy(&b[..at]).into_owned();
+        let mut numbers: Vec<f64> = head
+            .lines()
+            .find_map(|l| l.strip_prefix("translate "))
+            .unwrap()
+            .split_whitespace()
+            .map(|x| x.parse().unwrap())
+            .collect();
+        numbers.push(
+            head.lines()
+                .find_map(|l| l.strip_prefix("scale "))
+                .unwrap()
+                .trim()
+                .parse()
+                .unwrap(),
+        );
+        (numbers, b[at..].to_vec())
+    };
+    let (home_frame, home_voxels) = binvox(cube.to_str().unwrap(), "home.binvox");
+    let (far_frame, far_voxels) = binvox("far-cube.obj", "far.binvox");
+    assert!(home_voxels == far_voxels, "the far cage's voxels differ");
+    for a in 0..3 {
+        let gap = (far_frame[a] - offset[a] - home_frame[a]).abs();
+        assert!(gap < 1e-5, "translate {a}: {gap}");
+    }
+    assert!((far_frame[3] - home_frame[3]).abs() < 1e-5, "scale");
+}
+
+#[test]
+fn tessellate_writes_one_welded_watertight_mesh_by_default() {
+    // Item 14: the OBJ once held one separate grid per patch, so a closed cage came out as open pieces (a
+    // cube: 6 components and 96 boundary edges at level 4). Welded by default, `--no-weld` keeps the grids,
+    // and `--adaptive` output is welded where levels match and stitched (no crack, no T-junction) where they
+    // differ. A generated cage too: a torus of 8 × 6 quads, closed with genus 1 (Euler characteristic 0).
+    let dir = scratch("weld");
+    let (nu, nv) = (8, 6);
+    let torus = torus_obj(nu, nv);
+    std::fs::write(dir.join("torus.obj"), torus).unwrap();
+    let cube = model("opensubdiv/catmark_cube.obj");
+    let cube = cube.to_str().unwrap();
+    let report = |args: &[&str]| -> (gregvox::mesh::TopologyReport, String) {
+        let o = run_in(&dir, args, &[]);
+        assert!(
+            o.status.success(),
+            "{args:?}: {}",
+            String::from_utf8_lossy(&o.stderr)
+        );
+        let mesh = gregvox::api::load_mesh(dir.join("t.obj")).unwrap();
+        let text = std::fs::read_to_string(dir.join("t.obj")).unwrap();
+        let normals = text.lines().filter(|l| l.starts_with("vn ")).count();
+        assert_eq!(
+            normals,
+            mesh.positions.len(),
+            "{args:?}: one normal a vertex"
+        );
+        (
+            gregvox::api::topology(&mesh),
+            String::from_utf8_lossy(&o.stderr).into_owned(),
+        )
+    };
+    let closed = |what: &str, t: &gregvox::mesh::TopologyReport, euler: i64| {
+        assert_eq!(t.boundary_edges, 0, "{what}: {t:?}");
+        assert_eq!(t.non_manifold_edges, 0, "{what}: {t:?}");
+        assert_eq!(t.inconsistent_edges, 0, "{what}: {t:?}");
+        assert!(t.closed, "{what}");
+        assert_eq!(t.components, 1, "{what}");
+        assert_eq!(t.euler_characteristic, euler, "{what}");
+    };
+    for level in [1u32, 4, 9] {
+        let (t, said) = report(&[
+            "tessellate",
+            cube,
+            "--level",
+            &level.to_string(),
+            "--out",
+            "t.obj",
+        ]);
+        closed(&format!("cube L={level}"), &t, 2);
+        let l = level as usize;
+        assert_eq!(t.vertices, 6 * l * l + 2, "cube L={level}");
+        assert_eq!(t.faces, 12 * l * l, "cube L={level}");
+        assert!(said.contains("welded"), "{said}");
+    }
+    let (t, _) = report(&["tessellate", "torus.obj", "--level", "5", "--out", "t.obj"]);
+    closed("torus", &t, 0);
+    assert_eq!(t.vertices, nu * nv * 25);
+    // A valence-2 vertex: its two patches' corner cells once shared one diagonal (four triangles on it).
+    std::fs::write(dir.join("v2.obj"), VALENCE_TWO_CUBE).unwrap();
+    for level in ["1", "2", "8"] {
+        let (t, _) = report(&["tessellate", "v2.obj", "--level", level, "--out", "t.obj"]);
+        closed(&format!("valence-2 cube L={level}"), &t, 2);
+    }
+    // --no-weld: today's layout, one grid per patch.
+    let (t, said) = report(&[
+        "tessellate",
+        cube,
+        "--level",
+        "4",
+        "--no-weld",
+        "--out",
+        "t.obj",
+    ]);
+    assert_eq!((t.components, t.boundary_edges, t.vertices), (6, 96, 150));
+    assert!(said.contains("one grid per patch"), "{said}");
+    // Adaptive: levels vary (checked), the welded mesh is still closed with no degenerate triangle left.
+    let (t, _) = report(&[
+        "tessellate",
+        cube,
+        "--level",
+        "16",
+        "--adaptive",
+        "40",
+        "--eye",
+        "1.2,1.0,1.6",
+        "--viewport",
+        "800x600",
+        "--out",
+        "t.obj",
+    ]);
+    let text = std::fs::read_to_string(dir.join("t.obj")).unwrap();
+    let levels: std::collections::BTreeSet<u32> = text
+        .lines()
+        .find_map(|l| l.strip_prefix("# levels "))
+        .unwrap()
+        .split_whitespace()
+        .map(|s| s.parse().unwrap())
+        .collect();
+    assert!(levels.len() >= 2, "levels should vary: {levels:?}");
+    closed("adaptive cube", &t, 2);
+    let mesh = gregvox::api::load_mesh(dir.join("t.obj")).unwrap();
+    for tri in mesh.indices.chunks(3) {
+        let p = |k: usize| mesh.positions[tri[k] as usize];
+        let area = (p(1) - p(0)).cross(p(2) - p(0)).length();
+        assert!(area > 0.0, "a degenerate triangle survived the weld");
+    }
+}
+
+/// A unit cube whose top face is split into two quads through a raised centre: vertex 9 is an interior
+/// vertex of valence 2 (its neighbours are 5 and 7), a singular point of the limit surface.
+const VALENCE_TWO_CUBE: &str =
+    "v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nv 0 0 1\nv 1 0 1\nv 1 1 1\nv 0 1 1\n\
+    v 0.5 0.5 1.2\nf 1 4 3 2\nf 1 2 6 5\nf 2 3 7 6\nf 3 4 8 7\nf 4 1 5 8\nf 5 6 7 9\nf 5 9 7 8\n";
+
+#[test]
+fn stats_report_valence_two_vertices_by_vertex_and_measure_g1_away_from_them() {
+    // Item 18: a valence-2 interior vertex has no tangent plane (OpenSubdiv's normal there is NaN), and
+    // --stats once printed a bare "max normal jump 1.3 rad" for the whole surface. Now the point is named by
+    // vertex with its own jump, and the G1 figure is taken away from it: the same tight bound as a cage
+    // without one. A plain cube reports no singular point.
+    let dir = scratch("singular");
+    std::fs::write(dir.join("v2.obj"), VALENCE_TWO_CUBE).unwrap();
+    let stats = |args: &[&str]| -> String {
+        let o = run_in(&dir, args, &[]);
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        String::from_utf8(o.stdout).unwrap()
+    };
+    let number_after = |text: &str, key: &str| -> f64 {
+        let line = text
+            .lines()
+            .find(|l| l.contains(key))
+            .unwrap_or_else(|| panic!("{key}: {text}"));
+        line[line.find(key).unwrap() + key.len()..]
+            .split_whitespace()
+            .next()
+            .unwrap()
+            .parse()
+            .unwrap()
+    };
+    for level in ["4", "16"] {
+        let text = stats(&["tessellate", "v2.obj", "--level", level, "--stats"]);
+        assert!(
+            text.contains("singular points (interior cage vertices of valence 2"),
+            "{text}"
+        );
+        let line = text
+            .lines()
+            .find(|l| l.contains("vertex 9 at (0.5, 0.5, "))
+            .expect(&text);
+        assert!(
+            line.contains("normals of its 2 patches differ by"),
+            "{line}"
+        );
+        let at_point = number_after(&text, "differ by");
+        assert!(at_point > 0.5, "the singular point's jump {at_point} rad");
+        let away = number_after(&text, "away from the singular points:");
+        assert!(away < 1e-4, "G1 away from the singular point: {away} rad");
+    }
+    let cube = model("opensubdiv/catmark_cube.obj");
+    let text = stats(&[
+        "tessellate",
+        cube.to_str().unwrap(),
+        "--level",
+        "4",
+        "--stats",
+    ]);
+    assert!(!text.contains("singular"), "{text}");
+    assert!(
+        number_after(&text, "max normal jump across shared edges:") < 1e-4,
+        "{text}"
+    );
+    // The API agrees: one singular point, the cage's vertex index 8.
+    let patches = gregvox::api::tessellate::Patches::load(
+        &dir.join("v2.obj"),
+        gregvox::api::Tangents::OpenSubdiv,
+    )
+    .unwrap();
+    let gregvox::api::tessellate::Patches::Cage { topology, .. } = &patches else {
+        panic!("a cage")
+    };
+    assert_eq!(topology.singular.len(), 1);
+    assert_eq!(topology.singular[0].vertex, 8);
+    assert_eq!(topology.singular[0].corners.len(), 2);
+}
+
+#[test]
+fn demo_options_that_do_not_fit_the_scene_are_named() {
+    // Item 17: `demo` once ignored options of other scenes without a word. Offscreen the scene never
+    // changes: each such option is one clear error and nothing is written. In a window the number keys
+    // switch scenes, so it is a note (printed before the window opens; here there is no display).
+    let dir = scratch("demo-options");
+    let offscreen = |extra: &[&str]| {
+        let mut args = vec![
+            "demo",
+            "--offscreen",
+            "--frames",
+            "1",
+            "--size",
+            "32x32",
+            "--out",
+            "frames",
+        ];
+        args.extend_from_slice(extra);
+        run_in(&dir, &args, &[])
+    };
+    let cases: &[(&[&str], &[&str])] = &[
+        (
+            &["--scene", "cage", "--triangles", "5"],
+            &["--triangles", "spinner", "cage"],
+        ),
+        (
+            &["--scene", "flag", "--voxel-res", "32"],
+            &["--voxel-res", "voxels", "flag"],
+        ),
+        (
+            &["--scene", "spinner", "--level", "3"],
+            &["--level", "spinner"],
+        ),
+        (
+            &["--scene", "curves", "--deform", "bend"],
+            &["--deform", "curves"],
+        ),
+        (
+            &["--scene", "cage", "--no-correction"],
+            &["--no-correction", "flag"],
+        ),
+        (
+            &["--scene", "flag", "--adaptive", "8"],
+            &["--adaptive", "cage"],
+        ),
+        (
+            &["--scene", "spinner", "--shading", "zebra"],
+            &["--shading", "spinner"],
+        ),
+        (
+            &["--scene", "cage", "--keys", "s"],
+            &["--keys", "--offscreen"],
+        ),
+        (
+            &["--scene", "cage", "--adaptive", "8", "--vertex-pull"],
+            &["--vertex-pull", "--adaptive"],
+        ),
+        (
+            &["--scene", "cage", "--adaptive", "8", "--shading", "mean"],
+            &["--shading mean", "--adaptive"],
+        ),
+    ];
+    for (extra, needles) in cases {
+        let o = offscreen(extra);
+        common::assert_one_error_line(&format!("{extra:?}"), &o, needles);
+        assert!(!dir.join("frames").exists(), "{extra:?}: nothing written");
+    }
+    // The defaults and options that fit are accepted as before.
+    let o = offscreen(&["--scene", "spinner", "--triangles", "5"]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    // Windowed: a note naming the option (then the window fails for want of a display, or opens).
+    let o = Command::new(env!("CARGO_BIN_EXE_gregvox"))
+        .current_dir(&dir)
+        .args([
+            "demo",
+            "--scene",
+            "cage",
+            "--triangles",
+            "5",
+            "--frames",
+            "1",
+        ])
+        .env_remove("DISPLAY")
+        .env_remove("WAYLAND_DISPLAY")
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(
+        err.contains("note: --triangles applies to --scene spinner, not to --scene cage"),
+        "{err}"
+    );
+    let o = run_in(&dir, &["demo", "--every", "2", "--frames", "1"], &[]);
+    common::assert_one_error_line("--every windowed", &o, &["--every", "--offscreen"]);
+}
+
+/// A closed torus cage of `nu × nv` quads (valence 4 everywhere), as OBJ text.
+fn torus_obj(nu: usize, nv: usize) -> String {
+    let mut torus = String::new();
+    for i in 0..nu {
+        for j in 0..nv {
+            let (a, b) = (
+                i as f64 / nu as f64 * std::f64::consts::TAU,
+                j as f64 / nv as f64 * std::f64::consts::TAU,
+            );
+            let r = 2.0 + 0.7 * b.cos();
+            torus += &format!("v {} {} {}\n", r * a.cos(), r * a.sin(), 0.7 * b.sin());
+        }
+    }
+    let id = |i: usize, j: usize| (i % nu) * nv + (j % nv) + 1;
+    for i in 0..nu {
+        for j in 0..nv {
+            torus += &format!(
+                "f {} {} {} {}\n",
+                id(i, j),
+                id(i + 1, j),
+                id(i + 1, j + 1),
+                id(i, j + 1)
+            );
+        }
+    }
+    torus
+}
+
+#[test]
+fn tessellation_past_the_memory_left_is_refused_with_its_estimate() {
+    // Item 8: `tessellate` once allocated gigabytes within seconds before failing (or aborting). Now the
+    // output and set-up are estimated first: a 62,500-quad torus at level 64 (273 M vertices, about 50 GB)
+    // is refused with the estimate under an 8 GiB address-space limit, before any evaluation; level 2 under
+    // the same limit is done. Never an abort.
+    let dir = scratch("tessellate-guard");
+    std::fs::write(dir.join("torus.obj"), torus_obj(250, 250)).unwrap();
+    let t0 = std::time::Instant::now();
+    let o = limited(
+        &dir,
+        8 << 30,
+        &["tessellate", "torus.obj", "--level", "64", "--out", "t.obj"],
+    );
+    common::assert_one_error_line(
+        "--level 64",
+        &o,
+        &["--level 64", "62500 patches", "M vertices", "MiB of memory"],
+    );
+    assert!(!dir.join("t.obj").exists());
+    eprintln!("refused in {:.1} s", t0.elapsed().as_secs_f64());
+    let o = limited(
+        &dir,
+        8 << 30,
+        &["tessellate", "torus.obj", "--level", "2", "--out", "t.obj"],
+    );
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(o.status.success(), "{err}");
+    assert!(err.contains("welded: 250000 vertices"), "{err}");
+    // The estimate is the library's: the same figures through the API.
+    let need = gregvox::api::tessellate::tessellation_bytes(62_500, 64);
+    assert!(need > 40 << 30 && need < 80 << 30, "{need}");
+}
+
+/// RGBA pixels of a PNG.
+fn png_pixels(path: &std::path::Path) -> Vec<u8> {
+    let file = std::io::BufReader::new(std::fs::File::open(path).unwrap());
+    let mut reader = png::Decoder::new(file).read_info().unwrap();
+    let mut buf = vec![0; reader.output_buffer_size()];
+    let info = reader.next_frame(&mut buf).unwrap();
+    buf.truncate(info.buffer_size());
+    buf
+}
+
+#[test]
+fn the_demo_shows_a_far_cage_as_it_shows_it_at_home() {
+    // Item 2 for the GPU surface the demo draws: a cage 10⁷ from the origin was built in f32 world
+    // coordinates (a 2-unit cube there is a few points). Now the viewer moves it to its own corner: the
+    // cage and voxels scenes show the same picture as for the cube at home (the camera frames the box).
+    let dir = scratch("far-demo");
+    let cube = model("opensubdiv/catmark_cube.obj");
+    std::fs::write(dir.join("home.obj"), std::fs::read(&cube).unwrap()).unwrap();
+    std::fs::write(dir.join("far.obj"), moved_obj(&cube, [1e7, -1e7, 1e7])).unwrap();
+    for scene in ["cage", "voxels"] {
+        let frame = |name: &str| -> Vec<u8> {
+            let out = format!("{scene}-{name}");
+            let o = run_in(
+                &dir,
+                &[
+                    "demo",
+                    "--offscreen",
+                    "--scene",
+                    scene,
+                    "--model",
+                    &format!("{name}.obj"),
+                    "--frames",
+                    "1",
+                    "--size",
+                    "96x64",
+                    "--out",
+                    &out,
+                ],
+                &[],
+            );
+            assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+            png_pixels(&dir.join(out).join("frame_00000.png"))
+        };
+        let (home, far) = (frame("home"), frame("far"));
+        assert_eq!(home.len(), far.len());
+        let differing = home
+            .chunks(4)
+            .zip(far.chunks(4))
+            .filter(|(a, b)| a.iter().zip(*b).any(|(x, y)| x.abs_diff(*y) > 8))
+            .count();
+        let share = differing as f64 / (home.len() / 4) as f64;
+        assert!(
+            share < 0.01,
+            "{scene}: {:.1} % of the pixels differ",
+            100.0 * share
+        );
+    }
 }

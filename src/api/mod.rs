@@ -392,15 +392,7 @@ fn local_origin(mesh: &Mesh) -> [f64; 3] {
     }
 }
 
-/// Whether a box lies more than 16 of its own sizes from the world origin (false for an empty or
-/// non-finite box).
-pub(crate) fn is_far(lo: [f64; 3], hi: [f64; 3]) -> bool {
-    let size = (0..3).map(|a| hi[a] - lo[a]).fold(0.0, f64::max);
-    let reach = (0..3)
-        .map(|a| lo[a].abs().max(hi[a].abs()))
-        .fold(0.0, f64::max);
-    lo.iter().chain(&hi).all(|c| c.is_finite()) && reach > 16.0 * size
-}
+pub(crate) use crate::geom::is_far;
 
 /// The triangles of `mesh` fanned, positions relative to `shift` in f32.
 fn fan_local(mesh: &Mesh, shift: [f64; 3]) -> TriMesh {
@@ -976,6 +968,20 @@ impl Gpu {
             ));
         }
         let topo_report = topology(cage);
+        // A cage far from the world origin is evaluated and voxelized relative to its own corner (f64),
+        // as meshes are: in f32 world coordinates a cube 10⁷ away came out as a 2-unit box at 9999999.
+        let shift = local_origin(cage);
+        let local;
+        let cage = if shift == [0.0; 3] {
+            cage
+        } else {
+            let mut m = cage.clone();
+            for p in &mut m.positions {
+                *p -= glam::DVec3::from(shift);
+            }
+            local = m;
+            &local
+        };
         let surface = self.gregory_surface(cage, level)?;
         let three = match opts.axes {
             Axes::Three => true,
@@ -1006,7 +1012,7 @@ impl Gpu {
         let (grid, stats) = voxelize_gregory_surface(
             &self.ctx,
             &surface.inner,
-            &opts.grid,
+            &local_grid(opts, shift),
             &axes,
             rule,
             opts.max_layers,
@@ -1029,7 +1035,7 @@ impl Gpu {
             rule,
             gwn: None,
         };
-        Ok(Voxelization::new(grid, report))
+        Ok(Voxelization::new(grid, report).in_world(shift))
     }
 }
 

@@ -5,7 +5,7 @@
 //! Invariants: every check on the input happens before any GPU work; the vertices come back exactly as the
 //! GPU wrote them (the compute and vertex-pull paths agree bit for bit on the same points).
 use super::{Deformation, Gpu, Mesh, Tangents};
-use crate::engine::cage::{cage_topology, max_jump_coincident, max_jump_shared_edges};
+use crate::engine::cage::{cage_jumps, cage_topology, max_jump_coincident, CageJumps};
 use crate::engine::gregory::{GregorySurface, GregoryTopology};
 use crate::engine::vertex_pull::vertex_pull;
 use crate::error::{Error, Result};
@@ -21,6 +21,7 @@ use crate::passes::patch_pull::PatchKind;
 use crate::surface::beziex::{load_beziex, BeziexPatch};
 use ash::vk;
 use glam::DVec3;
+use std::collections::HashMap;
 use std::path::Path;
 
 /// Where patches come from.
@@ -186,27 +187,144 @@ impl Tessellation {
         }
     }
 
-    /// The largest normal jump (rad) across shared patch edges (NaN for adaptive grids, whose edges the
-    /// uniform matcher does not pair).
+    /// The largest normal jump (rad) across shared patch edges, away from a cage's singular points (NaN
+    /// for adaptive grids, whose edges the uniform matcher does not pair).
     pub fn max_normal_jump(&self, patches: &Patches) -> f64 {
         match (patches, &self.levels) {
             (_, Some(_)) => f64::NAN,
             (Patches::Beziex(_), None) => max_jump_coincident(&self.vertices, self.level),
-            (Patches::Cage { topology, .. }, None) => {
-                max_jump_shared_edges(topology, &self.vertices, self.level)
-            }
+            (Patches::Cage { .. }, None) => self.cage_jumps(patches).map_or(f64::NAN, |j| j.worst),
         }
     }
 
-    /// Writes OBJ: `v` and `vn` per vertex, the grid triangles (1-based `a//a`), a header comment (and the
-    /// per-patch levels of an adaptive tessellation in a `# levels` comment), atomically.
-    pub fn write_obj(&self, path: &Path) -> Result<()> {
+    /// A uniform cage tessellation's normal jumps: across shared edges, and at each singular point (an
+    /// interior cage vertex of valence 2) with its position in the tessellation's frame (add
+    /// [`Tessellation::origin`] for the world). `None` for Beziex patches and adaptive grids.
+    pub fn cage_jumps(&self, patches: &Patches) -> Option<CageJumps> {
+        match (patches, &self.levels) {
+            (Patches::Cage { topology, .. }, None) => {
+                Some(cage_jumps(topology, &self.vertices, self.level))
+            }
+            _ => None,
+        }
+    }
+
+    /// The surface as one indexed mesh: vertices at bit-identical positions (every shared patch edge and
+    /// corner of a cage, whose samples the evaluator makes equal bit for bit, and the snapped rows of an
+    /// adaptive tessellation) merged into one, in order of first appearance, with the normalized mean of
+    /// their normals; triangles that a merge collapsed (the snapped rows where an adaptive patch is finer
+    /// than its edge) dropped. A closed cage gives a closed, watertight mesh.
+    pub fn welded(&self) -> WeldedMesh {
+        // -0.0 and 0.0 are the same point: adding 0.0 maps -0.0 to 0.0 and leaves every other value.
+        let key = |p: [f32; 3]| p.map(|x| (x + 0.0).to_bits());
+        let mut index: HashMap<[u32; 3], u32> = HashMap::with_capacity(self.vertices.len());
+        let mut remap = Vec::with_capacity(self.vertices.len());
+        let mut positions = Vec::new();
+        let mut sums: Vec<DVec3> = Vec::new();
+        let mut first_normal: Vec<[f32; 3]> = Vec::new();
+        for v in &self.vertices {
+            let next = positions.len() as u32;
+            let (position, normal) = (xyz(v.position), xyz(v.normal));
+            let id = *index.entry(key(position)).or_insert(next);
+            if id == next {
+                positions.push(position);
+                sums.push(DVec3::ZERO);
+                first_normal.push(normal);
+            }
+            let n = DVec3::new(v.normal[0] as f64, v.normal[1] as f64, v.normal[2] as f64);
+            if n.is_finite() {
+                sums[id as usize] += n;
+            }
+            remap.push(id);
+        }
+        let normals = sums
+            .iter()
+            .zip(&first_normal)
+            .map(|(s, first)| {
+                // Opposite normals (a sheet folded onto itself) cancel: keep the first patch's normal.
+                if s.length() > 1e-6 {
+                    let n = s.normalize();
+                    [n.x as f32, n.y as f32, n.z as f32]
+                } else {
+                    *first
+                }
+            })
+            .collect();
+        // The grids' own triangulation cuts every cell along (i, j)–(i+1, j+1), which leaves the corners
+        // (L, 0) and (0, L) off the diagonal. At a valence-2 cage vertex two patches meet with both corner
+        // cells cut between the same two edge samples, so welded that edge would have four triangles: cut
+        // those two corner cells along the other diagonal, through the corner (any cut is the same surface).
+        let levels: Vec<u32> = match &self.levels {
+            Some(l) => l.clone(),
+            None => vec![self.level; self.patches as usize],
+        };
+        // At level 1 one cell holds all four corners: cut it through the corners where its usual diagonal
+        // is the diagonal of another level-1 cell too (the two patches at a valence-2 vertex).
+        let diagonal = |a: u32, c: u32| {
+            let (a, c) = (remap[a as usize], remap[c as usize]);
+            (a.min(c), a.max(c))
+        };
+        let mut level_one_diagonals: HashMap<(u32, u32), u32> = HashMap::new();
+        let mut base = 0u32;
+        for &l in &levels {
+            if l == 1 {
+                *level_one_diagonals
+                    .entry(diagonal(base, base + 3))
+                    .or_default() += 1;
+            }
+            base += (l + 1) * (l + 1);
+        }
+        let mut triangles = Vec::with_capacity(self.vertices.len() * 2);
+        let mut base = 0u32;
+        for &l in &levels {
+            let n = l + 1;
+            for j in 0..l {
+                for i in 0..l {
+                    let a = base + j * n + i;
+                    let (b, c, d) = (a + 1, a + n + 1, a + n);
+                    let through_corner = if l == 1 {
+                        level_one_diagonals[&diagonal(a, c)] > 1
+                    } else {
+                        (i == l - 1 && j == 0) || (i == 0 && j == l - 1)
+                    };
+                    let cell = if through_corner {
+                        [[a, b, d], [b, c, d]]
+                    } else {
+                        [[a, b, c], [a, c, d]]
+                    };
+                    for t in cell {
+                        let t = t.map(|k| remap[k as usize]);
+                        if t[0] != t[1] && t[1] != t[2] && t[0] != t[2] {
+                            triangles.push(t);
+                        }
+                    }
+                }
+            }
+            base += n * n;
+        }
+        WeldedMesh {
+            positions,
+            normals,
+            triangles,
+        }
+    }
+
+    /// Writes OBJ atomically: `v` and `vn` per vertex, 1-based `a//a` triangles and a header comment (with
+    /// the per-patch levels of an adaptive tessellation in a `# levels` comment). `weld`: the
+    /// [`Tessellation::welded`] mesh; otherwise one (L+1)² grid per patch in the contract order.
+    /// Returns the numbers of vertices and triangles written.
+    pub fn write_obj(&self, path: &Path, weld: bool) -> Result<(usize, usize)> {
+        let welded = weld.then(|| self.welded());
+        let written = match &welded {
+            Some(m) => (m.positions.len(), m.triangles.len()),
+            None => (self.vertices.len(), self.indices().len() / 3),
+        };
         write_atomic(path, |w| {
             match &self.levels {
                 Some(levels) => {
                     writeln!(
                         w,
-                        "# gregvox tessellate --adaptive: {} patches, patch p has (L_p+1)^2 vertices",
+                        "# gregvox tessellate --adaptive: {} patches, patch p at level L_p",
                         levels.len()
                     )?;
                     let list: Vec<String> = levels.iter().map(|l| l.to_string()).collect();
@@ -214,34 +332,79 @@ impl Tessellation {
                 }
                 None => writeln!(
                     w,
-                    "# gregvox tessellate: {} patches at level {}, (level+1)^2 vertices per patch",
+                    "# gregvox tessellate: {} patches at level {}",
                     self.patches, self.level
                 )?,
             }
+            match &welded {
+                Some(m) => writeln!(
+                    w,
+                    "# welded: {} vertices, {} triangles (shared patch edges merged; --no-weld writes one \
+                     grid per patch)",
+                    m.positions.len(),
+                    m.triangles.len()
+                )?,
+                None => writeln!(
+                    w,
+                    "# not welded: one grid per patch, (L+1)^2 vertices each, rows of u inner"
+                )?,
+            }
             let o = self.origin;
-            for v in &self.vertices {
-                let p = [
-                    v.position[0] as f64 + o[0],
-                    v.position[1] as f64 + o[1],
-                    v.position[2] as f64 + o[2],
-                ];
+            let unwelded: (Vec<[f32; 3]>, Vec<[f32; 3]>);
+            let (positions, normals) = match &welded {
+                Some(m) => (&m.positions, &m.normals),
+                None => {
+                    unwelded = self
+                        .vertices
+                        .iter()
+                        .map(|v| (xyz(v.position), xyz(v.normal)))
+                        .unzip();
+                    (&unwelded.0, &unwelded.1)
+                }
+            };
+            for p in positions {
                 // At the origin f32's own shortest digits (the file as before); away from it, f64's.
                 if o == [0.0; 3] {
-                    writeln!(w, "v {} {} {}", v.position[0], v.position[1], v.position[2])?;
-                } else {
                     writeln!(w, "v {} {} {}", p[0], p[1], p[2])?;
+                } else {
+                    let q = [0, 1, 2].map(|k| p[k] as f64 + o[k]);
+                    writeln!(w, "v {} {} {}", q[0], q[1], q[2])?;
                 }
             }
-            for v in &self.vertices {
-                writeln!(w, "vn {} {} {}", v.normal[0], v.normal[1], v.normal[2])?;
+            for n in normals {
+                writeln!(w, "vn {} {} {}", n[0], n[1], n[2])?;
             }
-            for t in self.indices().chunks(3) {
+            let mut face = |t: [u32; 3]| {
                 let (a, b, c) = (t[0] + 1, t[1] + 1, t[2] + 1);
-                writeln!(w, "f {a}//{a} {b}//{b} {c}//{c}")?;
+                writeln!(w, "f {a}//{a} {b}//{b} {c}//{c}")
+            };
+            match &welded {
+                Some(m) => m.triangles.iter().try_for_each(|t| face(*t))?,
+                None => self
+                    .indices()
+                    .chunks_exact(3)
+                    .try_for_each(|t| face([t[0], t[1], t[2]]))?,
             }
             Ok(())
-        })
+        })?;
+        Ok(written)
     }
+}
+
+/// The first three components.
+fn xyz(a: [f32; 4]) -> [f32; 3] {
+    [a[0], a[1], a[2]]
+}
+
+/// A tessellation as one indexed triangle mesh ([`Tessellation::welded`]), in the local frame of
+/// [`Tessellation::origin`].
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct WeldedMesh {
+    pub positions: Vec<[f32; 3]>,
+    /// Unit normals, one per position.
+    pub normals: Vec<[f32; 3]>,
+    /// With the orientation of the patch grids.
+    pub triangles: Vec<[u32; 3]>,
 }
 
 /// The adaptive parameters for a cage with bounding box `box_min + [0, box_size]`.
@@ -301,8 +464,38 @@ impl TessellateOptions {
     }
 }
 
+/// Host bytes per patch of the set-up (stencils kept on the host, their GPU copy and its staging, the
+/// control points): measured at about 3 KB (a regular 187 k-quad torus peaks at 558 MB at level 1 on
+/// lavapipe, whose device memory is host memory), with a margin.
+const SETUP_BYTES_PER_PATCH: u128 = 3_500;
+/// Host bytes per output vertex: the device buffer (32 B, host memory on a CPU device), its read-back (32 B),
+/// the weld (positions, normals, sums, the index map: about 70 B) and two triangles (24 B), with a margin.
+const BYTES_PER_VERTEX: u128 = 192;
+
+/// The memory a tessellation of `patches` patches at (at most) `level` needs, in bytes.
+pub fn tessellation_bytes(patches: u32, level: u32) -> u128 {
+    let per_patch = (level as u128 + 1).pow(2);
+    patches as u128 * (SETUP_BYTES_PER_PATCH + per_patch * BYTES_PER_VERTEX)
+}
+
 fn check(patches: &Patches, opts: &TessellateOptions) -> Result<()> {
     opts.validate()?;
+    // The size guard: refuse with the estimate before any GPU work, instead of an abort half-way.
+    let need = tessellation_bytes(patches.count(), opts.level);
+    if let Some(free) = crate::io::host_memory_available() {
+        if need > free as u128 {
+            let vertices = patches.count() as u128 * (opts.level as u128 + 1).pow(2);
+            return Err(Error::Invalid(format!(
+                "--level {}: {} patches make about {} M vertices and need about {} MiB of memory, more \
+                 than the {} MiB available (lower --level, or use --adaptive)",
+                opts.level,
+                patches.count(),
+                (vertices / 1_000_000).max(1),
+                need >> 20,
+                free >> 20
+            )));
+        }
+    }
     if let Patches::Beziex(_) = patches {
         if opts.deform.is_some() {
             return Err(Error::Mesh(

@@ -56,15 +56,13 @@ pub fn run_mesh(args: &MeshArgs) -> anyhow::Result<()> {
         m = m.triangulated();
     }
     let report = topology(&m);
+    // Through print_out: a reader that closes the pipe early (`| head`) ends the output, not the process
+    // with a panic.
     if args.json {
-        println!("{}", serde_json::to_string_pretty(&report)?);
+        super::print_out(&format!("{}\n", serde_json::to_string_pretty(&report)?))
     } else {
-        print!(
-            "{}",
-            human_report(&args.input.display().to_string(), &report)
-        );
+        super::print_out(&human_report(&args.input.display().to_string(), &report))
     }
-    Ok(())
 }
 
 /// The human-readable report.

@@ -55,7 +55,22 @@ pub fn main() -> ExitCode {
     let _ = env_logger::Builder::from_env(env_logger::Env::default().default_filter_or("warn"))
         .format_timestamp(None)
         .try_init();
-    let cli = Cli::parse();
+    let matches = <Cli as clap::CommandFactory>::command().get_matches();
+    let mut cli = match <Cli as clap::FromArgMatches>::from_arg_matches(&matches) {
+        Ok(cli) => cli,
+        Err(e) => e.exit(),
+    };
+    // The demo checks its options against the scene, so it needs to know which were given (not only
+    // their values, which defaults fill in).
+    if let (Command::Demo(a), Some(("demo", sub))) = (&mut cli.command, matches.subcommand()) {
+        a.given = sub
+            .ids()
+            .filter(|id| {
+                sub.value_source(id.as_str()) == Some(clap::parser::ValueSource::CommandLine)
+            })
+            .map(|id| id.as_str().to_string())
+            .collect();
+    }
     if !matches!(cli.command, Command::Batch(_)) {
         // SIGINT, SIGTERM, SIGHUP: remove the temporary file of a write in progress, then exit as a signal
         // would (128 + 2). `gregvox batch` has its own handler (stop after the models in flight).

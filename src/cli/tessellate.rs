@@ -36,8 +36,13 @@ pub struct TessellateArgs {
     #[arg(long, default_value_t = 8)]
     pub level: u32,
     /// Output OBJ (v, vn and f lines); `-` writes it to standard output (the summary then goes to stderr).
+    /// One welded mesh: a closed cage gives a closed, watertight surface (see --no-weld).
     #[arg(long)]
     pub out: Option<PathBuf>,
+    /// Write one separate (L+1)² grid per patch in the contract order (rows of u inner) instead of the
+    /// welded mesh: shared edges then appear once per patch.
+    #[arg(long)]
+    pub no_weld: bool,
     /// Evaluation path.
     #[arg(long, value_enum, default_value = "compute")]
     pub path: EvalPath,
@@ -51,8 +56,9 @@ pub struct TessellateArgs {
     #[arg(long, value_enum, default_value = "opensubdiv")]
     pub tangents: TangentMode,
     /// Screen-space adaptive levels: target PIXELS per tessellation segment on screen, each patch's level
-    /// between 1 and --level (compute path, cages only). The OBJ then holds every patch's own (L_p+1)² grid
-    /// in patch order (rows of u inner), its levels listed in a `# levels` comment.
+    /// between 1 and --level (compute path, cages only), listed in a `# levels` comment. Welded and
+    /// crack-free; with --no-weld the OBJ holds every patch's own (L_p+1)² grid in patch order (rows of u
+    /// inner).
     #[arg(long, value_name = "PIXELS")]
     pub adaptive: Option<f32>,
     /// With --adaptive: the eye position `X,Y,Z`, looking at the cage's bounding-box centre (up +Y, 45°
@@ -130,16 +136,20 @@ pub fn run(args: &TessellateArgs) -> anyhow::Result<()> {
     // What was done and where it went, on stderr (stdout may be the OBJ itself).
     match &args.out {
         Some(path) => {
-            t.write_obj(path)?;
+            let (vertices, triangles) = t.write_obj(path, !args.no_weld)?;
             let target = if to_stdout {
                 "standard output".to_string()
             } else {
                 path.display().to_string()
             };
+            let layout = if args.no_weld {
+                "one grid per patch"
+            } else {
+                "welded"
+            };
             eprintln!(
-                "wrote {target} ({} patches, {} vertices)",
-                t.patches,
-                t.vertices.len()
+                "wrote {target} ({} patches, {layout}: {vertices} vertices, {triangles} triangles)",
+                t.patches
             );
         }
         None if !args.stats => eprintln!(
@@ -165,11 +175,42 @@ pub fn run(args: &TessellateArgs) -> anyhow::Result<()> {
         } else {
             0.0
         };
-        let text = format!(
-            "vertices: {}\npatches: {}\nmax normal jump across shared edges: {jump:.3e} rad\n\
-             evaluation: {eval_ms:.3} ms median ({:.1} M vertices/s)\n",
-            t.vertices.len(),
-            t.patches,
+        let mut text = format!("vertices: {}\npatches: {}\n", t.vertices.len(), t.patches);
+        let singular = t
+            .cage_jumps(&patches)
+            .map(|j| j.singular)
+            .unwrap_or_default();
+        if singular.is_empty() {
+            text += &format!("max normal jump across shared edges: {jump:.3e} rad\n");
+        } else {
+            // A valence-2 interior vertex has no tangent plane: its patches' normals differ there by
+            // construction, so it is reported by vertex and left out of the G1 measure.
+            text += &format!(
+                "singular points (interior cage vertices of valence 2, no tangent plane): {}\n",
+                singular.len()
+            );
+            for s in singular.iter().take(20) {
+                let o = t.origin;
+                let p = [0, 1, 2].map(|k| s.position[k] as f64 + o[k]);
+                text += &format!(
+                    "  vertex {} at ({}, {}, {}): normals of its {} patches differ by {:.3} rad\n",
+                    s.point.vertex + 1,
+                    p[0],
+                    p[1],
+                    p[2],
+                    s.point.corners.len(),
+                    s.jump
+                );
+            }
+            if singular.len() > 20 {
+                text += &format!("  … and {} more\n", singular.len() - 20);
+            }
+            text += &format!(
+                "max normal jump across shared edges, away from the singular points: {jump:.3e} rad\n"
+            );
+        }
+        text += &format!(
+            "evaluation: {eval_ms:.3} ms median ({:.1} M vertices/s)\n",
             rate / 1e6
         );
         if to_stdout {

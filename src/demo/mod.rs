@@ -100,6 +100,114 @@ pub struct DemoArgs {
     pub voxel_scale: u32,
     #[command(flatten)]
     pub profile: ProfileArgs,
+    /// The ids of the options given on the command line (not filled by clap's defaults): set by the CLI,
+    /// for [`DemoArgs::check_scene_options`].
+    #[arg(skip)]
+    pub given: Vec<String>,
+}
+
+/// The scenes each scene-specific option applies to (by clap id = field name).
+const SCENE_OPTIONS: &[(&str, &str, &[SceneKind])] = &[
+    ("no_correction", "--no-correction", &[SceneKind::Flag]),
+    (
+        "model",
+        "--model",
+        &[SceneKind::Cage, SceneKind::Voxels, SceneKind::Beziex],
+    ),
+    ("adaptive", "--adaptive", &[SceneKind::Cage]),
+    ("deform", "--deform", &[SceneKind::Cage, SceneKind::Voxels]),
+    ("triangles", "--triangles", &[SceneKind::Spinner]),
+    ("voxel_res", "--voxel-res", &[SceneKind::Voxels]),
+    ("voxel_every", "--voxel-every", &[SceneKind::Voxels]),
+    ("voxel_scale", "--voxel-scale", &[SceneKind::Voxels]),
+    (
+        "level",
+        "--level",
+        &[
+            SceneKind::Flag,
+            SceneKind::Cage,
+            SceneKind::Voxels,
+            SceneKind::Beziex,
+        ],
+    ),
+    (
+        "vertex_pull",
+        "--vertex-pull",
+        &[SceneKind::Flag, SceneKind::Cage],
+    ),
+    (
+        "shading",
+        "--shading",
+        &[
+            SceneKind::Flag,
+            SceneKind::Cage,
+            SceneKind::Voxels,
+            SceneKind::Beziex,
+        ],
+    ),
+];
+
+impl DemoArgs {
+    /// Options that the starting scene would ignore. Offscreen the scene never changes, so each is an
+    /// error; in a window the number keys switch scenes (and an option of another scene applies there),
+    /// so each is a note. Options of one mode given in the other (`--keys` offscreen, `--every` in a
+    /// window) and view options the scene cannot honour (`--vertex-pull` or curvature shading with
+    /// `--adaptive`) are errors. Returns the notes to print.
+    pub fn check_scene_options(&self) -> anyhow::Result<Vec<String>> {
+        let given = |id: &str| self.given.iter().any(|g| g == id);
+        let scene = self.scene.name();
+        let mut notes = Vec::new();
+        for (id, flag, scenes) in SCENE_OPTIONS {
+            if !given(id) || scenes.contains(&self.scene) {
+                continue;
+            }
+            let names: Vec<String> = scenes.iter().map(|s| s.name()).collect();
+            let text = format!(
+                "{flag} applies to --scene {}, not to --scene {scene}",
+                names.join(" or ")
+            );
+            if self.offscreen {
+                bail!("{text}");
+            }
+            notes.push(format!(
+                "{text}: it takes effect when a number key switches to one of them"
+            ));
+        }
+        if self.offscreen && given("keys") {
+            bail!("--keys scripts the window; --offscreen has none");
+        }
+        if !self.offscreen && given("every") {
+            bail!("--every chooses the PNG frames of --offscreen, which is not given");
+        }
+        // The window's keys can turn --adaptive off (A) or change the shading (S); offscreen they cannot.
+        let mut view = |text: String| -> anyhow::Result<()> {
+            if self.offscreen {
+                bail!("{text}");
+            }
+            notes.push(format!(
+                "{text}: it takes effect once A turns --adaptive off"
+            ));
+            Ok(())
+        };
+        if self.adaptive.is_some() && self.scene == SceneKind::Cage {
+            if self.vertex_pull {
+                view(
+                    "--vertex-pull draws uniform grids, and --adaptive draws per-patch levels"
+                        .into(),
+                )?;
+            }
+            if self.shading.needs_uniform_grid() {
+                let name = clap::ValueEnum::to_possible_value(&self.shading)
+                    .map(|v| v.get_name().to_string())
+                    .unwrap_or_default();
+                view(format!(
+                    "--shading {name} needs a uniform grid, and --adaptive draws per-patch levels \
+                     (phong, normals and zebra work with it)"
+                ))?;
+            }
+        }
+        Ok(notes)
+    }
 }
 
 /// Prints this process's resident set size (`VmRSS` of /proc/self/status, KiB) and the GPU bytes allocated
@@ -376,6 +484,9 @@ pub fn build_scene(
 
 /// Runs `gregvox demo`.
 pub fn run(args: &DemoArgs) -> anyhow::Result<()> {
+    for note in args.check_scene_options()? {
+        eprintln!("gregvox demo: note: {note}");
+    }
     // Outputs before any work. The offscreen folder is made once the scene stands, so profile outputs
     // inside it are checked as part of it.
     let frames_dir = args.out.as_deref().unwrap_or("out/demo".as_ref());

@@ -1,7 +1,7 @@
 //! Quad cages for the Gregory pipeline: loading one as GPU Gregory topology (with the valence limit and one
 //! Catmull–Clark step for non-quad cages), a built-in box cage, and measuring normal jumps across shared
 //! patch edges of an evaluated grid.
-use crate::engine::gregory::{canonical_edge_flags, GregoryTopology};
+use crate::engine::gregory::{canonical_edge_flags, GregoryTopology, SingularPoint};
 use crate::mesh::{load_mesh_file, Mesh};
 use crate::passes::gregory_eval::SurfaceVertex;
 use crate::surface::{GregoryStencils, Tangents};
@@ -9,15 +9,30 @@ use glam::{DVec3, Vec3};
 use std::collections::HashMap;
 use std::path::Path;
 
-/// Loads a quad cage (any mesh file format) and builds its ACC-2 topology (refining non-quad cages once, with a note).
+/// Loads a quad cage (any mesh file format) and builds its ACC-2 topology (refining non-quad cages once, with a
+/// note), for viewing: a cage far from the world origin ([`crate::geom::is_far`]) comes back moved to its
+/// box's minimum corner (in f64), so its f32 GPU surface keeps the precision of one at the origin.
 pub fn load_cage_topology(
     path: &Path,
 ) -> crate::Result<(GregoryTopology, Vec<DVec3>, Option<String>)> {
     let mesh = load_mesh_file(path)?;
-    cage_topology(&mesh, Tangents::OpenSubdiv).map_err(|e| match e {
-        crate::Error::Invalid(msg) => crate::Error::parse(path, msg),
-        e => e,
-    })
+    let (topo, mut rest, note) =
+        cage_topology(&mesh, Tangents::OpenSubdiv).map_err(|e| match e {
+            crate::Error::Invalid(msg) => crate::Error::parse(path, msg),
+            e => e,
+        })?;
+    let lo = rest
+        .iter()
+        .fold(DVec3::splat(f64::INFINITY), |a, p| a.min(*p));
+    let hi = rest
+        .iter()
+        .fold(DVec3::splat(f64::NEG_INFINITY), |a, p| a.max(*p));
+    if crate::geom::is_far(lo.to_array(), hi.to_array()) {
+        for p in &mut rest {
+            *p -= lo;
+        }
+    }
+    Ok((topo, rest, note))
 }
 
 /// Largest vertex valence (and polygon size: an n-gon refined once makes a valence-n vertex) accepted for
@@ -72,8 +87,56 @@ pub fn cage_topology(
         w: cs.stencils.w,
         patch_points: cs.stencils.patch_points,
         patch_flags: canonical_edge_flags(&quads),
+        singular: singular_points(&quads),
     };
     Ok((topo, mesh.positions.clone(), cs.note))
+}
+
+/// The interior vertices of valence 2 of an all-quad patch layout, with their patch corners.
+///
+/// ```
+/// use gregvox::engine::cage::singular_points;
+/// // A square split into two quads through its centre 4: vertex 4 is interior (both its edges are shared)
+/// // with the two neighbours 0 and 2; the square's corners lie on the boundary.
+/// let sheet = [[0, 1, 2, 4], [0, 4, 2, 3]];
+/// let s = singular_points(&sheet);
+/// assert_eq!(s.len(), 1);
+/// assert_eq!((s[0].vertex, s[0].corners.clone()), (4, vec![(0, 3), (1, 1)]));
+/// // Closed by one quad below (a pillow), the corners 1 and 3 become interior with valence 2 as well.
+/// let pillow = [[0, 1, 2, 4], [0, 4, 2, 3], [3, 2, 1, 0]];
+/// let v: Vec<u32> = singular_points(&pillow).iter().map(|s| s.vertex).collect();
+/// assert_eq!(v, [1, 3, 4]);
+/// ```
+pub fn singular_points(quads: &[[u32; 4]]) -> Vec<SingularPoint> {
+    let mut edges: HashMap<(u32, u32), u32> = HashMap::new();
+    let mut corners: HashMap<u32, Vec<(u32, u8)>> = HashMap::new();
+    for (f, q) in quads.iter().enumerate() {
+        for c in 0..4 {
+            let (a, b) = (q[c], q[(c + 1) % 4]);
+            *edges.entry((a.min(b), a.max(b))).or_default() += 1;
+            corners.entry(q[c]).or_default().push((f as u32, c as u8));
+        }
+    }
+    let mut out: Vec<SingularPoint> = corners
+        .into_iter()
+        .filter(|(v, at)| {
+            let mut ring: Vec<u32> = Vec::new();
+            for &(f, c) in at {
+                let q = quads[f as usize];
+                ring.push(q[(c as usize + 1) % 4]);
+                ring.push(q[(c as usize + 3) % 4]);
+            }
+            ring.sort_unstable();
+            ring.dedup();
+            let interior = ring
+                .iter()
+                .all(|&n| edges.get(&(n.min(*v), n.max(*v))) == Some(&2));
+            interior && ring.len() == 2
+        })
+        .map(|(vertex, corners)| SingularPoint { vertex, corners })
+        .collect();
+    out.sort_by_key(|s| s.vertex);
+    out
 }
 
 /// The demo's built-in cage: the surface of an `nx × ny × nz` box lattice of size 2 × 1 × 1, outward quads
@@ -126,14 +189,78 @@ pub fn builtin_cage(nx: u32, ny: u32, nz: u32) -> Mesh {
     Mesh::from_polygons(positions, &faces).expect("a valid lattice box")
 }
 
-/// Largest normal jump across shared edges of a cage's patches. The patches of a consistently oriented cage
-/// share its orientation, so the angle is signed: a patch whose normal flips shows as a jump near π.
+/// Largest normal jump across shared edges of a cage's patches, away from its singular points (see
+/// [`cage_jumps`]). The patches of a consistently oriented cage share its orientation, so the angle is
+/// signed: a patch whose normal flips shows as a jump near π.
 pub fn max_jump_shared_edges(
-    _topo: &GregoryTopology,
+    topo: &GregoryTopology,
     vertices: &[SurfaceVertex],
     level: u32,
 ) -> f64 {
-    max_jump_coincident(vertices, level)
+    cage_jumps(topo, vertices, level).worst
+}
+
+/// The normal jumps of a cage's uniform tessellation (one (L+1)² grid per patch).
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct CageJumps {
+    /// The largest angle (rad) between the normals of coincident boundary samples of different patches,
+    /// leaving out the samples at singular points (where there is no tangent plane to agree on).
+    pub worst: f64,
+    /// Per singular point of the topology: the point (the patches' shared corner sample) and the largest
+    /// angle (rad) between the normals its patches give it.
+    pub singular: Vec<SingularJump>,
+}
+
+/// One singular point's normals ([`CageJumps::singular`]).
+#[derive(Clone, Debug, PartialEq)]
+pub struct SingularJump {
+    pub point: SingularPoint,
+    /// The corner sample's position (the tessellation's frame).
+    pub position: [f32; 3],
+    pub jump: f64,
+}
+
+/// [`CageJumps`] of `vertices`, the uniform tessellation of `topo` at `level`.
+pub fn cage_jumps(topo: &GregoryTopology, vertices: &[SurfaceVertex], level: u32) -> CageJumps {
+    let n = (level + 1) as usize;
+    let per = n * n;
+    let corner = |(patch, c): (u32, u8)| -> Option<&SurfaceVertex> {
+        let (i, j) = [(0, 0), (n - 1, 0), (n - 1, n - 1), (0, n - 1)][c as usize];
+        vertices.get(patch as usize * per + j * n + i)
+    };
+    let mut excluded = std::collections::HashSet::new();
+    let mut singular = Vec::new();
+    for point in &topo.singular {
+        let at: Vec<&SurfaceVertex> = point.corners.iter().filter_map(|&c| corner(c)).collect();
+        let Some(first) = at.first() else { continue };
+        let mut jump = 0.0f64;
+        for (k, a) in at.iter().enumerate() {
+            excluded.insert(xyz(a.position).map(|x| (x + 0.0).to_bits()));
+            for b in &at[k + 1..] {
+                jump = jump.max(angle(xyz(a.normal), xyz(b.normal)));
+            }
+        }
+        singular.push(SingularJump {
+            point: point.clone(),
+            position: xyz(first.position),
+            jump,
+        });
+    }
+    CageJumps {
+        worst: coincident_jumps_away_from(vertices, level, &excluded).worst,
+        singular,
+    }
+}
+
+/// The first three components.
+fn xyz(a: [f32; 4]) -> [f32; 3] {
+    [a[0], a[1], a[2]]
+}
+
+/// The angle (rad, 0 to π) between two normals.
+fn angle(a: [f32; 3], b: [f32; 3]) -> f64 {
+    let (a, b) = (DVec3::from(a.map(f64::from)), DVec3::from(b.map(f64::from)));
+    a.cross(b).length().atan2(a.dot(b))
 }
 
 /// Largest angle (rad, 0 to π) between the normals of coincident boundary vertices of different patches
@@ -157,6 +284,15 @@ pub struct CoincidentJumps {
 
 /// [`max_jump_coincident`] with the number of sample pairs it compared.
 pub fn coincident_jumps(vertices: &[SurfaceVertex], level: u32) -> CoincidentJumps {
+    coincident_jumps_away_from(vertices, level, &std::collections::HashSet::new())
+}
+
+/// [`coincident_jumps`] leaving out the boundary samples at the positions `excluded` (f32 bits, -0 as 0).
+fn coincident_jumps_away_from(
+    vertices: &[SurfaceVertex],
+    level: u32,
+    excluded: &std::collections::HashSet<[u32; 3]>,
+) -> CoincidentJumps {
     let n = (level + 1) as usize;
     let per = n * n;
     if vertices.is_empty() || per == 0 {
@@ -188,7 +324,7 @@ pub fn coincident_jumps(vertices: &[SurfaceVertex], level: u32) -> CoincidentJum
     let mut index: HashMap<([u32; 3], [u32; 3]), usize> = HashMap::new();
     let mut samples: Vec<Sample> = Vec::new();
     for (k, v) in vertices.iter().enumerate() {
-        if !boundary(k) {
+        if !boundary(k) || excluded.contains(&xyz(v.position).map(|x| (x + 0.0).to_bits())) {
             continue;
         }
         let key = (

@@ -42,6 +42,20 @@ pub struct GregoryTopology {
     /// Per patch, bit e set when edge e runs from the higher cage vertex to the lower (see
     /// [`canonical_edge_flags`]).
     pub patch_flags: Vec<u32>,
+    /// The interior cage vertices of valence 2 (see [`SingularPoint`]), in vertex order.
+    pub singular: Vec<SingularPoint>,
+}
+
+/// An interior cage vertex of valence 2: the limit surface has no tangent plane there (OpenSubdiv's limit
+/// normal is NaN), so the normals of the patches meeting at it differ (by up to 87° on real cages) and the
+/// G1 measure is taken away from it. `vertex` is the cage's vertex index (0-based; a cage refined once keeps
+/// its vertices' indices, and refinement makes no new valence-2 vertex).
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct SingularPoint {
+    pub vertex: u32,
+    /// The patch corners at the vertex: (patch, corner), corner 0–3 being the face's vertex 0–3, i.e. the
+    /// grid samples (0,0), (L,0), (L,L), (0,L).
+    pub corners: Vec<(u32, u8)>,
 }
 
 /// Canonical-edge flags of quad faces: edges are listed with the patch parameter increasing —

@@ -28,3 +28,20 @@ pub mod surface;
 pub mod transform;
 
 pub use real::{Point, Real};
+
+/// Whether a box lies more than 16 of its own sizes from the world origin (false for an empty or
+/// non-finite box): such a model is worked on relative to a local origin, in f64, before anything becomes
+/// f32 (at 16 sizes the f32 rounding of world coordinates is still below 1e-6 of the size).
+///
+/// ```
+/// use gregvox::geom::is_far;
+/// assert!(!is_far([0.0; 3], [1.0; 3]));
+/// assert!(is_far([1e7; 3], [1e7 + 1.0; 3]));
+/// ```
+pub fn is_far(lo: [f64; 3], hi: [f64; 3]) -> bool {
+    let size = (0..3).map(|a| hi[a] - lo[a]).fold(0.0, f64::max);
+    let reach = (0..3)
+        .map(|a| lo[a].abs().max(hi[a].abs()))
+        .fold(0.0, f64::max);
+    lo.iter().chain(&hi).all(|c| c.is_finite()) && reach > 16.0 * size
+}
