@@ -361,7 +361,8 @@ fn commands_say_what_they_wrote_and_write_to_standard_output_on_dash() {
         &[],
     );
     ok(&o);
-    assert!(String::from_utf8_lossy(&o.stderr).contains("wrote t.obj (6 patches, 96 vertices)"));
+    assert!(String::from_utf8_lossy(&o.stderr)
+        .contains("wrote t.obj (6 patches, welded: 56 vertices, 108 triangles)"));
     let o = run_in(
         &dir,
         &["tessellate", cube, "--level", "3", "--out", "-", "--stats"],
