@@ -450,6 +450,44 @@ impl VoxelGrid {
         }
     }
 
+    /// Writes the occupancy one byte per voxel (1 solid, 0 empty) in C order `[x][y][z]`, z fastest: the
+    /// layout of a NumPy `(X, Y, Z)` array indexed `[x, y, z]`. `out` holds [`GridFrame::voxel_count`] bytes.
+    ///
+    /// ```
+    /// use gregvox::voxel::grid::{Axis, GridFrame, VoxelGrid};
+    /// let mut g = VoxelGrid::empty(GridFrame::cubic(3, [0.0; 3], 1.0), Axis::X);
+    /// g.set(2, 1, 0, true);
+    /// let mut dense = vec![0u8; 27];
+    /// g.write_dense_xyz(&mut dense);
+    /// assert_eq!(dense.iter().position(|&b| b == 1), Some((2 * 3 + 1) * 3));
+    /// assert_eq!(dense.iter().map(|&b| b as u32).sum::<u32>(), 1);
+    /// ```
+    pub fn write_dense_xyz(&self, out: &mut [u8]) {
+        assert_eq!(
+            out.len() as u64,
+            self.frame.voxel_count(),
+            "one byte per voxel"
+        );
+        // Bits along z are the dense rows: unpack each column's words in one pass.
+        let along_z;
+        let g = if self.bit_axis == Axis::Z {
+            self
+        } else {
+            along_z = self.to_axis(Axis::Z);
+            &along_z
+        };
+        let [nx, ny, nz] = self.frame.dims.map(|d| d as usize);
+        for x in 0..nx {
+            for y in 0..ny {
+                let column = g.column(x as u32, y as u32);
+                let row = &mut out[(x * ny + y) * nz..(x * ny + y + 1) * nz];
+                for (z, b) in row.iter_mut().enumerate() {
+                    *b = (column[z / 32] >> (z % 32) & 1) as u8;
+                }
+            }
+        }
+    }
+
     /// Number of solid voxels.
     pub fn count(&self) -> u64 {
         self.words.iter().map(|w| w.count_ones() as u64).sum()
