@@ -215,8 +215,6 @@ impl Tessellation {
     /// their normals; triangles that a merge collapsed (the snapped rows where an adaptive patch is finer
     /// than its edge) dropped. A closed cage gives a closed, watertight mesh.
     pub fn welded(&self) -> WeldedMesh {
-        // -0.0 and 0.0 are the same point: adding 0.0 maps -0.0 to 0.0 and leaves every other value.
-        let key = |p: [f32; 3]| p.map(|x| (x + 0.0).to_bits());
         let mut index: HashMap<[u32; 3], u32> = HashMap::with_capacity(self.vertices.len());
         let mut remap = Vec::with_capacity(self.vertices.len());
         let mut positions = Vec::new();
@@ -224,14 +222,14 @@ impl Tessellation {
         let mut first_normal: Vec<[f32; 3]> = Vec::new();
         for v in &self.vertices {
             let next = positions.len() as u32;
-            let (position, normal) = (xyz(v.position), xyz(v.normal));
-            let id = *index.entry(key(position)).or_insert(next);
+            let (position, normal) = (v.xyz(), v.normal_xyz());
+            let id = *index.entry(v.position_key()).or_insert(next);
             if id == next {
                 positions.push(position);
                 sums.push(DVec3::ZERO);
                 first_normal.push(normal);
             }
-            let n = DVec3::new(v.normal[0] as f64, v.normal[1] as f64, v.normal[2] as f64);
+            let n = DVec3::from(normal.map(f64::from));
             if n.is_finite() {
                 sums[id as usize] += n;
             }
@@ -357,7 +355,7 @@ impl Tessellation {
                     unwelded = self
                         .vertices
                         .iter()
-                        .map(|v| (xyz(v.position), xyz(v.normal)))
+                        .map(|v| (v.xyz(), v.normal_xyz()))
                         .unzip();
                     (&unwelded.0, &unwelded.1)
                 }
@@ -389,11 +387,6 @@ impl Tessellation {
         })?;
         Ok(written)
     }
-}
-
-/// The first three components.
-fn xyz(a: [f32; 4]) -> [f32; 3] {
-    [a[0], a[1], a[2]]
 }
 
 /// A tessellation as one indexed triangle mesh ([`Tessellation::welded`]), in the local frame of

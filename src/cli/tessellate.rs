@@ -161,7 +161,11 @@ pub fn run(args: &TessellateArgs) -> anyhow::Result<()> {
         None => {}
     }
     if args.stats {
-        let jump = t.max_normal_jump(&patches);
+        // One pass over the samples: a cage's jumps carry the G1 figure and the singular points.
+        let cage = t.cage_jumps(&patches);
+        let jump = cage
+            .as_ref()
+            .map_or_else(|| t.max_normal_jump(&patches), |j| j.worst);
         let eval_ms: f64 = profiler
             .stats()
             .iter()
@@ -176,10 +180,7 @@ pub fn run(args: &TessellateArgs) -> anyhow::Result<()> {
             0.0
         };
         let mut text = format!("vertices: {}\npatches: {}\n", t.vertices.len(), t.patches);
-        let singular = t
-            .cage_jumps(&patches)
-            .map(|j| j.singular)
-            .unwrap_or_default();
+        let singular = cage.map(|j| j.singular).unwrap_or_default();
         if singular.is_empty() {
             text += &format!("max normal jump across shared edges: {jump:.3e} rad\n");
         } else {

@@ -235,14 +235,14 @@ pub fn cage_jumps(topo: &GregoryTopology, vertices: &[SurfaceVertex], level: u32
         let Some(first) = at.first() else { continue };
         let mut jump = 0.0f64;
         for (k, a) in at.iter().enumerate() {
-            excluded.insert(xyz(a.position).map(|x| (x + 0.0).to_bits()));
+            excluded.insert(a.position_key());
             for b in &at[k + 1..] {
-                jump = jump.max(angle(xyz(a.normal), xyz(b.normal)));
+                jump = jump.max(angle(dvec(a.normal_xyz()), dvec(b.normal_xyz())));
             }
         }
         singular.push(SingularJump {
             point: point.clone(),
-            position: xyz(first.position),
+            position: first.xyz(),
             jump,
         });
     }
@@ -252,14 +252,12 @@ pub fn cage_jumps(topo: &GregoryTopology, vertices: &[SurfaceVertex], level: u32
     }
 }
 
-/// The first three components.
-fn xyz(a: [f32; 4]) -> [f32; 3] {
-    [a[0], a[1], a[2]]
+fn dvec(a: [f32; 3]) -> DVec3 {
+    DVec3::from(a.map(f64::from))
 }
 
 /// The angle (rad, 0 to π) between two normals.
-fn angle(a: [f32; 3], b: [f32; 3]) -> f64 {
-    let (a, b) = (DVec3::from(a.map(f64::from)), DVec3::from(b.map(f64::from)));
+fn angle(a: DVec3, b: DVec3) -> f64 {
     a.cross(b).length().atan2(a.dot(b))
 }
 
@@ -324,7 +322,7 @@ fn coincident_jumps_away_from(
     let mut index: HashMap<([u32; 3], [u32; 3]), usize> = HashMap::new();
     let mut samples: Vec<Sample> = Vec::new();
     for (k, v) in vertices.iter().enumerate() {
-        if !boundary(k) || excluded.contains(&xyz(v.position).map(|x| (x + 0.0).to_bits())) {
+        if !boundary(k) || excluded.contains(&v.position_key()) {
             continue;
         }
         let key = (
@@ -365,12 +363,7 @@ fn coincident_jumps_away_from(
                         if o == s || !other_patch || (b.position - a.position).length() > tol {
                             continue;
                         }
-                        let theta = a
-                            .normal
-                            .cross(b.normal)
-                            .length()
-                            .atan2(a.normal.dot(b.normal));
-                        worst = worst.max(theta);
+                        worst = worst.max(angle(a.normal, b.normal));
                         pairs_compared += 1;
                     }
                 }

@@ -22,6 +22,24 @@ pub struct SurfaceVertex {
     pub normal: [f32; 4],
 }
 
+impl SurfaceVertex {
+    /// The position's x, y, z.
+    pub fn xyz(&self) -> [f32; 3] {
+        [self.position[0], self.position[1], self.position[2]]
+    }
+
+    /// The normal's x, y, z.
+    pub fn normal_xyz(&self) -> [f32; 3] {
+        [self.normal[0], self.normal[1], self.normal[2]]
+    }
+
+    /// The position's bits, -0.0 read as 0.0 (adding 0.0 maps -0.0 to 0.0 and leaves every other value):
+    /// equal keys are the same point, as shared patch edges are.
+    pub fn position_key(&self) -> [u32; 3] {
+        self.xyz().map(|x| (x + 0.0).to_bits())
+    }
+}
+
 /// Invocations per workgroup (one workgroup per patch; glsl/include/gregory_eval_body.glsl). Each invocation
 /// pays a per-patch set-up that llvmpipe makes expensive (measured ~1.5 µs: at L = 4 letting the 39 idle
 /// invocations of 64 stop early halved the pass), so fewer invocations each evaluate more vertices: 8 is one
