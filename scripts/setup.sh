@@ -12,6 +12,7 @@ packages=(
   xvfb xauth                                                              # the windowed demo without a screen
   fonts-dejavu-core                                                       # labels of `gregvox bench`'s plots
   procps util-linux                                                       # kill and prlimit, used by the tests
+  python3 python3-venv                                                    # the Python package (pip install ./python)
 )
 missing=()
 for p in "${packages[@]}"; do

@@ -439,3 +439,34 @@ fn binvox_run_lengths_by_words_equal_the_voxel_by_voxel_encoding() {
         assert!(data == binvox_reference(&g).as_slice(), "{name}");
     }
 }
+
+#[test]
+fn write_dense_xyz_is_get_at_every_voxel_whatever_the_bit_axis() {
+    // Odd sizes (one partial word per column along every axis, 37 > 32 along z) and all three bit axes:
+    // the dense bytes, x slowest and z fastest, must be exactly `get` voxel by voxel.
+    let frame = GridFrame {
+        dims: [45, 7, 37],
+        ..odd_frame()
+    };
+    let source = pattern_in(frame);
+    let [nx, ny, nz] = frame.dims;
+    for axis in Axis::ALL {
+        let g = source.to_axis(axis);
+        let mut dense = vec![7u8; frame.voxel_count() as usize];
+        g.write_dense_xyz(&mut dense);
+        let mut at = 0;
+        for i in 0..nx {
+            for j in 0..ny {
+                for k in 0..nz {
+                    assert_eq!(
+                        dense[at],
+                        g.get(i, j, k) as u8,
+                        "bits along {axis:?}: voxel ({i}, {j}, {k})"
+                    );
+                    at += 1;
+                }
+            }
+        }
+        assert!(dense.contains(&1) && dense.contains(&0));
+    }
+}

@@ -24,9 +24,12 @@ __all__ = [
     "Device",
     "Grid",
     "GregorySurface",
+    "default_device",
     "load_mesh",
     "voxelize",
     "mesh_matrices",
+    "action_map",
+    "vertex_normals",
     "topology",
     "subdivide",
 ]
@@ -37,12 +40,35 @@ Faces = Union[np.ndarray, Sequence[Sequence[int]]]
 class Device:
     """The Vulkan device (lavapipe where there is no GPU).
 
-    ``name``: a case-insensitive substring of the device name; default ``GREGVOX_DEVICE``, else the first.
+    ``name``: a case-insensitive substring of the device name; default ``GREGVOX_DEVICE``, else the first
+    (discrete > integrated > virtual > CPU). ``validation``: ``True`` requires the Vulkan validation layer,
+    ``False`` turns it off, ``None`` follows ``GREGVOX_VALIDATION``. Raises ``RuntimeError`` when no Vulkan
+    driver or no matching device is found.
+
+    >>> dev = gregvox.Device()            # doctest: +SKIP
+    >>> dev.info["name"]                  # doctest: +SKIP
+    'llvmpipe (LLVM 15.0.6, 256 bits)'
     """
 
-    def __init__(self, name: Optional[str] = None):
-        self._device = _gregvox.Device(name)
+    def __init__(self, name: Optional[str] = None, validation: Optional[bool] = None):
+        if name is not None and not isinstance(name, str):
+            raise TypeError("name must be a string")
+        self._device = _gregvox.Device(name, validation)
         self.info: Dict[str, Any] = json.loads(self._device.info_json)
+
+    @property
+    def validation_messages(self) -> List[str]:
+        """Every Vulkan validation message received so far (empty when the layer is off)."""
+        return self._device.validation_messages
+
+    def finish(self) -> None:
+        """Waits for the device, releases its cached pipelines and closes it. Raises ``RuntimeError`` if a GPU
+        allocation is still alive, the validation layer reported anything, or a ``GregorySurface`` still
+        uses the device. Calling it is optional; a device is released when the last object using it goes."""
+        global _default_device
+        self._device.finish()
+        if _default_device is self:
+            _default_device = None
 
     def __repr__(self) -> str:
         return f"gregvox.Device({self.info.get('name')!r})"
@@ -51,15 +77,20 @@ class Device:
 _default_device: Optional[Device] = None
 
 
-def _device(device: Optional[Device]) -> Device:
+def default_device() -> Device:
+    """The device used when a call is given none: made on first use, shared by every call after."""
     global _default_device
+    if _default_device is None:
+        _default_device = Device()
+    return _default_device
+
+
+def _device(device: Optional[Device]) -> Device:
     if device is not None:
         if not isinstance(device, Device):
             raise TypeError("device must be a gregvox.Device")
         return device
-    if _default_device is None:
-        _default_device = Device()
-    return _default_device
+    return default_device()
 
 
 def _vertices(V: Any) -> np.ndarray:
@@ -128,35 +159,46 @@ def load_mesh(path: Union[str, os.PathLike]) -> Tuple[np.ndarray, Faces]:
 
 
 class Grid:
-    """A voxel grid: ``occupancy`` a bool array (X, Y, Z) indexed ``[x, y, z]``; voxel ``(i, j, k)`` spans
-    ``origin + (i, j, k) * voxel_size`` to ``origin + (i + 1, j + 1, k + 1) * voxel_size``."""
+    """A voxel grid, with the grid contract of ``gregvox voxelize``: ``occupancy`` is a bool array
+    (X, Y, Z) indexed ``[x, y, z]``; voxel ``(i, j, k)`` spans ``origin + (i, j, k) * voxel_size`` to
+    ``origin + (i + 1, j + 1, k + 1) * voxel_size``, its centre at ``origin + ((i, j, k) + 0.5) * voxel_size``.
+
+    ``report`` is what ``gregvox voxelize --json`` prints (method, frame, rule, notes…).
+    """
 
     def __init__(self, occupancy, origin, voxel_size, packed, report):
         self.occupancy: np.ndarray = occupancy
         self.origin: np.ndarray = np.asarray(origin, dtype=np.float64)
         self.voxel_size: np.ndarray = np.asarray(voxel_size, dtype=np.float64)
         self.report: Dict[str, Any] = report
+        #: Seconds the engine's own ``Gpu::voxelize`` call took (without the copy into NumPy).
+        self.library_seconds: float = 0.0
         self._packed = packed
 
     @property
     def dims(self) -> Tuple[int, int, int]:
-        return tuple(self.occupancy.shape)
+        """(X, Y, Z): the shape of ``occupancy``."""
+        return tuple(int(d) for d in self.occupancy.shape)
 
     @property
     def index_to_world(self) -> np.ndarray:
-        """The 4×4 matrix taking (i, j, k, 1) to the world position of voxel (i, j, k)'s minimum corner."""
+        """The 4×4 matrix taking (i, j, k, 1) to the centre of voxel (i, j, k): the ``index_to_world`` of
+        the ``.npy``/``.raw``/``.vox`` sidecar JSON that ``gregvox voxelize`` writes."""
         m = np.eye(4)
         m[:3, :3] = np.diag(self.voxel_size)
-        m[:3, 3] = self.origin
+        m[:3, 3] = self.origin + 0.5 * self.voxel_size
         return m
 
     def centers(self) -> np.ndarray:
-        """World centres of the solid voxels, float64 (n, 3), in ``np.argwhere`` order."""
+        """World centres of the solid voxels, float64 (n, 3), in ``np.argwhere(occupancy)`` order."""
         return self.origin + (np.argwhere(self.occupancy) + 0.5) * self.voxel_size
 
-    def save(self, path: Union[str, os.PathLike]) -> None:
-        """Writes the grid in the format its extension names (every ``gregvox voxelize --out`` format)."""
-        self._packed.save(os.fspath(path))
+    def save(self, path: Union[str, os.PathLike], npy_packed: bool = False) -> None:
+        """Writes the grid in the format its extension names: ``.binvox``, ``.npy`` (bool (X, Y, Z), or
+        packed bits with ``npy_packed``), ``.nrrd``, ``.raw`` or ``.vox``, with the sidecar JSON where the
+        CLI writes one; byte for byte what ``gregvox voxelize --out`` writes. The file is written
+        atomically; ``OSError`` if it cannot be, ``ValueError`` if the format cannot hold the grid."""
+        self._packed.save(os.fspath(path), bool(npy_packed))
 
     def __repr__(self) -> str:
         return f"gregvox.Grid(dims={self.dims}, solid={int(self.occupancy.sum())})"
@@ -193,8 +235,32 @@ def voxelize(
         dims = tuple(int(d) for d in dims)
         if len(dims) != 3:
             raise ValueError(f"dims must be three integers, not {dims!r}")
-    occ, origin, size, packed, report = _gregvox.voxelize(
-        _device(device)._device,
+    try:
+        occ, origin, size, packed, report, seconds = _voxelize(
+            _device(device)._device, V, ptr, idx, res, dims, voxel_size, bbox, pad, rule, fill, method
+        )
+    except ValueError as e:
+        raise ValueError(_python_names(str(e))) from None
+    grid = Grid(occ.view(np.bool_), origin, size, packed, json.loads(report))
+    grid.library_seconds = seconds
+    return grid
+
+
+# The engine names the CLI's flags in its messages; a Python caller gave keyword arguments.
+_FLAG_NAMES = [("--res ", "res="), ("--dims ", "dims="), ("--voxel-size ", "voxel_size="), ("--bbox", "bbox"),
+               ("--pad ", "pad="), ("--res", "res"), ("--dims", "dims"), ("--voxel-size", "voxel_size"),
+               ("--fill both", 'fill="both"'), ("--rule", "rule"), ("--method", "method")]
+
+
+def _python_names(message: str) -> str:
+    for flag, name in _FLAG_NAMES:
+        message = message.replace(flag, name)
+    return message
+
+
+def _voxelize(device, V, ptr, idx, res, dims, voxel_size, bbox, pad, rule, fill, method):
+    return _gregvox.voxelize(
+        device,
         V,
         ptr,
         idx,
@@ -207,7 +273,6 @@ def voxelize(
         fill=fill,
         method=method,
     )
-    return Grid(occ.view(np.bool_), origin, size, packed, json.loads(report))
 
 
 class GregorySurface:
@@ -260,11 +325,85 @@ def subdivide(V: Any, F: Faces, levels: int, scheme: str = "catmull-clark") -> T
 
 
 def mesh_matrices(V: Any, F: Faces) -> Dict[str, Any]:
-    """The mesh matrices as ``scipy.sparse.csr_matrix``: ``M`` (|V| × |F|, the 1-based slot of each
-    corner), ``E`` (|V| × |V|, face + 1 of each half-edge i → j) and ``vertex_corners`` (|V| × corners)."""
-    from scipy.sparse import csr_matrix
+    """The mesh matrices as ``scipy.sparse.csr_matrix`` (int64 values):
+
+    - ``M`` (|V| × |F|): ``M[v, f] = k`` when v is the k-th corner (1-based) of face f, in winding order;
+    - ``B`` (|V| × |F|): the binary pattern of M (vertex–face incidence);
+    - ``E`` (|V| × |V|): ``E[i, j] = f + 1`` for the half-edge i → j of face f (the face on its left);
+    - ``adjacency`` (|V| × |V|): 1 where i and j share an edge (the pattern of E + Eᵀ);
+    - ``dual_adjacency`` (|F| × |F|): 1 where two faces share an edge (E[i, j] and E[j, i]);
+    - ``vertex_corners`` (|V| × corners): 1 at (v, c) for each corner c at vertex v, corners numbered in
+      face order (the flattened ``F``);
+    - the action maps of the common per-face formulas, float64: ``edge_12`` and ``edge_13``
+      (``edge_12.T @ V`` is each face's P2 − P1, ``edge_13.T @ V`` its P3 − P1) and ``centroid``
+      (``centroid.T @ V``: the vertex average of each face, ``B`` over the face's corner count).
+
+    An action map turns M into the operator of a per-face formula: see :func:`action_map`.
+
+    >>> V = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0], [1, 1, 0]], float)
+    >>> m = gregvox.mesh_matrices(V, [[0, 1, 2], [2, 1, 3]])
+    >>> m["M"].toarray()
+    array([[1, 0],
+           [2, 2],
+           [3, 1],
+           [0, 3]])
+    >>> int(m["E"][1, 2]), int(m["E"][2, 1])   # faces 0 and 1, plus one
+    (1, 2)
+    """
+    from scipy.sparse import coo_matrix, csr_matrix
 
     out = {}
     for name, (data, cols, ptr, shape) in _gregvox.mesh_matrices(*_mesh(V, F)).items():
         out[name] = csr_matrix((data, cols, ptr), shape=shape)
+    M, E = out["M"], out["E"]
+    out["B"] = csr_matrix((np.ones_like(M.data), M.indices, M.indptr), shape=M.shape)
+    pattern = csr_matrix((np.ones_like(E.data), E.indices, E.indptr), shape=E.shape)
+    adjacency = ((pattern + pattern.T) > 0).astype(np.int64)
+    out["adjacency"] = csr_matrix(adjacency)
+    # Half-edges whose twin exists: the face on the left of i -> j and the one on the left of j -> i.
+    coo = E.tocoo()
+    twin = np.asarray(E[coo.col, coo.row]).ravel()
+    keep = twin > 0
+    f, g = coo.data[keep] - 1, twin[keep] - 1
+    n_faces = M.shape[1]
+    dual = coo_matrix((np.ones(f.size, dtype=np.int64), (f, g)), shape=(n_faces, n_faces)).tocsr()
+    dual.data[:] = 1
+    out["dual_adjacency"] = dual
+    # The action maps of the common per-face formulas (see action_map): edge vectors and centroids.
+    out["edge_12"] = action_map(M, [-1, 1, 0])
+    out["edge_13"] = action_map(M, [-1, 0, 1])
+    order = np.bincount(M.indices, minlength=M.shape[1])  # corners per face
+    centroid = csr_matrix((1.0 / order[M.indices], M.indices.copy(), M.indptr.copy()), shape=M.shape)
+    out["centroid"] = centroid
     return out
+
+
+
+def action_map(M: Any, weights: Sequence[float]) -> Any:
+    """``M`` with each slot value k replaced by ``weights[k - 1]`` (0 past the end): a float64
+    ``csr_matrix`` whose transpose applied to the vertex positions gives one result per face,
+    ``(M_φᵀ V)[f] = Σ_k φ(k) · V[F[f, k - 1]]``; applied itself to per-face values, one result per vertex.
+
+    >>> V = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0]], float)
+    >>> M = gregvox.mesh_matrices(V, [[0, 1, 2]])["M"]
+    >>> gregvox.action_map(M, [-1, 1, 0]).T @ V     # the edge vector P2 - P1 of each face
+    array([[1., 0., 0.]])
+    """
+    from scipy.sparse import csr_matrix
+
+    w = np.asarray(weights, dtype=np.float64)
+    if w.ndim != 1:
+        raise ValueError(f"weights must be a sequence of numbers, not shape {w.shape}")
+    if not np.isfinite(w).all():
+        raise ValueError("weights must be finite")
+    table = np.zeros(int(M.data.max(initial=0)) + 1)
+    n = min(w.size, table.size - 1)
+    table[1 : n + 1] = w[:n]
+    return csr_matrix((table[M.data], M.indices.copy(), M.indptr.copy()), shape=M.shape)
+
+
+def vertex_normals(V: Any, F: Faces, weighting: str = "area") -> np.ndarray:
+    """Unit vertex normals, float64 (n, 3), each the normalized sum of its faces' normals weighted by face
+    ``area`` (libigl's default), corner ``angle`` (trimesh's ``vertex_normals``) or ``uniform``; an
+    unreferenced vertex gets a zero normal (never NaN)."""
+    return _gregvox.vertex_normals(*_mesh(V, F), str(weighting))

@@ -8,9 +8,10 @@
 use glam::DVec3;
 use gregvox::api::tessellate::{Patches, TessellateOptions};
 use gregvox::api::{
-    self, ContextDesc, Fill, FillRule, Gpu, GridSize, Mesh, Method, Scheme, Tangents, VoxelGrid,
-    VoxelizeOptions,
+    self, ContextDesc, Fill, FillRule, Gpu, GridSize, Mesh, Method, SaveOptions, Scheme, Tangents,
+    Validation, VoxelGrid, VoxelizeOptions,
 };
+use gregvox::mesh::NormalWeighting;
 use gregvox::Error;
 use numpy::{
     IntoPyArray, PyArray1, PyArray2, PyArrayMethods, PyReadonlyArray1, PyReadonlyArray2,
@@ -29,6 +30,24 @@ fn to_py(e: Error) -> PyErr {
         _ => PyRuntimeError::new_err(msg),
     }
 }
+
+/// The value named by `given` among `options` (a keyword argument such as `rule="gwn"`), or a
+/// `ValueError` listing the names.
+fn choice<T: Copy>(what: &str, given: &str, options: &[(&str, T)]) -> PyResult<T> {
+    options
+        .iter()
+        .find(|(name, _)| *name == given)
+        .map(|&(_, value)| value)
+        .ok_or_else(|| {
+            let names: Vec<&str> = options.iter().map(|(name, _)| *name).collect();
+            bad(format!(
+                "{what} '{given}' is not one of {}",
+                names.join(", ")
+            ))
+        })
+}
+
+const GIB: f64 = (1u64 << 30) as f64;
 
 fn bad(msg: impl Into<String>) -> PyErr {
     PyValueError::new_err(msg.into())
@@ -68,68 +87,107 @@ fn mesh_of(
         .chunks_exact(3)
         .map(|p| DVec3::new(p[0], p[1], p[2]))
         .collect();
-    let faces: Vec<Vec<u32>> = ptr
-        .windows(2)
-        .map(|w| {
-            idx[w[0] as usize..w[1] as usize]
-                .iter()
-                .map(|&i| i as u32)
-                .collect()
-        })
-        .collect();
-    Mesh::from_polygons(positions, &faces).map_err(to_py)
+    // In range (checked above): every index and offset fits u32 (at most |V| and |indices|, both < 2³²
+    // for any mesh the engine accepts; a larger one is refused by the engine's own size checks).
+    if ptr.last().copied().unwrap_or(0) > u32::MAX as i64 || n > u32::MAX as i64 {
+        return Err(bad("the mesh has more than 2³² vertices or corners"));
+    }
+    let ptr: Vec<u32> = ptr.iter().map(|&x| x as u32).collect();
+    let idx: Vec<u32> = idx.iter().map(|&x| x as u32).collect();
+    Mesh::from_offsets(positions, ptr, idx).map_err(to_py)
 }
 
-/// The Vulkan device.
+/// The Vulkan device. `finish` closes it; every later use raises `RuntimeError`.
 #[pyclass(module = "gregvox._gregvox", frozen)]
 struct Device {
-    gpu: Arc<Gpu>,
+    gpu: Mutex<Option<Arc<Gpu>>>,
+}
+
+impl Device {
+    /// The device, shared with the caller for one call (a surface keeps its own clone).
+    fn gpu(&self) -> PyResult<Arc<Gpu>> {
+        self.gpu
+            .lock()
+            .map_err(|_| PyRuntimeError::new_err("the device is in use"))?
+            .clone()
+            .ok_or_else(|| PyRuntimeError::new_err("the device was closed by finish()"))
+    }
 }
 
 #[pymethods]
 impl Device {
     /// `name`: a case-insensitive substring of the device name (default: `GREGVOX_DEVICE`, else the first
-    /// device; lavapipe where there is no GPU).
+    /// device; lavapipe where there is no GPU). `validation`: `True` requires the Vulkan validation layer,
+    /// `False` turns it off, `None` follows `GREGVOX_VALIDATION` (off in release builds).
     #[new]
-    #[pyo3(signature = (name=None))]
-    fn new(py: Python<'_>, name: Option<String>) -> PyResult<Self> {
+    #[pyo3(signature = (name=None, validation=None))]
+    fn new(py: Python<'_>, name: Option<String>, validation: Option<bool>) -> PyResult<Self> {
         let desc = ContextDesc {
             device_filter: name,
+            validation: match validation {
+                None => Validation::Auto,
+                Some(true) => Validation::Required,
+                Some(false) => Validation::Off,
+            },
             ..ContextDesc::default()
         };
         let gpu = py.allow_threads(|| Gpu::with_desc(&desc)).map_err(to_py)?;
-        Ok(Device { gpu: Arc::new(gpu) })
+        Ok(Device {
+            gpu: Mutex::new(Some(Arc::new(gpu))),
+        })
     }
 
     /// What `gregvox info --json` reports of the device, as a JSON text.
     #[getter]
     fn info_json(&self) -> PyResult<String> {
-        serde_json::to_string(self.gpu.info()).map_err(|e| PyRuntimeError::new_err(e.to_string()))
+        serde_json::to_string(self.gpu()?.info())
+            .map_err(|e| PyRuntimeError::new_err(e.to_string()))
+    }
+
+    /// Every validation message the device has received so far (empty when the layer is off).
+    #[getter]
+    fn validation_messages(&self) -> PyResult<Vec<String>> {
+        Ok(self.gpu()?.context().validation.messages())
+    }
+
+    /// Waits for the device, releases what it caches and closes it: raises `RuntimeError` if a GPU
+    /// allocation is still alive or the validation layer spoke, or if a surface still uses the device.
+    fn finish(&self, py: Python<'_>) -> PyResult<()> {
+        let mut slot = self
+            .gpu
+            .lock()
+            .map_err(|_| PyRuntimeError::new_err("the device is in use"))?;
+        let Some(gpu) = slot.take() else {
+            return Ok(());
+        };
+        match Arc::try_unwrap(gpu) {
+            Ok(gpu) => py.allow_threads(|| gpu.finish()).map_err(to_py),
+            Err(gpu) => {
+                let users = Arc::strong_count(&gpu) - 1;
+                *slot = Some(gpu);
+                Err(PyRuntimeError::new_err(format!(
+                    "the device is still used by {users} GregorySurface object(s): delete them first"
+                )))
+            }
+        }
     }
 }
 
-/// Loads any mesh file of the loader: (V float64 (n, 3), face offsets int64 (m + 1), indices int64).
-#[pyfunction]
-fn load_mesh<'py>(
-    py: Python<'py>,
-    path: std::path::PathBuf,
-) -> PyResult<(
+/// A mesh as NumPy arrays: V float64 (n, 3), face offsets int64 (m + 1), indices int64.
+type MeshArrays<'py> = (
     Bound<'py, PyArray2<f64>>,
     Bound<'py, PyArray1<i64>>,
     Bound<'py, PyArray1<i64>>,
-)> {
+);
+
+/// Loads any mesh file of the loader: (V float64 (n, 3), face offsets int64 (m + 1), indices int64).
+#[pyfunction]
+fn load_mesh<'py>(py: Python<'py>, path: std::path::PathBuf) -> PyResult<MeshArrays<'py>> {
     let mesh = py.allow_threads(|| api::load_mesh(&path)).map_err(to_py)?;
     Ok(arrays_of(py, &mesh))
 }
 
-fn arrays_of<'py>(
-    py: Python<'py>,
-    mesh: &Mesh,
-) -> (
-    Bound<'py, PyArray2<f64>>,
-    Bound<'py, PyArray1<i64>>,
-    Bound<'py, PyArray1<i64>>,
-) {
+fn arrays_of<'py>(py: Python<'py>, mesh: &Mesh) -> MeshArrays<'py> {
     let v: Vec<f64> = mesh.positions.iter().flat_map(|p| p.to_array()).collect();
     let v = v
         .into_pyarray(py)
@@ -143,17 +201,18 @@ fn arrays_of<'py>(
 /// The `mesh --json` topology report, as a JSON text.
 #[pyfunction]
 fn topology_json(
+    py: Python<'_>,
     v: PyReadonlyArray2<'_, f64>,
     face_ptr: PyReadonlyArray1<'_, i64>,
     indices: PyReadonlyArray1<'_, i64>,
 ) -> PyResult<String> {
     let mesh = mesh_of(&v, &face_ptr, &indices)?;
-    serde_json::to_string(&api::topology(&mesh)).map_err(|e| PyRuntimeError::new_err(e.to_string()))
+    let report = py.allow_threads(|| api::topology(&mesh));
+    serde_json::to_string(&report).map_err(|e| PyRuntimeError::new_err(e.to_string()))
 }
 
 /// Subdivision: the refined mesh as arrays.
 #[pyfunction]
-#[allow(clippy::type_complexity)]
 fn subdivide<'py>(
     py: Python<'py>,
     v: PyReadonlyArray2<'_, f64>,
@@ -161,22 +220,17 @@ fn subdivide<'py>(
     indices: PyReadonlyArray1<'_, i64>,
     levels: u32,
     scheme: &str,
-) -> PyResult<(
-    Bound<'py, PyArray2<f64>>,
-    Bound<'py, PyArray1<i64>>,
-    Bound<'py, PyArray1<i64>>,
-)> {
+) -> PyResult<MeshArrays<'py>> {
     let mesh = mesh_of(&v, &face_ptr, &indices)?;
-    let scheme = match scheme {
-        "catmull-clark" => Scheme::CatmullClark,
-        "loop" => Scheme::Loop,
-        "loop-warren" => Scheme::LoopWarren,
-        s => {
-            return Err(bad(format!(
-                "scheme '{s}' is not one of catmull-clark, loop, loop-warren"
-            )))
-        }
-    };
+    let scheme = choice(
+        "scheme",
+        scheme,
+        &[
+            ("catmull-clark", Scheme::CatmullClark),
+            ("loop", Scheme::Loop),
+            ("loop-warren", Scheme::LoopWarren),
+        ],
+    )?;
     let out = py
         .allow_threads(|| api::subdivide(&mesh, levels, scheme))
         .map_err(to_py)?;
@@ -194,7 +248,7 @@ fn mesh_matrices<'py>(
     indices: PyReadonlyArray1<'_, i64>,
 ) -> PyResult<Bound<'py, pyo3::types::PyDict>> {
     let mesh = mesh_of(&v, &face_ptr, &indices)?;
-    let m = api::MeshMatrix::from_mesh(&mesh);
+    let m = py.allow_threads(|| api::MeshMatrix::from_mesh(&mesh));
     let dict = pyo3::types::PyDict::new(py);
     let csr = |data: Vec<i64>, cols: Vec<i64>, ptr: Vec<i64>, shape: (usize, usize)| {
         (
@@ -238,6 +292,34 @@ fn mesh_matrices<'py>(
     Ok(dict)
 }
 
+/// Unit vertex normals, float64 (n, 3), weighted by face `area` (libigl's default), `angle` (trimesh's) or
+/// `uniform`; an unreferenced vertex gets a zero normal.
+#[pyfunction]
+fn vertex_normals<'py>(
+    py: Python<'py>,
+    v: PyReadonlyArray2<'_, f64>,
+    face_ptr: PyReadonlyArray1<'_, i64>,
+    indices: PyReadonlyArray1<'_, i64>,
+    weighting: &str,
+) -> PyResult<Bound<'py, PyArray2<f64>>> {
+    let mesh = mesh_of(&v, &face_ptr, &indices)?;
+    let weighting = choice(
+        "weighting",
+        weighting,
+        &[
+            ("area", NormalWeighting::Area),
+            ("angle", NormalWeighting::Angle),
+            ("uniform", NormalWeighting::Uniform),
+        ],
+    )?;
+    let n = py.allow_threads(|| {
+        let m = api::MeshMatrix::from_mesh(&mesh);
+        gregvox::mesh::vertex_normals(&m, &mesh.positions, weighting)
+    });
+    let flat: Vec<f64> = n.iter().flat_map(|p| p.to_array()).collect();
+    flat.into_pyarray(py).reshape([n.len(), 3])
+}
+
 /// A packed voxel grid (the engine's), kept for `save`.
 #[pyclass(module = "gregvox._gregvox", frozen)]
 struct PackedGrid {
@@ -247,16 +329,19 @@ struct PackedGrid {
 #[pymethods]
 impl PackedGrid {
     /// Writes the grid in the format the extension names (.binvox, .npy, .raw, .vox, .vdb…), atomically.
-    fn save(&self, py: Python<'_>, path: std::path::PathBuf) -> PyResult<()> {
+    #[pyo3(signature = (path, npy_packed=false))]
+    fn save(&self, py: Python<'_>, path: std::path::PathBuf, npy_packed: bool) -> PyResult<()> {
         if let Err(e) = gregvox::io::check_output(&path) {
             return Err(to_py(e));
         }
-        py.allow_threads(|| self.grid.save(&path)).map_err(to_py)
+        let opts = SaveOptions { npy_packed };
+        py.allow_threads(|| self.grid.save_with(&path, &opts))
+            .map_err(to_py)
     }
 }
 
 /// Voxelizes a mesh: (occupancy uint8 (X, Y, Z) C order, origin, voxel size, the packed grid, the report
-/// as JSON).
+/// as JSON, the seconds `Gpu::voxelize` itself took).
 #[pyfunction]
 #[pyo3(signature = (device, v, face_ptr, indices, res=None, dims=None, voxel_size=None, bbox=None, pad=0, rule="auto", fill="solid", method="auto"))]
 #[allow(clippy::too_many_arguments, clippy::type_complexity)]
@@ -280,6 +365,7 @@ fn voxelize<'py>(
     [f64; 3],
     PackedGrid,
     String,
+    f64,
 )> {
     let mesh = mesh_of(&v, &face_ptr, &indices)?;
     let mut opts = VoxelizeOptions::default();
@@ -297,55 +383,78 @@ fn voxelize<'py>(
         opts = opts.bbox(lo, hi);
     }
     opts = opts.pad(pad);
-    opts.rule = match rule {
-        "auto" | "gwn" => FillRule::Gwn,
-        "winding" => FillRule::Winding,
-        "parity" => FillRule::Parity,
-        r => {
+    opts.rule = choice(
+        "rule",
+        rule,
+        &[
+            ("auto", FillRule::Gwn),
+            ("gwn", FillRule::Gwn),
+            ("winding", FillRule::Winding),
+            ("parity", FillRule::Parity),
+        ],
+    )?;
+    opts.fill = choice(
+        "fill",
+        fill,
+        &[
+            ("solid", Fill::Solid),
+            ("surface", Fill::Surface),
+            ("both", Fill::Both),
+        ],
+    )?;
+    opts.method = choice(
+        "method",
+        method,
+        &[
+            ("auto", Method::Auto),
+            ("peel", Method::Peel),
+            ("abuffer", Method::Abuffer),
+            ("cpu", Method::Cpu),
+        ],
+    )?;
+    // The NumPy array takes a byte per voxel: refuse, before any work, a grid whose array would not fit.
+    let frame = api::grid_frame(&mesh, &opts).map_err(to_py)?;
+    let bytes = frame.voxel_count();
+    if let Some(free) = gregvox::io::host_memory_available() {
+        // The packed grid (an eighth) and the engine's working set come on top of the array.
+        if bytes > free / 2 {
+            let [x, y, z] = frame.dims;
             return Err(bad(format!(
-                "rule '{r}' is not one of auto, gwn, winding, parity"
-            )))
+                "the occupancy array of {x}×{y}×{z} voxels needs {:.1} GiB (a byte per voxel), more than \
+                 half of the {:.1} GiB of memory available: choose a coarser grid",
+                bytes as f64 / GIB,
+                free as f64 / GIB
+            )));
         }
-    };
-    opts.fill = match fill {
-        "solid" => Fill::Solid,
-        "surface" => Fill::Surface,
-        "both" => Fill::Both,
-        f => {
-            return Err(bad(format!(
-                "fill '{f}' is not one of solid, surface, both"
-            )))
-        }
-    };
-    opts.method = match method {
-        "auto" => Method::Auto,
-        "peel" => Method::Peel,
-        "abuffer" => Method::Abuffer,
-        "cpu" => Method::Cpu,
-        m => {
-            return Err(bad(format!(
-                "method '{m}' is not one of auto, peel, abuffer, cpu"
-            )))
-        }
-    };
-    let gpu = device.gpu.clone();
-    let (dense, v) = py
+    }
+    let gpu = device.gpu()?;
+    let (dense, v, seconds) = py
         .allow_threads(|| -> gregvox::Result<_> {
+            let start = std::time::Instant::now();
             let v = gpu.voxelize(&mesh, &opts)?;
+            let seconds = start.elapsed().as_secs_f64();
+            // The one copy into NumPy: the packed bits expanded to one byte per voxel, x-major.
             let mut dense = vec![0u8; v.grid.frame.voxel_count() as usize];
             v.grid.write_dense_xyz(&mut dense);
-            Ok((dense, v))
+            Ok((dense, v, seconds))
         })
         .map_err(to_py)?;
     let d = v.grid.frame.dims.map(|x| x as usize);
     let occupancy = dense.into_pyarray(py).reshape(d)?;
-    let report = serde_json::to_string(&v.report).unwrap_or_default();
+    // The `voxelize --json` summary, with the notes the CLI prints on stderr and the library's own time.
+    let mut summary = v.summary_json();
+    if let Some(o) = summary.as_object_mut() {
+        o.insert("notes".into(), v.report.notes.clone().into());
+        o.insert("seconds".into(), seconds.into());
+    }
+    let report = summary.to_string();
     Ok((
         occupancy,
         v.grid.frame.origin,
         v.grid.frame.voxel_size,
         PackedGrid { grid: v.grid },
         report,
+        seconds,
     ))
 }
 
@@ -360,6 +469,7 @@ struct GregorySurface {
 impl GregorySurface {
     #[new]
     fn new(
+        py: Python<'_>,
         device: &Device,
         v: PyReadonlyArray2<'_, f64>,
         face_ptr: PyReadonlyArray1<'_, i64>,
@@ -367,18 +477,19 @@ impl GregorySurface {
         tangents: &str,
     ) -> PyResult<Self> {
         let mesh = mesh_of(&v, &face_ptr, &indices)?;
-        let tangents = match tangents {
-            "opensubdiv" => Tangents::OpenSubdiv,
-            "exact" => Tangents::Exact,
-            t => {
-                return Err(bad(format!(
-                    "tangents '{t}' is not one of opensubdiv, exact"
-                )))
-            }
-        };
-        let patches = Patches::from_cage(&mesh, tangents).map_err(to_py)?;
+        let tangents = choice(
+            "tangents",
+            tangents,
+            &[
+                ("opensubdiv", Tangents::OpenSubdiv),
+                ("exact", Tangents::Exact),
+            ],
+        )?;
+        let patches = py
+            .allow_threads(|| Patches::from_cage(&mesh, tangents))
+            .map_err(to_py)?;
         Ok(GregorySurface {
-            gpu: device.gpu.clone(),
+            gpu: device.gpu()?,
             patches: Mutex::new(patches),
         })
     }
@@ -422,14 +533,16 @@ impl GregorySurface {
         let mut p = Vec::with_capacity(t.vertices.len() * 3);
         let mut nn = Vec::with_capacity(t.vertices.len() * 3);
         for v in &t.vertices {
-            for k in 0..3 {
-                p.push(if far {
-                    (v.position[k] as f64 + o[k]) as f32
+            // A far cage is evaluated in a local frame: back to world coordinates (in f64, then rounded).
+            let xyz = v.xyz();
+            p.extend((0..3).map(|k| {
+                if far {
+                    (xyz[k] as f64 + o[k]) as f32
                 } else {
-                    v.position[k]
-                });
-                nn.push(v.normal[k]);
-            }
+                    xyz[k]
+                }
+            }));
+            nn.extend(v.normal_xyz());
         }
         Ok((
             p.into_pyarray(py).reshape(shape)?,
@@ -477,7 +590,7 @@ fn grid_indices<'py>(
     }
     let idx = gregvox::passes::gregory_eval::grid_indices(patches, level);
     let m = idx.len() / 3;
-    Ok(idx.into_pyarray(py).reshape([m, 3])?)
+    idx.into_pyarray(py).reshape([m, 3])
 }
 
 #[pymodule]
@@ -491,5 +604,6 @@ fn _gregvox(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(mesh_matrices, m)?)?;
     m.add_function(wrap_pyfunction!(voxelize, m)?)?;
     m.add_function(wrap_pyfunction!(grid_indices, m)?)?;
+    m.add_function(wrap_pyfunction!(vertex_normals, m)?)?;
     Ok(())
 }

@@ -428,6 +428,49 @@ fn to_world(mut frame: GridFrame, shift: [f64; 3]) -> GridFrame {
 }
 
 impl Voxelization {
+    /// What `gregvox voxelize --json` reports of this result (the CLI adds the input, the size flag, the
+    /// time and the profile): the grid's `dims`, `voxel_size`, `origin` and `index_to_world`, the method
+    /// and why, the rule, the fill, triangles and removed ones, closed, the axes, peeling layers per axis
+    /// and the solid voxel count. The Python `Grid.report` is this object.
+    ///
+    /// ```
+    /// # use gregvox::api::{Mesh, VoxelizeOptions, voxelize_on_cpu}; use glam::DVec3;
+    /// let cube = gregvox::api::Mesh::from_polygons(
+    ///     (0..8).map(|i| DVec3::new((i & 1) as f64, (i >> 1 & 1) as f64, (i >> 2) as f64)).collect(),
+    ///     &[vec![0, 2, 3, 1], vec![4, 5, 7, 6], vec![0, 1, 5, 4], vec![2, 6, 7, 3], vec![0, 4, 6, 2], vec![1, 3, 7, 5]],
+    /// ).unwrap();
+    /// let v = voxelize_on_cpu(&cube, &VoxelizeOptions::default().res(4)).unwrap();
+    /// let json = v.summary_json();
+    /// assert_eq!(json["solid_voxels"], 64);
+    /// assert_eq!(json["rule"], "gwn");
+    /// ```
+    pub fn summary_json(&self) -> serde_json::Value {
+        let (report, grid) = (&self.report, &self.grid);
+        let f = &grid.frame;
+        let layers: std::collections::BTreeMap<String, u32> = report
+            .layers
+            .iter()
+            .map(|(a, l)| (a.name().to_string(), *l))
+            .collect();
+        serde_json::json!({
+            "dims": f.dims,
+            "voxel_size": f.voxel_size,
+            "origin": f.origin,
+            "index_to_world": f.index_to_world(),
+            "method": report.method,
+            "method_reason": report.method_reason,
+            "rule": format!("{:?}", report.rule).to_lowercase(),
+            "gwn": report.gwn,
+            "fill": report.fill,
+            "triangles": report.triangles,
+            "removed": report.removed,
+            "closed": report.closed,
+            "axes": report.axes.iter().map(|a| a.name()).collect::<Vec<_>>(),
+            "layers": layers,
+            "solid_voxels": grid.count(),
+        })
+    }
+
     /// The result of a voxelization in the local frame of `shift`, moved to world coordinates.
     fn in_world(mut self, shift: [f64; 3]) -> Voxelization {
         self.grid.frame = to_world(self.grid.frame, shift);

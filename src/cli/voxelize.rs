@@ -224,7 +224,8 @@ pub fn run(args: &VoxelizeArgs) -> anyhow::Result<()> {
     if let Some(bar) = bar {
         bar.finish_and_clear();
     }
-    let Voxelization { grid, report } = result.map_err(|e| e.for_input(&args.input))?;
+    let result = result.map_err(|e| e.for_input(&args.input))?;
+    let Voxelization { grid, report } = &result;
     let seconds = start.elapsed().as_secs_f64();
     for n in &report.notes {
         eprintln!("gregvox voxelize: {n}");
@@ -248,36 +249,20 @@ pub fn run(args: &VoxelizeArgs) -> anyhow::Result<()> {
     }
     // With the grid on standard output, everything said goes to stderr.
     let to_stdout = args.out.as_deref().is_some_and(crate::io::is_stdout);
-    let layers: std::collections::BTreeMap<String, u32> = report
-        .layers
-        .iter()
-        .map(|(a, l)| (a.name().to_string(), *l))
-        .collect();
     let f = &grid.frame;
     let [nx, ny, nz] = f.dims;
     if args.json {
-        let summary = serde_json::json!({
+        let mut summary = result.summary_json();
+        let extra = serde_json::json!({
             "input": args.input.display().to_string(),
             "res": args.grid.res,
-            "dims": f.dims,
-            "voxel_size": f.voxel_size,
-            "origin": f.origin,
-            "index_to_world": f.index_to_world(),
-            "method": report.method,
-            "method_reason": report.method_reason,
-            "rule": format!("{:?}", report.rule).to_lowercase(),
-            "gwn": report.gwn,
-            "fill": report.fill,
             "gregory_level": args.gregory_level,
-            "triangles": report.triangles,
-            "removed": report.removed,
-            "closed": report.closed,
-            "axes": report.axes.iter().map(|a| a.name()).collect::<Vec<_>>(),
-            "layers": layers,
-            "solid_voxels": grid.count(),
             "seconds": seconds,
             "profile": profiler.as_ref().map(|p| p.json()),
         });
+        if let (Some(s), serde_json::Value::Object(e)) = (summary.as_object_mut(), extra) {
+            s.extend(e);
+        }
         let json = format!("{}\n", serde_json::to_string_pretty(&summary)?);
         if to_stdout {
             eprint!("{json}");
@@ -316,7 +301,7 @@ pub fn run(args: &VoxelizeArgs) -> anyhow::Result<()> {
             .map(|r| format!(" ({r})"))
             .unwrap_or_default()
     ));
-    if !layers.is_empty() {
+    if !report.layers.is_empty() {
         let l: Vec<String> = report
             .layers
             .iter()

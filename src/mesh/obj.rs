@@ -48,6 +48,35 @@ impl Mesh {
             indices.extend_from_slice(f);
             face_ptr.push(indices.len() as u32);
         }
+        Mesh::from_offsets(positions, face_ptr, indices)
+    }
+
+    /// Builds a mesh from positions, face offsets (|F| + 1, starting at 0) and the concatenated indices,
+    /// validating like the loader does; no per-face allocation (the Python bindings pass arrays so).
+    ///
+    /// ```
+    /// use gregvox::mesh::Mesh;
+    /// use glam::DVec3;
+    /// let p = vec![DVec3::ZERO, DVec3::X, DVec3::Y, DVec3::ONE];
+    /// let m = Mesh::from_offsets(p.clone(), vec![0, 3, 6], vec![0, 1, 2, 2, 1, 3]).unwrap();
+    /// assert_eq!(m.face(1), &[2, 1, 3]);
+    /// assert!(Mesh::from_offsets(p.clone(), vec![0, 3, 5], vec![0, 1, 2, 2, 1, 3]).is_err());
+    /// assert!(Mesh::from_offsets(p, vec![0, 3], vec![0, 1, 4]).is_err());
+    /// ```
+    pub fn from_offsets(
+        positions: Vec<DVec3>,
+        face_ptr: Vec<u32>,
+        indices: Vec<u32>,
+    ) -> Result<Self> {
+        if face_ptr.first() != Some(&0)
+            || face_ptr.last().map(|&n| n as usize) != Some(indices.len())
+            || face_ptr.windows(2).any(|w| w[1] < w[0])
+        {
+            return Err(Error::Mesh(format!(
+                "the face offsets do not cover the {} indices in order (from 0, never decreasing)",
+                indices.len()
+            )));
+        }
         let mesh = Mesh {
             positions,
             face_ptr,

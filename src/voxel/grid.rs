@@ -468,21 +468,37 @@ impl VoxelGrid {
             self.frame.voxel_count(),
             "one byte per voxel"
         );
-        // Bits along z are the dense rows: unpack each column's words in one pass.
-        let along_z;
-        let g = if self.bit_axis == Axis::Z {
-            self
-        } else {
-            along_z = self.to_axis(Axis::Z);
-            &along_z
-        };
         let [nx, ny, nz] = self.frame.dims.map(|d| d as usize);
+        if self.bit_axis == Axis::Z {
+            // Bits along z are the dense rows: unpack each column's words in one pass.
+            for x in 0..nx {
+                for y in 0..ny {
+                    let column = self.column(x as u32, y as u32);
+                    let row = &mut out[(x * ny + y) * nz..(x * ny + y + 1) * nz];
+                    for (z, b) in row.iter_mut().enumerate() {
+                        *b = (column[z / 32] >> (z % 32) & 1) as u8;
+                    }
+                }
+            }
+            return;
+        }
+        // Bits along x or y: within a dense row (x, y fixed, z running) the bit is fixed and z steps
+        // through whole columns, so the row reads one word per voxel at a constant stride. No transpose.
+        let axis = self.bit_axis.index();
+        let (ua, _) = self.bit_axis.uv();
+        let nu = self.frame.dims[ua] as usize;
+        let w = self.frame.words_per_column(self.bit_axis) as usize;
+        let word_of = |ijk: [usize; 3]| {
+            let (ua, va) = self.bit_axis.uv();
+            (ijk[va] * nu + ijk[ua]) * w + ijk[axis] / 32
+        };
+        let stride = word_of([0, 0, 1]) - word_of([0, 0, 0]);
         for x in 0..nx {
             for y in 0..ny {
-                let column = g.column(x as u32, y as u32);
+                let (base, shift) = (word_of([x, y, 0]), [x, y][axis] % 32);
                 let row = &mut out[(x * ny + y) * nz..(x * ny + y + 1) * nz];
                 for (z, b) in row.iter_mut().enumerate() {
-                    *b = (column[z / 32] >> (z % 32) & 1) as u8;
+                    *b = (self.words[base + z * stride] >> shift & 1) as u8;
                 }
             }
         }

@@ -1,0 +1,291 @@
+"""voxelize and Grid against the CLI on the same files (the same bits, the same files byte for byte, the
+same grid contract) and against the exact generalized winding number computed here in NumPy."""
+import json
+import os
+import subprocess
+import sys
+import time
+
+import numpy as np
+import pytest
+
+import gregvox
+from conftest import cube, tetrahedron
+
+
+def winding_numbers(V, F, points, chunk=128):
+    """The generalized winding number of each point (Van Oosterom & Strackee's solid angle per triangle)."""
+    out = np.empty(len(points))
+    tri = V[F]
+    for s in range(0, len(points), chunk):
+        p = points[s : s + chunk, None, None, :]
+        a, b, c = (tri[None, :, k, :] - p[:, :, 0, :] for k in range(3))
+        la, lb, lc = (np.linalg.norm(x, axis=2) for x in (a, b, c))
+        det = np.einsum("pti,pti->pt", a, np.cross(b, c))
+        den = la * lb * lc + np.einsum("pti,pti->pt", a, b) * lc
+        den += np.einsum("pti,pti->pt", b, c) * la + np.einsum("pti,pti->pt", c, a) * lb
+        out[s : s + chunk] = np.arctan2(det, den).sum(axis=1) / (2 * np.pi)
+    return out
+
+
+def all_centres(grid):
+    idx = np.indices(grid.dims).reshape(3, -1).T
+    return grid.origin + (idx + 0.5) * grid.voxel_size
+
+
+_winding_cache = {}
+
+
+def winding_of_grid(V, F, grid, key):
+    """The winding number at every voxel centre of ``grid``, computed once per mesh and grid."""
+    if key not in _winding_cache:
+        _winding_cache[key] = winding_numbers(V, F, all_centres(grid)).reshape(grid.dims)
+    return _winding_cache[key]
+
+
+@pytest.mark.parametrize("method", ["auto", "peel", "abuffer", "cpu"])
+def test_a_closed_mesh_is_solid_exactly_where_its_winding_number_is_one(models, method):
+    V, F = gregvox.load_mesh(models / "spot.obj")
+    grid = gregvox.voxelize(V, F, res=20, method=method)
+    inside = winding_of_grid(V, F, grid, "spot-20") > 0.5
+    assert grid.occupancy.dtype == np.bool_ and grid.occupancy.shape == (20, 20, 20)
+    assert inside.sum() > 500
+    np.testing.assert_array_equal(grid.occupancy, inside)
+
+
+@pytest.mark.parametrize("method", ["auto", "cpu"])
+def test_an_open_mesh_follows_the_generalized_winding_number(models, method):
+    V, F = gregvox.load_mesh(models / "spot.obj")
+    F = F[np.linalg.norm(V[F].mean(axis=1) - V[F].mean(axis=(0, 1)), axis=1).argsort()[200:]]  # holes
+    grid = gregvox.voxelize(V, F, res=16, method=method)
+    assert not gregvox.topology(V, F)["closed"]
+    assert grid.report["rule"].lower() == "gwn"
+    w = winding_of_grid(V, F, grid, "open-spot-16")
+    clear = np.abs(w - 0.5) > 0.05  # away from the rule's threshold, where rounding cannot decide
+    assert clear.sum() > 0.9 * w.size and ((w > 0.05) & (w < 0.95)).any()  # the holes matter
+    np.testing.assert_array_equal(grid.occupancy[clear], (w > 0.5)[clear])
+
+
+@pytest.mark.parametrize(
+    "args,kwargs",
+    [
+        (["--res", "32"], dict(res=32)),
+        (["--dims", "20,30,12"], dict(dims=(20, 30, 12))),
+        (["--voxel-size", "0.05", "--pad", "2"], dict(voxel_size=0.05, pad=2)),
+        (["--res", "16", "--bbox", "-0.5,-0.5,-0.5,0.5,0.5,0.5"], dict(res=16, bbox=((-0.5,) * 3, (0.5,) * 3))),
+        (["--res", "24", "--fill", "surface"], dict(res=24, fill="surface")),
+        (["--res", "24", "--fill", "both", "--rule", "parity"], dict(res=24, fill="both", rule="parity")),
+    ],
+)
+def test_voxelize_gives_the_grid_and_the_files_of_the_cli(cli, models, tmp_path, args, kwargs):
+    mesh = models / "cow.obj"
+    V, F = gregvox.load_mesh(mesh)
+    grid = gregvox.voxelize(V, F, **kwargs)
+    ref = tmp_path / "cli.npy"
+    report = cli.json("voxelize", mesh, *args, "--out", ref, "--json")
+    np.testing.assert_array_equal(grid.occupancy, np.load(ref))
+    cli_only = {"input", "res", "gregory_level", "seconds", "profile"}
+    assert {k: v for k, v in report.items() if k not in cli_only} == {
+        k: v for k, v in grid.report.items() if k not in ("notes", "seconds")
+    }
+    sidecar = json.loads((tmp_path / "cli.npy.json").read_text())
+    assert list(grid.dims) == sidecar["dims"]
+    np.testing.assert_array_equal(grid.origin, sidecar["origin"])
+    np.testing.assert_array_equal(grid.voxel_size, sidecar["voxel_size"])
+    np.testing.assert_array_equal(grid.index_to_world, np.array(sidecar["index_to_world"]).reshape(4, 4))
+    # Every format the CLI writes, byte for byte (binvox only for cubic grids).
+    formats = ["npy", "nrrd", "raw", "vox"] + (["binvox"] if "--res" in args else [])
+    for ext in formats:
+        mine = tmp_path / f"py.{ext}"
+        grid.save(mine)
+        theirs = tmp_path / f"cli.{ext}"
+        if ext != "npy":
+            cli.run("voxelize", mesh, *args, "--out", theirs)
+        assert mine.read_bytes() == theirs.read_bytes(), ext
+        if ext in ("npy", "raw", "vox"):
+            assert (tmp_path / f"py.{ext}.json").read_bytes() == (tmp_path / f"cli.{ext}.json").read_bytes()
+    grid.save(tmp_path / "packed.npy", npy_packed=True)
+    cli.run("voxelize", mesh, *args, "--out", tmp_path / "cli-packed.npy", "--npy-packed")
+    assert (tmp_path / "packed.npy").read_bytes() == (tmp_path / "cli-packed.npy").read_bytes()
+
+
+def test_the_bunny_at_256_is_the_cli_grid(cli, models, tmp_path):
+    mesh = models / "stanford-bunny.obj"
+    V, F = gregvox.load_mesh(mesh)
+    grid = gregvox.voxelize(V, F, res=256)
+    cli.run("voxelize", mesh, "--res", "256", "--out", tmp_path / "bunny.npy")
+    np.testing.assert_array_equal(grid.occupancy, np.load(tmp_path / "bunny.npy"))
+    assert 0 < grid.library_seconds == grid.report["seconds"]
+
+
+def test_grid_centres_and_matrix_follow_the_contract():
+    V, F = cube()
+    grid = gregvox.voxelize(V, F, dims=(4, 4, 4), bbox=((0, 0, 0), (1, 1, 1)))
+    assert grid.occupancy.all()
+    np.testing.assert_array_equal(grid.origin, [0, 0, 0])
+    np.testing.assert_array_equal(grid.voxel_size, [0.25] * 3)
+    c = grid.centers()
+    assert c.shape == (64, 3)
+    np.testing.assert_array_equal(c[0], [0.125] * 3)
+    ijk1 = np.c_[np.argwhere(grid.occupancy), np.ones(64)]
+    np.testing.assert_array_equal((grid.index_to_world @ ijk1.T).T[:, :3], c)
+    # Indexed [x, y, z]: a slab in x only.
+    grid = gregvox.voxelize(V, F, dims=(8, 4, 4), bbox=((0, 0, 0), (2, 1, 1)))
+    assert grid.occupancy[:4].all() and not grid.occupancy[4:].any()
+
+
+def test_arrays_of_any_layout_or_number_type_give_the_same_grid():
+    V, F = tetrahedron()
+    ref = gregvox.voxelize(V, F, res=12).occupancy
+    variants = [
+        (np.asfortranarray(V), np.asfortranarray(F)),
+        (np.repeat(V, 2, axis=0)[::2], F),  # a strided view
+        (V.astype(np.float32), F.astype(np.int32)),
+        (V.astype(np.int64), F.astype(np.uint16)),
+        (V.tolist(), F.tolist()),
+        (V, [list(f) for f in F]),
+    ]
+    for v, f in variants:
+        np.testing.assert_array_equal(gregvox.voxelize(v, f, res=12).occupancy, ref)
+
+
+BAD = [
+    ("V of strings", lambda V, F: (V.astype(str), F), {}),
+    ("complex V", lambda V, F: (V.astype(complex), F), {}),
+    ("bool V", lambda V, F: (V.astype(bool), F), {}),
+    ("V (n, 2)", lambda V, F: (V[:, :2], F), {}),
+    ("V (n, 3, 1)", lambda V, F: (V[:, :, None], F), {}),
+    ("NaN in V", lambda V, F: (np.where(np.arange(12).reshape(4, 3) == 5, np.nan, V), F), {}),
+    ("inf in V", lambda V, F: (V + np.array([0, 0, np.inf]), F), {}),
+    ("index past V", lambda V, F: (V, np.where(F == 3, 4, F)), {}),
+    ("negative index", lambda V, F: (V, -F), {}),
+    ("float F", lambda V, F: (V, F.astype(float)), {}),
+    ("F (m, 2)", lambda V, F: (V, F[:, :2]), {}),
+    ("F (m, 3, 1)", lambda V, F: (V, F[:, :, None]), {}),
+    ("a face of two", lambda V, F: (V, [[0, 1, 2], [0, 1]]), {}),
+    ("empty V", lambda V, F: (np.zeros((0, 3)), np.zeros((0, 3), int)), {}),
+    ("empty F", lambda V, F: (V, np.zeros((0, 3), int)), {}),
+    ("res 0", lambda V, F: (V, F), dict(res=0)),
+    ("negative res", lambda V, F: (V, F), dict(res=-4)),
+    ("res and dims", lambda V, F: (V, F), dict(res=8, dims=(8, 8, 8))),
+    ("two dims", lambda V, F: (V, F), dict(dims=(8, 8))),
+    ("zero voxel size", lambda V, F: (V, F), dict(voxel_size=0.0)),
+    ("NaN voxel size", lambda V, F: (V, F), dict(voxel_size=float("nan"))),
+    ("inverted bbox", lambda V, F: (V, F), dict(res=8, bbox=((1, 1, 1), (0, 0, 0)))),
+    ("bbox shape", lambda V, F: (V, F), dict(res=8, bbox=(0, 0, 0, 1, 1, 1))),
+    ("unknown rule", lambda V, F: (V, F), dict(rule="majority")),
+    ("unknown fill", lambda V, F: (V, F), dict(fill="hollow")),
+    ("unknown method", lambda V, F: (V, F), dict(method="cuda")),
+    ("a grid past the device", lambda V, F: (V, F), dict(res=200_000)),
+]
+
+
+@pytest.mark.parametrize("what,make,kwargs", BAD, ids=[b[0] for b in BAD])
+def test_bad_input_raises_value_error_with_one_line(what, make, kwargs):
+    V, F = make(*tetrahedron())
+    with pytest.raises(ValueError) as e:
+        gregvox.voxelize(V, F, **kwargs)
+    message = str(e.value)
+    assert message and "\n" not in message and "panick" not in message
+
+
+def test_files_raise_os_error_and_write_nothing(tmp_path):
+    with pytest.raises(OSError, match="missing.obj"):
+        gregvox.load_mesh(tmp_path / "missing.obj")
+    truncated = tmp_path / "cut.stl"
+    truncated.write_bytes(b"\0" * 80 + (1000).to_bytes(4, "little") + b"\0" * 60)  # 1,000 triangles claimed
+    with pytest.raises(ValueError, match="cut.stl"):
+        gregvox.load_mesh(truncated)
+    garbage = tmp_path / "garbage.obj"
+    garbage.write_text("v 0 0 0\nf 1 2 3\n")
+    with pytest.raises(ValueError, match="garbage.obj"):
+        gregvox.load_mesh(garbage)
+    grid = gregvox.voxelize(*tetrahedron(), res=8)
+    with pytest.raises(OSError):
+        grid.save(tmp_path / "no" / "such" / "folder" / "a.binvox")
+    with pytest.raises(ValueError, match="format"):
+        grid.save(tmp_path / "a.unknown")
+    flat = gregvox.voxelize(*tetrahedron(), dims=(8, 8, 4))
+    with pytest.raises(ValueError, match="binvox"):
+        flat.save(tmp_path / "flat.binvox")
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["cut.stl", "garbage.obj"]
+
+
+def test_a_device_that_does_not_exist_is_a_runtime_error():
+    with pytest.raises(RuntimeError, match="no-such-gpu"):
+        gregvox.Device("no-such-gpu")
+    with pytest.raises(TypeError):
+        gregvox.voxelize(*tetrahedron(), res=8, device="lavapipe")
+
+
+def rss_bytes():
+    with open("/proc/self/statm") as f:
+        return int(f.read().split()[1]) * os.sysconf("SC_PAGE_SIZE")
+
+
+@pytest.mark.parametrize("method", ["peel", "cpu"])
+def test_a_thousand_voxelize_calls_keep_memory_flat(method):
+    V, F = tetrahedron()
+    for _ in range(50):  # warm: pipelines made, allocator pools grown
+        gregvox.voxelize(V, F, res=16, method=method)
+    before = rss_bytes()
+    for _ in range(1000):
+        grid = gregvox.voxelize(V, F, res=16, method=method)
+    grown = rss_bytes() - before
+    assert grid.occupancy.sum() > 0
+    assert grown < 16 << 20, f"resident memory grew by {grown / 2**20:.1f} MiB over 1,000 calls"
+
+
+def test_a_grid_whose_array_would_not_fit_in_memory_is_refused_before_any_work(tmp_path):
+    child = tmp_path / "child.py"
+    child.write_text(
+        "import resource, sys\n"
+        "resource.setrlimit(resource.RLIMIT_AS, (3 << 30, 3 << 30))\n"
+        "import numpy as np, gregvox\n"
+        "V = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1]], float)\n"
+        "F = np.array([[0, 2, 1], [0, 1, 3], [1, 2, 3], [2, 0, 3]])\n"
+        "try:\n"
+        "    gregvox.voxelize(V, F, dims=(2048, 2048, 1024), method='cpu')\n"
+        "except ValueError as e:\n"
+        "    print(e)\n"
+        "    sys.exit(3)\n"
+    )
+    p = subprocess.run([sys.executable, str(child)], capture_output=True, text=True)
+    assert p.returncode == 3, p.stderr
+    assert "2048×2048×1024" in p.stdout and "memory available" in p.stdout
+    assert list(tmp_path.iterdir()) == [child]
+
+
+def test_a_grid_past_the_engine_limits_names_the_limit():
+    with pytest.raises(ValueError, match="between 1 and"):
+        gregvox.voxelize(*tetrahedron(), dims=(100_000, 4, 4))
+    with pytest.raises(ValueError, match="res=0"):
+        gregvox.voxelize(*tetrahedron(), res=0)
+
+
+def steps_per_second_beside(call):
+    """How fast this thread counts while ``call`` runs in another thread (from its start to its end)."""
+    import threading
+
+    worker = threading.Thread(target=call)
+    steps, start = 0, time.perf_counter()
+    worker.start()
+    while worker.is_alive():
+        steps += 1
+    elapsed = time.perf_counter() - start
+    worker.join()
+    return steps / elapsed
+
+
+@pytest.mark.parametrize("method", ["peel", "cpu"])
+def test_the_gil_is_released_while_the_engine_works(models, method):
+    # While another thread voxelizes, this one keeps counting at about its pace beside a sleeping thread;
+    # a call holding the GIL (the control: usleep through ctypes.PyDLL) stops it for the whole call.
+    import ctypes
+
+    V, F = gregvox.load_mesh(models / "stanford-bunny.obj")
+    pace = steps_per_second_beside(lambda: time.sleep(0.3))
+    held = steps_per_second_beside(lambda: ctypes.PyDLL(None).usleep(300_000))
+    assert held < 0.2 * pace, "the control did not hold the GIL: the measure cannot tell"
+    during = steps_per_second_beside(lambda: gregvox.voxelize(V, F, res=192, method=method))
+    assert during > 0.4 * pace, f"{during:.0f} steps/s beside voxelize, {pace:.0f} beside a sleep"
