@@ -3,8 +3,9 @@
 //!
 //! - `points`: W·cage, the ACC-2 control points of every patch (CPU SpMV, f64);
 //! - `cpu_eval/L`: the f64 reference evaluation with normals of every patch on its (L+1)² grid;
-//! - `gpu_eval/L`: the GPU evaluation pass alone (control points computed once), one submission waited on per
-//!   iteration, on whichever device `GREGVOX_DEVICE` picks (lavapipe here).
+//! - `gpu_eval/CAGE/L`: the GPU evaluation pass alone (control points computed once), one submission waited
+//!   on per iteration, on whichever device `GREGVOX_DEVICE` picks (lavapipe here), at the levels 4–64 of
+//!   `gregvox bench --suite gregory` on spot and on the many-EV cage icosphere3_cc1.
 use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion, Throughput};
 use gregvox::engine::gregory::GregorySurface;
 use gregvox::mesh::load_obj;
@@ -61,58 +62,62 @@ fn bench_gpu(c: &mut Criterion) {
             return;
         }
     };
-    let mesh = spot();
-    let (topo, cage, _) =
-        gregvox::engine::cage::cage_topology(&mesh, Tangents::OpenSubdiv).unwrap();
-    let n = topo.patch_points.len() as u32;
-    let eval = GregoryEvalPass::new(&ctx).unwrap();
-    let ids: Vec<u32> = topo.patch_points.iter().flatten().copied().collect();
-    let storage = vk::BufferUsageFlags::STORAGE_BUFFER;
-    let pp = ctx
-        .upload_buffer("patch points", bytemuck::cast_slice(&ids), storage)
-        .unwrap();
-    let pf = ctx
-        .upload_buffer(
-            "patch flags",
-            bytemuck::cast_slice(&topo.patch_flags),
-            storage,
-        )
-        .unwrap();
     let mut g = c.benchmark_group("gregory_gpu");
     g.sample_size(10)
         .warm_up_time(Duration::from_secs(1))
-        .measurement_time(Duration::from_secs(4));
-    for level in [4u32, 16] {
-        let surface = GregorySurface::new(&ctx, &topo, &cage, level).unwrap();
-        ctx.one_shot(|cmd| surface.record(&ctx, cmd, None, None))
+        .measurement_time(Duration::from_secs(3));
+    let eval = GregoryEvalPass::new(&ctx).unwrap();
+    // The cages and levels of `gregvox bench --suite gregory`: spot, and the cage where half the vertices
+    // are extraordinary.
+    let many_ev = gregvox::engine::cage::icosphere_quad_cage(3);
+    for (name, mesh) in [("spot", spot()), ("icosphere3_cc1", many_ev)] {
+        let (topo, cage, _) =
+            gregvox::engine::cage::cage_topology(&mesh, Tangents::OpenSubdiv).unwrap();
+        let n = topo.patch_points.len() as u32;
+        let ids: Vec<u32> = topo.patch_points.iter().flatten().copied().collect();
+        let storage = vk::BufferUsageFlags::STORAGE_BUFFER;
+        let pp = ctx
+            .upload_buffer("patch points", bytemuck::cast_slice(&ids), storage)
             .unwrap();
-        let out = ctx
-            .create_buffer(
-                "vertices",
-                vertex_count(n, level) * 32,
+        let pf = ctx
+            .upload_buffer(
+                "patch flags",
+                bytemuck::cast_slice(&topo.patch_flags),
                 storage,
-                MemoryLocation::GpuOnly,
             )
             .unwrap();
-        g.throughput(Throughput::Elements(vertex_count(n, level)));
-        g.bench_function(BenchmarkId::new("gpu_eval", level), |b| {
-            b.iter(|| {
-                ctx.one_shot(|cmd| {
-                    eval.record(
-                        &ctx,
-                        cmd,
-                        surface.control_points(),
-                        &pp,
-                        &pf,
-                        n,
-                        level,
-                        true,
-                        &out,
-                    )
+        for level in [4u32, 8, 16, 32, 64] {
+            let surface = GregorySurface::new(&ctx, &topo, &cage, level).unwrap();
+            ctx.one_shot(|cmd| surface.record(&ctx, cmd, None, None))
+                .unwrap();
+            let out = ctx
+                .create_buffer(
+                    "vertices",
+                    vertex_count(n, level) * 32,
+                    storage,
+                    MemoryLocation::GpuOnly,
+                )
+                .unwrap();
+            g.throughput(Throughput::Elements(vertex_count(n, level)));
+            g.bench_function(BenchmarkId::new(format!("gpu_eval/{name}"), level), |b| {
+                b.iter(|| {
+                    ctx.one_shot(|cmd| {
+                        eval.record(
+                            &ctx,
+                            cmd,
+                            surface.control_points(),
+                            &pp,
+                            &pf,
+                            n,
+                            level,
+                            true,
+                            &out,
+                        )
+                    })
+                    .unwrap()
                 })
-                .unwrap()
-            })
-        });
+            });
+        }
     }
     g.finish();
 }

@@ -23,5 +23,5 @@ python3 -c "import igl, trimesh, numpy, scipy" 2>/dev/null ||
     python3 -m pip install --break-system-packages -r "$here/requirements.txt" ||
     python3 -m pip install -r "$here/requirements.txt"
 mkdir -p "$root/target/bench-peers"
-c++ -O2 -std=c++14 -o "$root/target/bench-peers/osd_eval_bench" "$here/osd_eval_bench.cpp" -losdCPU
+c++ -O2 -fopenmp -std=c++14 -o "$root/target/bench-peers/osd_eval_bench" "$here/osd_eval_bench.cpp" -losdCPU
 echo "peers installed: target/bench-peers/osd_eval_bench, python3 libigl + trimesh"

@@ -139,6 +139,84 @@ pub fn singular_points(quads: &[[u32; 4]]) -> Vec<SingularPoint> {
     out
 }
 
+/// A cage where half the vertices are extraordinary: the icosphere of `subdivisions` midpoint levels (unit
+/// radius, 20·4ⁿ outward triangles, valence 5 and 6) after one Catmull–Clark level, so every old vertex
+/// (valence 5 or 6) and every face point (valence 3) is extraordinary. The bench's many-EV cage.
+///
+/// ```
+/// let m = gregvox::engine::cage::icosphere_quad_cage(3);
+/// assert_eq!(m.n_faces(), 3 * 20 * 64); // three quads per triangle
+/// let t = gregvox::api::topology(&m);
+/// assert!(t.closed && t.genus == Some(0));
+/// let extraordinary: usize = t.valence_histogram.iter().filter(|(v, _)| v.as_str() != "4").map(|(_, n)| n).sum();
+/// assert_eq!(extraordinary, 642 + 1280); // the old vertices and the face points
+/// ```
+pub fn icosphere_quad_cage(subdivisions: u32) -> Mesh {
+    let g = (1.0 + 5f64.sqrt()) / 2.0;
+    let mut positions: Vec<DVec3> = [
+        [-1.0, g, 0.0],
+        [1.0, g, 0.0],
+        [-1.0, -g, 0.0],
+        [1.0, -g, 0.0],
+        [0.0, -1.0, g],
+        [0.0, 1.0, g],
+        [0.0, -1.0, -g],
+        [0.0, 1.0, -g],
+        [g, 0.0, -1.0],
+        [g, 0.0, 1.0],
+        [-g, 0.0, -1.0],
+        [-g, 0.0, 1.0],
+    ]
+    .iter()
+    .map(|p| DVec3::from_array(*p).normalize())
+    .collect();
+    let mut tris: Vec<[u32; 3]> = vec![
+        [0, 11, 5],
+        [0, 5, 1],
+        [0, 1, 7],
+        [0, 7, 10],
+        [0, 10, 11],
+        [1, 5, 9],
+        [5, 11, 4],
+        [11, 10, 2],
+        [10, 7, 6],
+        [7, 1, 8],
+        [3, 9, 4],
+        [3, 4, 2],
+        [3, 2, 6],
+        [3, 6, 8],
+        [3, 8, 9],
+        [4, 9, 5],
+        [2, 4, 11],
+        [6, 2, 10],
+        [8, 6, 7],
+        [9, 8, 1],
+    ];
+    for _ in 0..subdivisions {
+        let mut midpoint: HashMap<(u32, u32), u32> = HashMap::new();
+        let mut mid = |a: u32, b: u32, positions: &mut Vec<DVec3>| -> u32 {
+            *midpoint.entry((a.min(b), a.max(b))).or_insert_with(|| {
+                positions.push((positions[a as usize] + positions[b as usize]).normalize());
+                positions.len() as u32 - 1
+            })
+        };
+        tris = tris
+            .iter()
+            .flat_map(|&[a, b, c]| {
+                let (ab, bc, ca) = (
+                    mid(a, b, &mut positions),
+                    mid(b, c, &mut positions),
+                    mid(c, a, &mut positions),
+                );
+                [[a, ab, ca], [b, bc, ab], [c, ca, bc], [ab, bc, ca]]
+            })
+            .collect();
+    }
+    let faces: Vec<Vec<u32>> = tris.iter().map(|t| t.to_vec()).collect();
+    let sphere = Mesh::from_polygons(positions, &faces).expect("a valid icosphere");
+    crate::mesh::catmull_clark(&sphere, 1)
+}
+
 /// The demo's built-in cage: the surface of an `nx × ny × nz` box lattice of size 2 × 1 × 1, outward quads
 /// (valence-3 corners, valence-4 elsewhere).
 ///
