@@ -104,10 +104,24 @@ fn eval_on_gpu(
     canonical: bool,
     flags: &[u32],
 ) -> Vec<SurfaceVertex> {
+    eval_on_gpu_tuned(patches, level, canonical, flags, None)
+}
+
+/// `tuning`: (subgroup barrier, patches per workgroup); `None` is the device's default.
+fn eval_on_gpu_tuned(
+    patches: &[PatchF64],
+    level: u32,
+    canonical: bool,
+    flags: &[u32],
+    tuning: Option<(bool, u32)>,
+) -> Vec<SurfaceVertex> {
     let pts = common::gregory_points(patches);
     let idx: Vec<u32> = (0..patches.len() as u32 * 20).collect();
     with_gpu(|ctx| {
-        let pass = GregoryEvalPass::new(ctx).unwrap();
+        let pass = match tuning {
+            Some((subgroup, ppw)) => GregoryEvalPass::with_tuning(ctx, subgroup, ppw).unwrap(),
+            None => GregoryEvalPass::new(ctx).unwrap(),
+        };
         let pb = points_buffer(ctx, "points", &pts);
         let ib = ctx
             .upload_buffer(
@@ -170,6 +184,44 @@ fn evaluation_matches_the_f64_and_f32_references_with_exact_derivatives() {
     assert!(max_p64 < 1e-5, "{max_p64}");
     assert!(max_p32 < 2e-6, "{max_p32}");
     assert!(max_n < 1e-4, "{max_n}");
+}
+
+#[test]
+fn every_tuning_of_the_evaluation_writes_the_same_bits() {
+    // The workgroup barrier with one patch per workgroup (the layout for GPUs with narrow subgroups), the
+    // subgroup barrier, and several patches per workgroup with a partial last one (41 patches, 3 or 8 per
+    // workgroup): the same arithmetic in the same order, so the same bits at every level.
+    let patches: Vec<PatchF64> = (0..41).map(random_patch).collect();
+    let flags: Vec<u32> = (0..41).map(|k| k % 16).collect();
+    let subgroup_ok =
+        with_gpu(|ctx| ctx.info.subgroup_size >= gregvox::passes::gregory_eval::GROUP_SIZE);
+    for level in [1, 4, 9] {
+        let reference = eval_on_gpu_tuned(&patches, level, true, &flags, Some((false, 1)));
+        let default = eval_on_gpu(&patches, level, true, &flags);
+        assert_eq!(
+            default, reference,
+            "the device's default tuning at level {level}"
+        );
+        for ppw in [3, 8] {
+            let tuned = eval_on_gpu_tuned(&patches, level, true, &flags, Some((false, ppw)));
+            assert_eq!(
+                tuned, reference,
+                "workgroup barrier, {ppw} patches per workgroup, level {level}"
+            );
+            if subgroup_ok {
+                let tuned = eval_on_gpu_tuned(&patches, level, true, &flags, Some((true, ppw)));
+                assert_eq!(
+                    tuned, reference,
+                    "subgroup barrier, {ppw} per workgroup, level {level}"
+                );
+            }
+        }
+    }
+    if !subgroup_ok {
+        eprintln!(
+            "subgroups narrower than a workgroup here: the subgroup-barrier variant is not used"
+        );
+    }
 }
 
 #[test]

@@ -1,7 +1,9 @@
 // The body of the Gregory evaluation kernels, uniform (gregory_eval.comp) and adaptive
-// (gregory_eval_adaptive.comp, which defines GREGORY_ADAPTIVE). One workgroup per patch stages the patch's 20
-// control points in shared memory once (gathered through patch_points), then its 8 invocations stride over
-// the patch's vertices. Measured on llvmpipe (spot, 2,928 patches): every invocation pays a per-patch set-up
+// (gregory_eval_adaptive.comp, which defines GREGORY_ADAPTIVE). A workgroup evaluates pc.patches_per_group
+// patches in turn (1 on GPUs; up to 8 at low levels on CPU devices, where each workgroup has a fixed cost):
+// for each it stages the patch's 20 control points in shared memory once (gathered through patch_points),
+// then its 8 invocations stride over the patch's vertices. gregory_eval_subgroup.comp orders the staging
+// with a subgroup barrier where one subgroup holds the workgroup (llvmpipe: 1.6× at level 4 with both). Measured on llvmpipe (spot, 2,928 patches): every invocation pays a per-patch set-up
 // of ~1.5 µs before its vertex loop (cause inside llvmpipe not isolated), so the workgroup is one subgroup —
 // at L = 32 37.5 M vertices/s against 13.6 M/s with 64 invocations (L = 16: 28.6 vs 6.6 M/s). One invocation
 // per vertex with 20 indirect loads each ran at 0.4–2.5 M vertices/s (the gathers dominated). On a GPU with
@@ -21,6 +23,15 @@
 // Vertices on a patch edge are evaluated from the edge's four boundary points only, in the edge's canonical
 // direction (from the lower cage vertex to the higher, flag bit e of patch_flags) with t from the canonical
 // integer index: both patches of an edge produce bit-identical positions (no cracks).
+#ifdef GREGORY_SUBGROUP_BARRIER
+// The workgroup is one subgroup (gregory_eval.rs picks this variant only when the device's subgroups are at
+// least GROUP_SIZE wide): a subgroup barrier orders the shared-memory staging, and on llvmpipe it costs far
+// less than a workgroup barrier (~25 % of the kernel at level 4).
+#extension GL_KHR_shader_subgroup_basic : require
+#define GREGORY_BARRIER() subgroupBarrier()
+#else
+#define GREGORY_BARRIER() barrier()
+#endif
 #include "gregory.glsl"
 layout(local_size_x = 8) in;    // gregory_eval.rs GROUP_SIZE
 layout(std430, set = 0, binding = 0) readonly buffer Points { vec4 points[]; };
@@ -40,6 +51,7 @@ layout(push_constant) uniform Push {
     uint residual_rows;  // > 0: point r's f32 residual is points[residual_rows + r] (gregory_points.comp)
     uint patch_base;     // this dispatch's first patch: `vertices` is bound from its slot on (a batch fits
                          // one storage binding, gregory_eval.rs patch_batches)
+    uint patches_per_group;  // patches evaluated one after the other by each workgroup (≥ 1)
 } pc;
 
 shared vec3 s_cv[20];   // the patch's control points, world coordinates
@@ -74,17 +86,15 @@ uint snap(uint n, uint L, uint le) {
 }
 
 
-void main() {
-    uint batch_patch = gl_WorkGroupID.y * gl_NumWorkGroups.x + gl_WorkGroupID.x;
-    if (batch_patch >= pc.patch_count) return;   // uniform across the workgroup
+// Evaluates patch `batch_patch` of this dispatch with the workgroup's invocation t.
+void evaluate_patch(uint batch_patch, uint t) {
     uint patch_id = pc.patch_base + batch_patch;
-    uint t = gl_LocalInvocationIndex;
     for (uint k = t; k < 20u; k += gl_WorkGroupSize.x) {
         uint row = patch_points[20u * patch_id + k];
         s_cv[k] = points[row].xyz;
         s_lo[k] = pc.residual_rows > 0u ? points[pc.residual_rows + row].xyz : vec3(0.0);
     }
-    barrier();
+    GREGORY_BARRIER();
 #ifdef GREGORY_ADAPTIVE
     uint L = levels[patch_id];
     uint base = batch_patch * (pc.level + 1u) * (pc.level + 1u);
@@ -93,7 +103,8 @@ void main() {
     uint base = batch_patch * (L + 1u) * (L + 1u);
 #endif
     uint per_patch = (L + 1u) * (L + 1u);
-    // Invocations without a vertex stop before the per-patch set-up (no barrier follows).
+    // Invocations without a vertex leave this patch before its set-up (the next barrier is main's, which
+    // every invocation reaches).
     if (t >= per_patch) return;
 #ifdef GREGORY_ADAPTIVE
     uvec4 le = uvec4(edge_levels[edge_ids[4u * patch_id]], edge_levels[edge_ids[4u * patch_id + 1u]],
@@ -133,5 +144,18 @@ void main() {
         if (edge >= 0) p = edge_point(flags, edge, n, m);
         vertices[base + local].position = vec4(p, 1.0);
         vertices[base + local].normal = vec4(nrm, 0.0);
+    }
+}
+
+void main() {
+    uint group = gl_WorkGroupID.y * gl_NumWorkGroups.x + gl_WorkGroupID.x;
+    uint t = gl_LocalInvocationIndex;
+    // patches_per_group > 1 at low levels on CPU devices: the per-workgroup cost is paid once for several
+    // patches (gregory_eval.rs patches_per_group).
+    for (uint q = 0u; q < pc.patches_per_group; ++q) {
+        uint batch_patch = group * pc.patches_per_group + q;
+        if (batch_patch >= pc.patch_count) return;   // uniform across the workgroup
+        if (q > 0u) GREGORY_BARRIER();   // every invocation is done with the previous patch's shared points
+        evaluate_patch(batch_patch, t);
     }
 }

@@ -64,6 +64,8 @@ struct Push {
     residual_rows: u32,
     /// This dispatch's first patch: the output is bound from its slot on ([`patch_batches`]).
     patch_base: u32,
+    /// Patches each workgroup evaluates in turn ([`patches_per_group`]).
+    patches_per_group: u32,
 }
 
 /// The Gregory evaluation compute pass: uniform ([`GregoryEvalPass::new`], [`GregoryEvalPass::record`]) or
@@ -71,6 +73,8 @@ struct Push {
 pub struct GregoryEvalPass {
     pipeline: ComputePipeline,
     adaptive: bool,
+    /// Patches per workgroup, when set by the caller (else [`patches_per_group`] decides per level).
+    patches_per_group: Option<u32>,
 }
 
 /// The control points the pass reads: vec4 points (xyz, any w) and, when `residual_rows` > 0, each point's
@@ -136,6 +140,23 @@ pub fn output_range(out: &Buffer, first: u32, count: u32, slot_bytes: u64) -> Bi
     }
 }
 
+/// Patches each workgroup of the uniform pass evaluates in turn at `level`: on a CPU device up to 8, so that
+/// a workgroup has about 1,024 vertices to evaluate (lavapipe pays a fixed cost per workgroup: at level 4
+/// on spot, 8 patches per workgroup took 2.9 ms against 3.3 ms with one); one on a GPU, where many
+/// workgroups in flight matter more. `GREGVOX_EVAL_PATCHES_PER_GROUP=N` overrides it (the bench compares).
+pub fn patches_per_group(ctx: &Context, level: u32) -> u32 {
+    if let Some(n) = std::env::var("GREGVOX_EVAL_PATCHES_PER_GROUP")
+        .ok()
+        .and_then(|s| s.parse::<u32>().ok())
+    {
+        return n.clamp(1, 64);
+    }
+    if ctx.info.device_type != "CPU" {
+        return 1;
+    }
+    (1024 / (level + 1).pow(2)).clamp(1, 8)
+}
+
 /// Vertices of `patches` patches at `level`.
 pub fn vertex_count(patches: u32, level: u32) -> u64 {
     patches as u64 * (level as u64 + 1).pow(2)
@@ -144,24 +165,50 @@ pub fn vertex_count(patches: u32, level: u32) -> u64 {
 impl GregoryEvalPass {
     /// Builds the uniform-level pipeline.
     pub fn new(ctx: &Context) -> Result<Self> {
-        Self::build(ctx, false)
+        Self::build(ctx, false, None)
+    }
+
+    /// The uniform pipeline with its tuning fixed by the caller (tests compare the variants bit for bit):
+    /// `subgroup_barrier` picks the subgroup-barrier variant (only valid where a subgroup holds
+    /// [`GROUP_SIZE`] invocations) or the workgroup barrier; `patches_per_group` as in [`patches_per_group`].
+    pub fn with_tuning(
+        ctx: &Context,
+        subgroup_barrier: bool,
+        patches_per_group: u32,
+    ) -> Result<Self> {
+        if subgroup_barrier && ctx.info.subgroup_size < GROUP_SIZE {
+            return Err(Error::Invalid(format!(
+                "the subgroup-barrier evaluation needs subgroups of at least {GROUP_SIZE} invocations; \
+                 this device's hold {}",
+                ctx.info.subgroup_size
+            )));
+        }
+        let mut pass = Self::build(ctx, false, Some(subgroup_barrier))?;
+        pass.patches_per_group = Some(patches_per_group.clamp(1, 64));
+        Ok(pass)
     }
 
     /// Builds the adaptive pipeline: per-patch levels, edges snapped to the shared edge level.
     pub fn new_adaptive(ctx: &Context) -> Result<Self> {
-        Self::build(ctx, true)
+        Self::build(ctx, true, None)
     }
 
-    fn build(ctx: &Context, adaptive: bool) -> Result<Self> {
+    fn build(ctx: &Context, adaptive: bool, subgroup_barrier: Option<bool>) -> Result<Self> {
         let mut b = DescriptorSetLayoutBuilder::new();
         for i in 0..if adaptive { 7 } else { 4 } {
             b = b.storage_buffer(i, vk::ShaderStageFlags::COMPUTE);
         }
         let layout = b.build(ctx, "gregory eval set")?;
-        let (name, spirv) = if adaptive {
-            ("gregory eval adaptive", shaders::GREGORY_EVAL_ADAPTIVE_COMP)
-        } else {
-            ("gregory eval", shaders::GREGORY_EVAL_COMP)
+        // Where a subgroup holds the whole workgroup, its barrier is enough (and far cheaper on llvmpipe).
+        // `GREGVOX_EVAL_BARRIER=workgroup` keeps the workgroup barrier (the bench compares).
+        let one_subgroup = subgroup_barrier.unwrap_or(
+            ctx.info.subgroup_size >= GROUP_SIZE
+                && std::env::var("GREGVOX_EVAL_BARRIER").as_deref() != Ok("workgroup"),
+        );
+        let (name, spirv) = match (adaptive, one_subgroup) {
+            (true, _) => ("gregory eval adaptive", shaders::GREGORY_EVAL_ADAPTIVE_COMP),
+            (false, true) => ("gregory eval", shaders::GREGORY_EVAL_SUBGROUP_COMP),
+            (false, false) => ("gregory eval", shaders::GREGORY_EVAL_COMP),
         };
         Ok(GregoryEvalPass {
             pipeline: ComputePipeline::new(
@@ -173,6 +220,7 @@ impl GregoryEvalPass {
                 GROUP_SIZE,
             )?,
             adaptive,
+            patches_per_group: None,
         })
     }
 
@@ -209,12 +257,16 @@ impl GregoryEvalPass {
         }
         let slot = (level as u64 + 1).pow(2) * std::mem::size_of::<SurfaceVertex>() as u64;
         for (first, count) in patch_batches(ctx, patch_count, slot)? {
+            let ppw = self
+                .patches_per_group
+                .unwrap_or_else(|| patches_per_group(ctx, level));
             let push = Push {
                 patch_count: count,
                 level,
                 canonical: canonical_edges as u32,
                 residual_rows: points.residual_rows,
                 patch_base: first,
+                patches_per_group: ppw,
             };
             let bindings = [
                 (0, Binding::Storage(points.buffer.raw())),
@@ -224,9 +276,12 @@ impl GregoryEvalPass {
             ];
             self.pipeline
                 .bind(ctx, cmd, &bindings, bytemuck::bytes_of(&push));
-            // One workgroup per patch (see the shader).
-            self.pipeline
-                .dispatch_linear(ctx, cmd, count as u64 * GROUP_SIZE as u64)?;
+            // One workgroup per `ppw` patches (see the shader).
+            self.pipeline.dispatch_linear(
+                ctx,
+                cmd,
+                count.div_ceil(ppw) as u64 * GROUP_SIZE as u64,
+            )?;
         }
         compute_writes_to_readers(ctx, cmd);
         Ok(())
@@ -274,6 +329,7 @@ impl GregoryEvalPass {
                 canonical: 1,
                 residual_rows: points.residual_rows,
                 patch_base: first,
+                patches_per_group: 1,
             };
             let bindings = [
                 (0, Binding::Storage(points.buffer.raw())),
