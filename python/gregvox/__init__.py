@@ -236,8 +236,19 @@ def voxelize(
         if len(dims) != 3:
             raise ValueError(f"dims must be three integers, not {dims!r}")
     try:
-        occ, origin, size, packed, report, seconds = _voxelize(
-            _device(device)._device, V, ptr, idx, res, dims, voxel_size, bbox, pad, rule, fill, method
+        occ, origin, size, packed, report, seconds = _gregvox.voxelize(
+            _device(device)._device,
+            V,
+            ptr,
+            idx,
+            res=None if res is None else int(res),
+            dims=dims,
+            voxel_size=None if voxel_size is None else float(voxel_size),
+            bbox=bbox,
+            pad=int(pad),
+            rule=rule,
+            fill=fill,
+            method=method,
         )
     except ValueError as e:
         raise ValueError(_python_names(str(e))) from None
@@ -256,23 +267,6 @@ def _python_names(message: str) -> str:
     for flag, name in _FLAG_NAMES:
         message = message.replace(flag, name)
     return message
-
-
-def _voxelize(device, V, ptr, idx, res, dims, voxel_size, bbox, pad, rule, fill, method):
-    return _gregvox.voxelize(
-        device,
-        V,
-        ptr,
-        idx,
-        res=None if res is None else int(res),
-        dims=dims,
-        voxel_size=None if voxel_size is None else float(voxel_size),
-        bbox=bbox,
-        pad=int(pad),
-        rule=rule,
-        fill=fill,
-        method=method,
-    )
 
 
 class GregorySurface:

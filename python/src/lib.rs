@@ -77,20 +77,16 @@ fn mesh_of(
             "F holds the index {bad_index}, outside 0..{n} (the vertices of V)"
         )));
     }
-    if ptr.first() != Some(&0)
-        || ptr.last().copied() != Some(idx.len() as i64)
-        || ptr.windows(2).any(|w| w[1] < w[0])
-    {
-        return Err(bad("face offsets do not cover F"));
-    }
     let positions: Vec<DVec3> = v
         .chunks_exact(3)
         .map(|p| DVec3::new(p[0], p[1], p[2]))
         .collect();
-    // In range (checked above): every index and offset fits u32 (at most |V| and |indices|, both < 2³²
-    // for any mesh the engine accepts; a larger one is refused by the engine's own size checks).
-    if ptr.last().copied().unwrap_or(0) > u32::MAX as i64 || n > u32::MAX as i64 {
-        return Err(bad("the mesh has more than 2³² vertices or corners"));
+    // Indices are in range (checked above); offsets outside u32 are refused here, and
+    // `Mesh::from_offsets` checks that the rest start at 0, never decrease and cover the indices.
+    if ptr.iter().any(|&x| !(0..=u32::MAX as i64).contains(&x)) || n > u32::MAX as i64 {
+        return Err(bad(
+            "face offsets outside 0..2³², or more than 2³² vertices",
+        ));
     }
     let ptr: Vec<u32> = ptr.iter().map(|&x| x as u32).collect();
     let idx: Vec<u32> = idx.iter().map(|&x| x as u32).collect();

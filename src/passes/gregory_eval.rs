@@ -143,14 +143,9 @@ pub fn output_range(out: &Buffer, first: u32, count: u32, slot_bytes: u64) -> Bi
 /// Patches each workgroup of the uniform pass evaluates in turn at `level`: on a CPU device up to 8, so that
 /// a workgroup has about 1,024 vertices to evaluate (lavapipe pays a fixed cost per workgroup: at level 4
 /// on spot, 8 patches per workgroup took 2.9 ms against 3.3 ms with one); one on a GPU, where many
-/// workgroups in flight matter more. `GREGVOX_EVAL_PATCHES_PER_GROUP=N` overrides it (the bench compares).
+/// workgroups in flight matter more. `GREGVOX_EVAL_PATCHES_PER_GROUP=N` overrides it for a pass built by
+/// [`GregoryEvalPass::new`] (read once, when the pass is built; the bench compares).
 pub fn patches_per_group(ctx: &Context, level: u32) -> u32 {
-    if let Some(n) = std::env::var("GREGVOX_EVAL_PATCHES_PER_GROUP")
-        .ok()
-        .and_then(|s| s.parse::<u32>().ok())
-    {
-        return n.clamp(1, 64);
-    }
     if ctx.info.device_type != "CPU" {
         return 1;
     }
@@ -220,7 +215,11 @@ impl GregoryEvalPass {
                 GROUP_SIZE,
             )?,
             adaptive,
-            patches_per_group: None,
+            patches_per_group: std::env::var("GREGVOX_EVAL_PATCHES_PER_GROUP")
+                .ok()
+                .and_then(|s| s.parse::<u32>().ok())
+                .map(|n| n.clamp(1, 64))
+                .filter(|_| !adaptive),
         })
     }
 

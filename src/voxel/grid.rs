@@ -484,18 +484,10 @@ impl VoxelGrid {
         }
         // Bits along x or y: within a dense row (x, y fixed, z running) the bit is fixed and z steps
         // through whole columns, so the row reads one word per voxel at a constant stride. No transpose.
-        let axis = self.bit_axis.index();
-        let (ua, _) = self.bit_axis.uv();
-        let nu = self.frame.dims[ua] as usize;
-        let w = self.frame.words_per_column(self.bit_axis) as usize;
-        let word_of = |ijk: [usize; 3]| {
-            let (ua, va) = self.bit_axis.uv();
-            (ijk[va] * nu + ijk[ua]) * w + ijk[axis] / 32
-        };
-        let stride = word_of([0, 0, 1]) - word_of([0, 0, 0]);
+        let stride = self.locate([0, 0, 1]).0 - self.locate([0, 0, 0]).0;
         for x in 0..nx {
             for y in 0..ny {
-                let (base, shift) = (word_of([x, y, 0]), [x, y][axis] % 32);
+                let (base, shift) = self.locate([x as u32, y as u32, 0]);
                 let row = &mut out[(x * ny + y) * nz..(x * ny + y + 1) * nz];
                 for (z, b) in row.iter_mut().enumerate() {
                     *b = (self.words[base + z * stride] >> shift & 1) as u8;
