@@ -5,9 +5,11 @@
 //! - `cpu_eval/L`: the f64 reference evaluation with normals of every patch on its (L+1)² grid;
 //! - `gpu_eval/CAGE/L`: the GPU evaluation pass alone (control points computed once), one submission waited
 //!   on per iteration, on whichever device `GREGVOX_DEVICE` picks (lavapipe here), at the levels 4–64 of
-//!   `gregvox bench --suite gregory` on spot and on the many-EV cage icosphere3_cc1.
+//!   `gregvox bench --suite gregory` on spot and on the many-EV cage icosphere3_cc1;
+//! - `host_eval/CAGE/L`: the host evaluator (surface::gregory_host, every core; what CPU devices use) on the
+//!   same cages and levels, from the same control points.
 use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion, Throughput};
-use gregvox::engine::gregory::GregorySurface;
+use gregvox::engine::gregory::{Evaluator, GregorySurface};
 use gregvox::mesh::load_obj;
 use gregvox::passes::gregory_eval::vertex_count;
 use gregvox::surface::{tessellate, GregoryStencils, Tangents};
@@ -99,6 +101,12 @@ fn bench_gpu(c: &mut Criterion) {
                 )
                 .unwrap();
             g.throughput(Throughput::Elements(vertex_count(n, level)));
+            let mut host =
+                GregorySurface::with_evaluator(&ctx, &topo, &cage, level, Evaluator::Host).unwrap();
+            host.evaluate(&ctx, None, None).unwrap();
+            g.bench_function(BenchmarkId::new(format!("host_eval/{name}"), level), |b| {
+                b.iter(|| host.evaluate_host().unwrap())
+            });
             g.bench_function(BenchmarkId::new(format!("gpu_eval/{name}"), level), |b| {
                 b.iter(|| {
                     ctx.one_shot(|cmd| {

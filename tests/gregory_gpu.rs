@@ -3,7 +3,7 @@
 mod common;
 
 use ash::vk;
-use common::{model, with_gpu};
+use common::{model, random_patch, with_gpu};
 use glam::{DVec3, Vec3};
 use gregvox::geom::gregory::PatchF64;
 use gregvox::gpu::{Buffer, Context, MemoryLocation};
@@ -72,30 +72,6 @@ fn spmv_equals_the_cpu_gather_bit_for_bit_on_the_bunny_subdivision_matrix() {
         differing, 0,
         "the GPU gather must reproduce the CPU's f32 sums exactly"
     );
-}
-
-/// A deterministic pseudo-random Gregory patch: a bent bicubic net with independent face-point pairs.
-fn random_patch(seed: u64) -> PatchF64 {
-    let mut s = seed
-        .wrapping_mul(6364136223846793005)
-        .wrapping_add(1442695040888963407);
-    let mut rnd = move || {
-        s = s
-            .wrapping_mul(6364136223846793005)
-            .wrapping_add(1442695040888963407);
-        (s >> 11) as f64 / (1u64 << 53) as f64 - 0.5
-    };
-    let b: [[DVec3; 4]; 4] = std::array::from_fn(|j| {
-        std::array::from_fn(|i| {
-            DVec3::new(i as f64 + 0.2 * rnd(), j as f64 + 0.2 * rnd(), 0.6 * rnd())
-        })
-    });
-    let mut g = PatchF64::from_bezier(&b);
-    // Decouple the pairs: the interior points of a Gregory patch differ per edge.
-    for k in [3, 4, 8, 9, 13, 14, 18, 19] {
-        g.cv[k] += DVec3::new(0.15 * rnd(), 0.15 * rnd(), 0.3 * rnd());
-    }
-    g
 }
 
 fn eval_on_gpu(

@@ -978,7 +978,7 @@ impl Gpu {
         }
         let (topo, rest, note) = cage_topology(cage, tangents).map_err(to_mesh_error)?;
         let inner = GregorySurface::new(&self.ctx, &topo, &rest, level)?;
-        let surface = Surface {
+        let mut surface = Surface {
             gpu: self,
             inner,
             rest,
@@ -1094,9 +1094,8 @@ pub struct Surface<'g> {
 
 impl Surface<'_> {
     /// Re-evaluates the surface of the rest cage, or of the cage moved by `deform` on the GPU.
-    fn evaluate(&self, deform: Option<&DeformParams>) -> Result<()> {
-        let ctx = &self.gpu.ctx;
-        ctx.one_shot(|cmd| self.inner.record(ctx, cmd, deform, None))
+    fn evaluate(&mut self, deform: Option<&DeformParams>) -> Result<()> {
+        self.inner.evaluate(&self.gpu.ctx, deform, None)
     }
 
     /// Moves the cage on the GPU by a built-in deformation at time `t` (seconds) with `amplitude` (a fraction

@@ -568,10 +568,8 @@ impl Gpu {
                     return Ok(done(v, None));
                 }
                 for _ in 0..opts.repeat {
-                    ctx.one_shot(|cmd| {
-                        surface.record(ctx, cmd, params.as_ref(), Some((&mut *profiler, 0)))
-                    })?;
-                    profiler.collect(ctx, 0)?;
+                    // The device's evaluator: the host kernel on CPU devices (GregorySurface::evaluate).
+                    surface.evaluate(ctx, params.as_ref(), Some(&mut *profiler))?;
                 }
                 if opts.adaptive.is_some() {
                     let (v, l) = surface.read_adaptive_grids(ctx)?;

@@ -1,8 +1,12 @@
 //! Suite `gregory`: Gregory evaluation throughput (vertices/s from timestamps) on spot_quadrangulated, a
 //! large cage (spot after one Catmull–Clark level) and a cage where half the vertices are extraordinary
 //! ([`crate::engine::cage::icosphere_quad_cage`]), compute path vs vertex-pull path, beside OpenSubdiv's
-//! CPU evaluation of the same samples on one thread and on all cores (bench/peers/osd_eval_bench.cpp); and (suite `scaling`)
-//! time against the tessellation level 1…64.
+//! CPU evaluation of the same samples on one thread and on all cores (bench/peers/osd_eval_bench.cpp) and
+//! OpenSubdiv's GLComputeEvaluator on the same device family (bench/peers/osd_glcompute_bench.cpp); and (suite
+//! `scaling`) time against the tessellation level 1…64.
+//! - "compute" is the evaluator `GregorySurface` uses on the device ([`Evaluator::for_device`]): on a CPU
+//!   device the host kernel (surface::gregory_host, wall clock of the evaluation alone), elsewhere the Vulkan
+//!   kernel (timestamps); the Vulkan kernel is measured on every device, the host kernel on CPU devices.
 //!
 //! Invariants:
 //! - Both gregvox paths evaluate the same (level+1)² samples per patch with position and normal (from both
@@ -16,7 +20,7 @@
 use super::peak::Peak;
 use super::peers::{self, Peer};
 use super::{num, speedup, time_cpu, time_gpu, BenchConfig, Curve, Report, Series, Table};
-use crate::engine::gregory::{GregorySurface, GregoryTopology};
+use crate::engine::gregory::{Evaluator, GregorySurface, GregoryTopology};
 use crate::gpu::{Context, MemoryLocation, Profiler};
 use crate::mesh::{catmull_clark, load_mesh_file, Mesh};
 use crate::passes::gregory_eval::{vertex_count, GregoryEvalPass};
@@ -159,6 +163,72 @@ pub fn time_path(
     }
 }
 
+/// Median ms of the host evaluator (surface::gregory_host, every core) at `level`, the control points computed
+/// once before on the device: the evaluation alone, as the Vulkan kernel's timestamps time it alone.
+pub fn time_host(
+    ctx: &Context,
+    topo: &GregoryTopology,
+    cage: &[DVec3],
+    level: u32,
+    repeats: usize,
+) -> anyhow::Result<Result<f64, String>> {
+    let mut surface = match GregorySurface::with_evaluator(ctx, topo, cage, level, Evaluator::Host)
+    {
+        Ok(s) => s,
+        Err(e @ crate::Error::Limit { .. }) => return Ok(Err(format!("{e}"))),
+        Err(e) => return Err(e.into()),
+    };
+    surface.evaluate(ctx, None, None)?;
+    Ok(Ok(time_cpu(repeats, || {
+        surface
+            .evaluate_host()
+            .expect("host evaluation of a checked surface")
+    })))
+}
+
+/// Runs the OpenSubdiv peer program `name` (`CAGE.obj REPEATS LEVEL...`, one JSON object per level).
+fn run_osd_peer(
+    cfg: &BenchConfig,
+    name: &str,
+    cage_obj: &std::path::Path,
+    levels: &[u32],
+    repeats: usize,
+) -> Peer {
+    let bin = cfg.peers.join(name);
+    let mut args = vec![cage_obj.display().to_string(), repeats.to_string()];
+    args.extend(levels.iter().map(|l| l.to_string()));
+    if bin.is_file() {
+        peers::run(&bin, &args)
+    } else {
+        Peer::Missing(format!("{} not built", bin.display()))
+    }
+}
+
+/// OpenSubdiv's GLComputeEvaluator (bench/peers/osd_glcompute_bench.cpp) at `levels`: seconds per level, the
+/// GL renderer, or why it did not run.
+fn osd_gl(
+    cfg: &BenchConfig,
+    cage_obj: &std::path::Path,
+    levels: &[u32],
+    repeats: usize,
+) -> (Peer, Vec<(u32, f64, String)>) {
+    let peer = run_osd_peer(cfg, "osd_glcompute_bench", cage_obj, levels, repeats);
+    let rows = match &peer {
+        Peer::Ran(v) => v
+            .iter()
+            .filter_map(|o| {
+                Some((
+                    o["level"].as_u64()? as u32,
+                    o["median_s"].as_f64()?,
+                    o["renderer"].as_str().unwrap_or("?").to_string(),
+                ))
+            })
+            .collect(),
+        _ => Vec::new(),
+    };
+    (peer, rows)
+}
+
 /// OpenSubdiv's times at one level (seconds): one thread, and its best all-core evaluation.
 struct OsdTimes {
     level: u32,
@@ -175,14 +245,7 @@ fn osd(
     levels: &[u32],
     repeats: usize,
 ) -> (Peer, Vec<OsdTimes>) {
-    let bin = cfg.peers.join("osd_eval_bench");
-    let mut args = vec![cage_obj.display().to_string(), repeats.to_string()];
-    args.extend(levels.iter().map(|l| l.to_string()));
-    let peer = if bin.is_file() {
-        peers::run(&bin, &args)
-    } else {
-        Peer::Missing(format!("{} not built", bin.display()))
-    };
+    let peer = run_osd_peer(cfg, "osd_eval_bench", cage_obj, levels, repeats);
     let rows = match &peer {
         Peer::Ran(v) => v
             .iter()
@@ -260,8 +323,11 @@ pub fn run(
              evaluation pass; OpenSubdiv 3.5: FindPatch + EvaluateBasis + weighted sums for position and both \
              derivatives in double, std::chrono; on one thread, and on all cores as the faster of that loop \
              split over faces with OpenMP and Osd::OmpEvaluator::EvalPatches in float with the patch \
-             coordinates found before timing). speed-up = OSD time / compute time (the aim: ≥ 2 against all \
-             cores). \
+             coordinates found before timing; OSD GLCompute: Osd::GLComputeEvaluator::EvalPatches on the GL \
+             driver of the same device family, e.g. llvmpipe through surfaceless EGL, EvalPatches + glFinish). \
+             compute = the evaluator GregorySurface uses on this device (Evaluator::for_device: the host kernel \
+             — native SIMD + threads, wall clock — on CPU devices, the Vulkan kernel elsewhere); both are \
+             measured where both run. speed-up = OSD time / compute time (the aim: ≥ 2 against all cores). \
              Floor = max(flops, bytes) at the measured peaks with ≈{EVAL_FLOPS_PER_VERTEX} flops and \
              {EVAL_BYTES_PER_VERTEX} B per vertex (operation-count estimate); floor % = floor / compute time.",
             cfg.repeats
@@ -271,15 +337,20 @@ pub fn run(
             "patches",
             "level",
             "vertices",
+            "device evaluator",
             "compute ms",
             "compute Mvert/s",
+            "Vulkan kernel ms",
+            "host kernel ms",
             "vertex-pull ms",
             "vertex-pull Mvert/s",
             "OSD 1 thread ms",
             "OSD all cores ms",
             "OSD all-core path",
+            "OSD GLCompute ms",
             "speed-up vs OSD all cores",
             "speed-up vs OSD 1 thread",
+            "Vulkan kernel vs OSD GLCompute",
             "floor ms",
             "floor %",
         ],
@@ -300,9 +371,11 @@ pub fn run(
                 })
                 .collect();
             let (peer, osd_rows) = osd(cfg, obj, &fits, osd_repeats);
+            let (gl_peer, gl_rows) = osd_gl(cfg, obj, &fits, osd_repeats);
+            let evaluator = Evaluator::for_device(&compute_ctx)?;
             for &level in levels {
                 let n = vertex_count(patches, level) as f64;
-                let c = time_path(
+                let kernel = time_path(
                     &compute_ctx,
                     &topo,
                     &cage,
@@ -310,6 +383,15 @@ pub fn run(
                     EvalPath::Compute,
                     cfg.repeats,
                 )?;
+                let host = if compute_ctx.info.device_type == "CPU" {
+                    Some(time_host(&compute_ctx, &topo, &cage, level, cfg.repeats)?)
+                } else {
+                    None
+                };
+                let c = match (evaluator, &host) {
+                    (Evaluator::Host, Some(h)) => h.clone(),
+                    _ => kernel.clone(),
+                };
                 let v = time_path(ctx, &topo, &cage, level, EvalPath::VertexPull, cfg.repeats)?;
                 let cell = |r: &Result<f64, String>| -> (Value, Value) {
                     match r {
@@ -339,23 +421,41 @@ pub fn run(
                 let ms_all = all_core.map(|(s, _)| s * 1e3);
                 let floor =
                     peak.map(|p| p.floor_ms(n, EVAL_FLOPS_PER_VERTEX, EVAL_BYTES_PER_VERTEX));
+                let gl = gl_rows.iter().find(|r| r.0 == level);
+                let gl_ms = gl.map(|r| r.1 * 1e3);
                 t.push(vec![
                     name.clone().into(),
                     patches.into(),
                     level.into(),
                     (n as u64).into(),
+                    match evaluator {
+                        Evaluator::Host => "host (native SIMD + threads)".into(),
+                        Evaluator::Vulkan => "Vulkan kernel".into(),
+                    },
                     cm,
                     cr,
+                    cell(&kernel).0,
+                    host.as_ref()
+                        .map(|h| cell(h).0)
+                        .unwrap_or_else(|| "not used (GPU device)".into()),
                     vm,
                     vr,
                     om,
                     am,
                     which,
+                    match gl {
+                        Some((_, s, renderer)) => format!("{} ({renderer})", num(s * 1e3)).into(),
+                        None => missing(&gl_peer),
+                    },
                     c.as_ref()
                         .map(|&ms| speedup(ms_all, ms))
                         .unwrap_or(Value::Null),
                     c.as_ref()
                         .map(|&ms| speedup(single, ms))
+                        .unwrap_or(Value::Null),
+                    kernel
+                        .as_ref()
+                        .map(|&ms| speedup(gl_ms, ms))
                         .unwrap_or(Value::Null),
                     floor.map(num).unwrap_or(Value::Null),
                     match (floor, &c) {

@@ -170,7 +170,9 @@ pub fn run(args: &TessellateArgs) -> anyhow::Result<()> {
             .stats()
             .iter()
             .filter(|s| {
-                s.name == "gregory_eval" || s.name == "beziex_eval" || s.name == "vertex_pull"
+                s.name.starts_with("gregory_eval")
+                    || s.name == "beziex_eval"
+                    || s.name == "vertex_pull"
             })
             .map(|s| s.median_ms)
             .sum();

@@ -14,6 +14,11 @@
 //!   (`record_draw_indirect`). Vertices past a patch's grid in its slot hold stale data and are never drawn.
 //! - Shared boundary control points come from shared W rows (same row ⇒ identical bits), and patch edge
 //!   vertices are evaluated canonically, so neighbouring patches meet without cracks.
+//! - Two evaluators write the vertex buffer ([`Evaluator`]): the Vulkan kernel (every GPU, and every
+//!   `record`) and, on CPU devices, the host kernel ([`crate::surface::gregory_host`], from
+//!   [`GregorySurface::evaluate`]), which reads the points and writes the vertices through host-visible
+//!   mappings of the same buffers after the device's deform + W·cage: the same layout, the same shared-edge
+//!   bits, the shader's arithmetic. Adaptive mode always evaluates on the device.
 use crate::error::{Error, Result};
 use crate::gpu::resources::memory_barrier;
 use crate::gpu::{Buffer, Context, MemoryLocation, Profiler};
@@ -28,6 +33,7 @@ use crate::passes::gregory_eval::{
     MAX_LEVEL,
 };
 use crate::passes::spmv::{GpuSparse, SpmvPass};
+use crate::surface::gregory_host::{self, HostPatches, HostSimd, HostVertex};
 use ash::vk;
 use glam::DVec3;
 
@@ -80,6 +86,46 @@ pub fn canonical_edge_flags(quads: &[[u32; 4]]) -> Vec<u32> {
         .collect()
 }
 
+/// Which code evaluates the patches into the vertex buffer (see the module invariants).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Evaluator {
+    /// The Vulkan kernel (glsl/gregory_eval.comp, [`GregoryEvalPass`]).
+    Vulkan,
+    /// The native SIMD + threads kernel ([`crate::surface::gregory_host`]) on the host, writing the same
+    /// buffer through its mapping: for devices that are CPUs, where it is several times faster (on
+    /// lavapipe: docs/benchmarks.md, suite `gregory`).
+    Host,
+}
+
+impl Evaluator {
+    /// The evaluator for `ctx`'s device: [`Evaluator::Host`] when the device is a CPU, else
+    /// [`Evaluator::Vulkan`]; the environment variable `GREGVOX_EVALUATOR` = `vulkan` or `host` overrides
+    /// (any other value is an error naming it).
+    pub fn for_device(ctx: &Context) -> Result<Self> {
+        match std::env::var("GREGVOX_EVALUATOR").ok().as_deref() {
+            None | Some("") => Ok(if ctx.info.device_type == "CPU" {
+                Evaluator::Host
+            } else {
+                Evaluator::Vulkan
+            }),
+            Some("vulkan") => Ok(Evaluator::Vulkan),
+            Some("host") => Ok(Evaluator::Host),
+            Some(other) => Err(Error::Invalid(format!(
+                "GREGVOX_EVALUATOR is '{other}': use 'vulkan' (the compute shader) or 'host' (the native \
+                 evaluator)"
+            ))),
+        }
+    }
+
+    /// Where the points and vertex buffers live: host-visible for the host evaluator (it maps them).
+    fn locations(self) -> (MemoryLocation, MemoryLocation) {
+        match self {
+            Evaluator::Vulkan => (MemoryLocation::GpuOnly, MemoryLocation::GpuOnly),
+            Evaluator::Host => (MemoryLocation::GpuToCpu, MemoryLocation::CpuToGpu),
+        }
+    }
+}
+
 /// The GPU Gregory surface. See the module invariants.
 pub struct GregorySurface {
     spmv: SpmvPass,
@@ -100,8 +146,11 @@ pub struct GregorySurface {
     box_min: [f32; 3],
     box_size: [f32; 3],
     adaptive: Option<Adaptive>,
-    /// The patch point rows, kept for the adaptive edge topology.
+    /// The patch point rows, kept for the adaptive edge topology and the host evaluator.
     patch_rows: Vec<[u32; 20]>,
+    /// The canonical-edge flags, kept for the host evaluator.
+    patch_flag_list: Vec<u32>,
+    evaluator: Evaluator,
 }
 
 /// The adaptive mode's passes and buffers (created by `set_adaptive`, kept when it is switched off).
@@ -178,6 +227,25 @@ impl Adaptive {
     }
 }
 
+/// Runs `f`, inside a timestamp scope `name` when a profiler (and its slot) is given.
+fn profiled(
+    ctx: &Context,
+    cmd: vk::CommandBuffer,
+    profiler: &mut Option<(&mut Profiler, usize)>,
+    name: &str,
+    f: &mut dyn FnMut() -> Result<()>,
+) -> Result<()> {
+    match profiler.as_mut() {
+        Some((p, slot)) => {
+            let s = p.begin(ctx, cmd, *slot, name);
+            let r = f();
+            p.end(ctx, cmd, s);
+            r
+        }
+        None => f(),
+    }
+}
+
 fn vec4s(points: &[DVec3]) -> Vec<[f32; 4]> {
     points
         .iter()
@@ -186,8 +254,20 @@ fn vec4s(points: &[DVec3]) -> Vec<[f32; 4]> {
 }
 
 impl GregorySurface {
-    /// Uploads the layout and the rest cage and creates the buffers for `level`.
+    /// Uploads the layout and the rest cage and creates the buffers for `level`, evaluated by
+    /// [`Evaluator::for_device`].
     pub fn new(ctx: &Context, topo: &GregoryTopology, cage: &[DVec3], level: u32) -> Result<Self> {
+        Self::with_evaluator(ctx, topo, cage, level, Evaluator::for_device(ctx)?)
+    }
+
+    /// [`GregorySurface::new`] with the evaluator chosen by the caller (tests compare the two).
+    pub fn with_evaluator(
+        ctx: &Context,
+        topo: &GregoryTopology,
+        cage: &[DVec3],
+        level: u32,
+        evaluator: Evaluator,
+    ) -> Result<Self> {
         if topo.patch_points.is_empty() {
             return Err(Error::Invalid("no patches to evaluate".into()));
         }
@@ -240,7 +320,9 @@ impl GregorySurface {
         }
         let storage = vk::BufferUsageFlags::STORAGE_BUFFER;
         let rw = storage | vk::BufferUsageFlags::TRANSFER_SRC | vk::BufferUsageFlags::TRANSFER_DST;
-        let (vertices, indices) = Self::level_buffers(ctx, topo.patch_points.len() as u32, level)?;
+        let (vertices, indices) =
+            Self::level_buffers(ctx, topo.patch_points.len() as u32, level, evaluator)?;
+        let (points_location, _) = evaluator.locations();
         Ok(GregorySurface {
             spmv: SpmvPass::new_affine_split(ctx)?,
             eval: GregoryEvalPass::new(ctx)?,
@@ -253,7 +335,7 @@ impl GregorySurface {
                 "gregory points",
                 topo.w.n_rows.max(1) as u64 * 32,
                 rw,
-                MemoryLocation::GpuOnly,
+                points_location,
             )?,
             patch_points: ctx.upload_buffer(
                 "patch points",
@@ -275,10 +357,17 @@ impl GregorySurface {
             box_size: [hi[0] - lo[0], hi[1] - lo[1], hi[2] - lo[2]],
             adaptive: None,
             patch_rows: topo.patch_points.clone(),
+            patch_flag_list: topo.patch_flags.clone(),
+            evaluator,
         })
     }
 
-    fn level_buffers(ctx: &Context, patches: u32, level: u32) -> Result<(Buffer, Buffer)> {
+    fn level_buffers(
+        ctx: &Context,
+        patches: u32,
+        level: u32,
+        evaluator: Evaluator,
+    ) -> Result<(Buffer, Buffer)> {
         let n = vertex_count(patches, level);
         let bytes = n * std::mem::size_of::<SurfaceVertex>() as u64;
         // More than one storage binding holds is fine (the evaluation binds batches of patches); the vertex
@@ -295,7 +384,7 @@ impl GregorySurface {
             vk::BufferUsageFlags::STORAGE_BUFFER
                 | vk::BufferUsageFlags::VERTEX_BUFFER
                 | vk::BufferUsageFlags::TRANSFER_SRC,
-            MemoryLocation::GpuOnly,
+            evaluator.locations().1,
         )?;
         let idx = grid_indices(patches, level);
         let indices = ctx.upload_buffer(
@@ -347,7 +436,8 @@ impl GregorySurface {
         if level == self.level {
             return Ok(());
         }
-        let (vertices, indices) = Self::level_buffers(ctx, self.patch_count, level)?;
+        let (vertices, indices) =
+            Self::level_buffers(ctx, self.patch_count, level, self.evaluator)?;
         if let Some(a) = self.adaptive.as_mut() {
             a.indices = Adaptive::index_buffer(ctx, level)?;
             a.indices_level = level;
@@ -484,13 +574,95 @@ impl GregorySurface {
         &self.patch_points
     }
 
-    /// Records a whole update: (deform) → W·cage → evaluate. `deform` = None evaluates the rest cage.
-    pub fn record(
+    /// The evaluator [`GregorySurface::evaluate`] uses (`record` always records the Vulkan kernel).
+    pub fn evaluator(&self) -> Evaluator {
+        self.evaluator
+    }
+
+    /// Updates the surface now: (deform) → W·cage on the device, then the evaluation by
+    /// [`GregorySurface::evaluator`] (the host kernel reads the points and writes the vertices through their
+    /// mappings; adaptive mode always evaluates on the device), and waits. With a profiler, its slot 0 is
+    /// collected and the host evaluation joins the statistics as "gregory_eval (host)".
+    pub fn evaluate(
+        &mut self,
+        ctx: &Context,
+        deform: Option<&DeformParams>,
+        mut profiler: Option<&mut Profiler>,
+    ) -> Result<()> {
+        if self.evaluator == Evaluator::Vulkan || self.adaptive().is_some() {
+            ctx.one_shot(|cmd| {
+                self.record(ctx, cmd, deform, profiler.as_mut().map(|p| (&mut **p, 0)))
+            })?;
+            if let Some(p) = profiler {
+                p.collect(ctx, 0)?;
+            }
+            return Ok(());
+        }
+        ctx.one_shot(|cmd| {
+            self.record_points(
+                ctx,
+                cmd,
+                deform,
+                &mut profiler.as_mut().map(|p| (&mut **p, 0)),
+            )?;
+            // The points pass's writes, made available to the host's reads after the fence.
+            memory_barrier(
+                ctx,
+                cmd,
+                (
+                    vk::PipelineStageFlags2::COMPUTE_SHADER,
+                    vk::AccessFlags2::SHADER_STORAGE_WRITE,
+                ),
+                (vk::PipelineStageFlags2::HOST, vk::AccessFlags2::HOST_READ),
+            );
+            Ok(())
+        })?;
+        if let Some(p) = profiler.as_mut() {
+            p.collect(ctx, 0)?;
+        }
+        let t0 = std::time::Instant::now();
+        self.evaluate_host()?;
+        if let Some(p) = profiler {
+            p.record_host("gregory_eval (host)", t0.elapsed().as_secs_f64() * 1e3);
+        }
+        Ok(())
+    }
+
+    /// The host evaluation alone: reads the control points the device wrote last (the caller waited for
+    /// that submission) and writes every vertex. Only with [`Evaluator::Host`], whose buffers are mapped;
+    /// the next submission that reads the vertices sees the writes (host-coherent memory).
+    pub fn evaluate_host(&mut self) -> Result<()> {
+        if self.evaluator != Evaluator::Host {
+            return Err(Error::Invalid(
+                "the host evaluation needs a surface created with Evaluator::Host".into(),
+            ));
+        }
+        let rows = (self.points.size() / 32) as u32;
+        let points: &[[f32; 4]] = bytemuck::try_cast_slice(self.points.mapped()?)
+            .map_err(|e| Error::Invalid(format!("gregory points mapping: {e}")))?;
+        let vertices: &mut [HostVertex] = bytemuck::try_cast_slice_mut(self.vertices.mapped_mut()?)
+            .map_err(|e| Error::Invalid(format!("gregory vertices mapping: {e}")))?;
+        gregory_host::evaluate(
+            &HostPatches {
+                points,
+                residual_rows: rows,
+                patch_points: &self.patch_rows,
+                patch_flags: &self.patch_flag_list,
+            },
+            self.level,
+            self.canonical_edges,
+            HostSimd::Auto,
+            vertices,
+        )
+    }
+
+    /// Records the barrier from earlier readers, the deformation (if any) and W·cage.
+    fn record_points(
         &self,
         ctx: &Context,
         cmd: vk::CommandBuffer,
         deform: Option<&DeformParams>,
-        mut profiler: Option<(&mut Profiler, usize)>,
+        profiler: &mut Option<(&mut Profiler, usize)>,
     ) -> Result<()> {
         // Earlier readers (this or the previous frame's draw, peel, copies) before this frame's writes.
         memory_barrier(
@@ -510,17 +682,8 @@ impl GregorySurface {
                 vk::AccessFlags2::SHADER_STORAGE_WRITE,
             ),
         );
-        let mut scope = |name: &str, f: &mut dyn FnMut() -> Result<()>| -> Result<()> {
-            match profiler.as_mut() {
-                Some((p, slot)) => {
-                    let s = p.begin(ctx, cmd, *slot, name);
-                    let r = f();
-                    p.end(ctx, cmd, s);
-                    r
-                }
-                None => f(),
-            }
-        };
+        let mut scope =
+            |name: &str, f: &mut dyn FnMut() -> Result<()>| profiled(ctx, cmd, profiler, name, f);
         let source = match deform {
             Some(d) if d.mode != Deformation::None => {
                 scope("cage deform", &mut || {
@@ -533,7 +696,22 @@ impl GregorySurface {
         };
         scope("gregory_points", &mut || {
             self.spmv.record(ctx, cmd, &self.w, source, &self.points)
-        })?;
+        })
+    }
+
+    /// Records a whole update: (deform) → W·cage → evaluate with the Vulkan kernel. `deform` = None
+    /// evaluates the rest cage.
+    pub fn record(
+        &self,
+        ctx: &Context,
+        cmd: vk::CommandBuffer,
+        deform: Option<&DeformParams>,
+        mut profiler: Option<(&mut Profiler, usize)>,
+    ) -> Result<()> {
+        self.record_points(ctx, cmd, deform, &mut profiler)?;
+        let mut scope = |name: &str, f: &mut dyn FnMut() -> Result<()>| {
+            profiled(ctx, cmd, &mut profiler, name, f)
+        };
         if let Some(a) = self.adaptive.as_ref() {
             if let Some(params) = a.params.as_ref() {
                 debug_assert_eq!(a.indices_level, self.level);

@@ -593,3 +593,19 @@ impl Patch {
         normal32::normal_from(&bezier_net_generic(&pts, u, v), e.su, e.sv, u, v)
     }
 }
+
+/// The f32 unit normal of a frozen net `[row = v][col = u]` and the exact partials at (u, v), with the
+/// degenerate fallback of [`PatchF64::normal`] (what glsl/include/gregory.glsl's `gregory_normal` computes):
+/// the host evaluator ([`crate::surface::gregory_host`]) calls it for the samples whose S_u × S_v fails the
+/// test.
+///
+/// ```
+/// use gregvox::geom::gregory::normal_from_net_f32;
+/// use glam::Vec3;
+/// let net = [[Vec3::ZERO; 4]; 4];
+/// assert_eq!(normal_from_net_f32(&net, Vec3::X, Vec3::Y, 0.5, 0.5), Vec3::Z);
+/// assert_eq!(normal_from_net_f32(&net, Vec3::ZERO, Vec3::ZERO, 0.5, 0.5), Vec3::Z); // all collapsed
+/// ```
+pub fn normal_from_net_f32(net: &[[Vec3; 4]; 4], su: Vec3, sv: Vec3, u: f32, v: f32) -> Vec3 {
+    normal32::normal_from(net, su, sv, u, v)
+}

@@ -7,7 +7,8 @@
 //! - Ticks are masked by `timestampValidBits` before subtracting and scaled by `timestampPeriod` (ns/tick).
 //! - Where the queue has no timestamps (`timestampValidBits == 0`) every call is a no-op and the outputs
 //!   are empty: profiling never changes what the engine does.
-//! - On lavapipe the timestamps measure the CPU driver's execution time, not a GPU's.
+//! - On lavapipe the timestamps measure the CPU driver's execution time, not a GPU's. Passes that run as
+//!   native code on the host ([`Profiler::record_host`]) join the statistics, not the trace.
 //! - Memory is bounded however long the run (a 10,000-frame demo must keep a flat resident size): per pass,
 //!   calls, min, max and total are exact and the median is over the last [`MEDIAN_WINDOW`] calls; the trace
 //!   keeps the first [`TRACE_MAX_EVENTS`] events and counts the rest as dropped.
@@ -216,6 +217,19 @@ impl Profiler {
         let r = f();
         self.end(ctx, cmd, s);
         r
+    }
+
+    /// Adds `ms`, timed on the host (a pass that runs as native code on a CPU device, e.g. the host Gregory
+    /// evaluator), to the statistics of `name`; it has no place in the trace, whose clock is the device's.
+    /// A no-op where the profiler is disabled, like every other call.
+    pub fn record_host(&mut self, name: &str, ms: f64) {
+        if !self.enabled {
+            return;
+        }
+        if !self.times_ms.contains_key(name) {
+            self.order.push(name.to_string());
+        }
+        self.times_ms.entry(name.to_string()).or_default().push(ms);
     }
 
     /// Reads the results of `slot` (call after its fence has signalled), adds them to the statistics and

@@ -5,6 +5,7 @@
 //! v0→v1, rows of u inner, vertex `j·(L+1)+i` at (i/L, j/L)).
 pub mod acc2;
 pub mod beziex;
+pub mod gregory_host;
 pub mod tessellate;
 
 pub use acc2::{gather_patches, CageStencils, GregoryStencils, Tangents};

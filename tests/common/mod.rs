@@ -181,3 +181,27 @@ pub fn gregory_points(patches: &[gregvox::geom::gregory::PatchF64]) -> Vec<[f32;
         })
         .collect()
 }
+
+/// A deterministic pseudo-random Gregory patch: a bent bicubic net with independent face-point pairs.
+pub fn random_patch(seed: u64) -> gregvox::geom::gregory::PatchF64 {
+    let mut s = seed
+        .wrapping_mul(6364136223846793005)
+        .wrapping_add(1442695040888963407);
+    let mut rnd = move || {
+        s = s
+            .wrapping_mul(6364136223846793005)
+            .wrapping_add(1442695040888963407);
+        (s >> 11) as f64 / (1u64 << 53) as f64 - 0.5
+    };
+    let b: [[glam::DVec3; 4]; 4] = std::array::from_fn(|j| {
+        std::array::from_fn(|i| {
+            glam::DVec3::new(i as f64 + 0.2 * rnd(), j as f64 + 0.2 * rnd(), 0.6 * rnd())
+        })
+    });
+    let mut g = gregvox::geom::gregory::PatchF64::from_bezier(&b);
+    // Decouple the pairs: the interior points of a Gregory patch differ per edge.
+    for k in [3, 4, 8, 9, 13, 14, 18, 19] {
+        g.cv[k] += glam::DVec3::new(0.15 * rnd(), 0.15 * rnd(), 0.3 * rnd());
+    }
+    g
+}
