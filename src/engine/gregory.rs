@@ -236,12 +236,7 @@ fn profiled(
     f: &mut dyn FnMut() -> Result<()>,
 ) -> Result<()> {
     match profiler.as_mut() {
-        Some((p, slot)) => {
-            let s = p.begin(ctx, cmd, *slot, name);
-            let r = f();
-            p.end(ctx, cmd, s);
-            r
-        }
+        Some((p, slot)) => p.scope(ctx, cmd, *slot, name, f),
         None => f(),
     }
 }
