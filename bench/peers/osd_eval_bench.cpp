@@ -38,20 +38,10 @@
 #include <string>
 #include <vector>
 
+#include "osd_cage.h"
+
 using namespace OpenSubdiv;
 
-struct V3 {
-    double p[3];
-    void Clear(void * = 0) { p[0] = p[1] = p[2] = 0; }
-    void AddWithWeight(V3 const &s, double w) { for (int k = 0; k < 3; ++k) p[k] += w * s.p[k]; }
-};
-
-struct V3f {
-    float p[3];
-    void Clear(void * = 0) { p[0] = p[1] = p[2] = 0; }
-    void AddWithWeight(V3f const &s, float w) { for (int k = 0; k < 3; ++k) p[k] += w * s.p[k]; }
-};
-static_assert(sizeof(V3f) == 3 * sizeof(float), "a buffer of x, y, z floats");
 
 // Median seconds of `run` over `repeats` timed runs after one warm-up run.
 static double median_seconds(int repeats, const std::function<void()> &run) {
@@ -95,23 +85,7 @@ int main(int argc, char **argv) {
     if (argc < 4) { fprintf(stderr, "usage: %s CAGE.obj REPEATS LEVEL...\n", argv[0]); return 2; }
     std::vector<V3> pos;
     std::vector<int> nv, idx;
-    {
-        std::ifstream in(argv[1]);
-        if (!in) { fprintf(stderr, "%s: cannot open\n", argv[1]); return 1; }
-        std::string line;
-        while (std::getline(in, line)) {
-            std::istringstream ss(line);
-            std::string tag;
-            ss >> tag;
-            if (tag == "v") { V3 v; ss >> v.p[0] >> v.p[1] >> v.p[2]; pos.push_back(v); }
-            else if (tag == "f") {
-                std::string tok; int n = 0;
-                while (ss >> tok) { int i = atoi(tok.c_str()); if (i < 0) i = (int)pos.size() + i + 1; idx.push_back(i - 1); ++n; }
-                nv.push_back(n);
-            }
-        }
-    }
-    for (int n : nv) if (n != 4) { fprintf(stderr, "%s: not an all-quad cage\n", argv[1]); return 1; }
+    if (!read_quad_cage(argv[1], pos, nv, idx)) return 1;
     int repeats = std::max(1, atoi(argv[2]));
     Far::TopologyDescriptor d;
     d.numVertices = (int)pos.size();

@@ -68,20 +68,10 @@
 #include <string>
 #include <vector>
 
+#include "osd_cage.h"
+
 using namespace OpenSubdiv;
 
-struct V3 {
-    double p[3];
-    void Clear(void * = 0) { p[0] = p[1] = p[2] = 0; }
-    void AddWithWeight(V3 const &s, double w) { for (int k = 0; k < 3; ++k) p[k] += w * s.p[k]; }
-};
-
-struct V3f {
-    float p[3];
-    void Clear(void * = 0) { p[0] = p[1] = p[2] = 0; }
-    void AddWithWeight(V3f const &s, float w) { for (int k = 0; k < 3; ++k) p[k] += w * s.p[k]; }
-};
-static_assert(sizeof(V3f) == 3 * sizeof(float), "a buffer of x, y, z floats");
 static_assert(sizeof(Osd::PatchCoord) == 5 * sizeof(float), "the GPU reads PatchCoord as 5 x 4 bytes");
 
 static const int kWorkGroup = 64;  // Osd::GLComputeEvaluator's work group size (fixed in its constructor)
@@ -195,25 +185,7 @@ int main(int argc, char **argv) {
     Far::SetErrorCallback(far_error_to_stderr);  // keep stdout for the JSON lines
     std::vector<V3> pos;
     std::vector<int> nv, idx;
-    {
-        std::ifstream in(argv[1]);
-        if (!in) { fprintf(stderr, "%s: cannot open\n", argv[1]); return 1; }
-        std::string line;
-        while (std::getline(in, line)) {
-            std::istringstream ss(line);
-            std::string tag;
-            ss >> tag;
-            if (tag == "v") { V3 v; ss >> v.p[0] >> v.p[1] >> v.p[2]; pos.push_back(v); }
-            else if (tag == "f") {
-                std::string tok; int n = 0;
-                while (ss >> tok) { int i = atoi(tok.c_str()); if (i < 0) i = (int)pos.size() + i + 1; idx.push_back(i - 1); ++n; }
-                nv.push_back(n);
-            }
-        }
-    }
-    for (int n : nv) if (n != 4) { fprintf(stderr, "%s: not an all-quad cage\n", argv[1]); return 1; }
-    if (nv.empty()) { fprintf(stderr, "%s: no faces\n", argv[1]); return 1; }
-    for (int i : idx) if (i < 0 || i >= (int)pos.size()) { fprintf(stderr, "%s: face index out of range\n", argv[1]); return 1; }
+    if (!read_quad_cage(argv[1], pos, nv, idx)) return 1;
     int repeats = std::max(1, atoi(argv[2]));
     for (int a = 3; a < argc; ++a)
         if (atoi(argv[a]) < 1) { fprintf(stderr, "level %s is not positive\n", argv[a]); return 1; }
