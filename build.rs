@@ -38,6 +38,12 @@ fn main() {
     let include_dir = glsl.join("include");
     println!("cargo:rerun-if-changed={}", glsl.display());
     println!("cargo:rerun-if-changed={}", include_dir.display());
+    // An unoptimised build of the crate (the dev profile's opt-level 0) keeps the Vulkan kernels on CPU
+    // devices: the host kernels are tens of times slower without optimisation (src/engine/evaluator.rs).
+    println!("cargo:rustc-check-cfg=cfg(gregvox_unoptimized)");
+    if std::env::var("OPT_LEVEL").as_deref() == Ok("0") {
+        println!("cargo:rustc-cfg=gregvox_unoptimized");
+    }
 
     let mut files: Vec<PathBuf> = std::fs::read_dir(&glsl)
         .map(|rd| rd.filter_map(|e| e.ok().map(|e| e.path())).collect())

@@ -73,7 +73,8 @@ fn bench(c: &mut Criterion) {
 
 /// The GPU side of the same work: AREA vertex normals of a (deforming) mesh as two gather kernels, and one
 /// Catmull–Clark level as S·P on the GPU. Each iteration is a submission waited on (the per-frame cost
-/// including submission), on whichever device `GREGVOX_DEVICE` picks (lavapipe here).
+/// including submission), on whichever device `GREGVOX_DEVICE` picks (lavapipe here); then the same two
+/// through `engine::mesh` on the host kernels a CPU device uses (`device_normals`, `device_cc_spmv`).
 fn bench_gpu(c: &mut Criterion) {
     use ash::vk;
     use gregvox::gpu::{Context, ContextDesc, MemoryLocation, Validation};
@@ -99,11 +100,7 @@ fn bench_gpu(c: &mut Criterion) {
         .measurement_time(Duration::from_secs(4));
     for (name, mesh) in [("bunny", &base), ("bunny_loop2", &loop2)] {
         let m = MeshMatrix::from_mesh(mesh);
-        let pts: Vec<[f32; 4]> = mesh
-            .positions
-            .iter()
-            .map(|p| [p.x as f32, p.y as f32, p.z as f32, 1.0])
-            .collect();
+        let pts = gregvox::mesh::host_kernels::to_vec4(&mesh.positions);
         let usage = vk::BufferUsageFlags::STORAGE_BUFFER;
         let pb = ctx
             .upload_buffer("positions", bytemuck::cast_slice(&pts), usage)
@@ -139,6 +136,31 @@ fn bench_gpu(c: &mut Criterion) {
                 ctx.one_shot(|cmd| spmv.record(&ctx, cmd, &s, &pb, &yb))
                     .unwrap()
             })
+        });
+        use gregvox::engine::evaluator::Evaluator;
+        use gregvox::engine::mesh::{point_location, DeviceNormals, DeviceSpmv};
+        let host = Evaluator::Host;
+        let host_buffer = |name: &str, points: usize| {
+            ctx.create_buffer(
+                name,
+                points as u64 * 16,
+                usage | vk::BufferUsageFlags::TRANSFER_DST,
+                point_location(host),
+            )
+            .unwrap()
+        };
+        let hx = host_buffer("host positions", pts.len());
+        ctx.write_buffer(&hx, 0, bytemuck::cast_slice(&pts))
+            .unwrap();
+        let mut hn = host_buffer("host normals", pts.len());
+        let mut hy = host_buffer("host refined", sub.s.n_rows as usize);
+        let mut dn = DeviceNormals::new(&ctx, &m, host).unwrap();
+        let ds = DeviceSpmv::new(&ctx, &sub.s, host).unwrap();
+        g.bench_function(BenchmarkId::new("device_normals", name), |b| {
+            b.iter(|| dn.evaluate(&ctx, &hx, &mut hn).unwrap())
+        });
+        g.bench_function(BenchmarkId::new("device_cc_spmv", name), |b| {
+            b.iter(|| ds.evaluate(&ctx, &hx, &mut hy).unwrap())
         });
     }
     g.finish();

@@ -263,3 +263,30 @@ fn host_evaluator_refuses_bad_layouts_with_a_message() {
     assert!(out.iter().flatten().all(|&x| x == 0.0));
     evaluate(&ok, 4, true, HostSimd::Auto, &mut out).unwrap();
 }
+
+#[test]
+fn operation_counts_are_the_kernels_per_sample_edge_and_patch_arithmetic() {
+    use gregvox::surface::gregory_host::{operation_counts, OpCounts};
+    // Per grid sample: 1 − u, 1 − v; four rational points (7 adds, 20 multiplies, 1 divide each); eight
+    // u-rows and three v-rows of `gregory_row` (12 multiplies, 9 adds each) and the origin (3 adds); the four
+    // exact-derivative terms (7 multiplies, 6 adds each); the rescale (6), the cross product (6 multiplies,
+    // 3 subtracts), three lengths (3 multiplies, 2 adds, 1 square root each), the test's scale (1 add,
+    // 2 multiplies) and the unit normal (3 divides). Per edge sample (4L of them): one row (12 + 9). Per
+    // patch: the 60 patch-local coordinates (3 adds each).
+    for level in [1u32, 2, 4, 7, 16, 64] {
+        let (s, e) = (((level + 1) * (level + 1)) as u64, 4 * level as u64);
+        let c = operation_counts(level).unwrap();
+        assert_eq!(
+            c.ops,
+            OpCounts {
+                add: 166 * s + 9 * e + 180,
+                mul: 263 * s + 12 * e,
+                div: 7 * s,
+                sqrt: 3 * s,
+            },
+            "level {level}"
+        );
+        assert_eq!(c.bytes, 40 * 16 + 84 + 32 * s, "level {level}");
+    }
+    assert!(operation_counts(0).is_err() && operation_counts(65).is_err());
+}

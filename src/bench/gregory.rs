@@ -25,18 +25,10 @@ use crate::gpu::{Context, MemoryLocation, Profiler};
 use crate::mesh::{catmull_clark, load_mesh_file, Mesh};
 use crate::passes::gregory_eval::{vertex_count, GregoryEvalPass};
 use crate::passes::patch_pull::PatchKind;
-use crate::surface::{tessellate, GregoryStencils, Tangents};
+use crate::surface::{gregory_host, tessellate, GregoryStencils, Tangents};
 use ash::vk;
 use glam::DVec3;
 use serde_json::Value;
-
-/// Estimated f32 operations per evaluated vertex in glsl/gregory_eval.comp: the four rational interior
-/// blends (~40), cubic Bernstein weights and their derivatives in u and v (~20), position and two
-/// derivatives as 16-point tensor sums (3 × 96), the normal (cross product + normalise, ~15). An operation
-/// count of the formulas, not a hardware counter.
-pub const EVAL_FLOPS_PER_VERTEX: f64 = 365.0;
-/// Bytes written per vertex (`SurfaceVertex`: position + normal, stride 32).
-pub const EVAL_BYTES_PER_VERTEX: f64 = 32.0;
 
 /// The evaluation paths compared.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -328,8 +320,16 @@ pub fn run(
              compute = the evaluator GregorySurface uses on this device (Evaluator::for_device: the host kernel \
              — native SIMD + threads, wall clock — on CPU devices, the Vulkan kernel elsewhere); both are \
              measured where both run. speed-up = OSD time / compute time (the aim: ≥ 2 against all cores). \
-             Floor = max(flops, bytes) at the measured peaks with ≈{EVAL_FLOPS_PER_VERTEX} flops and \
-             {EVAL_BYTES_PER_VERTEX} B per vertex (operation-count estimate); floor % = floor / compute time.",
+             flops and bytes per vertex are counted from the kernel's code \
+             (surface::gregory_host::operation_counts: every lane operation of the host kernel counted once \
+             per sample it computes, on one regular patch at that level; the shader's per-sample operations \
+             with the Bernstein weights and the patch-local points computed once per level and per patch; \
+             adds, multiplies, divides and square roots, 1 flop each; bytes: the 20 points and 20 residuals \
+             read, the vertices written). Floor = max(flops / FMA peak, bytes / bandwidth) at this run's \
+             peaks; floor % = floor / compute time; % of FMA peak and % of bandwidth = the achieved flop \
+             and byte rates of the compute time over the peaks. The kernels never fuse a multiply and an \
+             add (the bits of the f32 mirror), so a core that issues multiplies and adds on separate pipes \
+             can still reach the FMA peak.",
             cfg.repeats
         ),
         &[
@@ -351,8 +351,12 @@ pub fn run(
             "speed-up vs OSD all cores",
             "speed-up vs OSD 1 thread",
             "Vulkan kernel vs OSD GLCompute",
+            "flops/vertex (code)",
+            "B/vertex (code)",
             "floor ms",
             "floor %",
+            "% of FMA peak",
+            "% of bandwidth",
         ],
     );
     let osd_repeats = if cfg.quick { 1 } else { 3 };
@@ -419,8 +423,16 @@ pub fn run(
                     None => (missing(&peer), Value::Null),
                 };
                 let ms_all = all_core.map(|(s, _)| s * 1e3);
-                let floor =
-                    peak.map(|p| p.floor_ms(n, EVAL_FLOPS_PER_VERTEX, EVAL_BYTES_PER_VERTEX));
+                let counts = gregory_host::operation_counts(level)?;
+                let (flops, bytes) = (counts.ops.flops() as f64, counts.bytes as f64);
+                let floor = peak.map(|p| p.floor_ms(patches as f64, flops, bytes));
+                let per_vertex = (level as f64 + 1.0).powi(2);
+                let rate = |per_patch: f64, peak_per_s: Option<f64>| match (peak_per_s, &c) {
+                    (Some(pk), Ok(ms)) => {
+                        num(100.0 * per_patch * patches as f64 / (ms * 1e-3) / pk)
+                    }
+                    _ => Value::Null,
+                };
                 let gl = gl_rows.iter().find(|r| r.0 == level);
                 let gl_ms = gl.map(|r| r.1 * 1e3);
                 t.push(vec![
@@ -444,7 +456,9 @@ pub fn run(
                     am,
                     which,
                     match gl {
-                        Some((_, s, renderer)) => format!("{} ({renderer})", num(s * 1e3)).into(),
+                        Some((_, s, renderer)) => {
+                            format!("{} ({renderer})", super::fmt_num(s * 1e3)).into()
+                        }
                         None => missing(&gl_peer),
                     },
                     c.as_ref()
@@ -457,11 +471,15 @@ pub fn run(
                         .as_ref()
                         .map(|&ms| speedup(gl_ms, ms))
                         .unwrap_or(Value::Null),
+                    num(flops / per_vertex),
+                    num(bytes / per_vertex),
                     floor.map(num).unwrap_or(Value::Null),
                     match (floor, &c) {
                         (Some(f), Ok(ms)) => num(100.0 * f / ms),
                         _ => Value::Null,
                     },
+                    rate(flops, peak.map(|p| p.gflops * 1e9)),
+                    rate(bytes, peak.map(|p| p.gbytes * 1e9)),
                 ]);
             }
         }

@@ -1,13 +1,19 @@
 //! Suite `mesh`: vertex normals and one subdivision level on the bunny (and, in the full run, the bunny after
 //! two Loop levels: 1.1 M triangles), gregvox (CPU, one thread) beside libigl and trimesh measured by
-//! tests/oracle/bench_mesh_peers.py in the same run.
+//! tests/oracle/bench_mesh_peers.py in the same run; then the same normals and Catmull–Clark S·P on the
+//! device (`engine::mesh`: the evaluator the device uses, and both evaluators where both run) against that
+//! CPU code, in the same run.
 //!
 //! Invariants: gregvox's figures are the same operations as benches/mesh.rs (`normals`, `loop_level`,
 //! `cc_level`); each row pairs an operation with the peer operation the script names (its docstring says what
 //! each peer computes); neither libigl nor trimesh has Catmull–Clark, so that row has no peer and says so.
 use super::peak::Peak;
 use super::peers::{self, Peer};
-use super::{num, speedup, time_cpu, BenchConfig, Report, Table};
+use super::{num, speedup, time_cpu, time_gpu, BenchConfig, Report, Table};
+use crate::engine::evaluator::Evaluator;
+use crate::engine::mesh::{point_location, DeviceNormals, DeviceSpmv};
+use crate::gpu::{Buffer, Context};
+use crate::mesh::host_kernels::KernelCounts;
 use crate::mesh::{
     catmull_clark_matrix, load_mesh_file, loop_matrix, loop_subdivide, LoopBeta, MeshMatrix,
     NormalWeighting,
@@ -74,11 +80,7 @@ pub fn run(cfg: &BenchConfig, peak: Option<&Peak>, report: &mut Report) -> anyho
         "mesh_peers",
         "Mesh kernels (CPU) vs libigl and trimesh",
         &format!(
-            "gregvox: median of {} runs (single thread, as the peers); peers: tests/oracle/bench_mesh_peers.py (`--repeat 1`: one run after a warm-up on the bunny, median of 2 on 1.1 M faces; \
-             one process), same meshes (the peers drop the bunny's 1,113 unreferenced vertices). speed-up = peer / \
-             gregvox. Floor = max(flops, bytes) at the measured peaks (normals: {NORMALS_FLOPS_PER_FACE} flops, \
-             {NORMALS_BYTES_PER_FACE} B per face; S·P: {SPMV_FLOPS_PER_NNZ} flops, {SPMV_BYTES_PER_NNZ} B per \
-             non-zero).",
+            "gregvox: median of {} runs (single thread, as the peers); peers: tests/oracle/bench_mesh_peers.py (`--repeat 1`: one run after a warm-up on the bunny, median of 2 on 1.1 M faces;              one process), same meshes (the peers drop the bunny's 1,113 unreferenced vertices). speed-up = peer /              gregvox. Floor = max(flops, bytes) at the measured peaks (normals: {NORMALS_FLOPS_PER_FACE} flops,              {NORMALS_BYTES_PER_FACE} B per face; S·P: {SPMV_FLOPS_PER_NNZ} flops, {SPMV_BYTES_PER_NNZ} B per              non-zero).",
             cfg.repeats
         ),
         &[
@@ -92,6 +94,7 @@ pub fn run(cfg: &BenchConfig, peak: Option<&Peak>, report: &mut Report) -> anyho
             "speed-up",
         ],
     );
+    let mut cpu_ms = Vec::new();
     for (name, mesh) in &meshes {
         let m = MeshMatrix::from_mesh(mesh);
         let faces = m.n_faces();
@@ -150,6 +153,7 @@ pub fn run(cfg: &BenchConfig, peak: Option<&Peak>, report: &mut Report) -> anyho
                 "",
             ),
         ];
+        cpu_ms.push((name, normals, cc_spmv));
         for (op, ms, fl, peer_op) in rows {
             let (po, pm): (Value, Value) = if peer_op.is_empty() {
                 (
@@ -180,5 +184,182 @@ pub fn run(cfg: &BenchConfig, peak: Option<&Peak>, report: &mut Report) -> anyho
         }
     }
     report.tables.push(t);
+    let ctx = super::compute_context()?;
+    let r = device(&ctx, cfg, peak, &meshes, &cpu_ms, report);
+    super::finish_context(ctx)?;
+    r
+}
+
+/// A buffer of `points` vec4 points in `evaluator`'s memory, filled with `data` (or zeros).
+fn point_buffer(
+    ctx: &Context,
+    name: &str,
+    evaluator: Evaluator,
+    points: usize,
+    data: Option<&[[f32; 4]]>,
+) -> anyhow::Result<Buffer> {
+    use ash::vk::BufferUsageFlags as U;
+    let buf = ctx.create_buffer(
+        name,
+        points as u64 * 16,
+        U::STORAGE_BUFFER | U::TRANSFER_DST | U::TRANSFER_SRC,
+        point_location(evaluator),
+    )?;
+    if let Some(d) = data {
+        ctx.write_buffer(&buf, 0, bytemuck::cast_slice(d))?;
+    }
+    Ok(buf)
+}
+
+/// The device table: normals and S·P through `engine::mesh` on each evaluator, beside the CPU code's
+/// times measured above (`cpu_ms`: mesh, normals ms, S·P ms).
+fn device(
+    ctx: &Context,
+    cfg: &BenchConfig,
+    peak: Option<&Peak>,
+    meshes: &[(&str, crate::mesh::Mesh)],
+    cpu_ms: &[(&&str, f64, f64)],
+    report: &mut Report,
+) -> anyhow::Result<()> {
+    let evaluator = Evaluator::for_device(ctx)?;
+    let both = ctx.info.device_type == "CPU";
+    let mut t = Table::new(
+        "mesh_device",
+        "Mesh kernels on the device vs gregvox's CPU code",
+        &format!(
+            "device = engine::mesh::{{DeviceNormals, DeviceSpmv}}::evaluate on the evaluator this device uses \
+             (Evaluator::for_device: the host kernels — f32, the shaders' operations, rayon over all cores — on \
+             CPU devices, the Vulkan kernels elsewhere), wall clock per call (Vulkan: record + submit + wait), \
+             median of {} calls; Vulkan kernel = the passes' timestamps (face + vertex kernels for normals), \
+             measured where both run. CPU = gregvox's f64 single-thread code of the table above \
+             (MeshMatrix::vertex_normals, SparseMatrix::spmv), same run. speed-up = CPU ms / device ms \
+             (the aim: ≥ 1). flops and bytes are counted from the kernels' code \
+             (mesh::host_kernels::KernelCounts: NormalsLayout::counts, spmv_counts); floor = max(flops / \
+             FMA peak, bytes / bandwidth) at this run's peaks; % of FMA peak and % of bandwidth = the \
+             device time's achieved rates over the peaks.",
+            cfg.repeats
+        ),
+        &[
+            "mesh",
+            "faces",
+            "operation",
+            "device evaluator",
+            "device ms",
+            "Vulkan kernel ms",
+            "Vulkan submission ms",
+            "host kernels ms",
+            "CPU ms",
+            "speed-up vs CPU",
+            "flops (code)",
+            "bytes (code)",
+            "floor ms",
+            "% of FMA peak",
+            "% of bandwidth",
+        ],
+    );
+    for ((name, mesh), (_, cpu_normals, cpu_spmv)) in meshes.iter().zip(cpu_ms) {
+        let m = MeshMatrix::from_mesh(mesh);
+        let pts = crate::mesh::host_kernels::to_vec4(&mesh.positions);
+        let s = catmull_clark_matrix(&m).s;
+        // (evaluator, normals ms, S·P ms, Vulkan timestamps of normals and S·P)
+        let mut runs = Vec::new();
+        let mut counts = [KernelCounts::default(); 2];
+        for e in [Evaluator::Vulkan, Evaluator::Host] {
+            if e == Evaluator::Host && !both && evaluator != Evaluator::Host {
+                continue;
+            }
+            let x = point_buffer(ctx, "bench positions", e, pts.len(), Some(&pts))?;
+            let mut n = point_buffer(ctx, "bench normals", e, pts.len(), None)?;
+            let mut y = point_buffer(ctx, "bench refined", e, s.n_rows as usize, None)?;
+            let mut dn = DeviceNormals::new(ctx, &m, e)?;
+            let ds = DeviceSpmv::new(ctx, &s, e)?;
+            counts = [dn.counts(), ds.counts()];
+            let normals_ms = time_cpu(cfg.repeats, || {
+                dn.evaluate(ctx, &x, &mut n)
+                    .expect("normals of a checked mesh")
+            });
+            let spmv_ms = time_cpu(cfg.repeats, || {
+                ds.evaluate(ctx, &x, &mut y)
+                    .expect("S·P of a checked matrix")
+            });
+            let stamps = if e == Evaluator::Vulkan {
+                Some(vulkan_stamps(ctx, cfg, &m, &s, &x, &n, &y)?)
+            } else {
+                None
+            };
+            runs.push((e, normals_ms, spmv_ms, stamps));
+        }
+        for (op, cpu, pick) in [
+            ("AREA vertex normals", *cpu_normals, 0usize),
+            ("Catmull–Clark S·P (one level)", *cpu_spmv, 1),
+        ] {
+            let ms = |e: Evaluator| {
+                runs.iter()
+                    .find(|r| r.0 == e)
+                    .map(|r| if pick == 0 { r.1 } else { r.2 })
+            };
+            let stamps = runs
+                .iter()
+                .find_map(|r| r.3)
+                .map(|(a, b)| if pick == 0 { a } else { b });
+            let device_ms = ms(evaluator).expect("the device's evaluator ran");
+            t.push(vec![
+                (*name).into(),
+                m.n_faces().into(),
+                op.into(),
+                evaluator.label().into(),
+                num(device_ms),
+                stamps.map(num).unwrap_or(Value::Null),
+                ms(Evaluator::Vulkan).map(num).unwrap_or(Value::Null),
+                ms(Evaluator::Host)
+                    .map(num)
+                    .unwrap_or_else(|| "not used (GPU device)".into()),
+                num(cpu),
+                speedup(Some(cpu), device_ms),
+                counts[pick].flops.into(),
+                counts[pick].bytes.into(),
+                peak.map(|p| {
+                    num(p.floor_ms(1.0, counts[pick].flops as f64, counts[pick].bytes as f64))
+                })
+                .unwrap_or(Value::Null),
+                peak.map(|p| {
+                    num(100.0 * counts[pick].flops as f64 / (device_ms * 1e-3) / (p.gflops * 1e9))
+                })
+                .unwrap_or(Value::Null),
+                peak.map(|p| {
+                    num(100.0 * counts[pick].bytes as f64 / (device_ms * 1e-3) / (p.gbytes * 1e9))
+                })
+                .unwrap_or(Value::Null),
+            ]);
+        }
+    }
+    report.tables.push(t);
     Ok(())
+}
+
+/// Median timestamps (ms) of the Vulkan normal kernels and the Vulkan S·P kernel.
+fn vulkan_stamps(
+    ctx: &Context,
+    cfg: &BenchConfig,
+    m: &MeshMatrix,
+    s: &crate::mesh::SparseMatrix<f64>,
+    x: &Buffer,
+    n: &Buffer,
+    y: &Buffer,
+) -> anyhow::Result<(f64, f64)> {
+    use crate::passes::mesh_normals::{GpuMeshMatrix, MeshNormalsPass};
+    use crate::passes::spmv::{GpuSparse, SpmvPass};
+    let (pass, gm) = (MeshNormalsPass::new(ctx)?, GpuMeshMatrix::upload(ctx, m)?);
+    let normals = time_gpu(ctx, 1, cfg.repeats, |cmd, prof| match prof {
+        Some((p, slot)) => p.scope(ctx, cmd, slot, "normals", || {
+            pass.record(ctx, cmd, &gm, x, n)
+        }),
+        None => pass.record(ctx, cmd, &gm, x, n),
+    })?;
+    let (sp, gs) = (SpmvPass::new(ctx)?, GpuSparse::upload(ctx, "S", s)?);
+    let spmv = time_gpu(ctx, 1, cfg.repeats, |cmd, prof| match prof {
+        Some((p, slot)) => p.scope(ctx, cmd, slot, "spmv", || sp.record(ctx, cmd, &gs, x, y)),
+        None => sp.record(ctx, cmd, &gs, x, y),
+    })?;
+    Ok((normals.pass("normals"), spmv.pass("spmv")))
 }

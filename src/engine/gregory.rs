@@ -86,43 +86,13 @@ pub fn canonical_edge_flags(quads: &[[u32; 4]]) -> Vec<u32> {
         .collect()
 }
 
-/// Which code evaluates the patches into the vertex buffer (see the module invariants).
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Evaluator {
-    /// The Vulkan kernel (glsl/gregory_eval.comp, [`GregoryEvalPass`]).
-    Vulkan,
-    /// The native SIMD + threads kernel ([`crate::surface::gregory_host`]) on the host, writing the same
-    /// buffer through its mapping: for devices that are CPUs, where it is several times faster (on
-    /// lavapipe: docs/benchmarks.md, suite `gregory`).
-    Host,
-}
+pub use super::evaluator::Evaluator;
 
-impl Evaluator {
-    /// The evaluator for `ctx`'s device: [`Evaluator::Host`] when the device is a CPU, else
-    /// [`Evaluator::Vulkan`]; the environment variable `GREGVOX_EVALUATOR` = `vulkan` or `host` overrides
-    /// (any other value is an error naming it).
-    pub fn for_device(ctx: &Context) -> Result<Self> {
-        match std::env::var("GREGVOX_EVALUATOR").ok().as_deref() {
-            None | Some("") => Ok(if ctx.info.device_type == "CPU" {
-                Evaluator::Host
-            } else {
-                Evaluator::Vulkan
-            }),
-            Some("vulkan") => Ok(Evaluator::Vulkan),
-            Some("host") => Ok(Evaluator::Host),
-            Some(other) => Err(Error::Invalid(format!(
-                "GREGVOX_EVALUATOR is '{other}': use 'vulkan' (the compute shader) or 'host' (the native \
-                 evaluator)"
-            ))),
-        }
-    }
-
-    /// Where the points and vertex buffers live: host-visible for the host evaluator (it maps them).
-    fn locations(self) -> (MemoryLocation, MemoryLocation) {
-        match self {
-            Evaluator::Vulkan => (MemoryLocation::GpuOnly, MemoryLocation::GpuOnly),
-            Evaluator::Host => (MemoryLocation::GpuToCpu, MemoryLocation::CpuToGpu),
-        }
+/// Where the points and vertex buffers live: host-visible for the host evaluator (it maps them).
+fn locations(evaluator: Evaluator) -> (MemoryLocation, MemoryLocation) {
+    match evaluator {
+        Evaluator::Vulkan => (MemoryLocation::GpuOnly, MemoryLocation::GpuOnly),
+        Evaluator::Host => (MemoryLocation::GpuToCpu, MemoryLocation::CpuToGpu),
     }
 }
 
@@ -317,7 +287,7 @@ impl GregorySurface {
         let rw = storage | vk::BufferUsageFlags::TRANSFER_SRC | vk::BufferUsageFlags::TRANSFER_DST;
         let (vertices, indices) =
             Self::level_buffers(ctx, topo.patch_points.len() as u32, level, evaluator)?;
-        let (points_location, _) = evaluator.locations();
+        let (points_location, _) = locations(evaluator);
         Ok(GregorySurface {
             spmv: SpmvPass::new_affine_split(ctx)?,
             eval: GregoryEvalPass::new(ctx)?,
@@ -379,7 +349,7 @@ impl GregorySurface {
             vk::BufferUsageFlags::STORAGE_BUFFER
                 | vk::BufferUsageFlags::VERTEX_BUFFER
                 | vk::BufferUsageFlags::TRANSFER_SRC,
-            evaluator.locations().1,
+            locations(evaluator).1,
         )?;
         let idx = grid_indices(patches, level);
         let indices = ctx.upload_buffer(

@@ -4,7 +4,9 @@
 //! (`flag`). Each workflow owns its passes and its buffers: for one run (the voxelizers) or for its lifetime
 //! (the surfaces, the resident voxelizer); all of them release themselves when dropped.
 pub mod cage;
+pub mod evaluator;
 pub mod flag;
 pub mod gregory;
+pub mod mesh;
 pub mod vertex_pull;
 pub mod voxelize;

@@ -17,6 +17,7 @@
 //! assert!(n.iter().all(|v| (v.length() - 1.0).abs() < 1e-12));
 //! ```
 mod glb;
+pub mod host_kernels;
 mod load;
 mod matrix;
 mod normals;
