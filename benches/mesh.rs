@@ -138,22 +138,11 @@ fn bench_gpu(c: &mut Criterion) {
             })
         });
         use gregvox::engine::evaluator::Evaluator;
-        use gregvox::engine::mesh::{point_location, DeviceNormals, DeviceSpmv};
+        use gregvox::engine::mesh::{point_buffer, DeviceNormals, DeviceSpmv};
         let host = Evaluator::Host;
-        let host_buffer = |name: &str, points: usize| {
-            ctx.create_buffer(
-                name,
-                points as u64 * 16,
-                usage | vk::BufferUsageFlags::TRANSFER_DST,
-                point_location(host),
-            )
-            .unwrap()
-        };
-        let hx = host_buffer("host positions", pts.len());
-        ctx.write_buffer(&hx, 0, bytemuck::cast_slice(&pts))
-            .unwrap();
-        let mut hn = host_buffer("host normals", pts.len());
-        let mut hy = host_buffer("host refined", sub.s.n_rows as usize);
+        let hx = point_buffer(&ctx, "host positions", host, pts.len(), Some(&pts)).unwrap();
+        let mut hn = point_buffer(&ctx, "host normals", host, pts.len(), None).unwrap();
+        let mut hy = point_buffer(&ctx, "host refined", host, sub.s.n_rows as usize, None).unwrap();
         let mut dn = DeviceNormals::new(&ctx, &m, host).unwrap();
         let ds = DeviceSpmv::new(&ctx, &sub.s, host).unwrap();
         g.bench_function(BenchmarkId::new("device_normals", name), |b| {

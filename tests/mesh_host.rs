@@ -9,7 +9,7 @@ use ash::vk;
 use common::with_gpu;
 use glam::DVec3;
 use gregvox::engine::evaluator::Evaluator;
-use gregvox::engine::mesh::{point_location, DeviceNormals, DeviceSpmv};
+use gregvox::engine::mesh::{point_buffer, DeviceNormals, DeviceSpmv};
 use gregvox::gpu::{Buffer, Context, MemoryLocation};
 use gregvox::mesh::{
     catmull_clark_matrix, load_obj, loop_matrix, LoopBeta, Mesh, MeshMatrix, NormalWeighting,
@@ -24,20 +24,7 @@ fn buffer(
     points: usize,
     data: Option<&[[f32; 4]]>,
 ) -> Buffer {
-    let b = ctx
-        .create_buffer(
-            name,
-            points as u64 * 16,
-            vk::BufferUsageFlags::STORAGE_BUFFER
-                | vk::BufferUsageFlags::TRANSFER_SRC
-                | vk::BufferUsageFlags::TRANSFER_DST,
-            point_location(e),
-        )
-        .unwrap();
-    if let Some(d) = data {
-        ctx.write_buffer(&b, 0, bytemuck::cast_slice(d)).unwrap();
-    }
-    b
+    point_buffer(ctx, name, e, points, data).unwrap()
 }
 
 fn vec4(p: &[DVec3]) -> Vec<[f32; 4]> {

@@ -1,7 +1,16 @@
 // Shared by the OpenSubdiv peers of `gregvox bench` (osd_eval_bench.cpp, osd_glcompute_bench.cpp): the
-// point types Far's stencil and patch evaluation fill, and the all-quad OBJ cage reader with its checks
-// (missing file, a face that is not a quad, no faces, an index out of range: one line on stderr, false).
+// point types Far's stencil and patch evaluation fill, the all-quad OBJ cage reader with its checks
+// (missing file, a face that is not a quad, no faces, an index out of range: one line on stderr, false),
+// the patch tables both evaluate (built as tests/oracle/osd_gregory.cpp builds them), and one sample of
+// the double CPU reference.
 #pragma once
+#include <opensubdiv/far/patchMap.h>
+#include <opensubdiv/far/patchTableFactory.h>
+#include <opensubdiv/far/stencilTable.h>
+#include <opensubdiv/far/topologyDescriptor.h>
+#include <opensubdiv/osd/types.h>
+#include <algorithm>
+#include <memory>
 #include <cstdio>
 #include <cstdlib>
 #include <fstream>
@@ -43,5 +52,90 @@ static bool read_quad_cage(const char *path, std::vector<V3> &pos, std::vector<i
     for (int n : nv) if (n != 4) { fprintf(stderr, "%s: not an all-quad cage\n", path); return false; }
     if (nv.empty()) { fprintf(stderr, "%s: no faces\n", path); return false; }
     for (int i : idx) if (i < 0 || i >= (int)pos.size()) { fprintf(stderr, "%s: face index out of range\n", path); return false; }
+    return true;
+}
+
+// The Far set-up of a cage: the CATMARK refiner (VTX_BOUNDARY_EDGE_ONLY) refined adaptively for
+// ENDCAP_GREGORY_BASIS at isolation 0; the double patch table with the refined + local points and its patch
+// map (the CPU reference), and the float patch table (the same patches) with its points as x, y, z floats
+// and its patch map (what the Osd evaluators read). Owns everything it holds.
+struct GregoryTables {
+    std::unique_ptr<OpenSubdiv::Far::TopologyRefiner> refiner;
+    std::unique_ptr<const OpenSubdiv::Far::PatchTable> pt, ptf;
+    std::unique_ptr<OpenSubdiv::Far::PatchMap> pm, pmf;
+    std::vector<V3> pts;
+    std::vector<V3f> ptsf;
+    int nref = 0;
+};
+
+// Builds `t` from a cage read by read_quad_cage; false (after one stderr line naming `path`) if Far fails.
+static bool make_gregory_tables(const char *path, const std::vector<V3> &pos, std::vector<int> &nv,
+                                std::vector<int> &idx, GregoryTables &t) {
+    namespace Far = OpenSubdiv::Far;
+    Far::TopologyDescriptor d;
+    d.numVertices = (int)pos.size();
+    d.numFaces = (int)nv.size();
+    d.numVertsPerFace = nv.data();
+    d.vertIndicesPerFace = idx.data();
+    OpenSubdiv::Sdc::Options o;
+    o.SetVtxBoundaryInterpolation(OpenSubdiv::Sdc::Options::VTX_BOUNDARY_EDGE_ONLY);
+    typedef Far::TopologyRefinerFactory<Far::TopologyDescriptor> F;
+    t.refiner.reset(F::Create(d, F::Options(OpenSubdiv::Sdc::SCHEME_CATMARK, o)));
+    if (!t.refiner) { fprintf(stderr, "%s: Far::TopologyRefinerFactory::Create failed\n", path); return false; }
+    Far::PatchTableFactory::Options po(0);
+    po.SetEndCapType(Far::PatchTableFactory::Options::ENDCAP_GREGORY_BASIS);
+    po.SetPatchPrecision<double>();
+    t.refiner->RefineAdaptive(po.GetRefineAdaptiveOptions());
+    t.pt.reset(Far::PatchTableFactory::Create(*t.refiner, po));
+    t.nref = t.refiner->GetNumVerticesTotal();
+    t.pts.assign(t.nref + t.pt->GetNumLocalPoints(), V3());
+    std::copy(pos.begin(), pos.end(), t.pts.begin());
+    if (t.pt->GetNumLocalPoints())
+        t.pt->GetLocalPointStencilTable<double>()->UpdateValues(t.pts.data(), t.pts.data() + t.nref);
+    t.pm.reset(new Far::PatchMap(*t.pt));
+    Far::PatchTableFactory::Options pof(0);
+    pof.SetEndCapType(Far::PatchTableFactory::Options::ENDCAP_GREGORY_BASIS);
+    t.ptf.reset(Far::PatchTableFactory::Create(*t.refiner, pof));
+    t.pmf.reset(new Far::PatchMap(*t.ptf));
+    t.ptsf.assign(t.nref + t.ptf->GetNumLocalPoints(), V3f());
+    for (int q = 0; q < t.nref; ++q)
+        for (int e = 0; e < 3; ++e) t.ptsf[q].p[e] = (float)pos[q].p[e];
+    if (t.ptf->GetNumLocalPoints())
+        t.ptf->GetLocalPointStencilTable<float>()->UpdateValues(t.ptsf.data(), t.ptsf.data() + t.nref);
+    return true;
+}
+
+// One sample of face f at (u, v) in double: FindPatch + EvaluateBasis + the weighted sums of position and
+// both first derivatives; false where FindPatch finds no patch.
+static inline bool cpu_sample(const GregoryTables &t, int f, double u, double v, double P[3], double Du[3],
+                              double Dv[3]) {
+    double w[20], wu[20], wv[20];
+    OpenSubdiv::Far::PatchTable::PatchHandle const *h = t.pm->FindPatch(f, u, v);
+    if (!h) return false;
+    t.pt->EvaluateBasis(*h, u, v, w, wu, wv);
+    OpenSubdiv::Far::ConstIndexArray cv = t.pt->GetPatchVertices(*h);
+    for (int e = 0; e < 3; ++e) P[e] = Du[e] = Dv[e] = 0;
+    for (int c = 0; c < cv.size(); ++c) {
+        const double *q = t.pts[cv[c]].p;
+        for (int e = 0; e < 3; ++e) { P[e] += w[c] * q[e]; Du[e] += wu[c] * q[e]; Dv[e] += wv[c] * q[e]; }
+    }
+    return true;
+}
+
+// The float patch coordinates of every sample (face-major, rows of u inner) at level L, found once before
+// timing as an application re-evaluating a fixed sampling does; false (after one stderr line) where
+// FindPatch finds no patch.
+static bool patch_coords(const GregoryTables &t, int L, std::vector<OpenSubdiv::Osd::PatchCoord> &coords) {
+    const int nf = t.refiner->GetLevel(0).GetNumFaces();
+    coords.resize((size_t)nf * (L + 1) * (L + 1));
+    size_t k = 0;
+    for (int f = 0; f < nf; ++f)
+        for (int j = 0; j <= L; ++j)
+            for (int i = 0; i <= L; ++i, ++k) {
+                float u = (float)i / L, v = (float)j / L;
+                OpenSubdiv::Far::PatchTable::PatchHandle const *h = t.pmf->FindPatch(f, u, v);
+                if (!h) { fprintf(stderr, "FindPatch (float) failed face %d\n", f); return false; }
+                coords[k] = OpenSubdiv::Osd::PatchCoord(*h, u, v);
+            }
     return true;
 }

@@ -58,23 +58,13 @@ static double median_seconds(int repeats, const std::function<void()> &run) {
 }
 
 // Every sample of faces [f0, f1): position, du, dv as float, 9 per sample, into out (sample-major).
-static bool eval_faces(const Far::PatchTable *pt, const Far::PatchMap &pm, const std::vector<V3> &pts, int L,
-                       int f0, int f1, float *out) {
-    double w[20], wu[20], wv[20];
+static bool eval_faces(const GregoryTables &t, int L, int f0, int f1, float *out) {
     size_t k = (size_t)f0 * (L + 1) * (L + 1);
     for (int f = f0; f < f1; ++f)
         for (int j = 0; j <= L; ++j)
             for (int i = 0; i <= L; ++i, ++k) {
-                double u = (double)i / L, v = (double)j / L;
-                Far::PatchTable::PatchHandle const *h = pm.FindPatch(f, u, v);
-                if (!h) return false;
-                pt->EvaluateBasis(*h, u, v, w, wu, wv);
-                Far::ConstIndexArray cv = pt->GetPatchVertices(*h);
-                double P[3] = {0, 0, 0}, Du[3] = {0, 0, 0}, Dv[3] = {0, 0, 0};
-                for (int c = 0; c < cv.size(); ++c) {
-                    const double *q = pts[cv[c]].p;
-                    for (int e = 0; e < 3; ++e) { P[e] += w[c] * q[e]; Du[e] += wu[c] * q[e]; Dv[e] += wv[c] * q[e]; }
-                }
+                double P[3], Du[3], Dv[3];
+                if (!cpu_sample(t, f, (double)i / L, (double)j / L, P, Du, Dv)) return false;
                 float *o = &out[k * 9];
                 for (int e = 0; e < 3; ++e) { o[e] = (float)P[e]; o[3 + e] = (float)Du[e]; o[6 + e] = (float)Dv[e]; }
             }
@@ -87,41 +77,14 @@ int main(int argc, char **argv) {
     std::vector<int> nv, idx;
     if (!read_quad_cage(argv[1], pos, nv, idx)) return 1;
     int repeats = std::max(1, atoi(argv[2]));
-    Far::TopologyDescriptor d;
-    d.numVertices = (int)pos.size();
-    d.numFaces = (int)nv.size();
-    d.numVertsPerFace = nv.data();
-    d.vertIndicesPerFace = idx.data();
-    Sdc::Options o;
-    o.SetVtxBoundaryInterpolation(Sdc::Options::VTX_BOUNDARY_EDGE_ONLY);
-    typedef Far::TopologyRefinerFactory<Far::TopologyDescriptor> F;
-    Far::TopologyRefiner *r = F::Create(d, F::Options(Sdc::SCHEME_CATMARK, o));
-    Far::PatchTableFactory::Options po(0);
-    po.SetEndCapType(Far::PatchTableFactory::Options::ENDCAP_GREGORY_BASIS);
-    po.SetPatchPrecision<double>();
-    r->RefineAdaptive(po.GetRefineAdaptiveOptions());
-    Far::PatchTable const *pt = Far::PatchTableFactory::Create(*r, po);
-    int nref = r->GetNumVerticesTotal();
-    int nloc = pt->GetNumLocalPoints();
-    std::vector<V3> pts(nref + nloc);
-    std::copy(pos.begin(), pos.end(), pts.begin());
-    if (nloc) pt->GetLocalPointStencilTable<double>()->UpdateValues(pts.data(), pts.data() + nref);
-    Far::PatchMap pm(*pt);
+    GregoryTables t;
+    if (!make_gregory_tables(argv[1], pos, nv, idx, t)) return 1;
     const int nf = (int)nv.size();
     const int threads = omp_get_max_threads();
 
-    // The float path of Osd: a float patch table (the same patches), its local points in float, the
-    // source buffer of refined + local points as x, y, z floats.
-    Far::PatchTableFactory::Options pof(0);
-    pof.SetEndCapType(Far::PatchTableFactory::Options::ENDCAP_GREGORY_BASIS);
-    Far::PatchTable const *ptf = Far::PatchTableFactory::Create(*r, pof);
-    Osd::CpuPatchTable *cpt = Osd::CpuPatchTable::Create(ptf);
-    Far::PatchMap pmf(*ptf);
-    std::vector<V3f> srcv(nref + ptf->GetNumLocalPoints());
-    for (int q = 0; q < nref; ++q)
-        for (int e = 0; e < 3; ++e) srcv[q].p[e] = (float)pos[q].p[e];
-    if (ptf->GetNumLocalPoints()) ptf->GetLocalPointStencilTable<float>()->UpdateValues(srcv.data(), srcv.data() + nref);
-    const float *src = &srcv[0].p[0];
+    // The float path of Osd: the float patch table, its points as the source buffer of x, y, z floats.
+    Osd::CpuPatchTable *cpt = Osd::CpuPatchTable::Create(t.ptf.get());
+    const float *src = &t.ptsf[0].p[0];
     Osd::BufferDescriptor srcDesc(0, 3, 3), dstDesc(0, 3, 3);
 
     for (int a = 3; a < argc; ++a) {
@@ -130,26 +93,18 @@ int main(int argc, char **argv) {
         size_t n = (size_t)nf * (L + 1) * (L + 1);
         std::vector<float> out(n * 9), out_mt(n * 9);
         bool ok = true;
-        double single = median_seconds(repeats, [&] { ok = ok && eval_faces(pt, pm, pts, L, 0, nf, out.data()); });
+        double single = median_seconds(repeats, [&] { ok = ok && eval_faces(t, L, 0, nf, out.data()); });
         if (!ok) { fprintf(stderr, "FindPatch failed at level %d\n", L); return 1; }
         double multi = median_seconds(repeats, [&] {
             int failed = 0;
 #pragma omp parallel for schedule(static) reduction(+ : failed)
-            for (int f = 0; f < nf; ++f) failed += !eval_faces(pt, pm, pts, L, f, f + 1, out_mt.data());
+            for (int f = 0; f < nf; ++f) failed += !eval_faces(t, L, f, f + 1, out_mt.data());
             ok = ok && failed == 0;
         });
         if (!ok || out_mt != out) { fprintf(stderr, "the threaded loop differs from the single-thread one\n"); return 1; }
 
-        std::vector<Osd::PatchCoord> coords(n);
-        size_t k = 0;
-        for (int f = 0; f < nf; ++f)
-            for (int j = 0; j <= L; ++j)
-                for (int i = 0; i <= L; ++i, ++k) {
-                    float u = (float)i / L, v = (float)j / L;
-                    Far::PatchTable::PatchHandle const *h = pmf.FindPatch(f, u, v);
-                    if (!h) { fprintf(stderr, "FindPatch (float) failed face %d\n", f); return 1; }
-                    coords[k] = Osd::PatchCoord(*h, u, v);
-                }
+        std::vector<Osd::PatchCoord> coords;
+        if (!patch_coords(t, L, coords)) return 1;
         std::vector<float> P(n * 3), Du(n * 3), Dv(n * 3);
         double omp = median_seconds(repeats, [&] {
             ok = ok && Osd::OmpEvaluator::EvalPatches(src, srcDesc, P.data(), dstDesc, Du.data(), dstDesc,
@@ -169,8 +124,5 @@ int main(int argc, char **argv) {
                L, nf, n, single, threads, multi, omp, checksum, omp_checksum, diff);
     }
     delete cpt;
-    delete ptf;
-    delete pt;
-    delete r;
     return 0;
 }

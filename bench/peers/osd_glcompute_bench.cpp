@@ -158,22 +158,6 @@ static bool make_context(EGLDisplay *out_dpy, EGLContext *out_ctx) {
     return true;
 }
 
-// One sample on the CPU in double (as osd_eval_bench.cpp's eval_faces): position, du, dv.
-static bool cpu_sample(const Far::PatchTable *pt, const Far::PatchMap &pm, const std::vector<V3> &pts, int f,
-                       double u, double v, double P[3], double Du[3], double Dv[3]) {
-    double w[20], wu[20], wv[20];
-    Far::PatchTable::PatchHandle const *h = pm.FindPatch(f, u, v);
-    if (!h) return false;
-    pt->EvaluateBasis(*h, u, v, w, wu, wv);
-    Far::ConstIndexArray cv = pt->GetPatchVertices(*h);
-    for (int e = 0; e < 3; ++e) P[e] = Du[e] = Dv[e] = 0;
-    for (int c = 0; c < cv.size(); ++c) {
-        const double *q = pts[cv[c]].p;
-        for (int e = 0; e < 3; ++e) { P[e] += w[c] * q[e]; Du[e] += wu[c] * q[e]; Dv[e] += wv[c] * q[e]; }
-    }
-    return true;
-}
-
 static void read_buffer(Osd::GLVertexBuffer *b, size_t floats, float *dst) {
     glBindBuffer(GL_COPY_READ_BUFFER, b->BindVBO());
     glGetBufferSubData(GL_COPY_READ_BUFFER, 0, (GLsizeiptr)(floats * sizeof(float)), dst);
@@ -190,40 +174,12 @@ int main(int argc, char **argv) {
     for (int a = 3; a < argc; ++a)
         if (atoi(argv[a]) < 1) { fprintf(stderr, "level %s is not positive\n", argv[a]); return 1; }
 
-    Far::TopologyDescriptor d;
-    d.numVertices = (int)pos.size();
-    d.numFaces = (int)nv.size();
-    d.numVertsPerFace = nv.data();
-    d.vertIndicesPerFace = idx.data();
-    Sdc::Options o;
-    o.SetVtxBoundaryInterpolation(Sdc::Options::VTX_BOUNDARY_EDGE_ONLY);
-    typedef Far::TopologyRefinerFactory<Far::TopologyDescriptor> F;
-    Far::TopologyRefiner *r = F::Create(d, F::Options(Sdc::SCHEME_CATMARK, o));
-    if (!r) { fprintf(stderr, "%s: Far::TopologyRefinerFactory::Create failed\n", argv[1]); return 1; }
-    // The double patch table: the CPU reference of the check (as osd_eval_bench.cpp's `median_s` loop).
-    Far::PatchTableFactory::Options po(0);
-    po.SetEndCapType(Far::PatchTableFactory::Options::ENDCAP_GREGORY_BASIS);
-    po.SetPatchPrecision<double>();
-    r->RefineAdaptive(po.GetRefineAdaptiveOptions());
-    Far::PatchTable const *pt = Far::PatchTableFactory::Create(*r, po);
-    int nref = r->GetNumVerticesTotal();
-    int nloc = pt->GetNumLocalPoints();
-    std::vector<V3> pts(nref + nloc);
-    std::copy(pos.begin(), pos.end(), pts.begin());
-    if (nloc) pt->GetLocalPointStencilTable<double>()->UpdateValues(pts.data(), pts.data() + nref);
-    Far::PatchMap pm(*pt);
+    GregoryTables t;
+    if (!make_gregory_tables(argv[1], pos, nv, idx, t)) return 1;
     const int nf = (int)nv.size();
-
-    // The float path of Osd (as osd_eval_bench.cpp's `pof`/`ptf`): a float patch table (the same patches),
-    // its local points in float, the source buffer of refined + local points as x, y, z floats.
-    Far::PatchTableFactory::Options pof(0);
-    pof.SetEndCapType(Far::PatchTableFactory::Options::ENDCAP_GREGORY_BASIS);
-    Far::PatchTable const *ptf = Far::PatchTableFactory::Create(*r, pof);
-    Far::PatchMap pmf(*ptf);
-    std::vector<V3f> srcv(nref + ptf->GetNumLocalPoints());
-    for (int q = 0; q < nref; ++q)
-        for (int e = 0; e < 3; ++e) srcv[q].p[e] = (float)pos[q].p[e];
-    if (ptf->GetNumLocalPoints()) ptf->GetLocalPointStencilTable<float>()->UpdateValues(srcv.data(), srcv.data() + nref);
+    // The float path of Osd (as osd_eval_bench.cpp's): the float patch table and its points as x, y, z floats.
+    const Far::PatchTable *ptf = t.ptf.get();
+    const std::vector<V3f> &srcv = t.ptsf;
 
     EGLDisplay dpy;
     EGLContext ctx;
@@ -266,16 +222,8 @@ int main(int argc, char **argv) {
     for (int a = 3; a < argc; ++a) {
         int L = atoi(argv[a]);
         size_t n = (size_t)nf * (L + 1) * (L + 1);
-        std::vector<Osd::PatchCoord> coords(n);
-        size_t k = 0;
-        for (int f = 0; f < nf; ++f)
-            for (int j = 0; j <= L; ++j)
-                for (int i = 0; i <= L; ++i, ++k) {
-                    float u = (float)i / L, v = (float)j / L;
-                    Far::PatchTable::PatchHandle const *h = pmf.FindPatch(f, u, v);
-                    if (!h) { fprintf(stderr, "FindPatch (float) failed face %d\n", f); return 1; }
-                    coords[k] = Osd::PatchCoord(*h, u, v);
-                }
+        std::vector<Osd::PatchCoord> coords;
+        if (!patch_coords(t, L, coords)) return 1;
         // Chunks of at most `cap` samples, each with its own buffers padded to a multiple of the work group.
         struct Chunk { size_t start, count; Osd::GLVertexBuffer *pc, *P, *Du, *Dv; };
         std::vector<Chunk> chunks;
@@ -339,12 +287,12 @@ int main(int argc, char **argv) {
         }
         if (GLenum e = glGetError()) { fprintf(stderr, "OpenGL error 0x%x reading back level %d\n", e, L); return 1; }
         double diff = 0, diff_d = 0, checksum = 0, cpu_checksum = 0;
-        k = 0;
+        size_t k = 0;
         for (int f = 0; f < nf; ++f)
             for (int j = 0; j <= L; ++j)
                 for (int i = 0; i <= L; ++i, ++k) {
                     double cp[3], cu[3], cv[3];
-                    if (!cpu_sample(pt, pm, pts, f, (double)i / L, (double)j / L, cp, cu, cv)) {
+                    if (!cpu_sample(t, f, (double)i / L, (double)j / L, cp, cu, cv)) {
                         fprintf(stderr, "FindPatch failed face %d\n", f);
                         return 1;
                     }
@@ -377,8 +325,5 @@ int main(int argc, char **argv) {
     eglMakeCurrent(dpy, EGL_NO_SURFACE, EGL_NO_SURFACE, EGL_NO_CONTEXT);
     eglDestroyContext(dpy, ctx);
     eglTerminate(dpy);
-    delete ptf;
-    delete pt;
-    delete r;
     return 0;
 }

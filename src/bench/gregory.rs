@@ -387,7 +387,9 @@ pub fn run(
                     EvalPath::Compute,
                     cfg.repeats,
                 )?;
-                let host = if compute_ctx.info.device_type == "CPU" {
+                // Where the host kernel is the device's choice (CPU devices, or GREGVOX_EVALUATOR=host).
+                let host = if compute_ctx.info.device_type == "CPU" || evaluator == Evaluator::Host
+                {
                     Some(time_host(&compute_ctx, &topo, &cage, level, cfg.repeats)?)
                 } else {
                     None
@@ -427,11 +429,13 @@ pub fn run(
                 let (flops, bytes) = (counts.ops.flops() as f64, counts.bytes as f64);
                 let floor = peak.map(|p| p.floor_ms(patches as f64, flops, bytes));
                 let per_vertex = (level as f64 + 1.0).powi(2);
-                let rate = |per_patch: f64, peak_per_s: Option<f64>| match (peak_per_s, &c) {
-                    (Some(pk), Ok(ms)) => {
-                        num(100.0 * per_patch * patches as f64 / (ms * 1e-3) / pk)
+                let [fma_pct, bw_pct] = match (peak, &c) {
+                    (Some(p), Ok(ms)) => {
+                        let (f, b) =
+                            p.percent_of_peaks(flops * patches as f64, bytes * patches as f64, *ms);
+                        [num(f), num(b)]
                     }
-                    _ => Value::Null,
+                    _ => [Value::Null, Value::Null],
                 };
                 let gl = gl_rows.iter().find(|r| r.0 == level);
                 let gl_ms = gl.map(|r| r.1 * 1e3);
@@ -440,10 +444,7 @@ pub fn run(
                     patches.into(),
                     level.into(),
                     (n as u64).into(),
-                    match evaluator {
-                        Evaluator::Host => "host (native SIMD + threads)".into(),
-                        Evaluator::Vulkan => "Vulkan kernel".into(),
-                    },
+                    evaluator.label().into(),
                     cm,
                     cr,
                     cell(&kernel).0,
@@ -478,8 +479,8 @@ pub fn run(
                         (Some(f), Ok(ms)) => num(100.0 * f / ms),
                         _ => Value::Null,
                     },
-                    rate(flops, peak.map(|p| p.gflops * 1e9)),
-                    rate(bytes, peak.map(|p| p.gbytes * 1e9)),
+                    fma_pct,
+                    bw_pct,
                 ]);
             }
         }

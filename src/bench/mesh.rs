@@ -11,13 +11,15 @@ use super::peak::Peak;
 use super::peers::{self, Peer};
 use super::{num, speedup, time_cpu, time_gpu, BenchConfig, Report, Table};
 use crate::engine::evaluator::Evaluator;
-use crate::engine::mesh::{point_location, DeviceNormals, DeviceSpmv};
-use crate::gpu::{Buffer, Context};
+use crate::engine::mesh::{point_buffer, DeviceNormals, DeviceSpmv};
+use crate::gpu::profiler::scoped;
+use crate::gpu::Context;
 use crate::mesh::host_kernels::KernelCounts;
 use crate::mesh::{
     catmull_clark_matrix, load_mesh_file, loop_matrix, loop_subdivide, LoopBeta, MeshMatrix,
     NormalWeighting,
 };
+use ash::vk;
 use serde_json::Value;
 
 /// Floor model of AREA vertex normals per face: ~20 flops (cross product, three scatter-adds); bytes: three
@@ -190,27 +192,6 @@ pub fn run(cfg: &BenchConfig, peak: Option<&Peak>, report: &mut Report) -> anyho
     r
 }
 
-/// A buffer of `points` vec4 points in `evaluator`'s memory, filled with `data` (or zeros).
-fn point_buffer(
-    ctx: &Context,
-    name: &str,
-    evaluator: Evaluator,
-    points: usize,
-    data: Option<&[[f32; 4]]>,
-) -> anyhow::Result<Buffer> {
-    use ash::vk::BufferUsageFlags as U;
-    let buf = ctx.create_buffer(
-        name,
-        points as u64 * 16,
-        U::STORAGE_BUFFER | U::TRANSFER_DST | U::TRANSFER_SRC,
-        point_location(evaluator),
-    )?;
-    if let Some(d) = data {
-        ctx.write_buffer(&buf, 0, bytemuck::cast_slice(d))?;
-    }
-    Ok(buf)
-}
-
 /// The device table: normals and S·P through `engine::mesh` on each evaluator, beside the CPU code's
 /// times measured above (`cpu_ms`: mesh, normals ms, S·P ms).
 fn device(
@@ -261,8 +242,8 @@ fn device(
         let m = MeshMatrix::from_mesh(mesh);
         let pts = crate::mesh::host_kernels::to_vec4(&mesh.positions);
         let s = catmull_clark_matrix(&m).s;
-        // (evaluator, normals ms, S·P ms, Vulkan timestamps of normals and S·P)
-        let mut runs = Vec::new();
+        // Per evaluator: [normals, S·P] wall ms, and (Vulkan) their timestamps.
+        let mut runs: Vec<(Evaluator, [f64; 2], Option<[f64; 2]>)> = Vec::new();
         let mut counts = [KernelCounts::default(); 2];
         for e in [Evaluator::Vulkan, Evaluator::Host] {
             if e == Evaluator::Host && !both && evaluator != Evaluator::Host {
@@ -283,26 +264,31 @@ fn device(
                     .expect("S·P of a checked matrix")
             });
             let stamps = if e == Evaluator::Vulkan {
-                Some(vulkan_stamps(ctx, cfg, &m, &s, &x, &n, &y)?)
+                let stamp =
+                    |name: &str, record: &dyn Fn(vk::CommandBuffer) -> crate::Result<()>| {
+                        time_gpu(ctx, 1, cfg.repeats, |cmd, mut prof| {
+                            scoped(ctx, cmd, &mut prof, name, || record(cmd))
+                        })
+                        .map(|t| t.pass(name))
+                    };
+                Some([
+                    stamp("normals", &|cmd| dn.record(ctx, cmd, &x, &n))?,
+                    stamp("spmv", &|cmd| ds.record(ctx, cmd, &x, &y))?,
+                ])
             } else {
                 None
             };
-            runs.push((e, normals_ms, spmv_ms, stamps));
+            runs.push((e, [normals_ms, spmv_ms], stamps));
         }
-        for (op, cpu, pick) in [
+        for (op, cpu, k) in [
             ("AREA vertex normals", *cpu_normals, 0usize),
             ("Catmull–Clark S·P (one level)", *cpu_spmv, 1),
         ] {
-            let ms = |e: Evaluator| {
-                runs.iter()
-                    .find(|r| r.0 == e)
-                    .map(|r| if pick == 0 { r.1 } else { r.2 })
-            };
-            let stamps = runs
-                .iter()
-                .find_map(|r| r.3)
-                .map(|(a, b)| if pick == 0 { a } else { b });
+            let ms = |e: Evaluator| runs.iter().find(|r| r.0 == e).map(|r| r.1[k]);
+            let stamps = runs.iter().find_map(|r| r.2).map(|t| t[k]);
             let device_ms = ms(evaluator).expect("the device's evaluator ran");
+            let (flops, bytes) = (counts[k].flops as f64, counts[k].bytes as f64);
+            let rates = peak.map(|p| p.percent_of_peaks(flops, bytes, device_ms));
             t.push(vec![
                 (*name).into(),
                 m.n_faces().into(),
@@ -316,50 +302,15 @@ fn device(
                     .unwrap_or_else(|| "not used (GPU device)".into()),
                 num(cpu),
                 speedup(Some(cpu), device_ms),
-                counts[pick].flops.into(),
-                counts[pick].bytes.into(),
-                peak.map(|p| {
-                    num(p.floor_ms(1.0, counts[pick].flops as f64, counts[pick].bytes as f64))
-                })
-                .unwrap_or(Value::Null),
-                peak.map(|p| {
-                    num(100.0 * counts[pick].flops as f64 / (device_ms * 1e-3) / (p.gflops * 1e9))
-                })
-                .unwrap_or(Value::Null),
-                peak.map(|p| {
-                    num(100.0 * counts[pick].bytes as f64 / (device_ms * 1e-3) / (p.gbytes * 1e9))
-                })
-                .unwrap_or(Value::Null),
+                counts[k].flops.into(),
+                counts[k].bytes.into(),
+                peak.map(|p| num(p.floor_ms(1.0, flops, bytes)))
+                    .unwrap_or(Value::Null),
+                rates.map(|r| num(r.0)).unwrap_or(Value::Null),
+                rates.map(|r| num(r.1)).unwrap_or(Value::Null),
             ]);
         }
     }
     report.tables.push(t);
     Ok(())
-}
-
-/// Median timestamps (ms) of the Vulkan normal kernels and the Vulkan S·P kernel.
-fn vulkan_stamps(
-    ctx: &Context,
-    cfg: &BenchConfig,
-    m: &MeshMatrix,
-    s: &crate::mesh::SparseMatrix<f64>,
-    x: &Buffer,
-    n: &Buffer,
-    y: &Buffer,
-) -> anyhow::Result<(f64, f64)> {
-    use crate::passes::mesh_normals::{GpuMeshMatrix, MeshNormalsPass};
-    use crate::passes::spmv::{GpuSparse, SpmvPass};
-    let (pass, gm) = (MeshNormalsPass::new(ctx)?, GpuMeshMatrix::upload(ctx, m)?);
-    let normals = time_gpu(ctx, 1, cfg.repeats, |cmd, prof| match prof {
-        Some((p, slot)) => p.scope(ctx, cmd, slot, "normals", || {
-            pass.record(ctx, cmd, &gm, x, n)
-        }),
-        None => pass.record(ctx, cmd, &gm, x, n),
-    })?;
-    let (sp, gs) = (SpmvPass::new(ctx)?, GpuSparse::upload(ctx, "S", s)?);
-    let spmv = time_gpu(ctx, 1, cfg.repeats, |cmd, prof| match prof {
-        Some((p, slot)) => p.scope(ctx, cmd, slot, "spmv", || sp.record(ctx, cmd, &gs, x, y)),
-        None => sp.record(ctx, cmd, &gs, x, y),
-    })?;
-    Ok((normals.pass("normals"), spmv.pass("spmv")))
 }

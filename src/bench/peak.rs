@@ -29,6 +29,16 @@ impl Peak {
         let memory = elements * bytes / (self.gbytes * 1e9);
         compute.max(memory) * 1e3
     }
+
+    /// The achieved fractions (%) of the FMA peak and of the bandwidth of a run of `flops` operations and
+    /// `bytes` moved in `ms`.
+    pub fn percent_of_peaks(&self, flops: f64, bytes: f64, ms: f64) -> (f64, f64) {
+        let secs = ms * 1e-3;
+        (
+            100.0 * flops / secs / (self.gflops * 1e9),
+            100.0 * bytes / secs / (self.gbytes * 1e9),
+        )
+    }
 }
 
 /// One thread's FMA loop: `iters` rounds over 4×16 independent accumulators.

@@ -7,7 +7,7 @@
 //! by build.rs as `gregvox_unoptimized`) keeps the Vulkan kernels, whose shaders are optimised by the
 //! driver whatever the crate's profile, where the host kernels would run tens of times slower.
 use crate::error::{Error, Result};
-use crate::gpu::Context;
+use crate::gpu::{Context, MemoryLocation};
 
 /// Which code evaluates a kernel (see the module invariants).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -42,6 +42,24 @@ impl Evaluator {
             Evaluator::Host
         } else {
             Evaluator::Vulkan
+        }
+    }
+
+    /// Memory for a buffer the device writes and this evaluator reads: mapped and host-cached for the host
+    /// kernels (on a CPU device host memory is the device's memory), device-local otherwise.
+    pub fn read_location(self) -> MemoryLocation {
+        match self {
+            Evaluator::Vulkan => MemoryLocation::GpuOnly,
+            Evaluator::Host => MemoryLocation::GpuToCpu,
+        }
+    }
+
+    /// Memory for a buffer this evaluator writes (or the caller fills) and the device reads: mapped for
+    /// the host kernels, device-local otherwise.
+    pub fn write_location(self) -> MemoryLocation {
+        match self {
+            Evaluator::Vulkan => MemoryLocation::GpuOnly,
+            Evaluator::Host => MemoryLocation::CpuToGpu,
         }
     }
 

@@ -20,7 +20,8 @@
 //!   mappings of the same buffers after the device's deform + W·cage: the same layout, the same shared-edge
 //!   bits, the shader's arithmetic. Adaptive mode always evaluates on the device.
 use crate::error::{Error, Result};
-use crate::gpu::resources::memory_barrier;
+use crate::gpu::profiler::scoped;
+use crate::gpu::resources::{compute_writes_to_host, memory_barrier};
 use crate::gpu::{Buffer, Context, MemoryLocation, Profiler};
 use crate::mesh::SparseMatrix;
 use crate::passes::adaptive_levels::{
@@ -87,14 +88,6 @@ pub fn canonical_edge_flags(quads: &[[u32; 4]]) -> Vec<u32> {
 }
 
 pub use super::evaluator::Evaluator;
-
-/// Where the points and vertex buffers live: host-visible for the host evaluator (it maps them).
-fn locations(evaluator: Evaluator) -> (MemoryLocation, MemoryLocation) {
-    match evaluator {
-        Evaluator::Vulkan => (MemoryLocation::GpuOnly, MemoryLocation::GpuOnly),
-        Evaluator::Host => (MemoryLocation::GpuToCpu, MemoryLocation::CpuToGpu),
-    }
-}
 
 /// The GPU Gregory surface. See the module invariants.
 pub struct GregorySurface {
@@ -197,20 +190,6 @@ impl Adaptive {
     }
 }
 
-/// Runs `f`, inside a timestamp scope `name` when a profiler (and its slot) is given.
-fn profiled(
-    ctx: &Context,
-    cmd: vk::CommandBuffer,
-    profiler: &mut Option<(&mut Profiler, usize)>,
-    name: &str,
-    f: &mut dyn FnMut() -> Result<()>,
-) -> Result<()> {
-    match profiler.as_mut() {
-        Some((p, slot)) => p.scope(ctx, cmd, *slot, name, f),
-        None => f(),
-    }
-}
-
 fn vec4s(points: &[DVec3]) -> Vec<[f32; 4]> {
     points
         .iter()
@@ -287,7 +266,6 @@ impl GregorySurface {
         let rw = storage | vk::BufferUsageFlags::TRANSFER_SRC | vk::BufferUsageFlags::TRANSFER_DST;
         let (vertices, indices) =
             Self::level_buffers(ctx, topo.patch_points.len() as u32, level, evaluator)?;
-        let (points_location, _) = locations(evaluator);
         Ok(GregorySurface {
             spmv: SpmvPass::new_affine_split(ctx)?,
             eval: GregoryEvalPass::new(ctx)?,
@@ -300,7 +278,7 @@ impl GregorySurface {
                 "gregory points",
                 topo.w.n_rows.max(1) as u64 * 32,
                 rw,
-                points_location,
+                evaluator.read_location(),
             )?,
             patch_points: ctx.upload_buffer(
                 "patch points",
@@ -349,7 +327,7 @@ impl GregorySurface {
             vk::BufferUsageFlags::STORAGE_BUFFER
                 | vk::BufferUsageFlags::VERTEX_BUFFER
                 | vk::BufferUsageFlags::TRANSFER_SRC,
-            locations(evaluator).1,
+            evaluator.write_location(),
         )?;
         let idx = grid_indices(patches, level);
         let indices = ctx.upload_buffer(
@@ -570,16 +548,7 @@ impl GregorySurface {
                 deform,
                 &mut profiler.as_mut().map(|p| (&mut **p, 0)),
             )?;
-            // The points pass's writes, made available to the host's reads after the fence.
-            memory_barrier(
-                ctx,
-                cmd,
-                (
-                    vk::PipelineStageFlags2::COMPUTE_SHADER,
-                    vk::AccessFlags2::SHADER_STORAGE_WRITE,
-                ),
-                (vk::PipelineStageFlags2::HOST, vk::AccessFlags2::HOST_READ),
-            );
+            compute_writes_to_host(ctx, cmd);
             Ok(())
         })?;
         if let Some(p) = profiler.as_mut() {
@@ -648,7 +617,7 @@ impl GregorySurface {
             ),
         );
         let mut scope =
-            |name: &str, f: &mut dyn FnMut() -> Result<()>| profiled(ctx, cmd, profiler, name, f);
+            |name: &str, f: &mut dyn FnMut() -> Result<()>| scoped(ctx, cmd, profiler, name, f);
         let source = match deform {
             Some(d) if d.mode != Deformation::None => {
                 scope("cage deform", &mut || {
@@ -675,7 +644,7 @@ impl GregorySurface {
     ) -> Result<()> {
         self.record_points(ctx, cmd, deform, &mut profiler)?;
         let mut scope = |name: &str, f: &mut dyn FnMut() -> Result<()>| {
-            profiled(ctx, cmd, &mut profiler, name, f)
+            scoped(ctx, cmd, &mut profiler, name, f)
         };
         if let Some(a) = self.adaptive.as_ref() {
             if let Some(params) = a.params.as_ref() {

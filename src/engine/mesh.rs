@@ -6,7 +6,7 @@
 //!
 //! Invariants:
 //! - Point buffers are the caller's, `vec4` per point (normals: w = 0; S·x: w = 1). For
-//!   [`Evaluator::Host`] they must be mappable: create them in [`point_location`]'s memory.
+//!   [`Evaluator::Host`] they must be mappable: [`point_buffer`] makes them in the evaluator's memory.
 //! - The connectivity and the matrix are checked when the object is made (every index in range), so an
 //!   evaluation never reads out of bounds; sizes of the caller's buffers are checked on every call.
 //! - [`DeviceNormals::evaluate`] and [`DeviceSpmv::evaluate`] return with the outputs written: the Vulkan
@@ -16,19 +16,39 @@
 //! - Both evaluators give the same values: the same operations in the same order (tests/mesh_host.rs).
 use super::evaluator::Evaluator;
 use crate::error::{Error, Result};
-use crate::gpu::{Buffer, Context, MemoryLocation};
+use crate::gpu::{Buffer, Context};
 use crate::mesh::host_kernels::{self, KernelCounts, NormalsLayout};
 use crate::mesh::{MeshMatrix, SparseMatrix};
 use crate::passes::mesh_normals::{GpuMeshMatrix, MeshNormalsPass};
 use crate::passes::spmv::{GpuSparse, SpmvPass};
+use ash::vk;
 
-/// Where point buffers for `evaluator` live: host-visible for the host kernels (on a CPU device host memory
-/// is the device's memory), device-local otherwise.
-pub fn point_location(evaluator: Evaluator) -> MemoryLocation {
-    match evaluator {
-        Evaluator::Vulkan => MemoryLocation::GpuOnly,
-        Evaluator::Host => MemoryLocation::CpuToGpu,
+/// A buffer of `points` vec4 points that `evaluator`'s kernels can read and write (mapped for the host
+/// kernels), filled with `data` when given (else zeros), usable for storage and transfers.
+pub fn point_buffer(
+    ctx: &Context,
+    name: &str,
+    evaluator: Evaluator,
+    points: usize,
+    data: Option<&[[f32; 4]]>,
+) -> Result<Buffer> {
+    use vk::BufferUsageFlags as U;
+    let buf = ctx.create_buffer(
+        name,
+        points as u64 * 16,
+        U::STORAGE_BUFFER | U::TRANSFER_SRC | U::TRANSFER_DST,
+        evaluator.write_location(),
+    )?;
+    if let Some(d) = data {
+        ctx.write_buffer(&buf, 0, bytemuck::cast_slice(d))?;
     }
+    Ok(buf)
+}
+
+fn host_only(what: &str) -> Error {
+    Error::Invalid(format!(
+        "{what}: the host evaluator runs now, not in a command buffer (use evaluate)"
+    ))
 }
 
 fn points<'a>(buf: &'a Buffer, what: &str) -> Result<&'a [[f32; 4]]> {
@@ -161,24 +181,37 @@ impl DeviceNormals {
         self.faces
     }
 
+    /// Records the Vulkan kernels into `cmd` (for a caller's own submission or timestamps); an error for
+    /// [`Evaluator::Host`], which runs at [`DeviceNormals::evaluate`].
+    pub fn record(
+        &self,
+        ctx: &Context,
+        cmd: vk::CommandBuffer,
+        positions: &Buffer,
+        out: &Buffer,
+    ) -> Result<()> {
+        check_points(positions, "positions", self.vertices as u64)?;
+        check_points(out, "normals", self.vertices as u64)?;
+        match &self.imp {
+            NormalsImpl::Vulkan { pass, matrix } => pass.record(ctx, cmd, matrix, positions, out),
+            NormalsImpl::Host(_) => Err(host_only("vertex normals")),
+        }
+    }
+
     /// Writes the unit normal of every vertex of `positions` into `out` (both `vec4` per vertex; vertices
     /// with no face, or a zero normal sum, get 0).
     pub fn evaluate(&mut self, ctx: &Context, positions: &Buffer, out: &mut Buffer) -> Result<()> {
+        let NormalsImpl::Host(host) = &mut self.imp else {
+            return ctx.one_shot(|cmd| self.record(ctx, cmd, positions, out));
+        };
         check_points(positions, "positions", self.vertices as u64)?;
         check_points(out, "normals", self.vertices as u64)?;
-        match &mut self.imp {
-            NormalsImpl::Vulkan { pass, matrix } => {
-                ctx.one_shot(|cmd| pass.record(ctx, cmd, matrix, positions, out))
-            }
-            NormalsImpl::Host(host) => {
-                let p = points(positions, "positions")?;
-                let o = points_mut(out, "normals")?;
-                let (l, face_normals) = host.split();
-                host_kernels::face_normals(&l, p, face_normals);
-                host_kernels::vertex_normals(&l, face_normals, o);
-                Ok(())
-            }
-        }
+        let p = points(positions, "positions")?;
+        let o = points_mut(out, "normals")?;
+        let (l, face_normals) = host.split();
+        host_kernels::face_normals(&l, p, face_normals);
+        host_kernels::vertex_normals(&l, face_normals, o);
+        Ok(())
     }
 }
 
@@ -256,19 +289,31 @@ impl DeviceSpmv {
         self.cols
     }
 
-    /// Writes y = S·x (`vec4` points, y's w = 1).
-    pub fn evaluate(&self, ctx: &Context, x: &Buffer, y: &mut Buffer) -> Result<()> {
+    /// Records the Vulkan kernel into `cmd`; an error for [`Evaluator::Host`], which runs at
+    /// [`DeviceSpmv::evaluate`].
+    pub fn record(
+        &self,
+        ctx: &Context,
+        cmd: vk::CommandBuffer,
+        x: &Buffer,
+        y: &Buffer,
+    ) -> Result<()> {
         check_points(x, "x", self.cols as u64)?;
         check_points(y, "y", self.rows as u64)?;
         match &self.imp {
-            SpmvImpl::Vulkan(vk) => {
-                let (pass, matrix) = &**vk;
-                ctx.one_shot(|cmd| pass.record(ctx, cmd, matrix, x, y))
-            }
-            SpmvImpl::Host { row_ptr, col, val } => {
-                host_kernels::spmv(row_ptr, col, val, points(x, "x")?, points_mut(y, "y")?);
-                Ok(())
-            }
+            SpmvImpl::Vulkan(v) => v.0.record(ctx, cmd, &v.1, x, y),
+            SpmvImpl::Host { .. } => Err(host_only("S·x")),
         }
+    }
+
+    /// Writes y = S·x (`vec4` points, y's w = 1).
+    pub fn evaluate(&self, ctx: &Context, x: &Buffer, y: &mut Buffer) -> Result<()> {
+        let SpmvImpl::Host { row_ptr, col, val } = &self.imp else {
+            return ctx.one_shot(|cmd| self.record(ctx, cmd, x, y));
+        };
+        check_points(x, "x", self.cols as u64)?;
+        check_points(y, "y", self.rows as u64)?;
+        host_kernels::spmv(row_ptr, col, val, points(x, "x")?, points_mut(y, "y")?);
+        Ok(())
     }
 }

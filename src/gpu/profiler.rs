@@ -367,3 +367,18 @@ impl Profiler {
                             "otherData": {"device": self.device_name, "dropped_events": self.trace_dropped} })
     }
 }
+
+/// Runs `f`, inside a timestamp scope `name` when a profiler (and its slot) is given: the form of the
+/// optional profiler the passes' `record` functions take.
+pub fn scoped<T>(
+    ctx: &Context,
+    cmd: vk::CommandBuffer,
+    profiler: &mut Option<(&mut Profiler, usize)>,
+    name: &str,
+    f: impl FnOnce() -> T,
+) -> T {
+    match profiler.as_mut() {
+        Some((p, slot)) => p.scope(ctx, cmd, *slot, name, f),
+        None => f(),
+    }
+}

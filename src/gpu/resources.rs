@@ -704,6 +704,20 @@ pub fn compute_to_compute(ctx: &Context, cmd: vk::CommandBuffer) {
     );
 }
 
+/// Compute storage writes made available to the host's reads once the submission's fence has signalled
+/// (a host kernel reading what the device wrote).
+pub fn compute_writes_to_host(ctx: &Context, cmd: vk::CommandBuffer) {
+    memory_barrier(
+        ctx,
+        cmd,
+        (
+            vk::PipelineStageFlags2::COMPUTE_SHADER,
+            vk::AccessFlags2::SHADER_STORAGE_WRITE,
+        ),
+        (vk::PipelineStageFlags2::HOST, vk::AccessFlags2::HOST_READ),
+    );
+}
+
 /// The barrier that ends a compute pass: its storage writes become available to every later reader in
 /// gregvox (vertex input, vertex/fragment/compute shaders, copies). One broad barrier instead of one per
 /// consumer keeps the passes independent of who reads their output.
