@@ -107,6 +107,10 @@ fn bench_gpu(c: &mut Criterion) {
             g.bench_function(BenchmarkId::new(format!("host_eval/{name}"), level), |b| {
                 b.iter(|| host.evaluate_host().unwrap())
             });
+            g.bench_function(
+                BenchmarkId::new(format!("host_curvature/{name}"), level),
+                |b| b.iter(|| host.curvature(&ctx).unwrap()),
+            );
             g.bench_function(BenchmarkId::new(format!("gpu_eval/{name}"), level), |b| {
                 b.iter(|| {
                     ctx.one_shot(|cmd| {

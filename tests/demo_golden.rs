@@ -16,7 +16,6 @@ use glam::{DVec3, Mat4, Vec3, Vec4};
 use gregvox::demo::{build_scene, draw_path, DemoArgs, Renderer, FRAMES_IN_FLIGHT};
 use gregvox::engine::cage::{builtin_cage, cage_topology};
 use gregvox::engine::gregory::GregorySurface;
-use gregvox::geom::gregory::PatchF64;
 use gregvox::geom::shading::in_shadow_by;
 use gregvox::gpu::present::begin_color_target;
 use gregvox::gpu::resources::image_barrier;
@@ -464,44 +463,13 @@ fn curvature_pass_matches_the_cpu_fundamental_forms_at_every_grid_vertex() {
         let points = surface.read_points(ctx).unwrap();
         (hk, points)
     });
-    let n1 = LEVEL as usize + 1;
-    assert_eq!(gpu.len(), topo.patch_points.len() * n1 * n1);
-    let (mut worst, mut checked, mut singular) = (0.0f64, 0, 0);
-    for (p, rows) in topo.patch_points.iter().enumerate() {
-        // The CPU evaluates the same f32 control points in f64.
-        let cv = rows.map(|r| {
-            let q = points[r as usize];
-            DVec3::new(q[0] as f64, q[1] as f64, q[2] as f64)
-        });
-        let patch = PatchF64 { cv };
-        for j in 0..n1 {
-            for i in 0..n1 {
-                let (u, v) = (i as f64 / LEVEL as f64, j as f64 / LEVEL as f64);
-                let [h, k] = gpu[p * n1 * n1 + j * n1 + i];
-                match patch.curvature(u, v) {
-                    Some((kc, hc)) => {
-                        // f32 evaluation of second derivatives and a 2×2 determinant: relative error of a
-                        // few 1e-5 on this cage (curvatures up to ~10 per unit); 1e-3 relative to
-                        // max(1, |value|) leaves margin without hiding a wrong term (a missing ∂²Q term
-                        // changes H by O(1) near the corners).
-                        let eh = (h as f64 - hc).abs() / hc.abs().max(1.0);
-                        let ek = (k as f64 - kc).abs() / kc.abs().max(1.0);
-                        worst = worst.max(eh).max(ek);
-                        assert!(
-                            eh < 1e-3 && ek < 1e-3,
-                            "patch {p} ({u}, {v}): GPU (H, K) = ({h}, {k}), CPU ({hc}, {kc})"
-                        );
-                        checked += 1;
-                    }
-                    None => {
-                        assert_eq!([h, k], [0.0, 0.0], "patch {p} ({u}, {v}) is singular");
-                        singular += 1;
-                    }
-                }
-            }
-        }
-    }
-    assert!(checked > 0);
+    let (worst, checked, singular) = common::assert_curvature_matches_cpu(
+        "curvature pass",
+        &topo.patch_points,
+        &points,
+        LEVEL,
+        &gpu,
+    );
     eprintln!(
         "curvature: {checked} vertices, {singular} singular, worst relative error {worst:.2e}"
     );

@@ -17,6 +17,8 @@
 //!   binding (maxStorageBufferRange).
 //! - Uniform vs adaptive tessellation ([`adaptive`], in suite `gregory`): the whole chain is timed (the
 //!   adaptive mode adds its level pass), and the vertices each mode produces are counted from the levels.
+//! - Curvature ([`curvature`], in suite `gregory`): the curvature pass and the host curvature kernel on the
+//!   same control points.
 use super::peak::Peak;
 use super::peers::{self, Peer};
 use super::{num, speedup, time_cpu, time_gpu, BenchConfig, Curve, Report, Series, Table};
@@ -322,8 +324,9 @@ pub fn run(
              measured where both run. speed-up = OSD time / compute time (the aim: ≥ 2 against all cores). \
              flops and bytes per vertex are counted from the kernel's code \
              (surface::gregory_host::operation_counts: every lane operation of the host kernel counted once \
-             per sample it computes, on one regular patch at that level; the shader's per-sample operations \
-             with the Bernstein weights and the patch-local points computed once per level and per patch; \
+             per patch it computes, on one regular patch at that level; the shader's per-sample operations \
+             with what depends on (u, v) alone — Bernstein, rational and exact-derivative weights — computed \
+             once per level, the u-only row terms once per column and the patch-local points once per patch; \
              adds, multiplies, divides and square roots, 1 flop each; bytes: the 20 points and 20 residuals \
              read, the vertices written). Floor = max(flops / FMA peak, bytes / bandwidth) at this run's \
              peaks; floor % = floor / compute time; % of FMA peak and % of bandwidth = the achieved flop \
@@ -490,6 +493,98 @@ pub fn run(
     for p in tmp_objs {
         let _ = std::fs::remove_file(p);
     }
+    r?;
+    report.tables.push(t);
+    Ok(())
+}
+
+/// Table `gregory_curvature`: mean and Gaussian curvature (H, K) per vertex on spot_quadrangulated, the
+/// curvature pass (glsl/surface_curvature.comp, timestamps) against the host curvature kernel
+/// (surface::gregory_host::curvature, wall clock), on a compute-only context.
+pub fn curvature(cfg: &BenchConfig, report: &mut Report) -> anyhow::Result<()> {
+    use crate::gpu::profiler::scoped;
+    use crate::passes::surface_curvature::{SurfaceCurvaturePass, CURVATURE_STRIDE};
+    let spot = load_mesh_file(&cfg.model("spot_quadrangulated.obj")?)?;
+    let (topo, cage) = topology(&spot)?;
+    let levels: &[u32] = if cfg.quick { &[4] } else { &[4, 8, 16, 32] };
+    let mut t = Table::new(
+        "gregory_curvature",
+        "Surface curvature (H, K) per vertex: the curvature pass vs the host curvature kernel",
+        &format!(
+            "spot_quadrangulated, from the same control points. Vulkan pass = timestamps of \
+             glsl/surface_curvature.comp (first and second partials with the rational points' exact terms, \
+             the fundamental forms); host kernel = surface::gregory_host::curvature, the same arithmetic in \
+             native SIMD (a lane per patch) on every core, wall clock; median of {} repeats (the host \
+             kernel: more when short, see the conventions). device evaluator = what \
+             GregorySurface::curvature uses on this device; speed-up = Vulkan pass / host kernel.",
+            cfg.repeats
+        ),
+        &[
+            "cage",
+            "patches",
+            "level",
+            "vertices",
+            "device evaluator",
+            "Vulkan pass ms",
+            "host kernel ms",
+            "speed-up host vs Vulkan pass",
+        ],
+    );
+    let ctx = super::compute_context()?;
+    let r = (|| -> anyhow::Result<()> {
+        let pass = SurfaceCurvaturePass::new(&ctx)?;
+        let evaluator = Evaluator::for_device(&ctx)?;
+        for &level in levels {
+            let mut surface =
+                GregorySurface::with_evaluator(&ctx, &topo, &cage, level, Evaluator::Vulkan)?;
+            surface.evaluate(&ctx, None, None)?;
+            let n = vertex_count(surface.patch_count(), level);
+            let out = ctx.create_buffer(
+                "bench curvature",
+                n * CURVATURE_STRIDE,
+                vk::BufferUsageFlags::STORAGE_BUFFER,
+                MemoryLocation::GpuOnly,
+            )?;
+            let gpu = time_gpu(&ctx, 1, cfg.repeats, |cmd, mut prof| {
+                scoped(&ctx, cmd, &mut prof, "curvature", || {
+                    pass.record(
+                        &ctx,
+                        cmd,
+                        surface.points(),
+                        surface.patch_points(),
+                        surface.patch_count(),
+                        level,
+                        &out,
+                    )
+                })
+            })?
+            .pass("curvature");
+            let points = surface.read_points(&ctx)?;
+            let hp = gregory_host::HostPatches {
+                points: &points,
+                residual_rows: 0,
+                patch_points: &topo.patch_points,
+                patch_flags: &topo.patch_flags,
+            };
+            let mut hk = vec![[0.0f32; 2]; n as usize];
+            let host = time_cpu(cfg.repeats, || {
+                gregory_host::curvature(&hp, level, gregory_host::HostSimd::Auto, &mut hk)
+                    .expect("curvature of a checked surface")
+            });
+            t.push(vec![
+                "spot_quadrangulated".into(),
+                surface.patch_count().into(),
+                level.into(),
+                n.into(),
+                evaluator.label().into(),
+                num(gpu),
+                num(host),
+                speedup(Some(gpu), host),
+            ]);
+        }
+        Ok(())
+    })();
+    super::finish_context(ctx)?;
     r?;
     report.tables.push(t);
     Ok(())

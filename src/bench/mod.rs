@@ -361,7 +361,8 @@ impl Report {
         }
         s.push_str(
             "Conventions: times are medians of repeats measured in this run, in ms unless a column says \
-             otherwise. GPU times are Vulkan timestamp queries; on lavapipe they measure the CPU driver \
+             otherwise; gregvox's CPU wall-clock times repeat at least as often as stated and, when short, \
+             until the runs fill 0.25 s (at most 1,000 runs). GPU times are Vulkan timestamp queries; on lavapipe they measure the CPU driver \
              executing the commands on the same cores. \"speed-up\" = peer time / gregvox time (above 1: \
              gregvox is faster). Growth exponents are least-squares slopes of log time against log size.\n\n",
         );
@@ -456,18 +457,27 @@ pub fn loglog_slope(points: &[(f64, f64)]) -> Option<f64> {
     Some(sxy / sxx)
 }
 
-/// Median wall time (ms) of `repeats` calls of `f` after one warm-up call.
+/// Median wall time (ms) of at least `repeats` calls of `f` after one warm-up call, more for short calls:
+/// until the runs fill [`CPU_TIMING_FILL_S`] (at most [`CPU_TIMING_MAX_RUNS`]), so that a sub-millisecond
+/// median is not at the mercy of a few preempted runs on a shared machine.
 pub fn time_cpu<T>(repeats: usize, mut f: impl FnMut() -> T) -> f64 {
     std::hint::black_box(f());
-    let times: Vec<f64> = (0..repeats.max(1))
-        .map(|_| {
-            let t = Instant::now();
-            std::hint::black_box(f());
-            t.elapsed().as_secs_f64() * 1e3
-        })
-        .collect();
+    let start = Instant::now();
+    let mut times = Vec::new();
+    while times.len() < repeats.max(1)
+        || (start.elapsed().as_secs_f64() < CPU_TIMING_FILL_S && times.len() < CPU_TIMING_MAX_RUNS)
+    {
+        let t = Instant::now();
+        std::hint::black_box(f());
+        times.push(t.elapsed().as_secs_f64() * 1e3);
+    }
     median(&times)
 }
+
+/// Seconds of runs [`time_cpu`] fills at least.
+pub const CPU_TIMING_FILL_S: f64 = 0.25;
+/// Most runs [`time_cpu`] makes.
+pub const CPU_TIMING_MAX_RUNS: usize = 1000;
 
 /// GPU timings of one recorded workload: per-pass median (ms, timestamps) and the median wall time of the
 /// whole submission (record + submit + wait).
@@ -604,6 +614,7 @@ pub fn run(cfg: &BenchConfig, command: &str) -> anyhow::Result<Report> {
                 "gregory" => {
                     gregory::run(&ctx, cfg, peak.as_ref(), &mut report)?;
                     gregory::adaptive(cfg, &mut report)?;
+                    gregory::curvature(cfg, &mut report)?;
                 }
                 "voxel" => voxel::run(&ctx, cfg, peak.as_ref(), &mut report)?,
                 "gwn" => voxel::gwn_table(cfg, &mut report)?,

@@ -19,6 +19,8 @@
 //!   [`GregorySurface::evaluate`]), which reads the points and writes the vertices through host-visible
 //!   mappings of the same buffers after the device's deform + W·cage: the same layout, the same shared-edge
 //!   bits, the shader's arithmetic. Adaptive mode always evaluates on the device.
+//! - [`GregorySurface::curvature`] follows the same choice: the host curvature kernel on CPU devices, the
+//!   curvature pass elsewhere, both from the points the device wrote last.
 use crate::error::{Error, Result};
 use crate::gpu::profiler::scoped;
 use crate::gpu::resources::{compute_writes_to_host, memory_barrier};
@@ -34,9 +36,28 @@ use crate::passes::gregory_eval::{
     MAX_LEVEL,
 };
 use crate::passes::spmv::{GpuSparse, SpmvPass};
+use crate::passes::surface_curvature::{SurfaceCurvaturePass, CURVATURE_STRIDE};
 use crate::surface::gregory_host::{self, HostPatches, HostSimd, HostVertex};
 use ash::vk;
 use glam::DVec3;
+
+/// The host kernels' view of a host-evaluated surface: the mapped points buffer (vec4 rows, then each
+/// row's residual: half of its rows) and the patch layout.
+fn mapped_patches<'a>(
+    points: &'a Buffer,
+    patch_points: &'a [[u32; 20]],
+    patch_flags: &'a [u32],
+) -> Result<HostPatches<'a>> {
+    let rows = (points.size() / 32) as u32;
+    let points: &[[f32; 4]] = bytemuck::try_cast_slice(points.mapped()?)
+        .map_err(|e| Error::Invalid(format!("gregory points mapping: {e}")))?;
+    Ok(HostPatches {
+        points,
+        residual_rows: rows,
+        patch_points,
+        patch_flags,
+    })
+}
 
 /// What the GPU needs to know about a patch layout: the stencil matrix and, per patch, its 20 point rows and
 /// canonical-edge flags.
@@ -571,23 +592,58 @@ impl GregorySurface {
                 "the host evaluation needs a surface created with Evaluator::Host".into(),
             ));
         }
-        let rows = (self.points.size() / 32) as u32;
-        let points: &[[f32; 4]] = bytemuck::try_cast_slice(self.points.mapped()?)
-            .map_err(|e| Error::Invalid(format!("gregory points mapping: {e}")))?;
+        let patches = mapped_patches(&self.points, &self.patch_rows, &self.patch_flag_list)?;
         let vertices: &mut [HostVertex] = bytemuck::try_cast_slice_mut(self.vertices.mapped_mut()?)
             .map_err(|e| Error::Invalid(format!("gregory vertices mapping: {e}")))?;
         gregory_host::evaluate(
-            &HostPatches {
-                points,
-                residual_rows: rows,
-                patch_points: &self.patch_rows,
-                patch_flags: &self.patch_flag_list,
-            },
+            &patches,
             self.level,
             self.canonical_edges,
             HostSimd::Auto,
             vertices,
         )
+    }
+
+    /// Mean and Gaussian curvature (H, K) at every vertex of the current (uniform) level, in the vertex
+    /// order, from the control points the device wrote last (the caller waited for that submission, e.g.
+    /// [`GregorySurface::evaluate`]), by the surface's evaluator: with [`Evaluator::Host`] the host
+    /// curvature kernel ([`gregory_host::curvature`]) on the mapped points; with [`Evaluator::Vulkan`] the
+    /// curvature pass (glsl/surface_curvature.comp, built for this call) into a device buffer, read back.
+    /// Singular vertices get (0, 0). Not in adaptive mode (its grids differ per patch).
+    pub fn curvature(&self, ctx: &Context) -> Result<Vec<[f32; 2]>> {
+        if self.adaptive().is_some() {
+            return Err(Error::Invalid(
+                "curvature is computed on uniform grids only (adaptive tessellation is on)".into(),
+            ));
+        }
+        let n = vertex_count(self.patch_count, self.level);
+        if self.evaluator == Evaluator::Host {
+            let patches = mapped_patches(&self.points, &self.patch_rows, &self.patch_flag_list)?;
+            let mut out = vec![[0.0f32; 2]; n as usize];
+            gregory_host::curvature(&patches, self.level, HostSimd::Auto, &mut out)?;
+            return Ok(out);
+        }
+        let pass = SurfaceCurvaturePass::new(ctx)?;
+        let out = ctx.create_buffer(
+            "surface curvature (read back)",
+            (n * CURVATURE_STRIDE).max(CURVATURE_STRIDE),
+            vk::BufferUsageFlags::STORAGE_BUFFER | vk::BufferUsageFlags::TRANSFER_SRC,
+            MemoryLocation::GpuOnly,
+        )?;
+        ctx.one_shot(|cmd| {
+            pass.record(
+                ctx,
+                cmd,
+                &self.points,
+                &self.patch_points,
+                self.patch_count,
+                self.level,
+                &out,
+            )
+        })?;
+        let mut hk: Vec<[f32; 2]> = ctx.read_pod(&out)?;
+        hk.truncate(n as usize);
+        Ok(hk)
     }
 
     /// Records the barrier from earlier readers, the deformation (if any) and W·cage.

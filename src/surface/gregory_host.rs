@@ -1,5 +1,6 @@
 //! The host Gregory evaluator: the kernel of glsl/gregory_eval.comp (uniform grids) in native code, SIMD
-//! across samples and threads across patches, for devices that are CPUs (lavapipe, SwiftShader), where it
+//! across patches (a lane per patch, eight patches at one sample) and threads across batches of patches,
+//! for devices that are CPUs (lavapipe, SwiftShader), where it
 //! writes the same vertices into the same (host-visible) buffer the Vulkan kernel would
 //! ([`crate::engine::gregory::GregorySurface`] picks it; docs/benchmarks.md has why: llvmpipe's fixed cost
 //! per workgroup and per invocation keeps any shader far from the machine's floor at low levels).
@@ -24,10 +25,15 @@
 //!   panic or an out-of-bounds read.
 //! - The kernel is written once, generic over its lane arithmetic (trait `Lanes`): `[f32; 8]` runs it, and
 //!   [`operation_counts`] runs the same code on counting lanes, so the bench's flop counts are the code's.
-//! - Speed (docs/benchmarks.md, suite `gregory`): nothing on the lane path is a closure or `array::map`
-//!   (LLVM may leave those out of line, compiled without the caller's AVX2); a row of the net is contracted
-//!   in u and added into the v sums at once (fewer live registers, the same summation order); edge samples
-//!   are lane groups along one edge; the next patch's points are prefetched.
+//! - Speed (docs/benchmarks.md, suite `gregory`): a lane per patch, so no lane is padding at any level
+//!   (25 samples at level 4 filled 32 sample lanes) and what depends on (u, v) alone — Bernstein weights,
+//!   the rational points' weights and their divide, the exact-derivative weights — is a table scalar
+//!   splat, not lane work; the u-only terms of the contraction once per column, not per sample; on AVX2
+//!   the lanes are explicit `__m256` instructions (`Avx2`: LLVM's vectorizers, given element-wise
+//!   loops, vectorized across a point's x, y, z instead), points transposed into lanes and vertices out
+//!   of lanes by register transposes; the fallback normal recomputes its sample out of line, so the hot
+//!   loop keeps no state for it; nothing on the lane path is a closure or `array::map` (LLVM may leave
+//!   those out of line, compiled without the caller's AVX2); the next batch's points are prefetched.
 // Lane loops index several equal-length arrays at once, the form LLVM turns into one vector instruction.
 #![allow(clippy::needless_range_loop)]
 use crate::error::{Error, Result};
@@ -35,7 +41,10 @@ use crate::geom::gregory::normal_from_net_f32;
 use glam::Vec3;
 use rayon::prelude::*;
 
-/// Samples evaluated together: one AVX2 register of f32 (two SSE registers without AVX2).
+mod curvature;
+pub use curvature::curvature;
+
+/// Patches evaluated together: one AVX2 register of f32 (two SSE registers without AVX2).
 pub const LANES: usize = 8;
 
 /// Highest level (as the Vulkan kernel's `MAX_LEVEL`).
@@ -73,27 +82,69 @@ pub struct HostPatches<'a> {
 
 type F = [f32; LANES];
 
-/// Rows of a [`LevelTable`] group: u, v, then the Bernstein values and derivatives in u and in v.
-const U: usize = 0;
-const V: usize = 1;
-const BU: usize = 2;
-const DU: usize = 6;
-const BV: usize = 10;
-const DV: usize = 14;
-const ROWS: usize = 18;
-
-/// Per-level tables, one group of lanes per LANES samples of the (L+1)² grid (the last padded): (u, v), the
-/// Bernstein values and derivatives in u and in v, and the edge weights bern3(m/L). The same scalar
-/// arithmetic as the shader's per-sample `gregory_bern3`, done once per level instead of once per sample.
-/// A group's rows are contiguous (one pointer, 576 B per group) so the lane loop loads them without
-/// bounds checks on 18 separate arrays.
+/// Per-level tables: what depends on the sample's (u, v) alone, computed once per level instead of once
+/// per sample and patch, in the shader's scalar operation order (so the same bits): per sample the
+/// Bernstein weights, the rational points' weights and the exact-derivative weights; per column the u
+/// weights; per edge sample m = 0…L the edge weights bern3(m/L).
 struct LevelTable {
     level: u32,
-    groups: Vec<[F; ROWS]>,
+    /// Samples in output order (rows of u inner).
+    samples: Vec<SampleWeights>,
+    /// Per column i: bern3(i/L) values and derivatives.
+    columns: Vec<([f32; 4], [f32; 4])>,
     /// Edge weights per sample m = 0…L (padded by a lane group): bern3(m/L).b, and bern3((L−m)/L).b for
     /// edges against their canonical direction.
     edge_fwd: [Vec<f32>; 4],
     edge_rev: [Vec<f32>; 4],
+}
+
+/// The weights of one grid sample.
+#[derive(Clone, Copy, Default)]
+struct SampleWeights {
+    u: f32,
+    v: f32,
+    /// The sample's column i (its u = i/L).
+    column: usize,
+    /// bern3(u) values and derivatives (entries 1 and 2: columns 0 and 3 are in the column values).
+    bu: [f32; 4],
+    du: [f32; 4],
+    /// bern3(v) values and derivatives.
+    bv: [f32; 4],
+    dv: [f32; 4],
+    /// The rational interior points Q11, Q21, Q12, Q22.
+    rational: [RationalWeights; 4],
+    /// The exact-derivative weights B_i(u)·B_j(v) of Q11, Q21, Q12, Q22.
+    exact: [f32; 4],
+}
+
+/// `gregory_rational`'s weights at one sample: Q = (pa·a + pb·b)·inv, Q_u = (pa − pb)·fu,
+/// Q_v = (pa − pb)·fv; at a corner (a + b < 1e-6) Q = pa and both derivatives 0.
+#[derive(Clone, Copy, Default)]
+struct RationalWeights {
+    a: f32,
+    b: f32,
+    inv: f32,
+    fu: f32,
+    fv: f32,
+    corner: bool,
+}
+
+impl RationalWeights {
+    /// With constant signs ∂a/∂u = au, ∂b/∂v = bv, in the shader's order: d = a + b, inv = 1/d,
+    /// fu = (au·b)·inv², fv = −(a·bv)·inv².
+    fn new(a: f32, b: f32, au: f32, bv: f32) -> Self {
+        let d = a + b;
+        let inv = 1.0 / d;
+        let inv2 = inv * inv;
+        RationalWeights {
+            a,
+            b,
+            inv,
+            fu: au * b * inv2,
+            fv: -(a * bv) * inv2,
+            corner: d < CORNER_EPS,
+        }
+    }
 }
 
 /// `gregory_bern3`: cubic Bernstein values and derivatives at t, in the shader's operation order.
@@ -114,11 +165,11 @@ fn bern3(t: f32) -> ([f32; 4], [f32; 4]) {
 impl LevelTable {
     fn new(level: u32) -> Self {
         let n = (level + 1) as usize;
-        let groups = (n * n).div_ceil(LANES);
         let param = |k: usize| (k as f32 / level as f32).clamp(0.0, 1.0);
         let mut t = LevelTable {
             level,
-            groups: vec![[[0.0; LANES]; ROWS]; groups],
+            samples: Vec::with_capacity(n * n),
+            columns: (0..n).map(|i| bern3(param(i))).collect(),
             edge_fwd: std::array::from_fn(|_| vec![0.0; n + LANES]),
             edge_rev: std::array::from_fn(|_| vec![0.0; n + LANES]),
         };
@@ -130,22 +181,28 @@ impl LevelTable {
                 t.edge_rev[k][m] = rev[k];
             }
         }
-        for s in 0..groups * LANES {
-            // Padding lanes repeat the last sample: finite values, never written out.
-            let s_in = s.min(n * n - 1);
-            let (i, j) = (s_in % n, s_in / n);
+        for s in 0..n * n {
+            let (i, j) = (s % n, s / n);
             let (u, v) = (param(i), param(j));
+            let (uu, vv) = (1.0 - u, 1.0 - v);
             let (bu, du) = bern3(u);
             let (bv, dv) = bern3(v);
-            let (g, l) = (&mut t.groups[s / LANES], s % LANES);
-            g[U][l] = u;
-            g[V][l] = v;
-            for k in 0..4 {
-                g[BU + k][l] = bu[k];
-                g[DU + k][l] = du[k];
-                g[BV + k][l] = bv[k];
-                g[DV + k][l] = dv[k];
-            }
+            t.samples.push(SampleWeights {
+                u,
+                v,
+                column: i,
+                bu,
+                du,
+                bv,
+                dv,
+                rational: [
+                    RationalWeights::new(u, v, 1.0, 1.0),
+                    RationalWeights::new(uu, v, -1.0, 1.0),
+                    RationalWeights::new(u, vv, 1.0, -1.0),
+                    RationalWeights::new(uu, vv, -1.0, -1.0),
+                ],
+                exact: [bu[1] * bv[1], bu[2] * bv[1], bu[1] * bv[2], bu[2] * bv[2]],
+            });
         }
         t
     }
@@ -163,25 +220,29 @@ pub fn evaluate(
 ) -> Result<()> {
     check(patches, level, out.len())?;
     let table = LevelTable::new(level);
-    let per_patch = ((level + 1) * (level + 1)) as usize;
-    // Tasks of about 4,096 vertices: enough to hide the task overhead, enough tasks to balance the cores.
-    let patches_per_task = (4096 / per_patch).max(1);
     let avx2 = simd == HostSimd::Auto && has_avx2();
+    par_tasks(out, table.samples.len(), |first, chunk| {
+        if avx2 {
+            #[cfg(target_arch = "x86_64")]
+            // SAFETY: has_avx2() checked that this CPU executes AVX2 instructions.
+            unsafe {
+                eval_task_avx2(patches, &table, canonical, first, chunk)
+            }
+        } else {
+            eval_task::<F>(patches, &table, canonical, first, chunk)
+        }
+    });
+    Ok(())
+}
+
+/// Runs `task(first patch, its items)` over `out` (`per_patch` items per patch, patch-major) on every core,
+/// in tasks of about 4,096 items in whole batches of LANES patches: enough to hide the task overhead,
+/// enough tasks to balance the cores.
+fn par_tasks<T: Send>(out: &mut [T], per_patch: usize, task: impl Fn(usize, &mut [T]) + Sync) {
+    let patches_per_task = (4096 / per_patch).max(1).next_multiple_of(LANES);
     out.par_chunks_mut(per_patch * patches_per_task)
         .enumerate()
-        .for_each(|(task, chunk)| {
-            let first = task * patches_per_task;
-            if avx2 {
-                #[cfg(target_arch = "x86_64")]
-                // SAFETY: has_avx2() checked that this CPU executes AVX2 instructions.
-                unsafe {
-                    eval_task_avx2(patches, &table, canonical, first, chunk)
-                }
-            } else {
-                eval_task(patches, &table, canonical, first, chunk)
-            }
-        });
-    Ok(())
+        .for_each(|(k, chunk)| task(k * patches_per_task, chunk));
 }
 
 fn has_avx2() -> bool {
@@ -247,12 +308,12 @@ unsafe fn eval_task_avx2(
     first: usize,
     out: &mut [HostVertex],
 ) {
-    eval_task(p, t, canonical, first, out)
+    eval_task::<Avx2>(p, t, canonical, first, out)
 }
 
-/// The patches `first..` whose vertices `out` holds.
+/// The patches `first..` whose vertices `out` holds, LANES at a time, in lanes `L`.
 #[inline(always)]
-fn eval_task(
+fn eval_task<L: Lanes>(
     p: &HostPatches,
     t: &LevelTable,
     canonical: bool,
@@ -260,11 +321,13 @@ fn eval_task(
     out: &mut [HostVertex],
 ) {
     let per_patch = ((t.level + 1) * (t.level + 1)) as usize;
-    for (k, grid) in out.chunks_exact_mut(per_patch).enumerate() {
-        if let Some(next) = p.patch_points.get(first + k + 1) {
+    let mut cols = vec![[[0.0f32; LANES]; COL_VALUES]; t.columns.len()];
+    for (k, grids) in out.chunks_mut(LANES * per_patch).enumerate() {
+        let batch = first + k * LANES;
+        for next in p.patch_points.iter().skip(batch + LANES).take(LANES) {
             prefetch_points(p, next);
         }
-        eval_patch::<F>(p, t, canonical, first + k, grid);
+        eval_batch::<L>(p, t, canonical, batch, grids, &mut cols);
     }
 }
 
@@ -305,16 +368,60 @@ trait Lanes: Copy {
     fn sub(self, o: Self) -> Self;
     fn mul(self, o: Self) -> Self;
     fn div(self, o: Self) -> Self;
-    /// A sign flip (a GPU folds it into the next operation: not counted).
-    fn neg(self) -> Self;
     fn sqrt(self) -> Self;
     fn get(&self, k: usize) -> f32;
-    fn set(&mut self, k: usize, x: f32);
     fn to_array(self) -> F;
     fn from_array(a: F) -> Self;
     /// The samples the following lane operations compute (the valid lanes of a group), for counting.
     #[inline(always)]
     fn weigh(_samples: usize) {}
+    /// [`pow2_scale`] (exponent arithmetic: no flops).
+    #[inline(always)]
+    fn pow2_scale(a: P3<Self>, b: P3<Self>) -> Self {
+        pow2_scale(a, b)
+    }
+    /// The points and residuals of the patches whose rows are `rows` (residuals 0 without them),
+    /// transposed: coordinate c of point k of lane l into `world[3k + c][l]`, `lo[3k + c][l]`.
+    #[inline(always)]
+    fn gather(p: &HostPatches, rows: &[&[u32; 20]; LANES], world: &mut Net, lo: &mut Net) {
+        for l in 0..LANES {
+            for k in 0..20 {
+                let q = p.points[rows[l][k] as usize];
+                let r = if p.residual_rows > 0 {
+                    p.points[(p.residual_rows + rows[l][k]) as usize]
+                } else {
+                    [0.0; 4]
+                };
+                for c in 0..3 {
+                    world[3 * k + c][l] = q[c];
+                    lo[3 * k + c][l] = r[c];
+                }
+            }
+        }
+    }
+    /// The normal test, bit l for lane l: `len > limit` and `len` finite (a comparison: no flops).
+    #[inline(always)]
+    fn normal_ok(len: Self, limit: Self) -> u32 {
+        let (lens, limits) = (len.to_array(), limit.to_array());
+        let mut ok = 0;
+        for l in 0..LANES {
+            ok |= ((lens[l] > limits[l] && lens[l].abs() < f32::INFINITY) as u32) << l;
+        }
+        ok
+    }
+    /// Writes a full lane group of vertices (positions `p`, normals `n`), lane l into
+    /// `out[at + l·stride]`, if these lanes have a faster way than lane by lane; false if not (nothing
+    /// written).
+    #[inline(always)]
+    fn store_group(
+        _out: &mut [HostVertex],
+        _at: usize,
+        _stride: usize,
+        _p: P3<Self>,
+        _n: P3<Self>,
+    ) -> bool {
+        false
+    }
 }
 
 macro_rules! lanewise {
@@ -354,14 +461,6 @@ impl Lanes for F {
     }
     // Loops, not `array::map`: LLVM leaves `map`'s closure out of line, compiled without AVX2.
     #[inline(always)]
-    fn neg(self) -> F {
-        let mut r = [0.0; LANES];
-        for k in 0..LANES {
-            r[k] = -self[k];
-        }
-        r
-    }
-    #[inline(always)]
     fn sqrt(self) -> F {
         let mut r = [0.0; LANES];
         for k in 0..LANES {
@@ -374,16 +473,194 @@ impl Lanes for F {
         self[k]
     }
     #[inline(always)]
-    fn set(&mut self, k: usize, x: f32) {
-        self[k] = x;
-    }
-    #[inline(always)]
     fn to_array(self) -> F {
         self
     }
     #[inline(always)]
     fn from_array(a: F) -> F {
         a
+    }
+}
+
+/// AVX2 lanes: one `__m256` per lane group, the arithmetic as explicit instructions (the element-wise loops
+/// of [`F`] are left to LLVM's vectorizers, which may vectorize across a point's x, y, z instead of across
+/// lanes). The same IEEE operations, so the same bits.
+///
+/// Only [`eval_task_avx2`]'s call tree makes or uses these lanes: every method executes AVX2
+/// instructions, which [`has_avx2`] checked before that call.
+#[cfg(target_arch = "x86_64")]
+#[derive(Clone, Copy)]
+struct Avx2(std::arch::x86_64::__m256);
+
+// The intrinsics need AVX/AVX2, which the CPU has where these lanes exist (see `Avx2`); loads and stores
+// go through `LANES`-long slices or arrays.
+#[cfg(target_arch = "x86_64")]
+impl Lanes for Avx2 {
+    #[inline(always)]
+    fn splat(x: f32) -> Self {
+        // SAFETY: AVX2 where these lanes exist (see `Avx2`).
+        unsafe { Avx2(std::arch::x86_64::_mm256_set1_ps(x)) }
+    }
+    #[inline(always)]
+    fn load(v: &[f32]) -> Self {
+        let v = &v[..LANES];
+        // SAFETY: AVX2 where these lanes exist (see `Avx2`).
+        unsafe { Avx2(std::arch::x86_64::_mm256_loadu_ps(v.as_ptr())) }
+    }
+    #[inline(always)]
+    fn add(self, o: Self) -> Self {
+        // SAFETY: AVX2 where these lanes exist (see `Avx2`).
+        unsafe { Avx2(std::arch::x86_64::_mm256_add_ps(self.0, o.0)) }
+    }
+    #[inline(always)]
+    fn sub(self, o: Self) -> Self {
+        // SAFETY: AVX2 where these lanes exist (see `Avx2`).
+        unsafe { Avx2(std::arch::x86_64::_mm256_sub_ps(self.0, o.0)) }
+    }
+    #[inline(always)]
+    fn mul(self, o: Self) -> Self {
+        // SAFETY: AVX2 where these lanes exist (see `Avx2`).
+        unsafe { Avx2(std::arch::x86_64::_mm256_mul_ps(self.0, o.0)) }
+    }
+    #[inline(always)]
+    fn div(self, o: Self) -> Self {
+        // SAFETY: AVX2 where these lanes exist (see `Avx2`).
+        unsafe { Avx2(std::arch::x86_64::_mm256_div_ps(self.0, o.0)) }
+    }
+    #[inline(always)]
+    fn sqrt(self) -> Self {
+        // SAFETY: AVX2 where these lanes exist (see `Avx2`).
+        unsafe { Avx2(std::arch::x86_64::_mm256_sqrt_ps(self.0)) }
+    }
+    #[inline(always)]
+    fn get(&self, k: usize) -> f32 {
+        self.to_array()[k]
+    }
+    #[inline(always)]
+    fn to_array(self) -> F {
+        let mut a = [0.0; LANES];
+        // SAFETY: AVX2 where these lanes exist (see `Avx2`).
+        unsafe { std::arch::x86_64::_mm256_storeu_ps(a.as_mut_ptr(), self.0) };
+        a
+    }
+    #[inline(always)]
+    fn from_array(a: F) -> Self {
+        // SAFETY: AVX2 where these lanes exist (see `Avx2`).
+        unsafe { Avx2(std::arch::x86_64::_mm256_loadu_ps(a.as_ptr())) }
+    }
+    /// [`pow2_scale`] in integer lanes: max |component| (the maxima agree with `f32::max` for the
+    /// finite vectors whose scale is used: a non-finite S_u or S_v fails the normal test either way).
+    #[inline(always)]
+    fn pow2_scale(a: P3<Self>, b: P3<Self>) -> Self {
+        use std::arch::x86_64::*;
+        // SAFETY: AVX2 where these lanes exist (see `Avx2`).
+        unsafe {
+            let abs = _mm256_castsi256_ps(_mm256_set1_epi32(0x7fff_ffff));
+            macro_rules! m {
+                ($x:expr) => {
+                    _mm256_and_ps($x.0, abs)
+                };
+            }
+            let mx = _mm256_max_ps(_mm256_max_ps(m!(a.x), m!(a.y)), m!(a.z));
+            let mx = _mm256_max_ps(mx, _mm256_max_ps(_mm256_max_ps(m!(b.x), m!(b.y)), m!(b.z)));
+            let exp = _mm256_and_si256(
+                _mm256_srli_epi32::<23>(_mm256_castps_si256(mx)),
+                _mm256_set1_epi32(0xff),
+            );
+            let scaled = _mm256_slli_epi32::<23>(_mm256_sub_epi32(_mm256_set1_epi32(253), exp));
+            // exp ≠ 0 and exp < 253 (which also excludes 255).
+            let normal = _mm256_and_si256(
+                _mm256_cmpgt_epi32(exp, _mm256_setzero_si256()),
+                _mm256_cmpgt_epi32(_mm256_set1_epi32(253), exp),
+            );
+            Avx2(_mm256_blendv_ps(
+                _mm256_set1_ps(1.0),
+                _mm256_castsi256_ps(scaled),
+                _mm256_castsi256_ps(normal),
+            ))
+        }
+    }
+    /// Two 4×4 transposes in 256-bit registers per point: lanes l and l + 4 loaded as the halves of one
+    /// register, then unpacks and shuffles (18 instructions instead of 48 scalar moves).
+    #[inline(always)]
+    fn gather(p: &HostPatches, rows: &[&[u32; 20]; LANES], world: &mut Net, lo: &mut Net) {
+        use std::arch::x86_64::*;
+        let (base, reach) = (p.points, p.residual_rows as usize);
+        // Macros, not closures: a closure left out of line would be compiled without AVX2.
+        macro_rules! row_of {
+            ($l:expr, $k:expr, $offset:expr) => {
+                base[rows[$l][$k] as usize + $offset].as_ptr()
+            };
+        }
+        macro_rules! pair {
+            ($l:expr, $k:expr, $offset:expr) => {
+                _mm256_insertf128_ps::<1>(
+                    _mm256_castps128_ps256(_mm_loadu_ps(row_of!($l, $k, $offset))),
+                    _mm_loadu_ps(row_of!($l + 4, $k, $offset)),
+                )
+            };
+        }
+        macro_rules! transpose {
+            ($k:expr, $offset:expr, $to:expr) => {{
+                // SAFETY: AVX2 (see `Avx2`); 16-byte loads of live [f32; 4] rows, 32-byte stores into
+                // live [f32; 8] rows.
+                unsafe {
+                    let (v0, v1) = (pair!(0, $k, $offset), pair!(1, $k, $offset));
+                    let (v2, v3) = (pair!(2, $k, $offset), pair!(3, $k, $offset));
+                    let (xy01, xy23) = (_mm256_unpacklo_ps(v0, v1), _mm256_unpacklo_ps(v2, v3));
+                    let (zw01, zw23) = (_mm256_unpackhi_ps(v0, v1), _mm256_unpackhi_ps(v2, v3));
+                    let to: &mut Net = $to;
+                    _mm256_storeu_ps(to[3 * $k].as_mut_ptr(), _mm256_shuffle_ps::<0x44>(xy01, xy23));
+                    _mm256_storeu_ps(
+                        to[3 * $k + 1].as_mut_ptr(),
+                        _mm256_shuffle_ps::<0xEE>(xy01, xy23),
+                    );
+                    _mm256_storeu_ps(
+                        to[3 * $k + 2].as_mut_ptr(),
+                        _mm256_shuffle_ps::<0x44>(zw01, zw23),
+                    );
+                }
+            }};
+        }
+        for k in 0..20 {
+            transpose!(k, 0, world);
+            if reach > 0 {
+                transpose!(k, reach, lo);
+            }
+        }
+    }
+    #[inline(always)]
+    fn normal_ok(len: Self, limit: Self) -> u32 {
+        use std::arch::x86_64::*;
+        // SAFETY: AVX2 where these lanes exist (see `Avx2`).
+        unsafe {
+            let abs = _mm256_and_ps(len.0, _mm256_castsi256_ps(_mm256_set1_epi32(0x7fff_ffff)));
+            let ok = _mm256_and_ps(
+                _mm256_cmp_ps::<_CMP_GT_OQ>(len.0, limit.0),
+                _mm256_cmp_ps::<_CMP_LT_OQ>(abs, _mm256_set1_ps(f32::INFINITY)),
+            );
+            _mm256_movemask_ps(ok) as u32
+        }
+    }
+    #[inline(always)]
+    fn store_group(
+        out: &mut [HostVertex],
+        at: usize,
+        stride: usize,
+        p: P3<Self>,
+        n: P3<Self>,
+    ) -> bool {
+        // SAFETY: AVX2 where these lanes exist (see `Avx2`); store8_avx2 checks the indices.
+        unsafe {
+            store8_avx2(
+                out,
+                at,
+                stride,
+                [p.x.0, p.y.0, p.z.0],
+                [n.x.0, n.y.0, n.z.0],
+            )
+        };
+        true
     }
 }
 
@@ -451,18 +728,12 @@ impl Lanes for Counted {
         Self::tally(|n, w| n.div += w);
         Counted(self.0.div(o.0))
     }
-    fn neg(self) -> Self {
-        Counted(self.0.neg())
-    }
     fn sqrt(self) -> Self {
         Self::tally(|n, w| n.sqrt += w);
         Counted(self.0.sqrt())
     }
     fn get(&self, k: usize) -> f32 {
         self.0[k]
-    }
-    fn set(&mut self, k: usize, x: f32) {
-        self.0[k] = x;
     }
     fn to_array(self) -> F {
         self.0
@@ -540,20 +811,6 @@ impl<L: Lanes> P3<L> {
     }
 }
 
-/// Lane-wise select: `m[k]` ? a : b.
-#[inline(always)]
-fn select<L: Lanes>(m: [bool; LANES], a: P3<L>, b: P3<L>) -> P3<L> {
-    let mut r = b;
-    for k in 0..LANES {
-        if m[k] {
-            r.x.set(k, a.x.get(k));
-            r.y.set(k, a.y.get(k));
-            r.z.set(k, a.z.get(k));
-        }
-    }
-    r
-}
-
 /// `gregory_row`: ((a·w0 + b·w1) + c·w2) + d·w3.
 #[inline(always)]
 fn row<L: Lanes>(a: P3<L>, b: P3<L>, c: P3<L>, d: P3<L>, w: &[L; 4]) -> P3<L> {
@@ -563,26 +820,19 @@ fn row<L: Lanes>(a: P3<L>, b: P3<L>, c: P3<L>, d: P3<L>, w: &[L; 4]) -> P3<L> {
         .add(d.scale(w[3]))
 }
 
-/// `gregory_rational` with constant signs (∂a/∂u = au, ∂b/∂v = bv): (Q, Q_u, Q_v).
+/// `gregory_rational` at one sample for every lane: (Q, Q_u, Q_v) from the sample's weights.
 #[inline(always)]
-fn rational<L: Lanes>(pa: P3<L>, pb: P3<L>, a: L, b: L, au: f32, bv: f32) -> (P3<L>, P3<L>, P3<L>) {
-    let d = a.add(b);
-    let inv = L::splat(1.0).div(d);
-    let q = pa.scale(a).add(pb.scale(b)).scale(inv);
-    let diff = pa.sub(pb);
-    let inv2 = inv.mul(inv);
-    let fu = L::splat(au).mul(b).mul(inv2);
-    let fv = a.mul(L::splat(bv)).neg().mul(inv2);
-    let mut guard = [false; LANES];
-    for k in 0..LANES {
-        guard[k] = d.get(k) < CORNER_EPS;
+fn rational<L: Lanes>(pa: P3<L>, pb: P3<L>, w: &RationalWeights) -> (P3<L>, P3<L>, P3<L>) {
+    if w.corner {
+        let zero = P3::splat([0.0; 3]);
+        return (pa, zero, zero);
     }
-    let zero = P3::splat([0.0; 3]);
-    (
-        select(guard, pa, q),
-        select(guard, zero, diff.scale(fu)),
-        select(guard, zero, diff.scale(fv)),
-    )
+    let q = pa
+        .scale(L::splat(w.a))
+        .add(pb.scale(L::splat(w.b)))
+        .scale(L::splat(w.inv));
+    let diff = pa.sub(pb);
+    (q, diff.scale(L::splat(w.fu)), diff.scale(L::splat(w.fv)))
 }
 
 /// `pow2_rescale` as geom::gregory's `rescaled`: both vectors times 2^−e, the largest component's
@@ -613,121 +863,253 @@ fn pow2_scale<L: Lanes>(a: P3<L>, b: P3<L>) -> L {
     L::from_array(k)
 }
 
-/// Rows `first..first + 4` of a table group.
-#[inline(always)]
-fn load4<L: Lanes>(rows: &[F; ROWS], first: usize) -> [L; 4] {
-    [
-        L::from_array(rows[first]),
-        L::from_array(rows[first + 1]),
-        L::from_array(rows[first + 2]),
-        L::from_array(rows[first + 3]),
-    ]
+/// Quantities per column of a patch (see [`eval_batch`]), each a point: rows 0 and 3 of the net contracted
+/// with bern3(u).b and .d, and columns 0 and 3 of rows 1 and 2 times b0, b3, d0, d3.
+const COL_QUANTITIES: usize = 12;
+/// Floats per column of a patch's column values.
+const COL_VALUES: usize = 3 * COL_QUANTITIES;
+
+/// Writes a full lane group of vertices: positions `p`, normals `n` (one array per coordinate), lane l
+/// into `out[at + l·stride]`, with the w components 1 and 0: an 8×8 transpose in registers and eight
+/// 32-byte stores instead of 64 lane extracts.
+///
+/// # Safety
+/// The CPU must execute AVX2.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+#[inline]
+unsafe fn store8_avx2(
+    out: &mut [HostVertex],
+    at: usize,
+    stride: usize,
+    p: [std::arch::x86_64::__m256; 3],
+    n: [std::arch::x86_64::__m256; 3],
+) {
+    assert!(
+        at + (LANES - 1) * stride < out.len(),
+        "a lane group past the output"
+    );
+    use std::arch::x86_64::*;
+    let [px, py, pz] = p;
+    let [nx, ny, nz] = n;
+    let (one, zero) = (_mm256_set1_ps(1.0), _mm256_setzero_ps());
+    // Pairs interleaved: (x0 y0 x1 y1 | x4 y4 x5 y5), (x2 y2 x3 y3 | x6 y6 x7 y7), …
+    let (pxy_lo, pxy_hi) = (_mm256_unpacklo_ps(px, py), _mm256_unpackhi_ps(px, py));
+    let (pzw_lo, pzw_hi) = (_mm256_unpacklo_ps(pz, one), _mm256_unpackhi_ps(pz, one));
+    let (nxy_lo, nxy_hi) = (_mm256_unpacklo_ps(nx, ny), _mm256_unpackhi_ps(nx, ny));
+    let (nzw_lo, nzw_hi) = (_mm256_unpacklo_ps(nz, zero), _mm256_unpackhi_ps(nz, zero));
+    // Four-float halves: (x0 y0 z0 1 | x4 y4 z4 1) for vertices 0 and 4, and so on.
+    let p04 = _mm256_shuffle_ps::<0x44>(pxy_lo, pzw_lo);
+    let p15 = _mm256_shuffle_ps::<0xEE>(pxy_lo, pzw_lo);
+    let p26 = _mm256_shuffle_ps::<0x44>(pxy_hi, pzw_hi);
+    let p37 = _mm256_shuffle_ps::<0xEE>(pxy_hi, pzw_hi);
+    let n04 = _mm256_shuffle_ps::<0x44>(nxy_lo, nzw_lo);
+    let n15 = _mm256_shuffle_ps::<0xEE>(nxy_lo, nzw_lo);
+    let n26 = _mm256_shuffle_ps::<0x44>(nxy_hi, nzw_hi);
+    let n37 = _mm256_shuffle_ps::<0xEE>(nxy_hi, nzw_hi);
+    let rows = [
+        _mm256_permute2f128_ps::<0x20>(p04, n04),
+        _mm256_permute2f128_ps::<0x20>(p15, n15),
+        _mm256_permute2f128_ps::<0x20>(p26, n26),
+        _mm256_permute2f128_ps::<0x20>(p37, n37),
+        _mm256_permute2f128_ps::<0x31>(p04, n04),
+        _mm256_permute2f128_ps::<0x31>(p15, n15),
+        _mm256_permute2f128_ps::<0x31>(p26, n26),
+        _mm256_permute2f128_ps::<0x31>(p37, n37),
+    ];
+    let base = out.as_mut_ptr();
+    for (l, r) in rows.into_iter().enumerate() {
+        // SAFETY: at + l·stride < out.len() (the assert above): a live, exclusively borrowed vertex of
+        // 32 writable bytes.
+        unsafe { _mm256_storeu_ps(base.add(at + l * stride) as *mut f32, r) };
+    }
 }
 
-/// One patch's grid (see [`evaluate`]).
+/// Patch-local points of a batch: coordinate c of point k at `[3k + c]`, lane l = patch l.
+type Net = [F; 60];
+/// Column values of a batch at one column (see [`COL_QUANTITIES`]), lane l = patch l.
+type Columns = [F; COL_VALUES];
+
+/// What a sample's contraction yields for every lane: the position, S_u, S_v (before the rescale) and
+/// the rational points (for the fallback normal).
+struct Sample<L> {
+    pos: P3<L>,
+    su: P3<L>,
+    sv: P3<L>,
+    q11: P3<L>,
+    q21: P3<L>,
+    q12: P3<L>,
+    q22: P3<L>,
+}
+
+/// The contraction at one sample, each lane a patch: the shader's `gregory_row(r0, r1, r2, r3, bv)` with
+/// each row `gregory_row(c0, c1, c2, c3, bu)`, summed in the same order (so the same bits), row by row
+/// (a few points live instead of sixteen). Rows 0 and 3 and the plain-point terms of rows 1 and 2 come
+/// from the column values; interior cells Q11 (1,1), Q21 (2,1) in row 1, Q12 (1,2), Q22 (2,2) in row 2,
+/// so rows 1 and 2 are ((c0·b0 + Q·b1) + Q·b2) + c3·b3 with c0·b0 and c3·b3 from the columns.
 #[inline(always)]
-fn eval_patch<L: Lanes>(
+fn contract<L: Lanes>(net: &Net, cols: &Columns, w: &SampleWeights, origin: P3<L>) -> Sample<L> {
+    macro_rules! cv {
+        ($k:expr) => {
+            P3::<L> {
+                x: L::from_array(net[3 * $k]),
+                y: L::from_array(net[3 * $k + 1]),
+                z: L::from_array(net[3 * $k + 2]),
+            }
+        };
+    }
+    macro_rules! col {
+        ($q:expr) => {
+            P3::<L> {
+                x: L::from_array(cols[3 * $q]),
+                y: L::from_array(cols[3 * $q + 1]),
+                z: L::from_array(cols[3 * $q + 2]),
+            }
+        };
+    }
+    let s = L::splat;
+    let (bu1, bu2, du1, du2) = (s(w.bu[1]), s(w.bu[2]), s(w.du[1]), s(w.du[2]));
+    let r0 = col!(0);
+    let mut pos = r0.scale(s(w.bv[0]));
+    let mut su = col!(1).scale(s(w.bv[0]));
+    let mut sv = r0.scale(s(w.dv[0]));
+    let (q11, u11, v11) = rational(cv!(3), cv!(4), &w.rational[0]);
+    let (q21, u21, v21) = rational(cv!(9), cv!(8), &w.rational[1]);
+    let r1 = col!(4).add(q11.scale(bu1)).add(q21.scale(bu2)).add(col!(5));
+    let d1 = col!(6).add(q11.scale(du1)).add(q21.scale(du2)).add(col!(7));
+    pos = pos.add(r1.scale(s(w.bv[1])));
+    su = su.add(d1.scale(s(w.bv[1])));
+    sv = sv.add(r1.scale(s(w.dv[1])));
+    let (q12, u12, v12) = rational(cv!(19), cv!(18), &w.rational[2]);
+    let (q22, u22, v22) = rational(cv!(13), cv!(14), &w.rational[3]);
+    let r2 = col!(8).add(q12.scale(bu1)).add(q22.scale(bu2)).add(col!(9));
+    let d2 = col!(10)
+        .add(q12.scale(du1))
+        .add(q22.scale(du2))
+        .add(col!(11));
+    pos = pos.add(r2.scale(s(w.bv[2])));
+    su = su.add(d2.scale(s(w.bv[2])));
+    sv = sv.add(r2.scale(s(w.dv[2])));
+    let r3 = col!(2);
+    let pos = pos.add(r3.scale(s(w.bv[3]))).add(origin);
+    su = su.add(col!(3).scale(s(w.bv[3])));
+    sv = sv.add(r3.scale(s(w.dv[3])));
+    // Exact-derivative terms Σ B_i(u) B_j(v) ∂Q_ij, in the shader's order Q11, Q21, Q12, Q22.
+    for (qu, qv, e) in [(u11, v11, 0), (u21, v21, 1), (u12, v12, 2), (u22, v22, 3)] {
+        let e = s(w.exact[e]);
+        su = su.add(qu.scale(e));
+        sv = sv.add(qv.scale(e));
+    }
+    Sample {
+        pos,
+        su,
+        sv,
+        q11,
+        q21,
+        q12,
+        q22,
+    }
+}
+
+/// The normal of lane `l` whose S_u × S_v failed the test: the sample contracted again (the same
+/// operations, so the same S_u, S_v and rational points; out of the hot loop, which then keeps none of
+/// them) and [`normal_from_net_f32`].
+#[cold]
+#[inline(never)]
+fn fallback_normal(net: &Net, cols: &Columns, w: &SampleWeights, l: usize) -> [f32; 3] {
+    let s = contract::<F>(net, cols, w, P3::splat([0.0; 3]));
+    let c = |k: usize| Vec3::new(net[3 * k][l], net[3 * k + 1][l], net[3 * k + 2][l]);
+    let net = [
+        [c(0), c(1), c(7), c(5)],
+        [c(2), s.q11.lane(l), s.q21.lane(l), c(6)],
+        [c(16), s.q12.lane(l), s.q22.lane(l), c(12)],
+        [c(15), c(17), c(11), c(10)],
+    ];
+    normal_from_net_f32(&net, s.su.lane(l), s.sv.lane(l), w.u, w.v).to_array()
+}
+
+/// A batch of up to LANES patches from `first` (`grids`: their grids, see [`evaluate`]), lane l = patch
+/// first + l, every sample of the grid at once for all of them: no lane is padding at any level (but in a
+/// task's last batch, whose empty lanes repeat its last patch and are not written), and what depends on
+/// (u, v) alone is a splat of the level table's scalar.
+#[inline(always)]
+fn eval_batch<L: Lanes>(
     p: &HostPatches,
     t: &LevelTable,
     canonical: bool,
-    patch: usize,
-    out: &mut [HostVertex],
+    first: usize,
+    grids: &mut [HostVertex],
+    cols: &mut [Columns],
 ) {
-    let rows = &p.patch_points[patch];
-    let flags = p.patch_flags[patch];
     let level = t.level as usize;
     let n = level + 1;
-    // World points and residuals as flat coordinates (60, padded to whole lane groups), then the
-    // patch-local points (hi_k − hi_0) + (lo_k − lo_0), a lane group of coordinates per operation (the same
-    // bits as scalar f32). Points are splatted where they are used: a broadcast load costs what a vector
-    // load does, and 20 splatted points would be 1.9 KB of stores per patch.
-    const COORDS: usize = 60usize.div_ceil(LANES) * LANES;
-    let (mut world, mut lo) = ([0.0f32; COORDS], [0.0f32; COORDS]);
-    for k in 0..20 {
-        let q = p.points[rows[k] as usize];
-        world[3 * k..3 * k + 3].copy_from_slice(&q[..3]);
-        if p.residual_rows > 0 {
-            let r = p.points[(p.residual_rows + rows[k]) as usize];
-            lo[3 * k..3 * k + 3].copy_from_slice(&r[..3]);
-        }
+    let per_patch = n * n;
+    let valid = grids.len() / per_patch;
+    L::weigh(valid);
+    // World points and residuals transposed to lanes, then the patch-local points
+    // (hi_k − hi_0) + (lo_k − lo_0), a lane per patch (the same bits as scalar f32).
+    let (mut world, mut lo): (Net, Net) = ([[0.0; LANES]; 60], [[0.0; LANES]; 60]);
+    let rows: [&[u32; 20]; LANES] =
+        std::array::from_fn(|l| &p.patch_points[first + l.min(valid - 1)]);
+    L::gather(p, &rows, &mut world, &mut lo);
+    let mut net: Net = [[0.0; LANES]; 60];
+    for k in 0..60 {
+        let (o, l0) = (L::from_array(world[k % 3]), L::from_array(lo[k % 3]));
+        net[k] = L::from_array(world[k])
+            .sub(o)
+            .add(L::from_array(lo[k]).sub(l0))
+            .to_array();
     }
-    let (mut o, mut l0) = ([0.0f32; COORDS], [0.0f32; COORDS]);
-    for i in 0..COORDS {
-        o[i] = world[i % 3];
-        l0[i] = lo[i % 3];
-    }
-    let mut local = [0.0f32; COORDS];
-    for g in (0..60).step_by(LANES) {
-        L::weigh(LANES.min(60 - g));
-        let d = L::load(&world[g..])
-            .sub(L::load(&o[g..]))
-            .add(L::load(&lo[g..]).sub(L::load(&l0[g..])));
-        local[g..g + LANES].copy_from_slice(&d.to_array());
-    }
-    // Plain arrays and macros, not closures, on the lane path: a closure that LLVM leaves out of line is
-    // compiled without the caller's AVX2.
-    let (mut pts, mut wpts) = ([[0.0f32; 3]; 20], [[0.0f32; 3]; 20]);
-    for k in 0..20 {
-        pts[k] = [local[3 * k], local[3 * k + 1], local[3 * k + 2]];
-        wpts[k] = [world[3 * k], world[3 * k + 1], world[3 * k + 2]];
-    }
+    let origin = P3 {
+        x: L::from_array(world[0]),
+        y: L::from_array(world[1]),
+        z: L::from_array(world[2]),
+    };
+    // The u-only terms of the contraction, once per column instead of once per sample: rows 0 and 3 of
+    // the net (values and u-derivatives) and the plain-point terms of rows 1 and 2 — the very products
+    // and partial sums the per-sample `gregory_row` would compute.
     macro_rules! cv {
         ($k:expr) => {
-            P3::<L>::splat(pts[$k])
+            P3::<L> {
+                x: L::from_array(net[3 * $k]),
+                y: L::from_array(net[3 * $k + 1]),
+                z: L::from_array(net[3 * $k + 2]),
+            }
         };
     }
-    let origin = wpts[0];
-    let origin3 = P3::splat(origin);
-    let one = L::splat(1.0);
-    let per_patch = n * n;
-    for g in (0..per_patch).step_by(LANES) {
-        let lanes = LANES.min(per_patch - g);
-        L::weigh(lanes);
-        let tab = &t.groups[g / LANES];
-        let (u, v) = (L::from_array(tab[U]), L::from_array(tab[V]));
-        let (bu, du) = (load4::<L>(tab, BU), load4::<L>(tab, DU));
-        let (bv, dv) = (load4::<L>(tab, BV), load4::<L>(tab, DV));
-        let (uu, vv) = (one.sub(u), one.sub(v));
-        // Row by row of the net: each row contracted in u (values and derivatives) and added at once into
-        // the v contractions — the shader's `gregory_row(r0, r1, r2, r3, bv)` summed in the same order, so the
-        // same bits, with a few points live instead of all sixteen rows (which spilled to the stack).
-        // Interior cells Q11 (1,1), Q21 (2,1) in row 1, Q12 (1,2), Q22 (2,2) in row 2.
-        let r0 = row(cv!(0), cv!(1), cv!(7), cv!(5), &bu);
-        let d0 = row(cv!(0), cv!(1), cv!(7), cv!(5), &du);
-        let mut pos = r0.scale(bv[0]);
-        let mut su = d0.scale(bv[0]);
-        let mut sv = r0.scale(dv[0]);
-        let (q11, u11, v11) = rational(cv!(3), cv!(4), u, v, 1.0, 1.0);
-        let (q21, u21, v21) = rational(cv!(9), cv!(8), uu, v, -1.0, 1.0);
-        let r1 = row(cv!(2), q11, q21, cv!(6), &bu);
-        let d1 = row(cv!(2), q11, q21, cv!(6), &du);
-        pos = pos.add(r1.scale(bv[1]));
-        su = su.add(d1.scale(bv[1]));
-        sv = sv.add(r1.scale(dv[1]));
-        let (q12, u12, v12) = rational(cv!(19), cv!(18), u, vv, 1.0, -1.0);
-        let (q22, u22, v22) = rational(cv!(13), cv!(14), uu, vv, -1.0, -1.0);
-        let r2 = row(cv!(16), q12, q22, cv!(12), &bu);
-        let d2 = row(cv!(16), q12, q22, cv!(12), &du);
-        pos = pos.add(r2.scale(bv[2]));
-        su = su.add(d2.scale(bv[2]));
-        sv = sv.add(r2.scale(dv[2]));
-        let r3 = row(cv!(15), cv!(17), cv!(11), cv!(10), &bu);
-        let d3 = row(cv!(15), cv!(17), cv!(11), cv!(10), &du);
-        let pos = pos.add(r3.scale(bv[3])).add(origin3);
-        su = su.add(d3.scale(bv[3]));
-        sv = sv.add(r3.scale(dv[3]));
-        // Exact-derivative terms Σ B_i(u) B_j(v) ∂Q_ij, in the shader's order Q11, Q21, Q12, Q22.
-        for (qu, qv, w) in [
-            (u11, v11, bu[1].mul(bv[1])),
-            (u21, v21, bu[2].mul(bv[1])),
-            (u12, v12, bu[1].mul(bv[2])),
-            (u22, v22, bu[2].mul(bv[2])),
-        ] {
-            su = su.add(qu.scale(w));
-            sv = sv.add(qv.scale(w));
+    for (c, (b, d)) in cols.iter_mut().zip(&t.columns) {
+        let s = L::splat;
+        let (bu, du) = (
+            [s(b[0]), s(b[1]), s(b[2]), s(b[3])],
+            [s(d[0]), s(d[1]), s(d[2]), s(d[3])],
+        );
+        // Stored as computed (an array of the twelve points would be moved with memmove).
+        macro_rules! put {
+            ($q:expr, $v:expr) => {{
+                let v: P3<L> = $v;
+                c[3 * $q] = v.x.to_array();
+                c[3 * $q + 1] = v.y.to_array();
+                c[3 * $q + 2] = v.z.to_array();
+            }};
         }
+        put!(0, row(cv!(0), cv!(1), cv!(7), cv!(5), &bu));
+        put!(1, row(cv!(0), cv!(1), cv!(7), cv!(5), &du));
+        put!(2, row(cv!(15), cv!(17), cv!(11), cv!(10), &bu));
+        put!(3, row(cv!(15), cv!(17), cv!(11), cv!(10), &du));
+        put!(4, cv!(2).scale(bu[0]));
+        put!(5, cv!(6).scale(bu[3]));
+        put!(6, cv!(2).scale(du[0]));
+        put!(7, cv!(6).scale(du[3]));
+        put!(8, cv!(16).scale(bu[0]));
+        put!(9, cv!(12).scale(bu[3]));
+        put!(10, cv!(16).scale(du[0]));
+        put!(11, cv!(12).scale(du[3]));
+    }
+    for (at, w) in t.samples.iter().enumerate() {
+        let colv = &cols[w.column];
+        let Sample { pos, su, sv, .. } = contract::<L>(&net, colv, w, origin);
         // The normal: S_u × S_v after the power-of-two rescale, tested as the shader tests it.
-        let k = pow2_scale(su, sv);
+        let k = L::pow2_scale(su, sv);
         let (rsu, rsv) = (su.scale(k), sv.scale(k));
         let nrm = rsu.cross(rsv);
         let ln = nrm.length();
@@ -738,22 +1120,20 @@ fn eval_patch<L: Lanes>(
             y: nrm.y.div(ln),
             z: nrm.z.div(ln),
         };
-        for l in 0..lanes {
-            let (len, lim) = (ln.get(l), limit.get(l));
-            let normal = if len > lim && len.is_finite() {
+        let ok = L::normal_ok(ln, limit);
+        if valid == LANES
+            && ok == (1 << LANES) - 1
+            && L::store_group(grids, at, per_patch, pos, unit)
+        {
+            continue;
+        }
+        for l in 0..valid {
+            let normal = if (ok >> l) & 1 == 1 {
                 [unit.x.get(l), unit.y.get(l), unit.z.get(l)]
             } else {
-                let lane = |q: &P3<L>| q.lane(l);
-                let c = |k: usize| Vec3::from(pts[k]);
-                let net = [
-                    [c(0), c(1), c(7), c(5)],
-                    [c(2), lane(&q11), lane(&q21), c(6)],
-                    [c(16), lane(&q12), lane(&q22), c(12)],
-                    [c(15), c(17), c(11), c(10)],
-                ];
-                normal_from_net_f32(&net, su.lane(l), sv.lane(l), u.get(l), v.get(l)).to_array()
+                fallback_normal(&net, colv, w, l)
             };
-            out[g + l] = [
+            grids[l * per_patch + at] = [
                 pos.x.get(l),
                 pos.y.get(l),
                 pos.z.get(l),
@@ -766,66 +1146,84 @@ fn eval_patch<L: Lanes>(
         }
     }
     if canonical {
-        // Edge samples: the canonical boundary cubic from the world-space points replaces the position
-        // (rows j = 0, L; columns i = 0, L), LANES samples of one edge at a time.
-        const EDGES: [[usize; 4]; 4] = [
-            [0, 1, 7, 5],
-            [5, 6, 12, 10],
-            [15, 17, 11, 10],
-            [0, 2, 16, 15],
-        ];
-        for e in 0..4 {
-            let flipped = (flags >> e) & 1 == 1;
-            let [ia, ib, ic, id] = EDGES[e];
-            let (a, b) = (P3::<L>::splat(wpts[ia]), P3::<L>::splat(wpts[ib]));
-            let (c, d) = (P3::<L>::splat(wpts[ic]), P3::<L>::splat(wpts[id]));
-            // Edges 0 and 2 take every sample of their row, edges 1 and 3 the inner ones of their column.
-            let (first, last) = if e % 2 == 0 {
-                (0, level)
-            } else {
-                (1, level - 1)
-            };
-            let mut m0 = first;
-            while m0 <= last {
-                let lanes = LANES.min(last + 1 - m0);
-                L::weigh(lanes);
-                let (pts, w) = if flipped {
-                    ([d, c, b, a], &t.edge_rev)
-                } else {
-                    ([a, b, c, d], &t.edge_fwd)
-                };
-                let w = [
-                    L::load(&w[0][m0..]),
-                    L::load(&w[1][m0..]),
-                    L::load(&w[2][m0..]),
-                    L::load(&w[3][m0..]),
-                ];
-                let q = row(pts[0], pts[1], pts[2], pts[3], &w);
-                for l in 0..lanes {
-                    let m = m0 + l;
-                    let at = match e {
-                        0 => m,
-                        1 => m * n + level,
-                        2 => level * n + m,
-                        _ => m * n,
-                    };
-                    out[at][..3].copy_from_slice(&[q.x.get(l), q.y.get(l), q.z.get(l)]);
-                }
-                m0 += LANES;
-            }
+        for (l, grid) in grids.chunks_exact_mut(per_patch).enumerate() {
+            let wpts: [[f32; 3]; 20] = std::array::from_fn(|k| {
+                [world[3 * k][l], world[3 * k + 1][l], world[3 * k + 2][l]]
+            });
+            edge_samples::<L>(&wpts, p.patch_flags[first + l], t, grid);
         }
     }
 }
 
-/// Arithmetic of the kernel on one patch at `level`: each lane operation counted once per sample it
-/// computes (padding lanes are not counted), the per-patch set-up once. The patch's shape does not change
-/// the count except through the normal fallback (samples whose S_u × S_v fails the test), which
-/// [`operation_counts`] avoids by evaluating a regular patch.
+/// Edge samples of one patch: the canonical boundary cubic from the world-space points replaces the
+/// position (rows j = 0, L; columns i = 0, L), LANES samples of one edge at a time.
+#[inline(always)]
+fn edge_samples<L: Lanes>(
+    wpts: &[[f32; 3]; 20],
+    flags: u32,
+    t: &LevelTable,
+    out: &mut [HostVertex],
+) {
+    let level = t.level as usize;
+    let n = level + 1;
+    const EDGES: [[usize; 4]; 4] = [
+        [0, 1, 7, 5],
+        [5, 6, 12, 10],
+        [15, 17, 11, 10],
+        [0, 2, 16, 15],
+    ];
+    for e in 0..4 {
+        let flipped = (flags >> e) & 1 == 1;
+        let [ia, ib, ic, id] = EDGES[e];
+        let (a, b) = (P3::<L>::splat(wpts[ia]), P3::<L>::splat(wpts[ib]));
+        let (c, d) = (P3::<L>::splat(wpts[ic]), P3::<L>::splat(wpts[id]));
+        // Edges 0 and 2 take every sample of their row, edges 1 and 3 the inner ones of their column.
+        let (first, last) = if e % 2 == 0 {
+            (0, level)
+        } else {
+            (1, level - 1)
+        };
+        let mut m0 = first;
+        while m0 <= last {
+            let lanes = LANES.min(last + 1 - m0);
+            L::weigh(lanes);
+            let (pts, w) = if flipped {
+                ([d, c, b, a], &t.edge_rev)
+            } else {
+                ([a, b, c, d], &t.edge_fwd)
+            };
+            let w = [
+                L::load(&w[0][m0..]),
+                L::load(&w[1][m0..]),
+                L::load(&w[2][m0..]),
+                L::load(&w[3][m0..]),
+            ];
+            let q = row(pts[0], pts[1], pts[2], pts[3], &w);
+            for l in 0..lanes {
+                let m = m0 + l;
+                let at = match e {
+                    0 => m,
+                    1 => m * n + level,
+                    2 => level * n + m,
+                    _ => m * n,
+                };
+                out[at][..3].copy_from_slice(&[q.x.get(l), q.y.get(l), q.z.get(l)]);
+            }
+            m0 += LANES;
+        }
+    }
+}
+
+/// Arithmetic of the kernel on one patch at `level`: each lane operation counted once per patch it
+/// computes (the empty lanes of a batch are not counted), the per-patch set-up and column values once.
+/// The patch's shape does not change the count except through the normal fallback (samples whose
+/// S_u × S_v fails the test), which [`operation_counts`] avoids by evaluating a regular patch.
 fn count_patch(p: &HostPatches, level: u32, canonical: bool) -> OpCounts {
     let t = LevelTable::new(level);
     let mut out = vec![[0.0f32; 8]; ((level + 1) * (level + 1)) as usize];
     COUNTER.with(|c| c.set((0, OpCounts::default())));
-    eval_patch::<Counted>(p, &t, canonical, 0, &mut out);
+    let mut cols = vec![[[0.0f32; LANES]; COL_VALUES]; t.columns.len()];
+    eval_batch::<Counted>(p, &t, canonical, 0, &mut out, &mut cols);
     COUNTER.with(|c| c.get().1)
 }
 

@@ -205,3 +205,62 @@ pub fn random_patch(seed: u64) -> gregvox::geom::gregory::PatchF64 {
     }
     g
 }
+
+/// Checks (H, K) per grid vertex at `level` (patch-major, rows of u inner) against the CPU's fundamental
+/// forms (`PatchF64::curvature`) of the same f32 control points evaluated in f64: where the CPU has a
+/// curvature, within 1e-3 relative to max(1, |value|) — f32 second derivatives and a 2×2 determinant give a
+/// few 1e-5 on the test cages (curvatures up to ~10 per unit), and a missing ∂²Q term changes H by O(1)
+/// near the corners —, and (0, 0) where the CPU says singular. Returns (worst relative error, vertices
+/// checked, singular vertices).
+pub fn assert_curvature_matches_cpu(
+    what: &str,
+    patch_points: &[[u32; 20]],
+    points: &[[f32; 4]],
+    level: u32,
+    hk: &[[f32; 2]],
+) -> (f64, usize, usize) {
+    use glam::DVec3;
+    use gregvox::geom::gregory::PatchF64;
+    let n1 = level as usize + 1;
+    assert_eq!(
+        hk.len(),
+        patch_points.len() * n1 * n1,
+        "{what}: vertex count"
+    );
+    let (mut worst, mut checked, mut singular) = (0.0f64, 0, 0);
+    for (p, rows) in patch_points.iter().enumerate() {
+        let cv = rows.map(|r| {
+            let q = points[r as usize];
+            DVec3::new(q[0] as f64, q[1] as f64, q[2] as f64)
+        });
+        let patch = PatchF64 { cv };
+        for j in 0..n1 {
+            for i in 0..n1 {
+                let (u, v) = (i as f64 / level as f64, j as f64 / level as f64);
+                let [h, k] = hk[p * n1 * n1 + j * n1 + i];
+                match patch.curvature(u, v) {
+                    Some((kc, hc)) => {
+                        let eh = (h as f64 - hc).abs() / hc.abs().max(1.0);
+                        let ek = (k as f64 - kc).abs() / kc.abs().max(1.0);
+                        worst = worst.max(eh).max(ek);
+                        assert!(
+                            eh < 1e-3 && ek < 1e-3,
+                            "{what}, patch {p} ({u}, {v}): (H, K) = ({h}, {k}), CPU ({hc}, {kc})"
+                        );
+                        checked += 1;
+                    }
+                    None => {
+                        assert_eq!(
+                            [h, k],
+                            [0.0, 0.0],
+                            "{what}, patch {p} ({u}, {v}) is singular"
+                        );
+                        singular += 1;
+                    }
+                }
+            }
+        }
+    }
+    assert!(checked > 0, "{what}: nothing to check");
+    (worst, checked, singular)
+}
