@@ -357,10 +357,11 @@ fn prefetch_points(p: &HostPatches, rows: &[u32; 20]) {
     let _ = (p, rows);
 }
 
-// ---- lane arithmetic: element-wise loops over [f32; LANES], which LLVM compiles to vector instructions ----
+// ---- lane arithmetic: explicit AVX2, or element-wise loops over [f32; LANES] left to LLVM ----
 
-/// The lane arithmetic the kernel is written in: [`F`] (what runs) and [`Counted`] (the same values, each
-/// arithmetic operation counted: the bench's operation counts come from this code, not from an estimate).
+/// The lane arithmetic the kernel is written in: `Avx2` (what runs on AVX2 CPUs), [`F`] (element-wise
+/// loops: the baseline) and [`Counted`] (the values of `F`, each arithmetic operation counted: the bench's
+/// operation counts come from this code, not from an estimate).
 trait Lanes: Copy {
     fn splat(x: f32) -> Self;
     fn load(v: &[f32]) -> Self;
@@ -372,7 +373,8 @@ trait Lanes: Copy {
     fn get(&self, k: usize) -> f32;
     fn to_array(self) -> F;
     fn from_array(a: F) -> Self;
-    /// The samples the following lane operations compute (the valid lanes of a group), for counting.
+    /// The results the following lane operations stand for (the valid lanes: patches of a batch, or
+    /// samples along an edge), for counting.
     #[inline(always)]
     fn weigh(_samples: usize) {}
     /// [`pow2_scale`] (exponent arithmetic: no flops).
@@ -1228,8 +1230,8 @@ fn count_patch(p: &HostPatches, level: u32, canonical: bool) -> OpCounts {
 }
 
 /// What the kernel computes per patch at `level`, counted from its code (the same operations as
-/// glsl/gregory_eval.comp's per-sample body with the Bernstein weights and the patch-local points hoisted
-/// out of the samples: a per-level table and a per-patch set-up), and the bytes it moves: 20 point rows
+/// glsl/gregory_eval.comp's per-sample body with what depends on (u, v) alone in a per-level table, the
+/// u-only row terms per column and the patch-local points per patch), and the bytes it moves: 20 point rows
 /// and their 20 residual rows (16 B each), the 20 row indices and the flags read, (L+1)² vertices of 32 B
 /// written.
 #[derive(Clone, Copy, Debug, PartialEq)]
