@@ -494,6 +494,18 @@ impl Lanes for F {
 #[derive(Clone, Copy)]
 struct Avx2(std::arch::x86_64::__m256);
 
+/// One `Lanes` method of two operands as one intrinsic.
+#[cfg(target_arch = "x86_64")]
+macro_rules! avx2_binary {
+    ($name:ident, $intrinsic:ident) => {
+        #[inline(always)]
+        fn $name(self, o: Self) -> Self {
+            // SAFETY: AVX2 where these lanes exist (see `Avx2`).
+            unsafe { Avx2(std::arch::x86_64::$intrinsic(self.0, o.0)) }
+        }
+    };
+}
+
 // The intrinsics need AVX/AVX2, which the CPU has where these lanes exist (see `Avx2`); loads and stores
 // go through `LANES`-long slices or arrays.
 #[cfg(target_arch = "x86_64")]
@@ -509,26 +521,10 @@ impl Lanes for Avx2 {
         // SAFETY: AVX2 where these lanes exist (see `Avx2`).
         unsafe { Avx2(std::arch::x86_64::_mm256_loadu_ps(v.as_ptr())) }
     }
-    #[inline(always)]
-    fn add(self, o: Self) -> Self {
-        // SAFETY: AVX2 where these lanes exist (see `Avx2`).
-        unsafe { Avx2(std::arch::x86_64::_mm256_add_ps(self.0, o.0)) }
-    }
-    #[inline(always)]
-    fn sub(self, o: Self) -> Self {
-        // SAFETY: AVX2 where these lanes exist (see `Avx2`).
-        unsafe { Avx2(std::arch::x86_64::_mm256_sub_ps(self.0, o.0)) }
-    }
-    #[inline(always)]
-    fn mul(self, o: Self) -> Self {
-        // SAFETY: AVX2 where these lanes exist (see `Avx2`).
-        unsafe { Avx2(std::arch::x86_64::_mm256_mul_ps(self.0, o.0)) }
-    }
-    #[inline(always)]
-    fn div(self, o: Self) -> Self {
-        // SAFETY: AVX2 where these lanes exist (see `Avx2`).
-        unsafe { Avx2(std::arch::x86_64::_mm256_div_ps(self.0, o.0)) }
-    }
+    avx2_binary!(add, _mm256_add_ps);
+    avx2_binary!(sub, _mm256_sub_ps);
+    avx2_binary!(mul, _mm256_mul_ps);
+    avx2_binary!(div, _mm256_div_ps);
     #[inline(always)]
     fn sqrt(self) -> Self {
         // SAFETY: AVX2 where these lanes exist (see `Avx2`).

@@ -17,7 +17,8 @@
 //!   operations as the shader's) and splat.
 //! - Inputs are checked before any work ([`super::check`]): an error, never a panic.
 use super::{
-    bern3, check, has_avx2, par_tasks, HostPatches, HostSimd, Lanes, Net, CORNER_EPS, F, LANES, P3,
+    bern3, check, has_avx2, par_tasks, HostPatches, HostSimd, Lanes, Net, RationalWeights, F,
+    LANES, P3,
 };
 use crate::error::Result;
 
@@ -28,34 +29,36 @@ fn bern3_dd(t: f32) -> [[f32; 4]; 3] {
     [b, d, [6.0 * s, 18.0 * t - 12.0, 6.0 - 18.0 * t, 6.0 * t]]
 }
 
-/// The shader's `rational` weights at one sample: Q = (pa·a + pb·b)·inv, ∂Q = (pa − pb)·f[k] for
-/// k = u, v, uu, uv, vv; at a corner Q = pa and every partial 0.
+/// The shader's `rational` weights at one sample: those of the evaluator (Q = (pa·a + pb·b)·inv,
+/// ∂Q/∂u and ∂Q/∂v from fu, fv) and the second partials ∂Q = (pa − pb)·f for uu, uv, vv; at a corner Q = pa
+/// and every partial 0.
 #[derive(Clone, Copy, Default)]
 struct RationalWeights2 {
-    a: f32,
-    b: f32,
-    inv: f32,
-    f: [f32; 5],
-    corner: bool,
+    first: RationalWeights,
+    /// fuu, fuv, fvv.
+    second: [f32; 3],
 }
 
 impl RationalWeights2 {
+    /// The shader's order: fuu = −(2·fu·au)·inv, fvv = −(2·fv·bv)·inv, fuv = au·bv·inv² − 2·fu·bv·inv.
     fn new(a: f32, b: f32, au: f32, bv: f32) -> Self {
-        let d = a + b;
-        let inv = 1.0 / d;
+        let first = RationalWeights::new(a, b, au, bv);
+        let (fu, fv, inv) = (first.fu, first.fv, first.inv);
         let inv2 = inv * inv;
-        let fu = au * b * inv2;
-        let fv = -(a * bv) * inv2;
-        let fuu = -(2.0 * fu * au) * inv;
-        let fvv = -(2.0 * fv * bv) * inv;
-        let fuv = au * bv * inv2 - 2.0 * fu * bv * inv;
         RationalWeights2 {
-            a,
-            b,
-            inv,
-            f: [fu, fv, fuu, fuv, fvv],
-            corner: d < CORNER_EPS,
+            first,
+            second: [
+                -(2.0 * fu * au) * inv,
+                au * bv * inv2 - 2.0 * fu * bv * inv,
+                -(2.0 * fv * bv) * inv,
+            ],
         }
+    }
+
+    /// The factors of (pa − pb) for ∂Q in the order u, v, uu, uv, vv.
+    fn partials(&self) -> [f32; 5] {
+        let [fuu, fuv, fvv] = self.second;
+        [self.first.fu, self.first.fv, fuu, fuv, fvv]
     }
 }
 
@@ -203,14 +206,18 @@ fn sample<L: Lanes>(world: &Net, w: &SampleWeights2) -> [F; 2] {
     for c in 0..4 {
         let (pa, pb) = (cv!(pairs[c].0), cv!(pairs[c].1));
         let r = &w.rational[c];
-        if r.corner {
+        if r.first.corner {
             q[c] = pa;
             continue;
         }
-        q[c] = pa.scale(s(r.a)).add(pb.scale(s(r.b))).scale(s(r.inv));
+        let f = r.partials();
+        q[c] = pa
+            .scale(s(r.first.a))
+            .add(pb.scale(s(r.first.b)))
+            .scale(s(r.first.inv));
         let diff = pa.sub(pb);
         for k in 0..5 {
-            dq[c][k] = diff.scale(s(r.f[k]));
+            dq[c][k] = diff.scale(s(f[k]));
         }
     }
     // The frozen net contracted row by row: r_k = Σ_i p_i·bu[k][i], then into the five partials.
