@@ -359,13 +359,14 @@ impl Report {
                  the driver is optimised either way.\n\n",
             );
         }
-        s.push_str(
+        s.push_str(&format!(
             "Conventions: times are medians of repeats measured in this run, in ms unless a column says \
              otherwise; gregvox's CPU wall-clock times repeat at least as often as stated and, when short, \
-             until the runs fill 0.25 s (at most 1,000 runs). GPU times are Vulkan timestamp queries; on lavapipe they measure the CPU driver \
-             executing the commands on the same cores. \"speed-up\" = peer time / gregvox time (above 1: \
-             gregvox is faster). Growth exponents are least-squares slopes of log time against log size.\n\n",
-        );
+             until the runs fill {CPU_TIMING_FILL_S} s (at most {CPU_TIMING_MAX_RUNS} runs). GPU times are \
+             Vulkan timestamp queries; on lavapipe they measure the CPU driver executing the commands on the \
+             same cores. \"speed-up\" = peer time / gregvox time (above 1: gregvox is faster). Growth \
+             exponents are least-squares slopes of log time against log size.\n\n",
+        ));
         for t in &self.tables {
             s.push_str(&t.markdown());
         }

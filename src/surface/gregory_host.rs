@@ -163,6 +163,11 @@ fn bern3(t: f32) -> ([f32; 4], [f32; 4]) {
 }
 
 impl LevelTable {
+    /// Room for one batch's column values (see [`eval_batch`]).
+    fn column_scratch(&self) -> Vec<Columns> {
+        vec![[[0.0; LANES]; COL_VALUES]; self.columns.len()]
+    }
+
     fn new(level: u32) -> Self {
         let n = (level + 1) as usize;
         let param = |k: usize| (k as f32 / level as f32).clamp(0.0, 1.0);
@@ -321,7 +326,7 @@ fn eval_task<L: Lanes>(
     out: &mut [HostVertex],
 ) {
     let per_patch = ((t.level + 1) * (t.level + 1)) as usize;
-    let mut cols = vec![[[0.0f32; LANES]; COL_VALUES]; t.columns.len()];
+    let mut cols = t.column_scratch();
     for (k, grids) in out.chunks_mut(LANES * per_patch).enumerate() {
         let batch = first + k * LANES;
         for next in p.patch_points.iter().skip(batch + LANES).take(LANES) {
@@ -785,6 +790,16 @@ impl<L: Lanes> P3<L> {
             z: self.z.mul(s),
         }
     }
+    /// Point `k` of lane arrays holding coordinate c of point k at `[3k + c]` (a [`Net`] or
+    /// [`Columns`]).
+    #[inline(always)]
+    fn at<const N: usize>(rows: &[F; N], k: usize) -> Self {
+        P3 {
+            x: L::from_array(rows[3 * k]),
+            y: L::from_array(rows[3 * k + 1]),
+            z: L::from_array(rows[3 * k + 2]),
+        }
+    }
     #[inline(always)]
     fn lane(&self, k: usize) -> Vec3 {
         Vec3::new(self.x.get(k), self.y.get(k), self.z.get(k))
@@ -949,20 +964,12 @@ struct Sample<L> {
 fn contract<L: Lanes>(net: &Net, cols: &Columns, w: &SampleWeights, origin: P3<L>) -> Sample<L> {
     macro_rules! cv {
         ($k:expr) => {
-            P3::<L> {
-                x: L::from_array(net[3 * $k]),
-                y: L::from_array(net[3 * $k + 1]),
-                z: L::from_array(net[3 * $k + 2]),
-            }
+            P3::<L>::at(net, $k)
         };
     }
     macro_rules! col {
         ($q:expr) => {
-            P3::<L> {
-                x: L::from_array(cols[3 * $q]),
-                y: L::from_array(cols[3 * $q + 1]),
-                z: L::from_array(cols[3 * $q + 2]),
-            }
+            P3::<L>::at(cols, $q)
         };
     }
     let s = L::splat;
@@ -1026,6 +1033,22 @@ fn fallback_normal(net: &Net, cols: &Columns, w: &SampleWeights, l: usize) -> [f
     normal_from_net_f32(&net, s.su.lane(l), s.sv.lane(l), w.u, w.v).to_array()
 }
 
+/// The world points and residuals of the `valid` patches from `first`, transposed to lanes
+/// ([`Lanes::gather`]); empty lanes repeat the last patch.
+/// (Out-parameters: returned by value, the two arrays were copied on every batch.)
+#[inline(always)]
+fn batch_points<L: Lanes>(
+    p: &HostPatches,
+    first: usize,
+    valid: usize,
+    world: &mut Net,
+    lo: &mut Net,
+) {
+    let rows: [&[u32; 20]; LANES] =
+        std::array::from_fn(|l| &p.patch_points[first + l.min(valid - 1)]);
+    L::gather(p, &rows, world, lo);
+}
+
 /// A batch of up to LANES patches from `first` (`grids`: their grids, see [`evaluate`]), lane l = patch
 /// first + l, every sample of the grid at once for all of them: no lane is padding at any level (but in a
 /// task's last batch, whose empty lanes repeat its last patch and are not written), and what depends on
@@ -1047,9 +1070,7 @@ fn eval_batch<L: Lanes>(
     // World points and residuals transposed to lanes, then the patch-local points
     // (hi_k − hi_0) + (lo_k − lo_0), a lane per patch (the same bits as scalar f32).
     let (mut world, mut lo): (Net, Net) = ([[0.0; LANES]; 60], [[0.0; LANES]; 60]);
-    let rows: [&[u32; 20]; LANES] =
-        std::array::from_fn(|l| &p.patch_points[first + l.min(valid - 1)]);
-    L::gather(p, &rows, &mut world, &mut lo);
+    batch_points::<L>(p, first, valid, &mut world, &mut lo);
     let mut net: Net = [[0.0; LANES]; 60];
     for k in 0..60 {
         let (o, l0) = (L::from_array(world[k % 3]), L::from_array(lo[k % 3]));
@@ -1058,21 +1079,13 @@ fn eval_batch<L: Lanes>(
             .add(L::from_array(lo[k]).sub(l0))
             .to_array();
     }
-    let origin = P3 {
-        x: L::from_array(world[0]),
-        y: L::from_array(world[1]),
-        z: L::from_array(world[2]),
-    };
+    let origin = P3::<L>::at(&world, 0);
     // The u-only terms of the contraction, once per column instead of once per sample: rows 0 and 3 of
     // the net (values and u-derivatives) and the plain-point terms of rows 1 and 2 — the very products
     // and partial sums the per-sample `gregory_row` would compute.
     macro_rules! cv {
         ($k:expr) => {
-            P3::<L> {
-                x: L::from_array(net[3 * $k]),
-                y: L::from_array(net[3 * $k + 1]),
-                z: L::from_array(net[3 * $k + 2]),
-            }
+            P3::<L>::at(&net, $k)
         };
     }
     for (c, (b, d)) in cols.iter_mut().zip(&t.columns) {
@@ -1220,7 +1233,7 @@ fn count_patch(p: &HostPatches, level: u32, canonical: bool) -> OpCounts {
     let t = LevelTable::new(level);
     let mut out = vec![[0.0f32; 8]; ((level + 1) * (level + 1)) as usize];
     COUNTER.with(|c| c.set((0, OpCounts::default())));
-    let mut cols = vec![[[0.0f32; LANES]; COL_VALUES]; t.columns.len()];
+    let mut cols = t.column_scratch();
     eval_batch::<Counted>(p, &t, canonical, 0, &mut out, &mut cols);
     COUNTER.with(|c| c.get().1)
 }

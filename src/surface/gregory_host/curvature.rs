@@ -17,8 +17,8 @@
 //!   operations as the shader's) and splat.
 //! - Inputs are checked before any work ([`super::check`]): an error, never a panic.
 use super::{
-    bern3, check, has_avx2, par_tasks, HostPatches, HostSimd, Lanes, Net, RationalWeights, F,
-    LANES, P3,
+    batch_points, bern3, check, has_avx2, par_tasks, HostPatches, HostSimd, Lanes, Net,
+    RationalWeights, F, LANES, P3,
 };
 use crate::error::Result;
 
@@ -172,10 +172,9 @@ fn curvature_task<L: Lanes>(
     for (k, grids) in out.chunks_mut(LANES * per_patch).enumerate() {
         let batch = first + k * LANES;
         let valid = grids.len() / per_patch;
-        let rows: [&[u32; 20]; LANES] =
-            std::array::from_fn(|l| &p.patch_points[batch + l.min(valid - 1)]);
+        // `p` has no residuals: the second array stays zero.
         let (mut world, mut unused): (Net, Net) = ([[0.0; LANES]; 60], [[0.0; LANES]; 60]);
-        L::gather(p, &rows, &mut world, &mut unused);
+        batch_points::<L>(p, batch, valid, &mut world, &mut unused);
         for (at, w) in t.iter().enumerate() {
             let hk = sample::<L>(&world, w);
             for l in 0..valid {
@@ -190,11 +189,7 @@ fn curvature_task<L: Lanes>(
 fn sample<L: Lanes>(world: &Net, w: &SampleWeights2) -> [F; 2] {
     macro_rules! cv {
         ($k:expr) => {
-            P3::<L> {
-                x: L::from_array(world[3 * $k]),
-                y: L::from_array(world[3 * $k + 1]),
-                z: L::from_array(world[3 * $k + 2]),
-            }
+            P3::<L>::at(world, $k)
         };
     }
     let s = L::splat;
