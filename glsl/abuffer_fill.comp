@@ -2,7 +2,8 @@
 // A-buffer fill: one invocation per column sorts the column's fragments front to back (insertion sort in
 // place: columns hold few crossings) by (|s|, s) — a total order, so equal depths sort deterministically —
 // then fills exactly as voxel_fill.comp: a crossing at z starts at voxel k = ceil(z_grid - 1/2); the segment
-// before it is solid where the running winding is non-zero (rule 0) or the crossing count is odd (rule 1);
+// before it is solid where the running winding is non-zero (rule 0), the crossing count is odd (rule 1) or
+// the winding is positive (rule 2);
 // nothing after the last crossing. Each invocation owns its ceil(depth/32) output words (zeros included).
 #include "dispatch.glsl"
 layout(local_size_x = 64) in;
@@ -12,7 +13,7 @@ layout(std430, set = 0, binding = 2) buffer Bits { uint bits[]; };
 layout(push_constant) uniform Push {
     uint width;        // columns per row (voxels along u)
     uint words;        // ceil(depth/32)
-    uint rule;         // 0 winding, 1 parity
+    uint rule;         // 0 winding, 1 parity, 2 positive
     uint first_column; // first column (v*width + u) of this slab
     uint column_count; // columns in this slab
     uint depth;        // voxels along the peel axis
@@ -60,7 +61,7 @@ void main() {
         float s = frags[a];
         float z_grid = (abs(s) - 1.0 - 0.25) * 2.0 * pc.depth_span + pc.depth_lo;
         uint k = uint(clamp(ceil(z_grid - 0.5), 0.0, r));
-        bool inside = pc.rule == 0u ? winding != 0 : (crossings & 1u) == 1u;
+        bool inside = pc.rule == 0u ? winding != 0 : pc.rule == 1u ? (crossings & 1u) == 1u : winding > 0;
         if (inside && k > k_prev) set_range(base, k_prev, k);
         winding += s > 0.0 ? 1 : -1;
         crossings += 1u;

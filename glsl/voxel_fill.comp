@@ -1,8 +1,9 @@
 #version 460
 // Turns the peeled layers of each column into bit-packed solid voxels. One invocation per column owns its
 // ceil(depth/32) words (no atomics). Walking front to back, a crossing at depth z starts at voxel
-// k = ceil(z_grid - 1/2); the segment before it is solid where the running winding is non-zero (rule 0) or
-// the crossing count is odd (rule 1, Harada & Koshizuka's pairing). Nothing after the last crossing.
+// k = ceil(z_grid - 1/2); the segment before it is solid where the running winding is non-zero (rule 0),
+// the crossing count is odd (rule 1, Harada & Koshizuka's pairing) or the winding is positive (rule 2).
+// Nothing after the last crossing.
 #include "dispatch.glsl"
 layout(local_size_x = 64) in;
 layout(set = 0, binding = 0) uniform sampler2DArray layers;
@@ -11,7 +12,7 @@ layout(push_constant) uniform Push {
     uint width;        // columns per row (voxels along u)
     uint layer_count;  // peeled layers
     uint words;        // ceil(depth/32)
-    uint rule;         // 0 winding, 1 parity
+    uint rule;         // 0 winding, 1 parity, 2 positive
     uint first_column; // first column (v*width + u) of this slab
     uint column_count; // columns in this slab
     uint depth;        // voxels along the peel axis
@@ -46,7 +47,7 @@ void main() {
         if (s == 0.0) break;
         float z_grid = (abs(s) - 1.0 - 0.25) * 2.0 * pc.depth_span + pc.depth_lo;
         uint k = uint(clamp(ceil(z_grid - 0.5), 0.0, r));
-        bool inside = pc.rule == 0u ? winding != 0 : (crossings & 1u) == 1u;
+        bool inside = pc.rule == 0u ? winding != 0 : pc.rule == 1u ? (crossings & 1u) == 1u : winding > 0;
         if (inside && k > k_prev) set_range(base, k_prev, k);
         winding += s > 0.0 ? 1 : -1;
         crossings += 1u;

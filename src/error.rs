@@ -28,6 +28,9 @@ pub enum Error {
     /// A request goes past what the device can do.
     #[error("{what} exceeds the device limit: {detail}")]
     Limit { what: String, detail: String },
+    /// A computation needs more memory than the caller's budget gives it (`VoxelizeOptions::gwn_budget`).
+    #[error("{what}: over {detail}")]
+    Budget { what: String, detail: String },
     /// A file could not be read or written.
     #[error("{}: {source}", path.display())]
     Io {

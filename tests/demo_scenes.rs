@@ -402,6 +402,7 @@ fn the_voxels_scene_grid_after_one_frame_equals_the_one_shot_gpu_voxelizer() {
             indices: s.indices(),
             index_count: s.index_count(),
             bounds: None,
+            mesh: None,
         };
         let one_shot = PeelVoxelizer::new(ctx, 32).unwrap();
         let (reference, stats) = one_shot
@@ -437,6 +438,7 @@ fn the_voxels_scene_grid_after_one_frame_equals_the_one_shot_gpu_voxelizer() {
             indices: s.indices(),
             index_count: s.index_count(),
             bounds: None,
+            mesh: None,
         };
         let one_shot = PeelVoxelizer::new(ctx, 32).unwrap();
         let (reference, _) = one_shot

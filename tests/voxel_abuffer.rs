@@ -245,3 +245,41 @@ fn the_prefix_sum_is_exact_across_levels_up_to_2048_squared_columns() {
         }
     });
 }
+
+#[test]
+fn peeling_with_the_host_triangles_recomputes_exactly_the_columns_that_lost_a_fragment() {
+    // The two cases above, peeled with `PeelGeometry::mesh` set: the check pass finds every column whose
+    // peeled layers fall short of its fragment count, the CPU scanline refills them, and the grid is the
+    // CPU's bit for bit; a mesh without coincident triangles repairs nothing.
+    let mut duplicated = TriMesh::cube([0.0; 3], 1.0);
+    duplicated.triangles.extend_from_within(..);
+    let mut boxes = TriMesh::cube([0.0; 3], 1.0);
+    boxes.append(&TriMesh::cube([1.0, 0.0, 0.0], 1.0));
+    let torus = TriMesh::torus([0.1, -0.2, 0.3], 1.0, 0.35, 64, 32);
+    for (name, mesh, axis, rule, res, lost) in [
+        (
+            "duplicated cube",
+            &duplicated,
+            Axis::Z,
+            FillRule::Parity,
+            16,
+            16 * 16,
+        ),
+        ("two boxes", &boxes, Axis::X, FillRule::Winding, 32, 16 * 16),
+        ("torus", &torus, Axis::Y, FillRule::Winding, 48, 0),
+    ] {
+        let frame = GridFrame::from_points(&mesh.positions, res).unwrap();
+        let cpu = voxelize_cpu(mesh, &frame, axis, rule);
+        let (grid, stats) = with_gpu(|ctx| {
+            let p = PeelVoxelizer::new(ctx, 12).unwrap();
+            let t = GpuTriangles::upload(ctx, mesh).unwrap();
+            let geom = gregvox::passes::peel::PeelGeometry {
+                mesh: Some(mesh),
+                ..t.geometry()
+            };
+            p.voxelize(ctx, &geom, &frame, &[axis], rule, None).unwrap()
+        });
+        assert_eq!(grid.count_differences(&cpu), 0, "{name}");
+        assert_eq!(stats[0].repaired_columns, lost, "{name}");
+    }
+}

@@ -219,8 +219,10 @@ def voxelize(
 ) -> Grid:
     """Solid voxels of a mesh, with the grid contract of ``gregvox voxelize`` (default ``res=128``).
 
-    ``bbox``: ``((xmin, ymin, zmin), (xmax, ymax, zmax))``. ``rule``: auto (the generalized winding number),
-    gwn, winding, parity. ``fill``: solid, surface, both. ``method``: auto, peel, abuffer, cpu.
+    ``bbox``: ``((xmin, ymin, zmin), (xmax, ymax, zmax))``. ``rule``: auto or gwn (the exact generalized
+    winding number, solid where |w| >= 1/2: holes, seams and soups need no repair), gwn-positive (w >= 1/2,
+    libigl's convention), winding, positive, parity. ``fill``: solid, surface, both. ``method``: auto, peel,
+    abuffer, cpu.
     """
     V, ptr, idx = _mesh(V, F)
     if bbox is not None:

@@ -385,7 +385,9 @@ fn voxelize<'py>(
         &[
             ("auto", FillRule::Gwn),
             ("gwn", FillRule::Gwn),
+            ("gwn-positive", FillRule::GwnPositive),
             ("winding", FillRule::Winding),
+            ("positive", FillRule::Positive),
             ("parity", FillRule::Parity),
         ],
     )?;

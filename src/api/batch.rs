@@ -360,6 +360,8 @@ pub struct ModelRecord {
     pub layers: Option<u32>,
     pub solid_voxels: Option<u64>,
     pub method: Option<Method>,
+    /// The model's own work: loading, voxelizing and writing it (not the time it spent queued between
+    /// them, behind other models).
     pub seconds: f64,
     /// The process's resident memory when the model was finished, in MiB (Linux; `None` elsewhere): flat
     /// over a long batch.
@@ -403,8 +405,9 @@ pub struct BatchOptions {
     pub save: SaveOptions,
     /// Skip models whose output exists (the default).
     pub resume: bool,
-    /// Seconds a model may take from the start of its load, checked after the load and between the stages
-    /// of its voxelization (a stage under way runs to its end): past it, the model fails.
+    /// Seconds a model's own work may take (its load, then its voxelization; time queued behind other
+    /// models does not count), checked after the load, between the stages of its voxelization and inside
+    /// the generalized winding number's loops: past it, the model fails.
     pub timeout: Option<f64>,
     /// Loader and writer threads each.
     pub workers: usize,
@@ -447,7 +450,8 @@ struct Loaded {
     index: usize,
     mesh: Result<super::Mesh>,
     skipped: Option<PathBuf>,
-    started: Instant,
+    /// Seconds the load took.
+    load_seconds: f64,
 }
 
 /// A grid waiting for its writer.
@@ -455,7 +459,8 @@ struct Finished {
     index: usize,
     result: Result<Voxelization>,
     output: Option<PathBuf>,
-    started: Instant,
+    /// Seconds of the model's own work so far (load and voxelization).
+    work_seconds: f64,
 }
 
 /// The device a batch of `method` needs, made once for the whole batch: none for `cpu`, and none for `auto`
@@ -525,7 +530,7 @@ pub fn run_batch(
                     index,
                     mesh,
                     skipped: early,
-                    started,
+                    load_seconds: started.elapsed().as_secs_f64(),
                 };
                 if load_tx.send(loaded).is_err() {
                     return;
@@ -542,6 +547,7 @@ pub fn run_batch(
                     _ => return,
                 };
                 let input = &inputs[job.index];
+                let writing = Instant::now();
                 let mut rec = ModelRecord::new(input, ModelStatus::Done);
                 match job.result {
                     Err(e) => {
@@ -581,7 +587,7 @@ pub fn run_batch(
                         }
                     }
                 }
-                rec.seconds = job.started.elapsed().as_secs_f64();
+                rec.seconds = job.work_seconds + writing.elapsed().as_secs_f64();
                 rec.rss_mib = resident_mib();
                 if done_tx.send(rec).is_err() {
                     return;
@@ -611,7 +617,7 @@ pub fn run_batch(
                     index: loaded.index,
                     result: Err(e),
                     output: None,
-                    started: loaded.started,
+                    work_seconds: loaded.load_seconds,
                 },
                 Ok(mesh) => {
                     let frame = super::grid_frame(&mesh, &opts.voxelize);
@@ -626,9 +632,14 @@ pub fn run_batch(
                         pass_on(&mut summary, rec)?;
                         continue;
                     }
+                    let working = Instant::now();
                     let mut model_opts = opts.voxelize.clone();
+                    // The limit covers the model's own work: what its load took, then its voxelization.
                     model_opts.deadline = opts.timeout.map(|seconds| Deadline {
-                        at: loaded.started + std::time::Duration::from_secs_f64(seconds.max(0.0)),
+                        at: working
+                            + std::time::Duration::from_secs_f64(
+                                (seconds - loaded.load_seconds).max(0.0),
+                            ),
                         seconds,
                     });
                     let result = guarded(&input.path, || {
@@ -646,7 +657,7 @@ pub fn run_batch(
                         index: loaded.index,
                         result,
                         output,
-                        started: loaded.started,
+                        work_seconds: loaded.load_seconds + working.elapsed().as_secs_f64(),
                     }
                 }
             };

@@ -12,7 +12,7 @@ use crate::engine::cage::cage_topology;
 use crate::engine::gregory::GregorySurface;
 use crate::engine::voxelize::checkpoint;
 use crate::engine::voxelize::{
-    memory_estimate, resolve_gpu, voxelize_gregory_surface, voxelize_surface_gpu, AbufferVoxelizer,
+    memory_estimate, voxelize_gregory_surface, voxelize_surface_gpu, AbufferVoxelizer,
     GpuTriangles, GpuVoxelizer, PeelVoxelizer,
 };
 use crate::error::{Error, Result};
@@ -21,7 +21,7 @@ pub use crate::gpu::{ContextDesc, DeviceInfo, Profiler, Validation};
 use crate::passes::cage_deform::DeformParams;
 use crate::passes::gregory_eval::{grid_indices, SurfaceVertex, MAX_LEVEL};
 use crate::voxel::cpu::voxelize_cpu;
-use crate::voxel::gwn::{resolve_cpu, Cap};
+use crate::voxel::gwn::{self, GwnParams, Inside, Proxy};
 use crate::voxel::mesh::{CleanReport, TriMesh};
 use glam::DVec3;
 use std::path::Path;
@@ -175,10 +175,12 @@ pub struct VoxelizeOptions {
     pub max_layers: u32,
     /// Called once per finished stage of a GPU voxelization (three per axis).
     pub progress: Option<ProgressFn>,
-    /// A time limit, checked between the stages of the voxelization (`Error::Timeout` past it).
+    /// A time limit, checked between the stages of the voxelization and inside the generalized winding
+    /// number's long loops, box by box and voxel by voxel (`Error::Timeout` past it).
     pub deadline: Option<Deadline>,
-    /// Bytes the generalized winding number may spend on the voxels it evaluates directly
-    /// ([`FillRule::Gwn`]); a mesh whose caps need more is refused with [`Error::Limit`].
+    /// Bytes the generalized winding number may spend ([`FillRule::Gwn`], [`FillRule::GwnPositive`]): its
+    /// trees and crossing index, the voxels near the surface and every voxel it resolves one by one; a mesh
+    /// that needs more is refused with [`Error::Budget`] before or while it is spent.
     pub gwn_budget: u64,
 }
 
@@ -344,9 +346,10 @@ impl Voxelization {
 struct Prepared {
     /// The cleaned triangles (M).
     tri: TriMesh,
-    /// Under the generalized winding number on a mesh with a boundary: the cap and M ∪ C (M's positions and
-    /// triangles first), whose winding rule the cap term corrects.
-    capped: Option<(Cap, TriMesh)>,
+    /// Under the generalized winding number on a mesh that is open once exact duplicates are welded: the
+    /// weld, cap and ribbons, and M' ∪ C' (the welded mesh closed by its caps), whose winding rule the
+    /// fractional term corrects.
+    capped: Option<(Proxy, TriMesh)>,
     /// The grid, in the local frame of `tri` (world = local + `shift`).
     frame: GridFrame,
     report: VoxelizeReport,
@@ -356,16 +359,36 @@ struct Prepared {
 }
 
 impl Prepared {
-    /// The triangles the solid pass voxelizes: M ∪ C when capped, else M.
+    /// The triangles the solid pass voxelizes: M' ∪ C' when capped, else M.
     fn solid_mesh(&self) -> &TriMesh {
         self.capped.as_ref().map(|c| &c.1).unwrap_or(&self.tri)
     }
-    /// The rule the solid pass applies (the cap term does the rest).
+    /// The rule the solid pass applies (the fractional term does the rest).
     fn solid_rule(&self) -> FillRule {
-        match self.report.rule {
-            FillRule::Gwn => FillRule::Winding,
-            r => r,
-        }
+        self.report.rule.solid_pass()
+    }
+    /// Runs the generalized winding number's correction on `grid` (the solid pass of [`Self::solid_mesh`])
+    /// for a rasterizer with `subpixel_bits`; no-op when nothing was capped.
+    fn resolve_gwn(
+        &self,
+        grid: &mut VoxelGrid,
+        opts: &VoxelizeOptions,
+        subpixel_bits: u32,
+    ) -> Result<Option<GwnStats>> {
+        let Some((proxy, closed)) = &self.capped else {
+            return Ok(None);
+        };
+        let params = GwnParams {
+            inside: if self.report.rule == FillRule::GwnPositive {
+                Inside::Positive
+            } else {
+                Inside::Magnitude
+            },
+            near: gwn::near_distance(&self.frame, subpixel_bits),
+            budget: opts.gwn_budget,
+            deadline: opts.deadline.map(|d| (d.at, d.seconds)),
+        };
+        gwn::resolve(grid, &self.tri, closed, proxy, &params).map(Some)
     }
 }
 
@@ -459,7 +482,7 @@ impl Voxelization {
             "index_to_world": f.index_to_world(),
             "method": report.method,
             "method_reason": report.method_reason,
-            "rule": format!("{:?}", report.rule).to_lowercase(),
+            "rule": report.rule.name(),
             "gwn": report.gwn,
             "fill": report.fill,
             "triangles": report.triangles,
@@ -492,7 +515,7 @@ fn prepare(mesh: &Mesh, opts: &VoxelizeOptions) -> Result<Prepared> {
         ));
     }
     let open = !topo.closed;
-    let gwn = opts.rule == FillRule::Gwn;
+    let gwn = opts.rule.is_gwn();
     let three = match opts.axes {
         Axes::Three => true,
         Axes::One(_) | Axes::Best => false,
@@ -508,12 +531,13 @@ fn prepare(mesh: &Mesh, opts: &VoxelizeOptions) -> Result<Prepared> {
     } else {
         opts.rule
     };
-    // The cap is built from the welded soup: a mesh open only by its indices (unwelded duplicates) has none.
-    let capped = if rule == FillRule::Gwn && opts.fill != Fill::Surface {
-        let cap = Cap::of(&tri)?;
-        (!cap.triangles.is_empty()).then(|| {
-            let closed = cap.close(&tri);
-            (cap, closed)
+    // The cap is built from the welded soup: a mesh open only by its indices (unwelded duplicates) has none,
+    // and one whose seams are a hair apart (within the weld tolerance) is closed with thin ribbons.
+    let capped = if rule.is_gwn() && opts.fill != Fill::Surface {
+        let proxy = Proxy::new(&tri, gwn::weld_tolerance(&frame))?;
+        (!proxy.is_trivial()).then(|| {
+            let closed = proxy.closed(&tri);
+            (proxy, closed)
         })
     } else {
         None
@@ -524,14 +548,24 @@ fn prepare(mesh: &Mesh, opts: &VoxelizeOptions) -> Result<Prepared> {
             removed.duplicates, removed.cancelled, removed.zero_area
         ));
     }
-    if let Some((cap, _)) = &capped {
+    if let Some((proxy, _)) = &capped {
+        let welded = if proxy.moved > 0 {
+            format!(
+                "{} vertices welded within {:.3e}, {} ribbon triangles; ",
+                proxy.moved,
+                proxy.tolerance,
+                proxy.ribbons.len()
+            )
+        } else {
+            String::new()
+        };
         notes.push(format!(
-            "open mesh ({} boundary edges after welding): {} boundary loops capped; the generalized \
-             winding number decides near them",
-            cap.boundary_edges,
-            cap.loops.len()
+            "open mesh: {welded}{} boundary edges after welding, {} boundary loops capped; the \
+             generalized winding number decides where they matter",
+            proxy.cap.boundary_edges,
+            proxy.cap.loops.len()
         ));
-    } else if open && opts.fill != Fill::Surface && rule != FillRule::Gwn {
+    } else if open && opts.fill != Fill::Surface && !rule.is_gwn() {
         notes.push(format!(
             "open mesh ({} boundary and {} non-manifold edges){}",
             topo.boundary_edges,
@@ -678,15 +712,7 @@ pub fn voxelize_on_cpu(mesh: &Mesh, opts: &VoxelizeOptions) -> Result<Voxelizati
             grids.into_iter().next().expect("one axis")
         };
         checkpoint(&opts.deadline, "after the scanline")?;
-        if let Some((cap, closed)) = &prepared.capped {
-            report.gwn = Some(resolve_cpu(
-                &mut grid,
-                &prepared.tri,
-                closed,
-                cap,
-                opts.gwn_budget,
-            )?);
-        }
+        report.gwn = prepared.resolve_gwn(&mut grid, opts, gwn::CPU_SUBPIXEL_BITS)?;
         Some(grid)
     };
     let grid = apply_fill(solid, &prepared.tri, &frame, opts.fill);
@@ -813,16 +839,20 @@ impl Gpu {
                 detail: format!("the device has {} MiB", heap >> 20),
             });
         }
-        // M ∪ C when capped: M's positions and triangles come first, so the surface pass and the cap term's
-        // direct sum read M from the same buffers.
+        // M' ∪ C' when capped (what the solid pass draws); the surface pass of `--fill both` reads M itself.
         let gpu = GpuTriangles::upload(ctx, prepared.solid_mesh())?;
+        let surface_upload = match (&prepared.capped, opts.fill) {
+            (Some(_), Fill::Both) => Some(GpuTriangles::upload(ctx, tri)?),
+            _ => None,
+        };
+        let surface_tris = surface_upload.as_ref().unwrap_or(&gpu);
         // The voxels the triangles touch, on the GPU when it computes in f64 (the exact test), else on
         // the CPU: the same bits either way.
         let surface = match opts.fill {
             Fill::Solid => None,
             _ => {
                 let on_gpu = if ctx.info.features.shader_float64 {
-                    voxelize_surface_gpu(ctx, &gpu, tri, &frame, None)?
+                    voxelize_surface_gpu(ctx, surface_tris, tri, &frame, None)?
                 } else {
                     None
                 };
@@ -841,7 +871,11 @@ impl Gpu {
             return Ok(Voxelization::new(surface.expect("computed above"), report)
                 .in_world(prepared.shift));
         }
-        let geom = gpu.geometry();
+        // The host copy lets depth peeling recompute the columns where it lost an equal-depth fragment.
+        let geom = crate::passes::peel::PeelGeometry {
+            mesh: Some(prepared.solid_mesh()),
+            ..gpu.geometry()
+        };
         let result = self.run_gpu_method(method, opts, rule, &geom, &frame, three, profiler);
         // Auto on a GPU: the A-buffer holds every fragment in one binding; past that, depth peeling.
         let (grid, axes, stats) = match result {
@@ -861,25 +895,18 @@ impl Gpu {
         };
         report.axes = axes;
         report.layers = stats.iter().map(|s| (s.axis, s.layers)).collect();
+        let repaired: u64 = stats.iter().map(|s| s.repaired_columns).sum();
+        if repaired > 0 {
+            report.notes.push(format!(
+                "depth peeling lost equal-depth fragments (coincident triangles) in {repaired} columns; \
+                 the CPU recomputed them"
+            ));
+        }
         let mut grid = grid;
         checkpoint(&opts.deadline, "after the solid grid")?;
-        if let Some((cap, closed)) = &prepared.capped {
-            // The cap term on the GPU when it computes in f64 (the same operations as the CPU's), else on
-            // the CPU: the same bits either way.
-            report.gwn = Some(
-                match resolve_gpu(ctx, &mut grid, &gpu, tri, closed, cap, opts.gwn_budget)? {
-                    Some(stats) => stats,
-                    None => {
-                        report.notes.push(
-                        "the cap term ran on the CPU (the device lacks shaderFloat64, or the caps pass \
-                         one invocation's loop)"
-                            .into(),
-                    );
-                        resolve_cpu(&mut grid, tri, closed, cap, opts.gwn_budget)?
-                    }
-                },
-            );
-        }
+        // The fractional term on the host, for a rasterizer with the device's sub-pixel precision: the same
+        // decisions as the CPU method, whose every voxel they are exact at.
+        report.gwn = prepared.resolve_gwn(&mut grid, opts, ctx.limits.sub_pixel_precision_bits)?;
         let grid = match surface {
             Some(s) => grid.union(&s),
             None => grid,
@@ -1040,15 +1067,15 @@ impl Gpu {
         // The Gregory surface stays on the GPU: no cap is built from it, so the generalized winding number
         // is the winding rule there (exact on the closed surfaces of closed cages).
         let rule = match opts.rule {
-            FillRule::Gwn => {
+            r if r.is_gwn() => {
                 if !topo_report.closed {
-                    notes.push(
-                        "--gregory-level: the open surface is voxelized by the winding rule (no cap is \
-                         built on the GPU surface)"
-                            .into(),
-                    );
+                    notes.push(format!(
+                        "--gregory-level: the open surface is voxelized by the {} rule (no cap is built on \
+                         the GPU surface)",
+                        if r == FillRule::Gwn { "winding" } else { "positive" }
+                    ));
                 }
-                FillRule::Winding
+                r.solid_pass()
             }
             r => r,
         };

@@ -8,7 +8,13 @@
 //!   texture files datasets carry; at least 200 models in full mode.
 //! - Both ways write the same outputs (.binvox) into fresh folders; the batch runs with `--no-resume`.
 //!   The per-model loop skips nothing and counts the models it could not voxelize, as the batch does.
+//! - Table `batch_broken_fifth` runs `gregvox batch` over one folder of closed spheres and over the same
+//!   folder with every fifth model broken (alternately a quarter of its triangles removed, and an unwelded
+//!   soup with ±1e-7 noise on every vertex): the generalized winding number's cost on broken models must not
+//!   dominate a dataset's throughput (the goal: within 1.5× of the closed folder).
 use super::{num, BenchConfig, Report, Table};
+use crate::voxel::mesh::TriMesh;
+use crate::voxel::stress;
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
@@ -247,7 +253,120 @@ pub fn run(cfg: &BenchConfig, report: &mut Report) -> anyhow::Result<()> {
             format!("{} / {loop_failed}", j["failed"]).into(),
         ]);
     }
-    let _ = std::fs::remove_dir_all(&out);
     report.tables.push(t);
+    report.tables.push(broken_fifth(cfg, &exe, &out)?);
+    let _ = std::fs::remove_dir_all(&out);
     Ok(())
+}
+
+/// Writes `count` closed UV spheres (32 to 128 segments) as OBJ into `dir`; with `broken`, every fifth is
+/// broken (alternately a quarter of its triangles removed and an unwelded soup). Returns the broken count.
+fn sphere_folder(dir: &Path, count: usize, broken: bool) -> anyhow::Result<usize> {
+    let _ = std::fs::remove_dir_all(dir);
+    std::fs::create_dir_all(dir)?;
+    let mut broken_count = 0;
+    for i in 0..count {
+        let n = [32, 48, 64, 96, 128][(i / 5) % 5];
+        let (v, f) = sphere(n, 0.5, [0.0; 3]);
+        let (v, f) = if broken && i % 5 == 0 {
+            broken_count += 1;
+            let mesh = TriMesh {
+                positions: v,
+                triangles: f.iter().map(|t| t.map(|k| k as u32)).collect(),
+            };
+            let bad = if (i / 5) % 2 == 0 {
+                stress::with_holes(&mesh, 0.25, 0x5eed + i as u64)
+            } else {
+                stress::soup(&mesh, 1e-7, 0x5eed + i as u64)
+            };
+            let f = bad
+                .triangles
+                .iter()
+                .map(|t| t.map(|k| k as usize))
+                .collect();
+            (bad.positions, f)
+        } else {
+            (v, f)
+        };
+        write_obj(&dir.join(format!("m{i:04}.obj")), &v, &f)?;
+    }
+    Ok(broken_count)
+}
+
+/// Table `batch_broken_fifth`: whole `gregvox batch` processes over a closed folder and the same folder with
+/// a fifth of its models broken.
+fn broken_fifth(cfg: &BenchConfig, exe: &Path, out: &Path) -> anyhow::Result<Table> {
+    let count = if cfg.quick { 10 } else { 100 };
+    let res = if cfg.quick { "32" } else { "64" };
+    let mut t = Table::new(
+        "batch_broken_fifth",
+        "gregvox batch: a fifth of the models broken vs all closed",
+        &format!(
+            "{count} UV spheres (32–128 segments, OBJ); `broken`: every fifth model has a quarter of its \
+             triangles removed or is an unwelded soup (±1e-7 noise), alternately. Whole `gregvox batch DIR \
+             --res {res} --out-dir … --no-resume --report R` processes with the default rule (gwn) and \
+             method; slowest model from the report's per-model `seconds` (its own work). ratio = broken \
+             folder / closed folder (goal ≤ 1.5)."
+        ),
+        &[
+            "folder",
+            "models",
+            "broken",
+            "batch s",
+            "models/s",
+            "slowest model s",
+            "ratio",
+        ],
+    );
+    let mut closed_s = f64::NAN;
+    for broken in [false, true] {
+        let name = if broken { "broken" } else { "closed" };
+        let dir = out.join(format!("fifth-{name}"));
+        let broken_count = sphere_folder(&dir, count, broken)?;
+        let target = out.join(format!("fifth-out-{name}"));
+        let report_path = out.join(format!("fifth-{name}.jsonl"));
+        let _ = std::fs::remove_dir_all(&target);
+        let _ = std::fs::remove_file(&report_path);
+        eprintln!("gregvox bench: batch over the {name} folder");
+        let start = Instant::now();
+        let o = std::process::Command::new(exe)
+            .arg("batch")
+            .arg(&dir)
+            .args(["--res", res, "--no-resume", "--json"])
+            .arg("--out-dir")
+            .arg(&target)
+            .arg("--report")
+            .arg(&report_path)
+            .env("GREGVOX_VALIDATION", "0")
+            .output()?;
+        let seconds = start.elapsed().as_secs_f64();
+        let j: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap_or_default();
+        anyhow::ensure!(
+            o.status.success() && j["failed"] == 0,
+            "batch over {} failed: {}",
+            dir.display(),
+            String::from_utf8_lossy(&o.stderr)
+        );
+        let slowest = std::fs::read_to_string(&report_path)
+            .unwrap_or_default()
+            .lines()
+            .filter_map(|l| serde_json::from_str::<serde_json::Value>(l).ok())
+            .filter_map(|r| r["seconds"].as_f64())
+            .fold(0.0, f64::max);
+        if !broken {
+            closed_s = seconds;
+        }
+        t.push(vec![
+            name.into(),
+            count.into(),
+            broken_count.into(),
+            num(seconds),
+            num(count as f64 / seconds),
+            num(slowest),
+            num(seconds / closed_s),
+        ]);
+        let _ = std::fs::remove_dir_all(&target);
+        let _ = std::fs::remove_dir_all(&dir);
+    }
+    Ok(t)
 }

@@ -13,6 +13,7 @@
 //!   returns, on success and on error.
 pub mod batch;
 pub mod gregory;
+pub mod gwn;
 pub mod mesh;
 pub mod peak;
 pub mod peers;
@@ -618,7 +619,7 @@ pub fn run(cfg: &BenchConfig, command: &str) -> anyhow::Result<Report> {
                     gregory::curvature(cfg, &mut report)?;
                 }
                 "voxel" => voxel::run(&ctx, cfg, peak.as_ref(), &mut report)?,
-                "gwn" => voxel::gwn_table(cfg, &mut report)?,
+                "gwn" => gwn::run(cfg, &mut report)?,
                 "batch" => batch::run(cfg, &mut report)?,
                 "mesh" => mesh::run(cfg, peak.as_ref(), &mut report)?,
                 "scaling" => {

@@ -1,8 +1,7 @@
 //! Suite `voxel`: Harada & Koshizuka's Table 1 (faces × resolution → depth-peeling time and fill time) for
 //! `peel`, `abuffer`, `cpu` and `auto` (the library's choice for the device, with its ratio to the
 //! fastest), beside libigl's fast winding number and trimesh's voxelizer on the same grid
-//! (bench/peers/voxel_peers.py); (suite `gwn`) `--rule gwn` as a whole process against libigl's fast
-//! winding number (table `gwn_vs_libigl`); and (suite `scaling`) time against resolution and against
+//! (bench/peers/voxel_peers.py); and (suite `scaling`) time against resolution and against
 //! triangle count.
 //!
 //! Invariants:
@@ -395,110 +394,6 @@ pub fn run(
     }
     report.tables.push(t);
     report.tables.push(peers_t);
-    Ok(())
-}
-
-/// `gregvox voxelize --rule gwn` as a whole process (load, cap, closed-mesh voxelization, cap term) against
-/// libigl's fast winding number at the same voxel centres, and its cost over the plain winding rule (one
-/// axis, no cap) in the same run.
-pub fn gwn_table(cfg: &BenchConfig, report: &mut Report) -> anyhow::Result<()> {
-    let bunny = cfg.model("stanford-bunny.obj")?;
-    let tri = model_triangles(&bunny)?;
-    let exe = std::env::current_exe()?;
-    let resolutions: &[u32] = if cfg.quick { &[64] } else { &[128, 256] };
-    let mut t = Table::new(
-        "gwn_vs_libigl",
-        "Exact generalized winding number (--rule gwn) vs libigl fast winding number, same voxel centres",
-        &format!(
-            "stanford-bunny (5 holes). gwn ms = wall time of the whole `gregvox voxelize --res R --rule gwn \
-             --json` process (default method: auto), winding ms = the same with `--rule winding --axes 1` \
-             (no cap, no cap term); median of {} runs, alternating. libigl = fast_winding_number at every \
-             voxel centre ≥ 0.5 (an approximation, its own threading; bench/peers/voxel_peers.py, centres \
-             not timed). speed-up = libigl / gwn. The stage counts come from the gwn run's --json.",
-            if cfg.quick { 1 } else { 3 }
-        ),
-        &[
-            "model",
-            "res",
-            "gwn ms",
-            "winding ms",
-            "gwn / winding",
-            "libigl fwn ms",
-            "speed-up vs libigl",
-            "gwn solid",
-            "libigl solid",
-            "loops capped",
-            "cap-term voxels",
-            "crossing voxels",
-            "direct voxels",
-            "flipped",
-        ],
-    );
-    for &res in resolutions {
-        let run = |rule: &[&str]| -> anyhow::Result<(f64, Value)> {
-            let start = Instant::now();
-            let out = std::process::Command::new(&exe)
-                .arg("voxelize")
-                .arg(&bunny)
-                .args(["--res", &res.to_string(), "--json"])
-                .args(rule)
-                .env("GREGVOX_VALIDATION", "0")
-                .output()?;
-            let ms = start.elapsed().as_secs_f64() * 1e3;
-            if !out.status.success() {
-                anyhow::bail!(
-                    "gregvox voxelize {rule:?} failed: {}",
-                    String::from_utf8_lossy(&out.stderr)
-                );
-            }
-            Ok((ms, serde_json::from_slice(&out.stdout)?))
-        };
-        eprintln!("gregvox bench: gwn stanford-bunny {res}³");
-        let (mut gwn_ms, mut winding_ms) = (Vec::new(), Vec::new());
-        let mut json = Value::Null;
-        for _ in 0..if cfg.quick { 1 } else { 3 } {
-            let (ms, j) = run(&["--rule", "gwn"])?;
-            gwn_ms.push(ms);
-            json = j;
-            winding_ms.push(run(&["--rule", "winding", "--axes", "1"])?.0);
-        }
-        let (g, w) = (median(&gwn_ms), median(&winding_ms));
-        let frame = GridFrame::from_points(&tri.positions, res)?;
-        let mut args = vec![bunny.display().to_string(), res.to_string()];
-        args.extend(frame.origin.iter().map(|o| format!("{o:.17e}")));
-        args.push(format!("{:.17e}", frame.voxel_size[0]));
-        args.push("1".into());
-        args.push("--no-trimesh".into());
-        eprintln!("gregvox bench: gwn libigl {res}³");
-        let peer = peers::python(&cfg.repo.join("bench/peers/voxel_peers.py"), &args);
-        let get = |k: &str| match &peer {
-            Peer::Ran(v) => v.first().and_then(|o| o[k].as_f64()),
-            _ => None,
-        };
-        let stage = |k: &str| json["gwn"][k].clone();
-        t.push(vec![
-            "stanford-bunny".into(),
-            res.into(),
-            num(g),
-            num(w),
-            num(g / w),
-            match (get("igl_s"), &peer) {
-                (Some(s), _) => num(s * 1e3),
-                (None, other) => other.status().into(),
-            },
-            speedup(get("igl_s").map(|s| s * 1e3), g),
-            json["solid_voxels"].clone(),
-            get("igl_solid")
-                .map(|x| (x as u64).into())
-                .unwrap_or(Value::Null),
-            stage("loops_capped"),
-            stage("cap_term_voxels"),
-            stage("crossing_voxels"),
-            stage("direct_voxels"),
-            stage("flipped"),
-        ]);
-    }
-    report.tables.push(t);
     Ok(())
 }
 

@@ -43,11 +43,17 @@ pub struct GridArgs {
     /// The single peel axis (default: the smallest layers × covered area).
     #[arg(long, value_enum)]
     pub axis: Option<Axis>,
-    /// Inside rule: gwn = the exact generalized winding number, |w| ≥ ½ at the voxel centre (open meshes and
-    /// soups are capped; on closed meshes it is the winding rule, bit for bit); winding = non-zero crossing
-    /// count; parity = odd crossing count.
+    /// Inside rule: gwn = the exact generalized winding number w of the cleaned triangles, solid where |w| ≥ ½
+    /// at the voxel centre (an inverted closed part is solid; open meshes, holes, seams and soups need no
+    /// repair; on closed meshes it is the winding rule, bit for bit); gwn-positive = the same with w ≥ ½
+    /// (libigl's convention: inverted parts are empty); winding = non-zero crossing count; positive =
+    /// positive crossing count; parity = odd crossing count.
     #[arg(long, value_enum, default_value = "gwn")]
     pub rule: FillRule,
+    /// Memory (MiB) the generalized winding number may spend on its trees and the voxels it resolves one by
+    /// one; past it the model is refused with a clear error.
+    #[arg(long, value_name = "MIB", default_value_t = 1024)]
+    pub gwn_budget: u64,
     /// Which voxels: inside the solid, touched by a triangle (exact triangle–box test), or both (thin walls
     /// kept).
     #[arg(long, value_enum, default_value = "solid")]
@@ -145,6 +151,7 @@ impl GridArgs {
             .fill(self.fill)
             .axes(axes)
             .max_layers(self.max_layers)
+            .gwn_budget(self.gwn_budget.saturating_mul(1 << 20))
             .pad(self.pad);
         opts = match (self.res, self.dims, self.voxel_size) {
             (Some(r), _, _) => {
@@ -311,13 +318,18 @@ pub fn run(args: &VoxelizeArgs) -> anyhow::Result<()> {
     }
     if let Some(g) = &report.gwn {
         text.push_str(&format!(
-            "generalized winding number: {} boundary loops capped ({} edges); cap term at {} voxels, {} \
-             from the crossing count, {} summed directly, {} flipped\n",
+            "generalized winding number: {} boundary loops capped ({} edges), {} vertices welded, {} \
+             fractional triangles; {} boxes and {} voxels bounded, {} voxels relabelled, {} decided \
+             directly ({} by the plain sum), {} flipped\n",
             g.loops_capped,
             g.boundary_edges,
-            g.cap_term_voxels,
-            g.crossing_voxels,
+            g.welded_vertices,
+            g.fractional_triangles,
+            g.boxes_evaluated,
+            g.voxels_evaluated,
+            g.relabelled_voxels,
             g.direct_voxels,
+            g.plain_sums,
             g.flipped
         ));
     }

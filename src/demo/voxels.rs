@@ -116,6 +116,7 @@ fn plan_grid(
         indices: surface.indices(),
         index_count: surface.index_count(),
         bounds: None,
+        mesh: None,
     };
     let mut deepest = 0;
     for t in sample_times() {
@@ -259,6 +260,7 @@ impl Scene for VoxelsScene {
                 indices: self.surface.indices(),
                 index_count: self.surface.index_count(),
                 bounds: None,
+                mesh: None,
             };
             let vox = &self.voxelizer;
             profiler.scope(ctx, cmd, targets.slot, "voxelize (resident)", || {

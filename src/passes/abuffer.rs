@@ -329,6 +329,7 @@ impl AbufferPass {
             rule: match job.rule {
                 FillRule::Winding | FillRule::Gwn => 0,
                 FillRule::Parity => 1,
+                FillRule::Positive | FillRule::GwnPositive => 2,
             },
             first_column: job.first_column,
             column_count: job.column_count,

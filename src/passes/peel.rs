@@ -81,6 +81,11 @@ pub struct PeelGeometry<'a> {
     /// so parts outside the grid (a `--bbox` smaller than the mesh) still count as crossings. `None` when
     /// the geometry lies inside the grid's frame.
     pub bounds: Option<crate::voxel::grid::Bounds>,
+    /// The same triangles on the host, when at hand: depth peeling then finds the columns where it lost an
+    /// equal-depth fragment (`passes::peel_check`) and the CPU scanline recomputes them, so coincident
+    /// triangles cost nothing in exactness. `None` (a surface straight from a GPU buffer): those columns
+    /// keep what peeling gave.
+    pub mesh: Option<&'a crate::voxel::mesh::TriMesh>,
 }
 
 /// The depth-peeling raster pass.

@@ -26,9 +26,42 @@ pub enum FillRule {
     /// Harada & Koshizuka's entry/exit pairing (odd crossing count inside): kept for comparison.
     Parity,
     /// The generalized winding number: inside iff |w| ≥ ½ at the voxel centre, exact on any triangle soup
-    /// (`voxel::gwn`: the winding rule of the mesh closed by caps, and the cap term near the holes). On a
-    /// closed mesh it is the winding rule, bit for bit.
+    /// (`voxel::gwn`: the winding rule of the mesh welded and closed by caps, and the fractional term where
+    /// it matters). An inverted closed part is solid; on a closed mesh it is the winding rule, bit for bit.
     Gwn,
+    /// The generalized winding number with libigl's sign convention: inside iff w ≥ ½ (an inverted closed
+    /// part is empty); on a closed mesh it is the positive rule, bit for bit.
+    GwnPositive,
+    /// Positive winding count inside (w > 0: inward-oriented solids are empty).
+    Positive,
+}
+
+impl FillRule {
+    /// The rule the solid pass rasterizes for this one: the generalized winding numbers start from the
+    /// winding (or positive) rule of the closed proxy.
+    pub fn solid_pass(self) -> FillRule {
+        match self {
+            FillRule::Gwn => FillRule::Winding,
+            FillRule::GwnPositive => FillRule::Positive,
+            r => r,
+        }
+    }
+
+    /// The rule's name as the command line spells it (`gwn-positive`, …).
+    pub fn name(self) -> &'static str {
+        match self {
+            FillRule::Winding => "winding",
+            FillRule::Parity => "parity",
+            FillRule::Gwn => "gwn",
+            FillRule::GwnPositive => "gwn-positive",
+            FillRule::Positive => "positive",
+        }
+    }
+
+    /// Whether this is one of the generalized winding number's rules.
+    pub fn is_gwn(self) -> bool {
+        matches!(self, FillRule::Gwn | FillRule::GwnPositive)
+    }
 }
 
 /// Sub-pixel snapping of the rasterizer: 2^8 steps per grid unit.
@@ -153,6 +186,7 @@ pub fn fill_column(crossings: &mut [(f64, i8)], depth: u32, rule: FillRule, colu
         let k = ((z - 0.5).ceil().max(0.0).min(depth as f64)) as u32;
         let inside = match rule {
             FillRule::Winding | FillRule::Gwn => winding != 0,
+            FillRule::Positive | FillRule::GwnPositive => winding > 0,
             FillRule::Parity => n % 2 == 1,
         };
         if inside && k > k_prev {
@@ -205,6 +239,55 @@ pub fn voxelize_cpu(mesh: &TriMesh, frame: &GridFrame, axis: Axis, rule: FillRul
             }
         });
     grid
+}
+
+/// Recomputes the columns `lost` (linear indices v·width + u of `grid`'s bit axis, any order) of a grid
+/// voxelized from `mesh` with `rule`, exactly as [`voxelize_cpu`] fills them: depth peeling's repair of the
+/// columns where it lost an equal-depth fragment (`passes::peel_check`). Only the rows holding a lost column
+/// are rasterized: O(triangles + lost rows' crossings).
+pub fn refill_columns(mesh: &TriMesh, grid: &mut VoxelGrid, rule: FillRule, lost: &[u32]) {
+    if lost.is_empty() {
+        return;
+    }
+    let (frame, axis) = (grid.frame, grid.bit_axis);
+    let (ua, va) = axis.uv();
+    let (width, height, depth) = (frame.dims[ua], frame.dims[va], frame.dims[axis.index()]);
+    let mut by_row: std::collections::BTreeMap<u32, Vec<u32>> = Default::default();
+    for &c in lost {
+        if c < width * height {
+            by_row.entry(c / width).or_default().push(c % width);
+        }
+    }
+    let projected: Vec<Projected> = mesh
+        .triangles
+        .par_iter()
+        .filter_map(|&t| project(mesh, &frame, axis, t))
+        .collect();
+    let rows = bucket_rows(&projected, height);
+    let w = frame.words_per_column(axis) as usize;
+    // (first word of the column, its words) for every lost column.
+    let refilled: Vec<(usize, Vec<u32>)> = by_row
+        .into_par_iter()
+        .flat_map_iter(|(iv, cols)| {
+            let mut columns: Vec<Vec<(f64, i8)>> = vec![Vec::new(); width as usize];
+            for &t in &rows[iv as usize] {
+                rasterize_row(
+                    &projected[t as usize],
+                    iv as i64,
+                    width as i64,
+                    &mut columns,
+                );
+            }
+            cols.into_iter().map(move |iu| {
+                let mut bits = vec![0u32; w];
+                fill_column(&mut columns[iu as usize], depth, rule, &mut bits);
+                ((iv as usize * width as usize + iu as usize) * w, bits)
+            })
+        })
+        .collect();
+    for (at, bits) in refilled {
+        grid.words[at..at + w].copy_from_slice(&bits);
+    }
 }
 
 /// The winding number of `mesh` at the centres of `voxels`, as [`voxelize_cpu`] along `axis` counts it: the
@@ -271,6 +354,102 @@ pub fn column_windings(
         out[n] = w;
     }
     out
+}
+
+/// A box of voxels `[lo, hi)` (grid indices) whose crossing counts decide it against its label `k`.
+pub type Region = ([u32; 3], [u32; 3], i32);
+
+/// Sets every voxel of `regions` from the winding number n of `mesh` at its centre, counted as
+/// [`voxelize_cpu`] counts it along the grid's bit axis ([`column_windings`]' count): solid iff n ≠ k, or
+/// n > k when `positive` (the generalized winding number's decision where the fractional term lies
+/// strictly between k − ½ and k + ½). Only the rows the regions touch are rasterized, each once. Returns how
+/// many voxels changed.
+pub fn relabel(mesh: &TriMesh, grid: &mut VoxelGrid, regions: &[Region], positive: bool) -> u64 {
+    if regions.is_empty() {
+        return 0;
+    }
+    let axis = grid.bit_axis;
+    let frame = grid.frame;
+    let (ua, va, da) = {
+        let (u, v) = axis.uv();
+        (u, v, axis.index())
+    };
+    let (width, height, depth) = (frame.dims[ua], frame.dims[va], frame.dims[da]);
+    // Per row: (u0, u1, d0, d1, k).
+    let mut by_row: std::collections::BTreeMap<u32, Vec<[i64; 5]>> = Default::default();
+    for &(lo, hi, k) in regions {
+        for v in lo[va]..hi[va] {
+            by_row.entry(v).or_default().push([
+                lo[ua] as i64,
+                hi[ua] as i64,
+                lo[da] as i64,
+                hi[da] as i64,
+                k as i64,
+            ]);
+        }
+    }
+    let projected: Vec<Projected> = mesh
+        .triangles
+        .par_iter()
+        .filter_map(|&t| project(mesh, &frame, axis, t))
+        .collect();
+    let rows = bucket_rows(&projected, height);
+    let rows_wanted: Vec<(u32, Vec<[i64; 5]>)> = by_row.into_iter().collect();
+    let changes: Vec<Vec<(u32, u32, u32, bool)>> = rows_wanted
+        .par_iter()
+        .map(|(iv, spans)| {
+            let mut columns: Vec<Vec<(f64, i8)>> = vec![Vec::new(); width as usize];
+            for &t in &rows[*iv as usize] {
+                rasterize_row(
+                    &projected[t as usize],
+                    *iv as i64,
+                    width as i64,
+                    &mut columns,
+                );
+            }
+            // Crossings as (first voxel at or after, facing), sorted, per column on first use.
+            let mut sorted: Vec<Option<Vec<(u32, i8)>>> = vec![None; width as usize];
+            let mut out = Vec::new();
+            for &[u0, u1, d0, d1, k] in spans {
+                for u in u0 as usize..u1 as usize {
+                    let starts = sorted[u].get_or_insert_with(|| {
+                        let mut s: Vec<(u32, i8)> = columns[u]
+                            .iter()
+                            .map(|&(z, s)| {
+                                (((z - 0.5).ceil().max(0.0).min(depth as f64)) as u32, s)
+                            })
+                            .collect();
+                        s.sort_unstable();
+                        s
+                    });
+                    let (mut next, mut n) = (0usize, 0i64);
+                    for d in d0 as u32..d1 as u32 {
+                        while next < starts.len() && starts[next].0 <= d {
+                            n += starts[next].1 as i64;
+                            next += 1;
+                        }
+                        // Nothing is filled after the column's last crossing.
+                        let n = if next < starts.len() { n } else { 0 };
+                        let solid = if positive { n > k } else { n != k };
+                        out.push((u as u32, *iv, d, solid));
+                    }
+                }
+            }
+            out
+        })
+        .collect();
+    let mut flipped = 0;
+    for (u, v, d, solid) in changes.into_iter().flatten() {
+        let mut ijk = [0u32; 3];
+        ijk[ua] = u;
+        ijk[va] = v;
+        ijk[da] = d;
+        if grid.get(ijk[0], ijk[1], ijk[2]) != solid {
+            grid.set(ijk[0], ijk[1], ijk[2], solid);
+            flipped += 1;
+        }
+    }
+    flipped
 }
 
 /// Triangles bucketed by the rows (of `height`) their snapped bounding box touches.

@@ -1,5 +1,6 @@
 //! Solid voxelization on the CPU side: the grid contract, the CPU reference voxelizer, hygiene of the input
-//! triangles, the surface (triangle–box) voxels, the exporters and the CPU reference of the voxel ray caster. The GPU drivers (depth peeling,
+//! triangles, the surface (triangle–box) voxels, the exporters, the CPU reference of the voxel ray caster and the
+//! generalized winding number's stress suite. The GPU drivers (depth peeling,
 //! A-buffer) are one layer up, in the engine's `voxelize` module.
 pub mod cpu;
 pub mod export;
@@ -7,4 +8,5 @@ pub mod grid;
 pub mod gwn;
 pub mod mesh;
 pub mod raycast;
+pub mod stress;
 pub mod surface;

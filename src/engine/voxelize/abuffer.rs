@@ -148,6 +148,7 @@ impl AbufferVoxelizer {
                     axis,
                     layers,
                     solid: 0,
+                    repaired_columns: 0,
                 },
             ));
         }
@@ -237,6 +238,7 @@ impl AbufferVoxelizer {
                 axis,
                 layers,
                 solid,
+                repaired_columns: 0,
             },
         ))
     }

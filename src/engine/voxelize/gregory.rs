@@ -27,6 +27,7 @@ pub fn voxelize_gregory_surface(
         indices: surface.indices(),
         index_count: surface.index_count(),
         bounds: Some(surface_box),
+        mesh: None,
     };
     v.voxelize(ctx, &geom, &frame, axes, rule, profiler)
 }

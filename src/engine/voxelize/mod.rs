@@ -7,7 +7,6 @@
 //!   depth are fixed when it is built, its images and grid buffer live as long as it does, and `record` only
 //!   records commands; the grid stays on the device for the next pass (ray casting);
 //! - `gregory`: [`voxelize_gregory_surface`], a Gregory surface voxelized from its vertex buffer;
-//! - [`resolve_gpu`]: the generalized winding number's cap term over the winding rule of a capped mesh.
 //! - [`voxelize_surface_gpu`]: the voxels the triangles touch (`--fill surface|both`), bit for bit the CPU's.
 //!
 //! Progress: the one-shot voxelizers report coarse stages (count, peel/scatter, fill) to an optional
@@ -19,13 +18,11 @@
 //!   columns (`fill_in_slabs`).
 mod abuffer;
 mod gregory;
-mod gwn;
 mod peel;
 mod resident;
 
 pub use abuffer::AbufferVoxelizer;
 pub use gregory::voxelize_gregory_surface;
-pub use gwn::resolve_gpu;
 pub use peel::PeelVoxelizer;
 pub use resident::ResidentVoxelizer;
 
@@ -45,6 +42,9 @@ pub struct AxisStats {
     /// Peeling passes run (the deepest column's crossing count from the count pre-pass).
     pub layers: u32,
     pub solid: u64,
+    /// Columns where depth peeling lost an equal-depth fragment and the CPU recomputed them (0 for the
+    /// A-buffer, which keeps every fragment).
+    pub repaired_columns: u64,
 }
 
 /// Upper bound on peeling passes unless the caller raises it.
@@ -92,6 +92,7 @@ impl GpuTriangles {
             indices: &self.indices,
             index_count: self.index_count,
             bounds: self.bounds,
+            mesh: None,
         }
     }
 }

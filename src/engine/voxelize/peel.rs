@@ -1,4 +1,6 @@
-//! [`PeelVoxelizer`]: Harada–Koshizuka depth peeling, per axis: count pre-pass → L peeling passes → fill.
+//! [`PeelVoxelizer`]: Harada–Koshizuka depth peeling, per axis: count pre-pass → L peeling passes → fill →
+//! (with the host's triangles at hand) the check for columns that lost an equal-depth fragment, which the
+//! CPU scanline recomputes, so peeling gives the CPU's grid even where triangles coincide.
 //!
 //! Invariants: the two D32 depth images alternate between `DEPTH_ATTACHMENT_OPTIMAL` (current pass) and
 //! `DEPTH_READ_ONLY_OPTIMAL` (read by the next pass); the "previous" image of pass 0 is cleared to 0.0 so one
@@ -8,6 +10,7 @@ use super::*;
 use crate::gpu::resources::{image_barrier, memory_barrier};
 use crate::gpu::{Image, ImageDesc, Owned};
 use crate::passes::peel::PeelPass;
+use crate::passes::peel_check::PeelCheckPass;
 use crate::passes::voxel_fill::{FillJob, VoxelFillPass};
 use crate::voxel::cpu::FillRule;
 
@@ -15,6 +18,7 @@ use crate::voxel::cpu::FillRule;
 pub struct PeelVoxelizer {
     pub(super) peel: PeelPass,
     pub(super) fill: VoxelFillPass,
+    check: PeelCheckPass,
     /// Refuse meshes needing more peeling passes than this.
     pub max_layers: u32,
     /// Largest output slab in bytes (default and upper bound: `maxStorageBufferRange`); tests lower it to
@@ -82,9 +86,11 @@ impl PeelVoxelizer {
         }
         let peel = PeelPass::new(ctx, stride)?;
         let fill = VoxelFillPass::new(ctx)?;
+        let check = PeelCheckPass::new(ctx)?;
         Ok(PeelVoxelizer {
             peel,
             fill,
+            check,
             max_layers: DEFAULT_MAX_LAYERS,
             slab_limit: None,
             progress: None,
@@ -233,6 +239,7 @@ impl PeelVoxelizer {
                     axis,
                     layers,
                     solid: 0,
+                    repaired_columns: 0,
                 },
             ));
         }
@@ -311,6 +318,45 @@ impl PeelVoxelizer {
                 )
             },
         )?;
+        // 3. Columns that lost an equal-depth fragment, recomputed on the host when it has the triangles.
+        let mut repaired_columns = 0;
+        if let Some(mesh) = geom.mesh {
+            let framebuffer = push.framebuffer();
+            let lost = ctx.create_buffer(
+                "peel lost columns",
+                r2.div_ceil(32) * 4,
+                vk::BufferUsageFlags::STORAGE_BUFFER
+                    | vk::BufferUsageFlags::TRANSFER_DST
+                    | vk::BufferUsageFlags::TRANSFER_SRC,
+                MemoryLocation::GpuOnly,
+            )?;
+            ctx.one_shot(|cmd| {
+                self.check.record(
+                    ctx,
+                    cmd,
+                    layer_image.view(),
+                    self.peel.sampler(),
+                    counts,
+                    &lost,
+                    framebuffer.width,
+                    framebuffer.height,
+                    layers,
+                )
+            })?;
+            let bits = ctx.read_buffer(&lost)?;
+            let columns: Vec<u32> = bits
+                .chunks_exact(4)
+                .enumerate()
+                .flat_map(|(w, b)| {
+                    let word = u32::from_le_bytes([b[0], b[1], b[2], b[3]]);
+                    (0..32)
+                        .filter(move |k| word >> k & 1 == 1)
+                        .map(move |k| w as u32 * 32 + k)
+                })
+                .collect();
+            repaired_columns = columns.len() as u64;
+            crate::voxel::cpu::refill_columns(mesh, &mut grid, rule, &columns);
+        }
         tick(&self.progress, &format!("{}: filled", axis.name()));
         checkpoint(&self.deadline, &format!("{}: filled", axis.name()))?;
         let solid = grid.count();
@@ -320,6 +366,7 @@ impl PeelVoxelizer {
                 axis,
                 layers,
                 solid,
+                repaired_columns,
             },
         ))
     }

@@ -1,0 +1,645 @@
+//! Labels the grid with the fractional term: for every voxel outside the near zone, an integer k with
+//! w_X ∈ (k − ½, k + ½) there, found box by box from 32³ down to single voxels.
+//!
+//! A box is labelled when an interval for w_X over the ball round its voxel centres lies strictly between
+//! two half-integers; its voxels then need no more (k = 0: the rasterized grid stands; k ≠ 0: their
+//! crossing count decides, `super::cpu::relabel`). Otherwise its 2³ children are tried, down to cells of
+//! 2³ voxels, which are finished voxel by voxel. A voxel no bound labels goes to the direct evaluation
+//! (`super::direct`).
+//!
+//! The interval is a dual traversal, as in a fast multipole method: each box inherits from its parent the
+//! interval of the nodes already accepted (valid over the parent's ball, hence over its own) and the list
+//! of nodes still open, and re-examines only those: a node far enough for this box's radius is accepted
+//! (the small caps' expansion into the box's linear model, or a ribbon node's bound), one too close for a
+//! box no larger than it is opened, and the rest are passed down. Large caps (rim of 32 voxels or more)
+//! take another road: their value at the box centre, moved by at most r·(the Biot–Savart bound of their
+//! rim), so a box above the middle of a wide hole or panel is labelled however wide it is; their fans are
+//! kept whole (a point near one sums its few triangles exactly).
+//!
+//! Cost: a box costs its inherited open list (tens of nodes) plus the large caps' traversal; boxes are
+//! visited only where w_X comes within the bounds' width of a half-integer, which is near the caps and the
+//! ribbons, so the work follows the fractional term's geometry and not the number of loops or pieces.
+//! Boxes are independent: rayon over the children of every split.
+//!
+//! Invariants: near-zone voxels are never labelled here (they are all decided directly, whatever a box
+//! says); `nu` is the fractional term's distance to any voxel outside the zone; the stage stops at the
+//! deadline and past the memory budget with the caller's errors.
+use super::edges::EdgeTree;
+use super::kernel::FOUR_PI;
+use super::tree::{adaptive, refine_from, Accept, Ball, Scratch, Tree};
+use super::zone::{centre, linear};
+use crate::error::{Error, Result};
+use crate::voxel::grid::GridFrame;
+use rayon::prelude::*;
+use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
+
+/// Edge, in voxels, of the coarsest boxes.
+pub const TOP: u32 = 32;
+/// Edge of a cell, the smallest box.
+pub const CELL: u32 = 2;
+/// A small cap's node is accepted for a box when (ρ + r) ≤ θ·D …
+pub const THETA: f64 = 0.3;
+/// … and r ≤ SPREAD·g (its variation over the ball stays a small part of its A/g²).
+pub const SPREAD: f64 = 0.12;
+/// Triangles per leaf of the caps' trees.
+pub const CAP_LEAF: usize = 2;
+/// A node kept at a cell is expanded at each voxel when ρ ≤ POINT_THETA·(D − r).
+pub const POINT_THETA: f64 = 0.3;
+/// Bound-only acceptance of a node (steradians).
+pub const BOUND_EPS: f64 = 1e-3;
+/// Bound-only acceptance of a ribbon node: ribbons are only ever bounded, and there are many.
+pub const THIN_EPS: f64 = 3e-3;
+/// How the large caps' value at a box centre or a voxel accepts nodes.
+pub const LARGE_ACCEPT: Accept = Accept {
+    theta: 0.3,
+    eps: 1e-4,
+};
+/// Triangles per leaf of the large caps' tree (whole fan triangles).
+pub const LARGE_LEAF: usize = 4;
+/// A near triangle whose bound at a voxel is at most this (steradians) is taken as ± the bound.
+pub const TRI_EPS: f64 = 1e-4;
+/// Slack on the half-integers, in units of w (far above the rounding the bounds already cover).
+pub const SLACK: f64 = 1e-9;
+/// Bytes one listed voxel costs (its index and label).
+pub const LISTED_BYTES: u64 = 16;
+
+/// The fractional term X, as the queries need it: the small caps with their expansions, the large caps
+/// with their rim (for the gradient), the thin ribbons (bounded, never expanded). Caps are cut into
+/// triangles of a few voxels.
+#[derive(Default)]
+pub struct Fractional {
+    pub caps: Tree,
+    /// The large caps (their value at a point; the rim bounds its gradient).
+    pub large: Tree,
+    pub rim: EdgeTree,
+    pub ribbons: Tree,
+}
+
+/// Per-thread scratch.
+#[derive(Default)]
+pub struct Scratches {
+    pub caps: Scratch,
+    stack: Vec<u32>,
+}
+
+impl Fractional {
+    pub fn is_empty(&self) -> bool {
+        self.caps.is_empty() && self.large.is_empty() && self.ribbons.is_empty()
+    }
+
+    /// Bytes held.
+    pub fn bytes(&self) -> u64 {
+        self.caps.bytes() + self.large.bytes() + self.rim.bytes() + self.ribbons.bytes()
+    }
+
+    /// The large caps over `ball`: their value at the centre moved by at most r·(rim bound); `None` when a
+    /// large cap comes within the ball.
+    fn large_interval(&self, ball: &Ball, s: &mut Scratches) -> Option<(f64, f64)> {
+        if self.large.is_empty() {
+            return Some((0.0, 0.0));
+        }
+        let (lo, hi) = self
+            .large
+            .interval_at(ball.c, ball.r, &LARGE_ACCEPT, &mut s.caps)?;
+        let moved = if ball.r > 0.0 {
+            ball.r
+                * self
+                    .rim
+                    .gradient(ball.c, ball.r, BOUND_EPS / ball.r, &mut s.stack)
+        } else {
+            0.0
+        };
+        moved.is_finite().then_some((lo - moved, hi + moved))
+    }
+
+    /// Decides at point `q` (see [`adaptive`]) over every part of X together.
+    pub fn adaptive<T>(
+        &self,
+        q: [f64; 3],
+        nu: f64,
+        accept: &Accept,
+        decide: impl FnMut(f64, f64) -> Option<T>,
+        s: &mut Scratches,
+    ) -> Option<T> {
+        adaptive(
+            &[&self.caps, &self.large, &self.ribbons],
+            q,
+            nu,
+            accept,
+            decide,
+            &mut s.caps,
+        )
+    }
+}
+
+/// The integer k with [lo, hi]/4π strictly inside (k − ½, k + ½), if any.
+pub fn label(lo: f64, hi: f64) -> Option<i32> {
+    let (lo, hi) = (lo / FOUR_PI, hi / FOUR_PI);
+    if !(lo.is_finite() && hi.is_finite()) {
+        return None;
+    }
+    let k = (0.5 * (lo + hi)).round();
+    (lo > k - 0.5 + SLACK && hi < k + 0.5 - SLACK && k.abs() < 1e9).then_some(k as i32)
+}
+
+/// What the labelling found.
+#[derive(Clone, Debug, Default)]
+pub struct Labels {
+    /// Boxes (voxels `[lo, hi)`) whose voxels outside the zone all have label k ≠ 0.
+    pub boxes: Vec<([u32; 3], [u32; 3], i32)>,
+    /// Single voxels with label k ≠ 0.
+    pub voxels: Vec<([u32; 3], i32)>,
+    /// Voxels no bound labelled (linear indices, sorted).
+    pub undecided: Vec<u64>,
+    /// Boxes (cells included) whose interval was computed.
+    pub boxes_evaluated: u64,
+    /// Voxels evaluated one by one in cells.
+    pub voxels_evaluated: u64,
+}
+
+impl Labels {
+    fn merge(mut self, other: Labels) -> Labels {
+        self.boxes.extend(other.boxes);
+        self.voxels.extend(other.voxels);
+        self.undecided.extend(other.undecided);
+        self.boxes_evaluated += other.boxes_evaluated;
+        self.voxels_evaluated += other.voxels_evaluated;
+        self
+    }
+}
+
+/// The limits the stage runs under.
+pub struct Limits<'a> {
+    pub deadline: Option<std::time::Instant>,
+    /// The time limit as given (for the message).
+    pub seconds: f64,
+    /// Listed voxels allowed (memory budget / [`LISTED_BYTES`]).
+    pub max_listed: u64,
+    pub expired: &'a AtomicBool,
+}
+
+impl Limits<'_> {
+    /// Whether the deadline has passed (and says so to every thread).
+    pub fn expired(&self) -> bool {
+        if self.expired.load(Ordering::Relaxed) {
+            return true;
+        }
+        if self
+            .deadline
+            .is_some_and(|d| std::time::Instant::now() >= d)
+        {
+            self.expired.store(true, Ordering::Relaxed);
+            return true;
+        }
+        false
+    }
+}
+
+/// The voxels `[lo, hi)` of the box `b` of `edge` voxels, clipped to the grid.
+fn box_range(frame: &GridFrame, b: [u32; 3], edge: u32) -> ([u32; 3], [u32; 3]) {
+    (
+        b.map(|x| x * edge),
+        std::array::from_fn(|a| (b[a] * edge + edge).min(frame.dims[a])),
+    )
+}
+
+/// The ball round the centres of the voxels `[lo, hi)`.
+fn ball_of(frame: &GridFrame, lo: [u32; 3], hi: [u32; 3], nu: f64) -> Ball {
+    let a = centre(frame, lo);
+    let b = centre(frame, [hi[0] - 1, hi[1] - 1, hi[2] - 1]);
+    let c = std::array::from_fn(|k| 0.5 * (a[k] + b[k]));
+    let r = 0.5 * ((b[0] - a[0]).powi(2) + (b[1] - a[1]).powi(2) + (b[2] - a[2]).powi(2)).sqrt();
+    Ball {
+        c,
+        r: r * (1.0 + 1e-12),
+        nu,
+    }
+}
+
+/// The far field a box passes to its children: value and gradient at `at`, and a bound on how far the
+/// field can depart from that linear function anywhere in the box (truncation, curvature, and the bounds
+/// of the nodes taken as bounds). Moved to a child's centre exactly.
+#[derive(Clone, Copy, Debug, Default)]
+struct Local {
+    value: f64,
+    gradient: [f64; 3],
+    at: [f64; 3],
+    err: f64,
+}
+
+impl Local {
+    fn value_at(&self, q: [f64; 3]) -> f64 {
+        self.value
+            + self.gradient[0] * (q[0] - self.at[0])
+            + self.gradient[1] * (q[1] - self.at[1])
+            + self.gradient[2] * (q[2] - self.at[2])
+    }
+
+    fn moved_to(&self, c: [f64; 3]) -> Local {
+        Local {
+            value: self.value_at(c),
+            at: c,
+            ..*self
+        }
+    }
+
+    /// The interval over a ball of radius `r` round `at`.
+    fn over(&self, r: f64) -> (f64, f64) {
+        let slope = super::kernel::norm(self.gradient) * r;
+        (self.value - slope - self.err, self.value + slope + self.err)
+    }
+}
+
+/// The walk's shared state.
+struct Walk<'a> {
+    frame: &'a GridFrame,
+    x: &'a Fractional,
+    nu: f64,
+    zone: &'a [u64],
+    limits: &'a Limits<'a>,
+    listed: AtomicU64,
+    over_budget: AtomicBool,
+    params: Params,
+}
+
+/// Labels every voxel of `frame` outside `zone` (sorted linear indices) with the fractional term `x`,
+/// whose triangles lie at least `nu` from any such voxel.
+pub fn classify(
+    frame: &GridFrame,
+    x: &Fractional,
+    nu: f64,
+    zone: &[u64],
+    limits: &Limits,
+) -> Result<Labels> {
+    if x.is_empty() {
+        return Ok(Labels::default());
+    }
+    let walk = Walk {
+        frame,
+        x,
+        nu,
+        zone,
+        limits,
+        listed: AtomicU64::new(0),
+        over_budget: AtomicBool::new(false),
+        params: params(),
+    };
+    let mut roots = Vec::new();
+    for (tree, tag) in [(&x.caps, SMALL), (&x.large, LARGE), (&x.ribbons, RIBBON)] {
+        if !tree.is_empty() {
+            assert!(tree.nodes.len() < INDEX as usize, "a tree of 2³⁰ nodes");
+            roots.push(tag);
+        }
+    }
+    let dims = frame.dims.map(|d| d.div_ceil(TOP));
+    let tops: Vec<[u32; 3]> = (0..dims[2])
+        .flat_map(|z| (0..dims[1]).flat_map(move |y| (0..dims[0]).map(move |x| [x, y, z])))
+        .collect();
+    let mut labels = tops
+        .par_iter()
+        .map(|&b| walk.visit(b, TOP, [Local::default(); 2], &roots))
+        .reduce(Labels::default, Labels::merge);
+    if limits.expired() {
+        return Err(Error::Timeout {
+            seconds: limits.seconds,
+            stage: "labelling the grid with the fractional term".into(),
+        });
+    }
+    if walk.over_budget.load(Ordering::Relaxed) {
+        return Err(Error::Budget {
+            what: format!(
+                "the fractional term of the winding number: more than {} voxels to resolve one by one",
+                limits.max_listed
+            ),
+            detail: "the generalized winding number's memory budget (--gwn-budget MIB, \
+                     VoxelizeOptions::gwn_budget; or --rule winding, or a coarser grid)"
+                .into(),
+        });
+    }
+    labels.undecided.par_sort_unstable();
+    Ok(labels)
+}
+
+/// Tunable parameters (constants, but read from `GREGVOX_GWN_PARAMS` while tuning).
+#[derive(Clone, Copy, Debug)]
+struct Params {
+    theta: f64,
+    spread: f64,
+    point_theta: f64,
+}
+
+fn params() -> Params {
+    let mut p = Params {
+        theta: THETA,
+        spread: SPREAD,
+        point_theta: POINT_THETA,
+    };
+    if let Ok(v) = std::env::var("GREGVOX_GWN_PARAMS") {
+        let f: Vec<f64> = v.split(',').filter_map(|x| x.parse().ok()).collect();
+        if f.len() == 3 {
+            p = Params {
+                theta: f[0],
+                spread: f[1],
+                point_theta: f[2],
+            };
+        }
+    }
+    p
+}
+
+/// The tree of a tag: small caps, large caps or ribbons.
+const TREE_SHIFT: u32 = 30;
+const SMALL: u32 = 0;
+const LARGE: u32 = 1 << TREE_SHIFT;
+const RIBBON: u32 = 2 << TREE_SHIFT;
+const INDEX: u32 = (1 << TREE_SHIFT) - 1;
+
+thread_local! {
+    static SCRATCH: std::cell::RefCell<Scratches> = std::cell::RefCell::new(Scratches::default());
+}
+
+impl Walk<'_> {
+    fn tree_of(&self, tag: u32) -> &Tree {
+        match tag & !INDEX {
+            SMALL => &self.x.caps,
+            LARGE => &self.x.large,
+            _ => &self.x.ribbons,
+        }
+    }
+
+    /// Box `b` of `edge` voxels with the far fields `inherited` (small caps and ribbons; large caps) and the
+    /// nodes `open` from its parent.
+    fn visit(&self, b: [u32; 3], edge: u32, inherited: [Local; 2], open: &[u32]) -> Labels {
+        let mut found = Labels::default();
+        if self.limits.expired() || self.over_budget.load(Ordering::Relaxed) {
+            return found;
+        }
+        found.boxes_evaluated = 1;
+        let (frame, p) = (self.frame, &self.params);
+        let (lo, hi) = box_range(frame, b, edge);
+        let ball = ball_of(frame, lo, hi, self.nu);
+        let cell = edge == CELL;
+        let mut local = inherited.map(|l| l.moved_to(ball.c));
+        let mut keep = Vec::with_capacity(open.len());
+        let mut stack = open.to_vec();
+        while let Some(tag) = stack.pop() {
+            let tree = self.tree_of(tag);
+            let thin = tag & !INDEX == RIBBON;
+            let part = (tag & !INDEX == LARGE) as usize;
+            let i = tag & INDEX;
+            let node = &tree.nodes[i as usize];
+            let d = super::kernel::norm(crate::voxel::surface::sub(ball.c, node.centre));
+            let gap = d - ball.r - node.radius;
+            let bound = Tree::node_bound(node, gap, self.nu);
+            if bound <= if thin { THIN_EPS } else { BOUND_EPS } {
+                local[part].err += bound;
+                continue;
+            }
+            let separated = gap > 0.0 && node.radius + ball.r <= p.theta * d;
+            if !thin && separated && ball.r <= p.spread * gap {
+                match tree.local_share(i, &ball) {
+                    Some((v, g, e)) if e < bound => {
+                        let l = &mut local[part];
+                        l.value += v;
+                        for (lg, gk) in l.gradient.iter_mut().zip(g) {
+                            *lg += gk;
+                        }
+                        l.err += e;
+                    }
+                    _ => local[part].err += bound,
+                }
+                continue;
+            }
+            if !node.is_leaf() && (cell || (!separated && node.radius >= ball.r)) {
+                // At a cell every node is opened until it can be expanded at each voxel (or is a leaf).
+                let point = gap > 0.0 && node.radius <= p.point_theta * (d - ball.r);
+                if !(cell && !thin && point) {
+                    let t = tag & !INDEX;
+                    stack.push(node.first | t);
+                    stack.push((node.first + 1) | t);
+                    continue;
+                }
+            }
+            keep.push(tag);
+        }
+        // The whole box: the far fields over the ball and what was kept, bounded over the ball. The large caps
+        // also through their rim, when that is narrower.
+        let (mut sl, mut sh) = local[0].over(ball.r);
+        let (mut ll, mut lh) = local[1].over(ball.r);
+        for &tag in &keep {
+            let tree = self.tree_of(tag);
+            let node = &tree.nodes[(tag & INDEX) as usize];
+            let (mut v, mut e) = tree.share_over(tag & INDEX, &ball);
+            if node.is_leaf() && e > BOUND_EPS {
+                // Triangle by triangle: thin ones by their bound, fat ones exactly at the centre.
+                let thin = tag & !INDEX == RIBBON;
+                let (mut tv, mut te) = (0.0, 0.0);
+                for t in &tree.triangles[node.first as usize..(node.first + node.count) as usize] {
+                    if thin {
+                        te += t.bound_over(&ball);
+                    } else {
+                        let (a, b) = t.share_over(&ball);
+                        tv += a;
+                        te += b;
+                    }
+                }
+                if te < e {
+                    (v, e) = (tv, te);
+                }
+            }
+            if tag & !INDEX == LARGE {
+                ll += v - e;
+                lh += v + e;
+            } else {
+                sl += v - e;
+                sh += v + e;
+            }
+            if sh - sl > FOUR_PI {
+                break;
+            }
+        }
+        if sh - sl < FOUR_PI && lh - ll > 0.02 * FOUR_PI && !self.x.large.is_empty() {
+            if let Some((bl, bh)) =
+                SCRATCH.with(|s| self.x.large_interval(&ball, &mut s.borrow_mut()))
+            {
+                if bh - bl < lh - ll {
+                    (ll, lh) = (bl, bh);
+                }
+            }
+        }
+        if let Some(k) = label(sl + ll, sh + lh) {
+            if k != 0 {
+                found.boxes.push((lo, hi, k));
+            }
+            return found;
+        }
+        if cell {
+            self.cell_voxels(lo, hi, &local, &keep, &mut found);
+            let added = (found.voxels.len() + found.undecided.len()) as u64;
+            if self.listed.fetch_add(added, Ordering::Relaxed) + added > self.limits.max_listed {
+                self.over_budget.store(true, Ordering::Relaxed);
+            }
+            return found;
+        }
+        let half = edge / 2;
+        let cd = frame.dims.map(|d| d.div_ceil(half));
+        let children: Vec<[u32; 3]> = (0..8u32)
+            .map(|s| {
+                [
+                    b[0] * 2 + (s & 1),
+                    b[1] * 2 + (s >> 1 & 1),
+                    b[2] * 2 + (s >> 2),
+                ]
+            })
+            .filter(|c| (0..3).all(|a| c[a] < cd[a]))
+            .collect();
+        let below = children
+            .par_iter()
+            .map(|&c| self.visit(c, half, local, &keep))
+            .reduce(Labels::default, Labels::merge);
+        found.merge(below)
+    }
+
+    /// A cell voxel by voxel: the far fields at each voxel, the kept nodes at each voxel (expansions, leaf
+    /// triangles exactly or by their bound).
+    fn cell_voxels(
+        &self,
+        lo: [u32; 3],
+        hi: [u32; 3],
+        local: &[Local; 2],
+        keep: &[u32],
+        found: &mut Labels,
+    ) {
+        let (frame, nu) = (self.frame, self.nu);
+        for z in lo[2]..hi[2] {
+            for y in lo[1]..hi[1] {
+                for xx in lo[0]..hi[0] {
+                    let id = linear(frame, [xx, y, z]);
+                    if self.zone.binary_search(&id).is_ok() {
+                        continue;
+                    }
+                    found.voxels_evaluated += 1;
+                    let q = centre(frame, [xx, y, z]);
+                    let (far, err) = (local[0].value_at(q), local[0].err);
+                    let (large, large_err) = (local[1].value_at(q), local[1].err);
+                    let (mut vl, mut vh) =
+                        (far + large - err - large_err, far + large + err + large_err);
+                    for &tag in keep {
+                        let tree = self.tree_of(tag);
+                        let i = tag & INDEX;
+                        let node = &tree.nodes[i as usize];
+                        if !node.is_leaf() {
+                            let (v, e) = tree.share_at(i, q, nu);
+                            vl += v - e;
+                            vh += v + e;
+                            continue;
+                        }
+                        for t in
+                            &tree.triangles[node.first as usize..(node.first + node.count) as usize]
+                        {
+                            let b = t.bound(q, nu);
+                            if b <= TRI_EPS {
+                                vl -= b;
+                                vh += b;
+                            } else {
+                                let (w, e) = t.solid_angle(q);
+                                vl += w - e;
+                                vh += w + e;
+                            }
+                        }
+                    }
+                    let mut answer = label(vl, vh);
+                    if answer.is_none() {
+                        // Refine the kept nodes at this voxel on top of the far fields.
+                        answer = SCRATCH.with(|s| {
+                            refine_from(
+                                &[&self.x.caps, &self.x.large, &self.x.ribbons],
+                                q,
+                                nu,
+                                (far + large, err + large_err),
+                                keep.iter().map(|&t| (t >> TREE_SHIFT, t & INDEX)),
+                                label,
+                                &mut s.borrow_mut().caps,
+                            )
+                        });
+                    }
+                    match answer {
+                        Some(0) => {}
+                        Some(k) => found.voxels.push(([xx, y, z], k)),
+                        None => found.undecided.push(id),
+                    }
+                }
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::voxel::gwn::{local_triangles, Proxy};
+    use crate::voxel::mesh::TriMesh;
+
+    /// The fractional term of a sphere with a ring of triangles removed, in a 32³ grid round it.
+    fn holed_sphere() -> (GridFrame, Fractional) {
+        let mut s = TriMesh::sphere([0.0; 3], 1.0, 12, 16, false);
+        let n = s.triangles.len();
+        s.triangles.drain(n / 2..n / 2 + 16);
+        let frame = GridFrame::from_points(&s.positions, 32).unwrap();
+        let proxy = Proxy::new(&s, 0.0).unwrap();
+        let x = proxy.fractional(&s, frame.origin);
+        assert!(local_triangles(&s, frame.origin).len() == s.triangles.len());
+        let frac = Fractional {
+            caps: Tree::build_with(x.iter().copied(), CAP_LEAF),
+            ..Fractional::default()
+        };
+        (frame, frac)
+    }
+
+    #[test]
+    fn labelling_stops_at_the_deadline_and_at_the_budget_with_the_callers_errors() {
+        let (frame, x) = holed_sphere();
+        let expired = AtomicBool::new(true);
+        let limits = Limits {
+            deadline: None,
+            seconds: 1.5,
+            max_listed: u64::MAX,
+            expired: &expired,
+        };
+        let e = classify(&frame, &x, 1e-3, &[], &limits).unwrap_err();
+        assert!(
+            matches!(e, Error::Timeout { seconds, ref stage } if seconds == 1.5 && stage.contains("labelling")),
+            "{e}"
+        );
+        let fresh = AtomicBool::new(false);
+        let limits = Limits {
+            deadline: None,
+            seconds: 0.0,
+            max_listed: 0,
+            expired: &fresh,
+        };
+        let e = classify(&frame, &x, 1e-3, &[], &limits).unwrap_err();
+        assert!(matches!(e, Error::Budget { .. }), "{e}");
+        // With room, it labels: a cap's neighbourhood needs voxels one by one.
+        let limits = Limits {
+            max_listed: u64::MAX,
+            ..limits
+        };
+        let labels = classify(&frame, &x, 1e-3, &[], &limits).unwrap();
+        assert!(
+            labels.voxels_evaluated > 0 && labels.boxes_evaluated > 8,
+            "{labels:?}"
+        );
+    }
+
+    #[test]
+    fn labels_are_the_integers_strictly_between_half_integers() {
+        let w = |x: f64| x * FOUR_PI;
+        assert_eq!(label(w(-0.2), w(0.3)), Some(0));
+        assert_eq!(label(w(0.6), w(1.4)), Some(1));
+        assert_eq!(label(w(-1.4), w(-0.6)), Some(-1));
+        assert_eq!(label(w(0.2), w(0.6)), None);
+        assert_eq!(label(w(0.0), w(0.5)), None);
+        assert_eq!(label(f64::NEG_INFINITY, 0.0), None);
+    }
+}

@@ -1,0 +1,138 @@
+//! The direct evaluation: voxels of the near zone and voxels no box bound labelled, one by one.
+//!
+//! At such a voxel q: n = the exact winding number of the closed chain M ∪ X at q (`super::crossing`,
+//! exact predicates: right however close q is to the surface), then the tree's interval for w_X at q with
+//! no distance assumed (its near leaves summed exactly), so w_M = n − w_X ∈ [n − hi, n − lo]; while that
+//! interval straddles ½ the shares with the largest errors are opened (`Tree::adaptive`). A voxel still
+//! undecided with every leaf exact (|w_M| within rounding of ½), or one lying on a triangle (`super::zone`'s
+//! on-surface list, or the crossing count's own finding), gets
+//! the plain sum of M's solid angles in triangle order: the reference the decision is defined by.
+//!
+//! Cost per voxel: a bucket of the crossing index, one tree traversal with its near triangles summed
+//! exactly; the plain O(|M|) sum only where no bound separates w from ½.
+use super::classify::{Fractional, Limits, Scratches, SLACK};
+use super::crossing::Crossings;
+use super::kernel::FOUR_PI;
+use super::tree::Accept;
+use super::zone::{centre, unlinear};
+use crate::error::{Error, Result};
+use crate::voxel::grid::GridFrame;
+use rayon::prelude::*;
+use std::sync::atomic::{AtomicU64, Ordering};
+
+/// The first traversal of a direct voxel (then the worst shares are opened until it is decided).
+pub const FIRST: Accept = Accept {
+    theta: 0.35,
+    eps: 1e-3,
+};
+
+/// Which decision: |w| ≥ ½ (the default rule) or w ≥ ½ (`--rule gwn-positive`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Inside {
+    Magnitude,
+    Positive,
+}
+
+impl Inside {
+    /// The decision for w in [a, b], if the interval settles it.
+    pub fn of_interval(self, a: f64, b: f64) -> Option<bool> {
+        match self {
+            Inside::Magnitude => {
+                if a >= 0.5 + SLACK || b <= -0.5 - SLACK {
+                    Some(true)
+                } else if a > -0.5 + SLACK && b < 0.5 - SLACK {
+                    Some(false)
+                } else {
+                    None
+                }
+            }
+            Inside::Positive => {
+                if a >= 0.5 + SLACK {
+                    Some(true)
+                } else if b < 0.5 - SLACK {
+                    Some(false)
+                } else {
+                    None
+                }
+            }
+        }
+    }
+
+    /// The decision for the value w itself.
+    pub fn of_value(self, w: f64) -> bool {
+        match self {
+            Inside::Magnitude => w.abs() >= 0.5,
+            Inside::Positive => w >= 0.5,
+        }
+    }
+}
+
+/// What the direct evaluation did.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct DirectCounts {
+    /// Voxels the first traversal left undecided (decided by opening nodes).
+    pub refined: u64,
+    /// Voxels decided by the plain sum over the mesh.
+    pub plain_sums: u64,
+}
+
+/// Decides each voxel of `voxels` (linear indices): `Ok(answers)` in their order. The crossing index's first
+/// `mesh_triangles` triangles are M's.
+#[allow(clippy::too_many_arguments)]
+pub fn decide(
+    frame: &GridFrame,
+    voxels: &[u64],
+    x: &Fractional,
+    crossings: &Crossings,
+    mesh_triangles: usize,
+    on_surface: &[u64],
+    inside: Inside,
+    limits: &Limits,
+) -> Result<(Vec<bool>, DirectCounts)> {
+    let (refined, plain) = (AtomicU64::new(0), AtomicU64::new(0));
+    let answers: Vec<bool> = voxels
+        .par_iter()
+        .map_init(Scratches::default, |scratch, &id| {
+            if limits.expired() {
+                return false;
+            }
+            let q = centre(frame, unlinear(frame, id));
+            let on = on_surface.binary_search(&id).is_ok();
+            if let Some(n) = crossings.winding(q).filter(|_| !on) {
+                let mut rounds = 0u32;
+                let decided = x.adaptive(
+                    q,
+                    0.0,
+                    &FIRST,
+                    |lo, hi| {
+                        rounds += 1;
+                        inside.of_interval(n as f64 - hi / FOUR_PI, n as f64 - lo / FOUR_PI)
+                    },
+                    scratch,
+                );
+                if let Some(answer) = decided {
+                    if rounds > 1 {
+                        refined.fetch_add(1, Ordering::Relaxed);
+                    }
+                    return answer;
+                }
+            }
+            plain.fetch_add(1, Ordering::Relaxed);
+            let w = crossings.plain_sum(q, mesh_triangles);
+            inside.of_value(w)
+        })
+        .collect();
+    if limits.expired() {
+        return Err(Error::Timeout {
+            seconds: limits.seconds,
+            stage: "deciding the voxels near the surface".into(),
+        });
+    }
+    Ok((
+        answers,
+        DirectCounts {
+            refined: refined.into_inner(),
+            plain_sums: plain.into_inner(),
+        },
+    ))
+}

@@ -1,0 +1,177 @@
+//! A bounding-volume tree over the welded boundary's edges, for bounds on the cap term's gradient.
+//!
+//! The cap term w_{C'} is harmonic off the caps and its gradient is the Biot–Savart integral over their
+//! boundary, the welded mesh's boundary chain (the caps' inner edges cancel): |∇Ω(q)| ≤ Σ_e |e| / d_e(q)²,
+//! d_e the distance from q to edge e. Over a ball (c, r) that meets no cap triangle, Ω therefore moves by at
+//! most r · Σ_e |e| / (d_e(c) − r)²: a large flat cap seen from near its middle moves little however big it
+//! is, which an area bound could never say. A node bounds its edges by (total length) / (D − r − ρ)².
+//!
+//! Invariants: segments are reordered so each leaf owns a contiguous range; children of an inner node are
+//! `first` and `first + 1`; every bound is an upper bound (distances rounded down).
+use super::kernel::{norm, segment_distance2};
+use crate::voxel::surface::sub;
+
+/// Segments per leaf at most.
+pub const LEAF: usize = 8;
+
+#[derive(Clone, Copy, Debug, Default)]
+struct Node {
+    centre: [f64; 3],
+    radius: f64,
+    length: f64,
+    first: u32,
+    count: u32,
+}
+
+/// The tree of segments.
+#[derive(Clone, Debug, Default)]
+pub struct EdgeTree {
+    nodes: Vec<Node>,
+    segments: Vec<[[f64; 3]; 2]>,
+}
+
+impl EdgeTree {
+    /// The tree of `segments` (local f64 end points).
+    pub fn build(segments: &[[[f64; 3]; 2]]) -> EdgeTree {
+        let mut segs = segments.to_vec();
+        if segs.is_empty() {
+            return EdgeTree::default();
+        }
+        let mut nodes = vec![Node::default()];
+        let n = segs.len();
+        build(&mut nodes, &mut segs, 0, 0, n);
+        EdgeTree {
+            nodes,
+            segments: segs,
+        }
+    }
+
+    /// Bytes held.
+    pub fn bytes(&self) -> u64 {
+        (self.nodes.len() * std::mem::size_of::<Node>()
+            + self.segments.len() * std::mem::size_of::<[[f64; 3]; 2]>()) as u64
+    }
+
+    /// An upper bound on Σ_e |e| / d_e(q)² over every q within `r` of `c` (∞ when an edge comes within
+    /// `r`). Nodes whose bound is at most `eps` are not opened.
+    pub fn gradient(&self, c: [f64; 3], r: f64, eps: f64, stack: &mut Vec<u32>) -> f64 {
+        if self.nodes.is_empty() {
+            return 0.0;
+        }
+        let mut sum = 0.0;
+        stack.clear();
+        stack.push(0);
+        while let Some(i) = stack.pop() {
+            let node = &self.nodes[i as usize];
+            let gap = (norm(sub(c, node.centre)) - r - node.radius) * (1.0 - 1e-12);
+            if gap > 0.0 {
+                let b = node.length / (gap * gap);
+                if b <= eps {
+                    sum += b;
+                    continue;
+                }
+            }
+            if node.count > 0 {
+                for s in &self.segments[node.first as usize..(node.first + node.count) as usize] {
+                    let d = (segment_distance2(c, s[0], s[1]).sqrt() - r) * (1.0 - 1e-12);
+                    if d <= 0.0 {
+                        return f64::INFINITY;
+                    }
+                    sum += norm(sub(s[1], s[0])) * (1.0 + 1e-12) / (d * d);
+                }
+            } else {
+                stack.push(node.first);
+                stack.push(node.first + 1);
+            }
+        }
+        sum
+    }
+}
+
+fn build(nodes: &mut Vec<Node>, segs: &mut [[[f64; 3]; 2]], at: usize, start: usize, end: usize) {
+    let (mut lo, mut hi) = ([f64::INFINITY; 3], [f64::NEG_INFINITY; 3]);
+    let mut length = 0.0;
+    for s in &segs[start..end] {
+        for p in s {
+            for k in 0..3 {
+                lo[k] = lo[k].min(p[k]);
+                hi[k] = hi[k].max(p[k]);
+            }
+        }
+        length += norm(sub(s[1], s[0]));
+    }
+    let centre: [f64; 3] = std::array::from_fn(|k| 0.5 * (lo[k] + hi[k]));
+    let radius = 0.5 * norm(sub(hi, lo)) * (1.0 + 1e-12);
+    let length = length * (1.0 + 1e-12);
+    if end - start <= LEAF {
+        nodes[at] = Node {
+            centre,
+            radius,
+            length,
+            first: start as u32,
+            count: (end - start) as u32,
+        };
+        return;
+    }
+    let axis = (0..3)
+        .max_by(|&a, &b| (hi[a] - lo[a]).total_cmp(&(hi[b] - lo[b])))
+        .expect("three axes");
+    let mid = start + (end - start) / 2;
+    segs[start..end].select_nth_unstable_by(mid - start, |p, q| {
+        (p[0][axis] + p[1][axis]).total_cmp(&(q[0][axis] + q[1][axis]))
+    });
+    let first = nodes.len();
+    nodes.push(Node::default());
+    nodes.push(Node::default());
+    build(nodes, segs, first, start, mid);
+    build(nodes, segs, first + 1, mid, end);
+    nodes[at] = Node {
+        centre,
+        radius,
+        length,
+        first: first as u32,
+        count: 0,
+    };
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::voxel::gwn::kernel::solid_angle;
+
+    #[test]
+    fn the_solid_angle_of_a_disk_moves_no_more_than_its_rim_allows() {
+        // A fan disk of radius 1 (64 rim edges); a ball of radius 0.05 a little above its middle.
+        let n = 64;
+        let rim: Vec<[f64; 3]> = (0..n)
+            .map(|i| {
+                let a = std::f64::consts::TAU * i as f64 / n as f64;
+                [a.cos(), a.sin(), 0.0]
+            })
+            .collect();
+        let segments: Vec<[[f64; 3]; 2]> = (0..n).map(|i| [rim[i], rim[(i + 1) % n]]).collect();
+        let tree = EdgeTree::build(&segments);
+        let omega = |q: [f64; 3]| -> f64 {
+            (0..n)
+                .map(|i| solid_angle(q, [0.0; 3], rim[i], rim[(i + 1) % n]))
+                .sum()
+        };
+        let (c, r) = ([0.1, 0.2, 0.1], 0.05);
+        let g = tree.gradient(c, r, 0.0, &mut Vec::new());
+        let at_c = omega(c);
+        for q in [
+            [0.15, 0.2, 0.1],
+            [0.1, 0.15, 0.1],
+            [0.1, 0.2, 0.06],
+            [0.07, 0.23, 0.13],
+        ] {
+            assert!((omega(q) - at_c).abs() <= r * g, "{q:?}");
+        }
+        // Far from the rim the bound is small although the disk fills half the sky.
+        assert!(r * g < 0.6 && at_c.abs() > 5.0, "{} {at_c}", r * g);
+        // And infinite when the ball reaches the rim.
+        assert!(tree
+            .gradient([1.0, 0.0, 0.01], 0.05, 0.0, &mut Vec::new())
+            .is_infinite());
+    }
+}

@@ -1,0 +1,1199 @@
+//! A bounding-volume tree over triangles whose nodes carry far-field expansions of their solid angle with
+//! rigorous error bounds: the hierarchy that makes the fractional term of the winding number cost
+//! O(log) per query instead of O(triangles).
+//!
+//! Each node holds the ball (centre x̄, radius ρ) that contains its triangles, their total area A, their
+//! total *width mass* W = Σ 2π·(altitude on the longest edge), and the moments of its normal-weighted area
+//! up to second order about x̄. Three ways to account for a node at a query ball (centre c, radius r), all
+//! rigorous (the node's solid angle at every point of the ball lies in the interval):
+//! - **bound**: |Ω_N| ≤ min(A/d², W/d), d a lower bound on the distance from the ball to the triangles
+//!   (|n̂·(x−q)|/|x−q|³ ≤ 1/d² per unit area; a triangle lies within its altitude w of its longest edge, so
+//!   its solid angle is at most ∫ 2w dl/(d² + l²) = 2πw/d). The second form keeps long thin triangles (the
+//!   ribbons of a welded soup, `super::cap`) cheap however close they come.
+//! - **expansion**: the order-2 Taylor expansion of the double-layer kernel about x̄ (Barnes & Jacobson's
+//!   dipole, quadrupole and octupole terms), evaluated at c. The kernel is −n̂·∇_δ of 1/|u − δ| (u = q − x̄,
+//!   δ = x − x̄, |δ| ≤ ρ, |u| = D), whose degree-n Taylor term is Dⁿφ(u)[δ…δ]/n! up to sign (φ = 1/|u|,
+//!   ‖Dⁿφ‖ = n!/Dⁿ⁺¹); the δ-gradient of that term is at most n·ρⁿ⁻¹/Dⁿ⁺¹, so with t = ρ/D the truncation
+//!   error is E ≤ A/D² · Σ_{n≥4} n tⁿ⁻¹ = A/D² · [4t³/(1−t) + t⁴/(1−t)²], and its q-gradient at most
+//!   A/D³ · Σ_{n≥4} n(n+1) tⁿ⁻¹ = A/D³ · [20t³/(1−t) + 10t⁴/(1−t)² + 2t⁵/(1−t)³]. Over the ball, the value
+//!   moves by at most r·2A/g³ (‖∇_q‖ of the kernel ≤ 2/|x−q|³), g = D − r − ρ, and departs from its
+//!   linearization at c by at most ½r²·6A/g⁴ (‖D³φ‖ = 6/d⁴): what a box passes to its children
+//!   ([`Tree::local_share`]). Rounding adds 1e-12·A/(D−ρ)².
+//! - **open**: the children, or at a leaf the triangles themselves (the caller sums them exactly, or bounds
+//!   each one at each query point).
+//!
+//! Invariants: triangles are reordered so each leaf owns a contiguous range ([`Tree::triangles`]); a
+//! node's children are `first` and `first + 1`; moments are translated up the tree exactly (no second
+//! pass over the triangles), radii are the smaller of the children's spheres grown and the half-diagonal of
+//! the node's box. The build is O(n log n) and the tree O(n) memory ([`Tree::bytes`]).
+use super::kernel::{norm, segment_distance2, solid_angle_bounded, triangle_distance};
+use crate::voxel::surface::{cross, dot, sub};
+
+/// Triangles per leaf at most, by default (thin ribbons; caps use smaller leaves, whose balls stay the
+/// size of one cap triangle however sparse the caps are).
+pub const LEAF: usize = 8;
+
+/// A triangle of the tree, with what its bounds need.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct TreeTriangle {
+    pub a: [f64; 3],
+    pub b: [f64; 3],
+    pub c: [f64; 3],
+    pub area: f64,
+    /// Altitude on the longest edge: the triangle lies within this distance of that edge.
+    pub width: f64,
+    /// The longest edge: its first corner (0: a→b, 1: b→c, 2: c→a).
+    pub spine: u8,
+    /// A ball holding the triangle: centre (the centroid) and radius.
+    pub centre: [f64; 3],
+    pub radius: f64,
+}
+
+impl TreeTriangle {
+    /// The triangle (a, b, c) with its area, width and spine.
+    pub fn new([a, b, c]: [[f64; 3]; 3]) -> TreeTriangle {
+        let n = cross(sub(b, a), sub(c, a));
+        let area = 0.5 * norm(n);
+        let edges = [(a, b), (b, c), (c, a)];
+        let (mut spine, mut longest) = (0u8, 0.0f64);
+        for (k, e) in edges.iter().enumerate() {
+            let l = norm(sub(e.1, e.0));
+            if l > longest {
+                longest = l;
+                spine = k as u8;
+            }
+        }
+        // A hair more than the rounded values keeps the bounds bounds.
+        let width = if longest > 0.0 {
+            2.0 * area / longest * (1.0 + 1e-12)
+        } else {
+            0.0
+        };
+        let centre: [f64; 3] = std::array::from_fn(|k| (a[k] + b[k] + c[k]) / 3.0);
+        let radius = [a, b, c]
+            .iter()
+            .map(|&v| norm(sub(v, centre)))
+            .fold(0.0f64, f64::max)
+            * (1.0 + 1e-12);
+        TreeTriangle {
+            a,
+            b,
+            c,
+            area: area * (1.0 + 1e-12),
+            width,
+            spine,
+            centre,
+            radius,
+        }
+    }
+
+    /// The distance from `q` to the longest edge.
+    #[inline]
+    fn spine_distance(&self, q: [f64; 3]) -> f64 {
+        let (p, r) = match self.spine {
+            0 => (self.a, self.b),
+            1 => (self.b, self.c),
+            _ => (self.c, self.a),
+        };
+        segment_distance2(q, p, r).sqrt()
+    }
+
+    /// The solid angle at `q` and its rounding bound.
+    #[inline]
+    pub fn solid_angle(&self, q: [f64; 3]) -> (f64, f64) {
+        solid_angle_bounded(q, self.a, self.b, self.c)
+    }
+
+    /// The solid angle over every point of `ball` as (value at the centre, error): the rounding plus the
+    /// variation r·2A/g³ (g the gap between the ball and the triangle), or ± the bound when that is
+    /// narrower (or the ball meets the triangle).
+    #[inline]
+    pub fn share_over(&self, ball: &Ball) -> (f64, f64) {
+        let bound = self.bound_over(ball);
+        // The gap to the triangle's ball (the exact distance costs more than it saves here).
+        let gap = (norm(sub(ball.c, self.centre)) - self.radius - ball.r) * (1.0 - 1e-12);
+        if gap > 0.0 {
+            let (v, e) = self.solid_angle(ball.c);
+            let e = e + 2.0 * self.area * ball.r / (gap * gap * gap);
+            if e < bound {
+                return (v, e);
+            }
+        }
+        (0.0, bound)
+    }
+
+    /// A bound on |Ω| at every point of `ball` (each at least `ball.nu` from the triangle).
+    #[inline]
+    pub fn bound_over(&self, ball: &Ball) -> f64 {
+        let d = (self.spine_distance(ball.c) - self.width - ball.r).max(ball.nu);
+        if d <= 0.0 {
+            return f64::INFINITY;
+        }
+        let d = d * (1.0 - 1e-12);
+        (self.area / (d * d)).min(std::f64::consts::TAU * self.width / d)
+    }
+
+    /// A bound on |Ω| at `q` for a query point at least `nu` from the triangle: min(A/d², 2πw/d) with d the
+    /// distance to the spine less the width (the triangle lies within `width` of its spine).
+    #[inline]
+    pub fn bound(&self, q: [f64; 3], nu: f64) -> f64 {
+        let d = (self.spine_distance(q) - self.width).max(nu);
+        if d <= 0.0 {
+            return f64::INFINITY;
+        }
+        let d = d * (1.0 - 1e-12);
+        (self.area / (d * d)).min(std::f64::consts::TAU * self.width / d)
+    }
+}
+
+/// A node of the tree.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Node {
+    pub centre: [f64; 3],
+    pub radius: f64,
+    /// Σ area of the triangles below.
+    pub area: f64,
+    /// Σ 2π·width of the triangles below.
+    pub width: f64,
+    /// Σ N (vector areas).
+    pub m0: [f64; 3],
+    /// Σ N_a ∫(x − x̄)_b dA/A, row-major (index 3a + b).
+    pub m1: [f64; 9],
+    /// Σ N_a ∫(x − x̄)_b (x − x̄)_c dA/A, index 6a + (bc in xx, xy, xz, yy, yz, zz).
+    pub m2: [f64; 18],
+    /// Leaf: first triangle; inner node: first child (the second is `first + 1`).
+    pub first: u32,
+    /// Leaf: triangle count (≥ 1); inner node: 0.
+    pub count: u32,
+}
+
+impl Node {
+    pub fn is_leaf(&self) -> bool {
+        self.count > 0
+    }
+}
+
+/// Index into the symmetric pair (b, c) of [`Node::m2`].
+const SYM: [[usize; 3]; 3] = [[0, 1, 2], [1, 3, 4], [2, 4, 5]];
+
+/// The tree.
+#[derive(Clone, Debug, Default)]
+pub struct Tree {
+    pub nodes: Vec<Node>,
+    pub triangles: Vec<TreeTriangle>,
+}
+
+/// How a query accounts for nodes (see the module docs).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Accept {
+    /// A node is expanded only when (ρ + r) ≤ θ·D.
+    pub theta: f64,
+    /// A node whose bound is at most this (steradians) is taken as ± the bound without opening it.
+    pub eps: f64,
+}
+
+/// How a cell splits the tree: aggregated far field, per-voxel middle nodes, near triangles.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct CellAccept {
+    /// Aggregated over the cell when (ρ + r) ≤ θ·D and the ball's radius is at most `spread`·g (so the
+    /// variation term r·2A/g³ stays a small part of the node's A/g²).
+    pub theta: f64,
+    pub spread: f64,
+    /// Else evaluated at each voxel when ρ ≤ `point_theta`·(D − r) (every voxel sees it at t ≤ that).
+    pub point_theta: f64,
+    /// Bound-only acceptance, as [`Accept::eps`].
+    pub eps: f64,
+}
+
+/// A query ball: every point of interest lies within `r` of `c`, and at least `nu` from every triangle of
+/// the tree (0 when nothing is known).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Ball {
+    pub c: [f64; 3],
+    pub r: f64,
+    pub nu: f64,
+}
+
+/// A node's share of a point's interval during [`Tree::adaptive`].
+#[derive(Clone, Copy, Debug)]
+struct Share {
+    tree: u32,
+    node: u32,
+    value: f64,
+    err: f64,
+}
+
+/// The per-thread scratch of the queries.
+#[derive(Default)]
+pub struct Scratch {
+    stack: Vec<u32>,
+    shares: Vec<Share>,
+    /// Triangles left to the caller (indices into [`Tree::triangles`]).
+    pub near: Vec<u32>,
+    /// Nodes left to the caller's points ([`Tree::cell`]).
+    pub mid: Vec<u32>,
+}
+
+impl Tree {
+    /// The tree of `triangles` (local f64 corners), [`LEAF`] a leaf.
+    pub fn build(triangles: &[[[f64; 3]; 3]]) -> Tree {
+        Tree::build_with(triangles.iter().copied(), LEAF)
+    }
+
+    /// The tree of `triangles` with at most `leaf` triangles a leaf.
+    pub fn build_with(triangles: impl IntoIterator<Item = [[f64; 3]; 3]>, leaf: usize) -> Tree {
+        let mut tris: Vec<TreeTriangle> = triangles.into_iter().map(TreeTriangle::new).collect();
+        if tris.is_empty() {
+            return Tree::default();
+        }
+        let mut nodes = vec![Node::default()];
+        let n = tris.len();
+        build_node(&mut nodes, &mut tris, 0, 0, n, leaf.max(1));
+        Tree {
+            nodes,
+            triangles: tris,
+        }
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.nodes.is_empty()
+    }
+
+    /// Bytes the tree holds (what the memory budget counts).
+    pub fn bytes(&self) -> u64 {
+        (self.nodes.len() * std::mem::size_of::<Node>()
+            + self.triangles.len() * std::mem::size_of::<TreeTriangle>()) as u64
+    }
+
+    /// Bytes a tree of `n` triangles with leaves of at most `leaf` holds at most (median splits leave at
+    /// least ⌈leaf/2⌉ in a leaf, so at most 2n/⌈leaf/2⌉ nodes).
+    pub fn bytes_for(n: usize, leaf: usize) -> u64 {
+        let half = leaf.div_ceil(2).max(1) as u64;
+        (n as u64) * (std::mem::size_of::<TreeTriangle>() as u64)
+            + (2 * (n as u64).div_ceil(half) + 1) * std::mem::size_of::<Node>() as u64
+    }
+
+    /// The bound-only share of `node` at a ball `gap` away (at least `nu`): ± min(A/d², W/d).
+    #[inline]
+    pub fn node_bound(node: &Node, gap: f64, nu: f64) -> f64 {
+        let dlo = gap.max(nu) * (1.0 - 1e-12);
+        if dlo > 0.0 {
+            (node.area / (dlo * dlo)).min(node.width / dlo)
+        } else {
+            f64::INFINITY
+        }
+    }
+
+    /// An interval [lo, hi] (steradians) holding the solid angle of every triangle of the tree at every point
+    /// of `ball` (leaves not accepted are bounded). `None` as soon as it is wider than `max_width`.
+    pub fn interval(
+        &self,
+        ball: &Ball,
+        accept: &Accept,
+        max_width: f64,
+        scratch: &mut Scratch,
+    ) -> Option<(f64, f64)> {
+        let (mut lo, mut hi) = (0.0f64, 0.0f64);
+        if self.nodes.is_empty() {
+            return Some((0.0, 0.0));
+        }
+        let stack = &mut scratch.stack;
+        stack.clear();
+        stack.push(0);
+        while let Some(i) = stack.pop() {
+            let node = &self.nodes[i as usize];
+            let d = norm(sub(ball.c, node.centre));
+            let gap = d - ball.r - node.radius;
+            let bound = Self::node_bound(node, gap, ball.nu);
+            if bound <= accept.eps {
+                lo -= bound;
+                hi += bound;
+                continue;
+            }
+            if gap > 0.0 && node.radius + ball.r <= accept.theta * d {
+                let (v, e) = expand(node, ball.c, d, ball.r, gap);
+                if e < bound {
+                    lo += v - e;
+                    hi += v + e;
+                } else {
+                    lo -= bound;
+                    hi += bound;
+                }
+            } else if node.is_leaf() {
+                lo -= bound;
+                hi += bound;
+            } else {
+                stack.push(node.first);
+                stack.push(node.first + 1);
+                continue;
+            }
+            if hi - lo > max_width {
+                return None;
+            }
+        }
+        Some((lo, hi))
+    }
+
+    /// A cell's split of the tree: the interval of the nodes far from the whole ball, and in
+    /// `scratch.mid` the nodes each point of the ball should expand itself ([`Tree::share_at`]), in
+    /// `scratch.near` the triangles of the leaves nearer still.
+    pub fn cell(&self, ball: &Ball, accept: &CellAccept, scratch: &mut Scratch) -> (f64, f64) {
+        let (mut lo, mut hi) = (0.0f64, 0.0f64);
+        scratch.near.clear();
+        scratch.mid.clear();
+        if self.nodes.is_empty() {
+            return (0.0, 0.0);
+        }
+        let stack = &mut scratch.stack;
+        stack.clear();
+        stack.push(0);
+        while let Some(i) = stack.pop() {
+            let node = &self.nodes[i as usize];
+            let d = norm(sub(ball.c, node.centre));
+            let gap = d - ball.r - node.radius;
+            let bound = Self::node_bound(node, gap, ball.nu);
+            if bound <= accept.eps {
+                lo -= bound;
+                hi += bound;
+                continue;
+            }
+            if gap > 0.0
+                && node.radius + ball.r <= accept.theta * d
+                && ball.r <= accept.spread * gap
+            {
+                let (v, e) = expand(node, ball.c, d, ball.r, gap);
+                if e < bound {
+                    lo += v - e;
+                    hi += v + e;
+                } else {
+                    lo -= bound;
+                    hi += bound;
+                }
+            } else if gap > 0.0 && node.radius <= accept.point_theta * (d - ball.r) {
+                scratch.mid.push(i);
+            } else if node.is_leaf() {
+                scratch.near.extend(node.first..node.first + node.count);
+            } else {
+                stack.push(node.first);
+                stack.push(node.first + 1);
+            }
+        }
+        (lo, hi)
+    }
+
+    /// Node `i`'s share of the solid angle at point `q` (at least `nu` from its triangles): its expansion
+    /// with the truncation bound, or ± its bound, whichever is narrower: (value, error).
+    #[inline]
+    pub fn share_at(&self, i: u32, q: [f64; 3], nu: f64) -> (f64, f64) {
+        let node = &self.nodes[i as usize];
+        let d = norm(sub(q, node.centre));
+        let gap = d - node.radius;
+        let bound = Self::node_bound(node, gap, nu);
+        if gap > 0.0 && node.radius < 0.95 * d {
+            let (v, e) = expand(node, q, d, 0.0, gap);
+            if e < bound {
+                return (v, e);
+            }
+        }
+        (0.0, bound)
+    }
+
+    /// Node `i`'s share over every point of `ball`: (value, error) as [`Tree::share_at`], the expansion's
+    /// error including its variation over the ball.
+    pub fn share_over(&self, i: u32, ball: &Ball) -> (f64, f64) {
+        let node = &self.nodes[i as usize];
+        let d = norm(sub(ball.c, node.centre));
+        let gap = d - ball.r - node.radius;
+        let bound = Self::node_bound(node, gap, ball.nu);
+        if gap > 0.0 && node.radius < 0.95 * d {
+            let (v, e) = expand(node, ball.c, d, ball.r, gap);
+            if e < bound {
+                return (v, e);
+            }
+        }
+        (0.0, bound)
+    }
+
+    /// An interval [lo, hi] (steradians) for the solid angle of the whole tree at the point `c` alone, or
+    /// `None` when a triangle comes within `clear` of `c` (the caller's ball would meet the surface, across
+    /// which the solid angle jumps by 4π). Nodes are expanded at `c` (truncation error only), bounded, or
+    /// opened; leaves near `c` are summed exactly.
+    pub fn interval_at(
+        &self,
+        c: [f64; 3],
+        clear: f64,
+        accept: &Accept,
+        scratch: &mut Scratch,
+    ) -> Option<(f64, f64)> {
+        let (mut sum, mut err) = (0.0f64, 0.0f64);
+        if self.nodes.is_empty() {
+            return Some((0.0, 0.0));
+        }
+        let stack = &mut scratch.stack;
+        stack.clear();
+        stack.push(0);
+        while let Some(i) = stack.pop() {
+            let node = &self.nodes[i as usize];
+            let d = norm(sub(c, node.centre));
+            let gap = d - node.radius;
+            if gap > clear {
+                let bound = Self::node_bound(node, gap, 0.0);
+                if bound <= accept.eps {
+                    err += bound;
+                    continue;
+                }
+                if node.radius <= accept.theta * d {
+                    let (v, e) = expand(node, c, d, 0.0, gap);
+                    if e < bound {
+                        sum += v;
+                        err += e;
+                    } else {
+                        err += bound;
+                    }
+                    continue;
+                }
+            }
+            if node.is_leaf() {
+                for t in &self.triangles[node.first as usize..(node.first + node.count) as usize] {
+                    if gap <= clear && triangle_distance(c, t.a, t.b, t.c) <= clear * (1.0 + 1e-12)
+                    {
+                        return None;
+                    }
+                    let (v, e) = t.solid_angle(c);
+                    sum += v;
+                    err += e;
+                }
+            } else {
+                stack.push(node.first);
+                stack.push(node.first + 1);
+            }
+        }
+        err += 64.0 * f64::EPSILON * (sum.abs() + err);
+        Some((sum - err, sum + err))
+    }
+
+    /// A bound on |Ω| of the whole tree over `ball` from the nodes' and triangles' bounds alone (for thin
+    /// triangles, whose solid angle matters only as a bound). Nodes whose bound is at most `eps` are not
+    /// opened; with `keep_near`, leaf triangles are left in `scratch.near` instead of bounded.
+    pub fn bound_over(&self, ball: &Ball, eps: f64, keep_near: bool, scratch: &mut Scratch) -> f64 {
+        let mut sum = 0.0f64;
+        scratch.near.clear();
+        if self.nodes.is_empty() {
+            return 0.0;
+        }
+        let stack = &mut scratch.stack;
+        stack.clear();
+        stack.push(0);
+        while let Some(i) = stack.pop() {
+            let node = &self.nodes[i as usize];
+            let gap = norm(sub(ball.c, node.centre)) - ball.r - node.radius;
+            let bound = Self::node_bound(node, gap, ball.nu);
+            if bound <= eps {
+                sum += bound;
+            } else if node.is_leaf() {
+                if keep_near {
+                    scratch.near.extend(node.first..node.first + node.count);
+                } else {
+                    for t in
+                        &self.triangles[node.first as usize..(node.first + node.count) as usize]
+                    {
+                        sum += t.bound_over(ball);
+                    }
+                }
+            } else {
+                stack.push(node.first);
+                stack.push(node.first + 1);
+            }
+        }
+        sum
+    }
+}
+
+/// Decides at point `q` (at least `nu` from every triangle of `trees`): starts from a traversal of each
+/// tree with `accept`, then opens the shares with the largest errors (their children, or a leaf's triangles
+/// summed exactly) until `decide(lo, hi)` answers for the interval [lo, hi] (steradians) of all the trees
+/// together. `None` once everything is exact and still undecided.
+pub fn adaptive<T>(
+    trees: &[&Tree],
+    q: [f64; 3],
+    nu: f64,
+    accept: &Accept,
+    decide: impl FnMut(f64, f64) -> Option<T>,
+    scratch: &mut Scratch,
+) -> Option<T> {
+    let (mut exact, mut exact_err) = (0.0f64, 0.0f64);
+    scratch.shares.clear();
+    for (k, tree) in trees.iter().enumerate() {
+        if tree.nodes.is_empty() {
+            continue;
+        }
+        let stack = &mut scratch.stack;
+        stack.clear();
+        stack.push(0);
+        while let Some(i) = stack.pop() {
+            let node = &tree.nodes[i as usize];
+            let d = norm(sub(q, node.centre));
+            let gap = d - node.radius;
+            let bound = Tree::node_bound(node, gap, nu);
+            if bound <= accept.eps || (gap > 0.0 && node.radius <= accept.theta * d) {
+                let (value, err) = tree.share_at(i, q, nu);
+                scratch.shares.push(Share {
+                    tree: k as u32,
+                    node: i,
+                    value,
+                    err,
+                });
+            } else if node.is_leaf() {
+                exact_leaf(tree, node, q, &mut exact, &mut exact_err);
+            } else {
+                stack.push(node.first);
+                stack.push(node.first + 1);
+            }
+        }
+    }
+    refine(trees, q, nu, (exact, exact_err), decide, scratch)
+}
+
+/// As [`adaptive`], from a known part `(value, error)` and the nodes `start` ((tree, node) pairs) that make
+/// up the rest.
+pub fn refine_from<T>(
+    trees: &[&Tree],
+    q: [f64; 3],
+    nu: f64,
+    base: (f64, f64),
+    start: impl IntoIterator<Item = (u32, u32)>,
+    decide: impl FnMut(f64, f64) -> Option<T>,
+    scratch: &mut Scratch,
+) -> Option<T> {
+    scratch.shares.clear();
+    for (tree, node) in start {
+        let (value, err) = trees[tree as usize].share_at(node, q, nu);
+        scratch.shares.push(Share {
+            tree,
+            node,
+            value,
+            err,
+        });
+    }
+    refine(trees, q, nu, base, decide, scratch)
+}
+
+fn exact_leaf(tree: &Tree, node: &Node, q: [f64; 3], exact: &mut f64, exact_err: &mut f64) {
+    for t in &tree.triangles[node.first as usize..(node.first + node.count) as usize] {
+        let (w, e) = t.solid_angle(q);
+        *exact += w;
+        *exact_err += e;
+    }
+}
+
+/// The refinement loop of [`adaptive`] over `scratch.shares`, on top of `(value, error)`.
+fn refine<T>(
+    trees: &[&Tree],
+    q: [f64; 3],
+    nu: f64,
+    (base, base_err): (f64, f64),
+    mut decide: impl FnMut(f64, f64) -> Option<T>,
+    scratch: &mut Scratch,
+) -> Option<T> {
+    let shares = &mut scratch.shares;
+    let (mut sum, mut err, mut mag) = (base, base_err, base.abs());
+    for s in shares.iter() {
+        sum += s.value;
+        err += s.err;
+        mag += s.value.abs();
+    }
+    let mut operations = shares.len() as f64 + 2.0;
+    loop {
+        // The rounding of the running sums (each operation adds at most ε of the magnitudes so far).
+        let round = 4.0 * operations * f64::EPSILON * (mag + err);
+        if let Some(answer) = decide(sum - err - round, sum + err + round) {
+            return Some(answer);
+        }
+        if shares.is_empty() {
+            return None;
+        }
+        // Open the worst quarter (at least 8) of the shares.
+        let k = (shares.len() / 4).max(8).min(shares.len());
+        if k < shares.len() {
+            shares.select_nth_unstable_by(k - 1, |a, b| b.err.total_cmp(&a.err));
+        }
+        for j in 0..k {
+            let s = shares[j];
+            sum -= s.value;
+            err -= s.err;
+            let tree = trees[s.tree as usize];
+            let node = &tree.nodes[s.node as usize];
+            if node.is_leaf() {
+                let (mut e, mut ee) = (0.0, 0.0);
+                exact_leaf(tree, node, q, &mut e, &mut ee);
+                sum += e;
+                err += ee;
+                mag += e.abs();
+            } else {
+                for c in [node.first, node.first + 1] {
+                    let (value, e) = tree.share_at(c, q, nu);
+                    sum += value;
+                    err += e;
+                    mag += value.abs();
+                    shares.push(Share {
+                        tree: s.tree,
+                        node: c,
+                        value,
+                        err: e,
+                    });
+                }
+            }
+            operations += 6.0;
+        }
+        shares.drain(..k);
+    }
+}
+
+/// The order-2 expansion of `node` at `c` (distance `d` from its centre) and its error over the ball of
+/// radius `r` round `c` (`gap` = d − r − ρ > 0).
+#[inline]
+fn expand(node: &Node, c: [f64; 3], d: f64, r: f64, gap: f64) -> (f64, f64) {
+    // y = x̄ − c: the kernel is N·y/|y|³ and its derivatives at y.
+    let y = sub(node.centre, c);
+    let r2 = d * d;
+    let inv = 1.0 / d;
+    let inv3 = inv * inv * inv;
+    let inv5 = inv3 * inv * inv;
+    let inv7 = inv5 * inv * inv;
+    let m1 = &node.m1;
+    let m2 = &node.m2;
+    let t1 = dot(node.m0, y) * inv3;
+    // Σ_ab M1_ab (δ_ab/r³ − 3 y_a y_b/r⁵).
+    let mut ymy = 0.0;
+    for a in 0..3 {
+        for b in 0..3 {
+            ymy += m1[3 * a + b] * y[a] * y[b];
+        }
+    }
+    let trace = m1[0] + m1[4] + m1[8];
+    let t2 = trace * inv3 - 3.0 * ymy * inv5;
+    // ½ Σ_abc M2_abc (−3(δ_ab y_c + δ_ac y_b + δ_bc y_a)/r⁵ + 15 y_a y_b y_c/r⁷).
+    let (mut lin, mut cubic) = (0.0, 0.0);
+    for a in 0..3 {
+        let row = &m2[6 * a..6 * a + 6];
+        // δ_ab y_c + δ_ac y_b: 2 Σ_c M2_{a a c} y_c; δ_bc y_a: y_a tr(M2_a).
+        let mut s = 0.0;
+        for c in 0..3 {
+            s += row[SYM[a][c]] * y[c];
+        }
+        let tr = row[0] + row[3] + row[5];
+        lin += 2.0 * s + tr * y[a];
+        let mut q = 0.0;
+        for b in 0..3 {
+            for c in 0..3 {
+                q += row[SYM[b][c]] * y[b] * y[c];
+            }
+        }
+        cubic += y[a] * q;
+    }
+    let t3 = 0.5 * (-3.0 * lin * inv5 + 15.0 * cubic * inv7);
+    let value = t1 + t2 + t3;
+    let t = node.radius / d;
+    let one = 1.0 - t;
+    let t3p = t * t * t;
+    let truncation = node.area / r2 * (4.0 * t3p / one + t3p * t / (one * one));
+    let near = d - node.radius;
+    let rounding = 1e-12 * node.area / (near * near);
+    let variation = if r > 0.0 {
+        2.0 * node.area * r / (gap * gap * gap)
+    } else {
+        0.0
+    };
+    (value, (truncation + rounding + variation) * (1.0 + 1e-9))
+}
+
+/// The order-2 expansion of `node` at `c` and its q-gradient (`d` = |c − x̄|).
+#[inline]
+fn expand_grad(node: &Node, c: [f64; 3], d: f64) -> (f64, [f64; 3]) {
+    let y = sub(node.centre, c);
+    let inv = 1.0 / d;
+    let inv2 = inv * inv;
+    let inv3 = inv2 * inv;
+    let inv5 = inv3 * inv2;
+    let inv7 = inv5 * inv2;
+    let inv9 = inv7 * inv2;
+    let (m0, m1, m2) = (&node.m0, &node.m1, &node.m2);
+    // t1 = M0·y/r³.
+    let m0y = dot(*m0, y);
+    let t1 = m0y * inv3;
+    let mut g: [f64; 3] = std::array::from_fn(|k| m0[k] * inv3 - 3.0 * m0y * y[k] * inv5);
+    // t2 = tr(M1)/r³ − 3 yᵀM1y/r⁵.
+    let m1y: [f64; 3] =
+        std::array::from_fn(|a| m1[3 * a] * y[0] + m1[3 * a + 1] * y[1] + m1[3 * a + 2] * y[2]);
+    let m1ty: [f64; 3] =
+        std::array::from_fn(|b| m1[b] * y[0] + m1[3 + b] * y[1] + m1[6 + b] * y[2]);
+    let ymy = dot(y, m1y);
+    let tr1 = m1[0] + m1[4] + m1[8];
+    let t2 = tr1 * inv3 - 3.0 * ymy * inv5;
+    for k in 0..3 {
+        g[k] +=
+            -3.0 * tr1 * y[k] * inv5 - 3.0 * (m1y[k] + m1ty[k]) * inv5 + 15.0 * ymy * y[k] * inv7;
+    }
+    // t3 = ½(−3 u·y/r⁵ + 15 C/r⁷), u_c = 2 Σ_a M2_a,ac + tr M2_c, C = Σ_a y_a yᵀM2_a y.
+    let mut u = [0.0f64; 3];
+    let mut cubic = 0.0;
+    let mut grad_c = [0.0f64; 3];
+    for a in 0..3 {
+        let row = &m2[6 * a..6 * a + 6];
+        for (cc, uc) in u.iter_mut().enumerate() {
+            *uc += 2.0 * row[SYM[a][cc]];
+        }
+        u[a] += row[0] + row[3] + row[5];
+        let my: [f64; 3] = std::array::from_fn(|b| {
+            row[SYM[b][0]] * y[0] + row[SYM[b][1]] * y[1] + row[SYM[b][2]] * y[2]
+        });
+        let q = dot(y, my);
+        cubic += y[a] * q;
+        grad_c[a] += q;
+        for (b, gc) in grad_c.iter_mut().enumerate() {
+            *gc += 2.0 * y[a] * my[b];
+        }
+    }
+    let lin = dot(u, y);
+    let t3 = 0.5 * (-3.0 * lin * inv5 + 15.0 * cubic * inv7);
+    for k in 0..3 {
+        g[k] += 0.5
+            * (-3.0 * u[k] * inv5 + 15.0 * lin * y[k] * inv7 + 15.0 * grad_c[k] * inv7
+                - 105.0 * cubic * y[k] * inv9);
+    }
+    // ∇_q = −∇_y.
+    (t1 + t2 + t3, g.map(|x| -x))
+}
+
+impl Tree {
+    /// Node `i`'s share of a box's linear model at the centre of `ball`: (value, q-gradient, error), the
+    /// error bounding, at every point q of the ball, |Ω_N(q) − value − gradient·(q − c)|: the truncation at
+    /// c, r times the truncation of the gradient, and ½r²·6A/g⁴. `None` unless the node lies outside the
+    /// ball (g > 0) with t = ρ/D < 0.9.
+    pub fn local_share(&self, i: u32, ball: &Ball) -> Option<(f64, [f64; 3], f64)> {
+        let node = &self.nodes[i as usize];
+        let d = norm(sub(ball.c, node.centre));
+        let gap = (d - ball.r - node.radius) * (1.0 - 1e-12);
+        let t = node.radius / d;
+        if gap <= 0.0 || t >= 0.9 {
+            return None;
+        }
+        let (v, g) = expand_grad(node, ball.c, d);
+        let one = 1.0 - t;
+        let (t3, a) = (t * t * t, node.area);
+        let value_tail = a / (d * d) * (4.0 * t3 / one + t3 * t / (one * one));
+        let grad_tail = a / (d * d * d)
+            * (20.0 * t3 / one
+                + 10.0 * t3 * t / (one * one)
+                + 2.0 * t3 * t * t / (one * one * one));
+        let curvature = 3.0 * ball.r * ball.r * a / (gap * gap * gap * gap);
+        let near = d - node.radius;
+        let rounding = 1e-12 * a / (near * near) * (1.0 + ball.r / near);
+        let err = (value_tail + ball.r * grad_tail + curvature + rounding) * (1.0 + 1e-9);
+        Some((v, g, err))
+    }
+}
+
+/// Builds node `at` over `tris[start..end]` (reordering them), then its children.
+fn build_node(
+    nodes: &mut Vec<Node>,
+    tris: &mut [TreeTriangle],
+    at: usize,
+    start: usize,
+    end: usize,
+    leaf: usize,
+) {
+    let (mut lo, mut hi) = ([f64::INFINITY; 3], [f64::NEG_INFINITY; 3]);
+    let (mut clo, mut chi) = ([f64::INFINITY; 3], [f64::NEG_INFINITY; 3]);
+    for t in &tris[start..end] {
+        for v in [t.a, t.b, t.c] {
+            for k in 0..3 {
+                lo[k] = lo[k].min(v[k]);
+                hi[k] = hi[k].max(v[k]);
+            }
+        }
+        let m = centroid(t);
+        for k in 0..3 {
+            clo[k] = clo[k].min(m[k]);
+            chi[k] = chi[k].max(m[k]);
+        }
+    }
+    let centre: [f64; 3] = std::array::from_fn(|k| 0.5 * (lo[k] + hi[k]));
+    if end - start <= leaf {
+        let mut node = Node {
+            centre,
+            first: start as u32,
+            count: (end - start) as u32,
+            ..Node::default()
+        };
+        let mut radius = 0.0f64;
+        for t in &tris[start..end] {
+            for v in [t.a, t.b, t.c] {
+                radius = radius.max(norm(sub(v, centre)));
+            }
+            add_triangle(&mut node, t);
+        }
+        node.radius = radius * (1.0 + 1e-12);
+        nodes[at] = node;
+        return;
+    }
+    // Median split of the centroids along the longest axis of their box.
+    let axis = (0..3)
+        .max_by(|&a, &b| (chi[a] - clo[a]).total_cmp(&(chi[b] - clo[b])))
+        .expect("three axes");
+    let mid = start + (end - start) / 2;
+    tris[start..end].select_nth_unstable_by(mid - start, |p, q| {
+        centroid(p)[axis].total_cmp(&centroid(q)[axis])
+    });
+    let first = nodes.len();
+    nodes.push(Node::default());
+    nodes.push(Node::default());
+    build_node(nodes, tris, first, start, mid, leaf);
+    build_node(nodes, tris, first + 1, mid, end, leaf);
+    let (l, r) = (nodes[first], nodes[first + 1]);
+    let mut node = Node {
+        centre,
+        first: first as u32,
+        count: 0,
+        area: l.area + r.area,
+        width: l.width + r.width,
+        ..Node::default()
+    };
+    let half_diagonal = 0.5 * norm(sub(hi, lo));
+    let grown = [l, r]
+        .iter()
+        .map(|c| norm(sub(c.centre, centre)) + c.radius)
+        .fold(0.0f64, f64::max);
+    node.radius = grown.min(half_diagonal) * (1.0 + 1e-12);
+    for child in [l, r] {
+        translate_into(&mut node, &child);
+    }
+    nodes[at] = node;
+}
+
+fn centroid(t: &TreeTriangle) -> [f64; 3] {
+    std::array::from_fn(|k| (t.a[k] + t.b[k] + t.c[k]) / 3.0)
+}
+
+/// Adds triangle `t`'s area, width mass and moments about `node.centre`.
+// Tensor components are indexed as in the formulas.
+#[allow(clippy::needless_range_loop)]
+fn add_triangle(node: &mut Node, t: &TreeTriangle) {
+    node.area += t.area;
+    node.width += std::f64::consts::TAU * t.width;
+    // N = ½ (b − a) × (c − a): the vector area.
+    let n = cross(sub(t.b, t.a), sub(t.c, t.a)).map(|x| 0.5 * x);
+    let v = [t.a, t.b, t.c].map(|p| sub(p, node.centre));
+    let s: [f64; 3] = std::array::from_fn(|k| v[0][k] + v[1][k] + v[2][k]);
+    // ∫(x − x̄) dA / A = the centroid; ∫(x − x̄)(x − x̄)ᵀ dA / A = (Σ v vᵀ + s sᵀ) / 12.
+    for a in 0..3 {
+        node.m0[a] += n[a];
+        for b in 0..3 {
+            node.m1[3 * a + b] += n[a] * s[b] / 3.0;
+        }
+        for b in 0..3 {
+            for c in b..3 {
+                let second =
+                    (v[0][b] * v[0][c] + v[1][b] * v[1][c] + v[2][b] * v[2][c] + s[b] * s[c])
+                        / 12.0;
+                node.m2[6 * a + SYM[b][c]] += n[a] * second;
+            }
+        }
+    }
+}
+
+/// Adds `child`'s moments, moved from its centre to `node.centre` (Δ = x̄_child − x̄_node):
+/// M1 += M0 ⊗ Δ; M2_a,bc += M1_ab Δ_c + M1_ac Δ_b + M0_a Δ_b Δ_c.
+#[allow(clippy::needless_range_loop)]
+fn translate_into(node: &mut Node, child: &Node) {
+    let dl = sub(child.centre, node.centre);
+    for a in 0..3 {
+        node.m0[a] += child.m0[a];
+        for b in 0..3 {
+            node.m1[3 * a + b] += child.m1[3 * a + b] + child.m0[a] * dl[b];
+        }
+        for b in 0..3 {
+            for c in b..3 {
+                node.m2[6 * a + SYM[b][c]] += child.m2[6 * a + SYM[b][c]]
+                    + child.m1[3 * a + b] * dl[c]
+                    + child.m1[3 * a + c] * dl[b]
+                    + child.m0[a] * dl[b] * dl[c];
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::voxel::gwn::kernel::{solid_angle, winding_sum, FOUR_PI};
+
+    /// A seeded soup of `n` triangles of size about `size` in the unit cube.
+    fn soup(n: usize, size: f64, seed: u64) -> Vec<[[f64; 3]; 3]> {
+        let mut s = seed;
+        let mut next = move || {
+            s = s.wrapping_add(0x9e37_79b9_7f4a_7c15);
+            let mut z = s;
+            z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
+            z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
+            ((z ^ (z >> 31)) >> 11) as f64 / (1u64 << 53) as f64
+        };
+        (0..n)
+            .map(|_| {
+                let c = [next(), next(), next()];
+                std::array::from_fn(|_| std::array::from_fn(|k| c[k] + size * (next() - 0.5)))
+            })
+            .collect()
+    }
+
+    #[test]
+    fn moments_translated_up_the_tree_equal_moments_summed_directly() {
+        let tris = soup(300, 0.1, 1);
+        let tree = Tree::build(&tris);
+        let root = tree.nodes[0];
+        let mut direct = Node {
+            centre: root.centre,
+            ..Node::default()
+        };
+        for t in &tree.triangles {
+            add_triangle(&mut direct, t);
+        }
+        let close = |a: &[f64], b: &[f64]| a.iter().zip(b).all(|(x, y)| (x - y).abs() < 1e-12);
+        assert!(close(&root.m0, &direct.m0));
+        assert!(close(&root.m1, &direct.m1));
+        assert!(close(&root.m2, &direct.m2));
+        assert!((root.area - direct.area).abs() < 1e-12);
+    }
+
+    #[test]
+    fn the_second_moment_of_a_triangle_is_its_integral() {
+        // ∫ x xᵀ dA over a triangle by a fine midpoint rule against (Σ v vᵀ + s sᵀ)·A/12.
+        let t = TreeTriangle::new([[0.2, 0.1, 0.0], [1.0, 0.3, 0.4], [0.1, 0.9, 0.2]]);
+        let mut node = Node::default();
+        add_triangle(&mut node, &t);
+        // Centroid rule over the n² congruent sub-triangles (error O(1/n²)).
+        let n = 200;
+        let mut integral = [[0.0f64; 3]; 3];
+        let mut add = |u: f64, v: f64| {
+            let x: [f64; 3] =
+                std::array::from_fn(|k| t.a[k] + u * (t.b[k] - t.a[k]) + v * (t.c[k] - t.a[k]));
+            for b in 0..3 {
+                for c in 0..3 {
+                    integral[b][c] += x[b] * x[c];
+                }
+            }
+        };
+        let nf = n as f64;
+        for i in 0..n {
+            for j in 0..n - i {
+                let (i, j) = (i as f64, j as f64);
+                add((i + 1.0 / 3.0) / nf, (j + 1.0 / 3.0) / nf);
+                if i + j + 2.0 <= nf {
+                    add((i + 2.0 / 3.0) / nf, (j + 2.0 / 3.0) / nf);
+                }
+            }
+        }
+        let cells = (n * n) as f64;
+        let nz = cross(sub(t.b, t.a), sub(t.c, t.a)).map(|x| 0.5 * x)[2];
+        for b in 0..3 {
+            for c in b..3 {
+                let want = nz * integral[b][c] / cells;
+                let got = node.m2[6 * 2 + SYM[b][c]];
+                assert!(
+                    (want - got).abs() < 1e-3 * got.abs().max(1e-3),
+                    "{b}{c}: {want} {got}"
+                );
+            }
+        }
+    }
+
+    #[test]
+    fn every_interval_holds_the_exact_sum_at_every_point_of_the_ball() {
+        // Fat triangles (caps) and thin ones (ribbons), points near and far, balls of several sizes.
+        let mut tris = soup(2000, 0.08, 7);
+        for t in soup(500, 0.05, 9) {
+            // Ribbons: a long edge and a third corner 1e-6 off it.
+            let c = [t[0][0] + 1e-6, t[0][1], t[0][2]];
+            tris.push([t[0], t[1], c]);
+        }
+        let tree = Tree::build(&tris);
+        let mut scratch = Scratch::default();
+        let probes = soup(60, 0.0, 3);
+        let holds = |lo: f64, hi: f64, x: f64| x >= lo - 1e-9 && x <= hi + 1e-9;
+        for (theta, eps) in [(0.5, 1e-2), (0.25, 1e-6)] {
+            let accept = Accept { theta, eps };
+            let cell_accept = CellAccept {
+                theta,
+                spread: 0.2,
+                point_theta: theta,
+                eps,
+            };
+            for p in &probes {
+                let c = p[0].map(|x| 1.6 * x - 0.3);
+                for r in [0.0, 0.01, 0.05] {
+                    let ball = Ball { c, r, nu: 0.0 };
+                    let whole = tree
+                        .interval(&ball, &accept, f64::INFINITY, &mut scratch)
+                        .unwrap();
+                    let (lo, hi) = tree.cell(&ball, &cell_accept, &mut scratch);
+                    // Points of the ball: the centre and six on its surface.
+                    let mut pts = vec![c];
+                    for k in 0..3 {
+                        for s in [-r, r] {
+                            let mut q = c;
+                            q[k] += s;
+                            pts.push(q);
+                        }
+                    }
+                    for q in pts {
+                        let exact = winding_sum(&tris, q) * FOUR_PI;
+                        assert!(
+                            holds(whole.0, whole.1, exact),
+                            "interval {theta} r {r}: {whole:?} {exact}"
+                        );
+                        // The cell's split: far interval + middle nodes at q (and over the ball) + near.
+                        let near: f64 = scratch
+                            .near
+                            .iter()
+                            .map(|&i| tree.triangles[i as usize].solid_angle(q).0)
+                            .sum();
+                        let (mut ml, mut mh, mut ol, mut oh) = (lo, hi, lo, hi);
+                        for &i in &scratch.mid {
+                            let (v, e) = tree.share_at(i, q, 0.0);
+                            ml += v - e;
+                            mh += v + e;
+                            let (v, e) = tree.share_over(i, &ball);
+                            ol += v - e;
+                            oh += v + e;
+                        }
+                        assert!(
+                            holds(ml, mh, exact - near),
+                            "cell {theta} r {r}: [{ml}, {mh}] {}",
+                            exact - near
+                        );
+                        assert!(
+                            holds(ol, oh, exact - near),
+                            "cell over the ball {theta} r {r}"
+                        );
+                        // The adaptive point query, asked to reach a width of 1e-6 (or everything exact).
+                        if r == 0.0 {
+                            let got = adaptive(
+                                &[&tree],
+                                q,
+                                0.0,
+                                &accept,
+                                |l, h| (h - l < 1e-6).then_some((l, h)),
+                                &mut scratch,
+                            );
+                            let (l, h) = got.expect("refined to 1e-6");
+                            assert!(holds(l, h, exact), "adaptive: [{l}, {h}] {exact}");
+                        }
+                    }
+                }
+            }
+        }
+        // The expansion is sharp far away: a point far from everything gets a narrow interval.
+        let far = Ball {
+            c: [5.0, 5.0, 5.0],
+            r: 0.0,
+            nu: 0.0,
+        };
+        let (lo, hi) = tree
+            .interval(
+                &far,
+                &Accept {
+                    theta: 0.5,
+                    eps: 0.0,
+                },
+                f64::INFINITY,
+                &mut scratch,
+            )
+            .unwrap();
+        // Width against the area seen from there: t = ρ/D ≈ 0.11 bounds the truncation by ~1 % of A/D².
+        let root = &tree.nodes[0];
+        let d = norm(sub(far.c, root.centre));
+        assert!(hi - lo < 0.02 * root.area / (d * d), "{lo} {hi}");
+    }
+
+    #[test]
+    fn the_expansion_gradient_is_its_derivative_and_local_shares_hold_over_the_ball() {
+        let tris = soup(400, 0.05, 11);
+        let tree = Tree::build_with(tris.iter().copied(), 2);
+        let c = [1.7, 0.4, 0.9];
+        for (i, node) in tree.nodes.iter().enumerate().take(200) {
+            let d = norm(sub(c, node.centre));
+            if node.radius >= 0.9 * d {
+                continue;
+            }
+            let (v, g) = expand_grad(node, c, d);
+            let (v0, _) = expand(node, c, d, 0.0, d - node.radius);
+            assert!(
+                (v - v0).abs() <= 1e-12 * v0.abs().max(1e-12),
+                "{i}: {v} vs {v0}"
+            );
+            for k in 0..3 {
+                let hstep = 1e-6;
+                let mut p = c;
+                p[k] += hstep;
+                let mut m = c;
+                m[k] -= hstep;
+                let fd = (expand(node, p, norm(sub(p, node.centre)), 0.0, 1.0).0
+                    - expand(node, m, norm(sub(m, node.centre)), 0.0, 1.0).0)
+                    / (2.0 * hstep);
+                assert!(
+                    (fd - g[k]).abs() <= 1e-5 * g.iter().map(|x| x.abs()).fold(1e-9, f64::max),
+                    "{i} {k}: {fd} vs {}",
+                    g[k]
+                );
+            }
+        }
+        // Local shares: |Ω_N(q) − v − g·(q − c)| ≤ err at points of the ball, for every node they accept.
+        for r in [0.0, 0.02, 0.1] {
+            let ball = Ball { c, r, nu: 0.0 };
+            for i in 0..tree.nodes.len() as u32 {
+                let Some((v, g, err)) = tree.local_share(i, &ball) else {
+                    continue;
+                };
+                let mut below: Vec<[[f64; 3]; 3]> = Vec::new();
+                let mut stack = vec![i];
+                while let Some(j) = stack.pop() {
+                    let n = &tree.nodes[j as usize];
+                    if n.is_leaf() {
+                        let ts = &tree.triangles[n.first as usize..(n.first + n.count) as usize];
+                        below.extend(ts.iter().map(|t| [t.a, t.b, t.c]));
+                    } else {
+                        stack.extend([n.first, n.first + 1]);
+                    }
+                }
+                for q in [
+                    c,
+                    [c[0] + r, c[1], c[2]],
+                    [c[0], c[1] - r, c[2]],
+                    [c[0] - 0.6 * r, c[1] + 0.6 * r, c[2] + 0.5 * r],
+                ] {
+                    let exact = winding_sum(&below, q) * FOUR_PI;
+                    let model = v + (0..3).map(|k| g[k] * (q[k] - c[k])).sum::<f64>();
+                    assert!(
+                        (exact - model).abs() <= err,
+                        "node {i} r {r}: {exact} vs {model} ± {err}"
+                    );
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn thin_triangles_are_bounded_by_their_width() {
+        let t = TreeTriangle::new([[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.5, 1e-6, 0.0]]);
+        for q in [
+            [0.5, 0.0, 1e-3],
+            [0.5, 1e-3, 0.0],
+            [2.0, 0.0, 0.0],
+            [0.1, -0.01, 0.02],
+        ] {
+            let w = solid_angle(q, t.a, t.b, t.c).abs();
+            assert!(w <= t.bound(q, 0.0), "{q:?}: {w} > {}", t.bound(q, 0.0));
+        }
+        assert!(t.bound([0.5, 0.0, 1e-3], 0.0) < 1e-2);
+    }
+}
