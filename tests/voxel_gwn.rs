@@ -11,11 +11,10 @@
 //! open meshes, fails the same bar on the tube.
 mod common;
 
-use common::model;
+use common::{model, validated_gpu};
 use gregvox::api::{
-    load_mesh, voxelize_on_cpu, Axes, Axis, FillRule, Gpu, Mesh, Method, VoxelGrid, VoxelizeOptions,
+    load_mesh, voxelize_on_cpu, Axes, Axis, FillRule, Mesh, Method, VoxelGrid, VoxelizeOptions,
 };
-use gregvox::gpu::{ContextDesc, Validation};
 use std::path::PathBuf;
 
 fn fixtures() -> PathBuf {
@@ -65,15 +64,6 @@ fn score(grid: &VoxelGrid, c: &Case) -> (u64, u64, f64) {
         inb += ((a ^ b) & m).count_ones() as u64;
     }
     (out, inb, g.iou(&c.inside))
-}
-
-fn validated_gpu() -> Gpu {
-    Gpu::with_desc(&ContextDesc {
-        validation: Validation::Required,
-        sync_validation: true,
-        ..Default::default()
-    })
-    .expect("a Vulkan device with the validation layer")
 }
 
 fn gwn(res: u32) -> VoxelizeOptions {

@@ -9,10 +9,8 @@
 //! off it — on the CPU and with both device methods (peel, A-buffer); the soup, welded, is the bunny.
 mod common;
 
-use gregvox::api::{
-    load_mesh, voxelize_on_cpu, Axis, FillRule, Gpu, Mesh, Method, VoxelizeOptions,
-};
-use gregvox::gpu::{ContextDesc, Validation};
+use common::validated_gpu;
+use gregvox::api::{load_mesh, voxelize_on_cpu, Axis, FillRule, Mesh, Method, VoxelizeOptions};
 use gregvox::voxel::grid::VoxelGrid;
 use gregvox::voxel::mesh::TriMesh;
 use gregvox::voxel::stress::{fnv1a, obj_text, suite};
@@ -76,15 +74,6 @@ const CASES: [&str; 7] = [
     "chair",
     "teapot",
 ];
-
-fn validated_gpu() -> Gpu {
-    Gpu::with_desc(&ContextDesc {
-        validation: Validation::Required,
-        sync_validation: true,
-        ..Default::default()
-    })
-    .expect("a Vulkan device with the validation layer")
-}
 
 fn wrong(grid: &VoxelGrid, want: &VoxelGrid) -> u64 {
     grid.to_axis(Axis::Z).count_differences(want)

@@ -241,6 +241,41 @@ pub fn voxelize_cpu(mesh: &TriMesh, frame: &GridFrame, axis: Axis, rule: FillRul
     grid
 }
 
+/// Rasterizes only the rows `wanted` holds (row index → what the caller keeps for it) along `axis`, all
+/// cores: `per_row` gets a row's items and the crossings of every column of the row; its answers come back
+/// flattened.
+fn over_rows<W: Send, R: Send>(
+    mesh: &TriMesh,
+    frame: &GridFrame,
+    axis: Axis,
+    wanted: std::collections::BTreeMap<u32, W>,
+    per_row: impl Fn(W, &mut [Vec<(f64, i8)>]) -> Vec<R> + Sync,
+) -> Vec<R> {
+    let (ua, va) = axis.uv();
+    let (width, height) = (frame.dims[ua], frame.dims[va]);
+    let projected: Vec<Projected> = mesh
+        .triangles
+        .par_iter()
+        .filter_map(|&t| project(mesh, frame, axis, t))
+        .collect();
+    let rows = bucket_rows(&projected, height);
+    wanted
+        .into_par_iter()
+        .flat_map_iter(|(iv, items)| {
+            let mut columns: Vec<Vec<(f64, i8)>> = vec![Vec::new(); width as usize];
+            for &t in &rows[iv as usize] {
+                rasterize_row(
+                    &projected[t as usize],
+                    iv as i64,
+                    width as i64,
+                    &mut columns,
+                );
+            }
+            per_row(items, &mut columns)
+        })
+        .collect()
+}
+
 /// Recomputes the columns `lost` (linear indices v·width + u of `grid`'s bit axis, any order) of a grid
 /// voxelized from `mesh` with `rule`, exactly as [`voxelize_cpu`] fills them: depth peeling's repair of the
 /// columns where it lost an equal-depth fragment (`passes::peel_check`). Only the rows holding a lost column
@@ -252,39 +287,26 @@ pub fn refill_columns(mesh: &TriMesh, grid: &mut VoxelGrid, rule: FillRule, lost
     let (frame, axis) = (grid.frame, grid.bit_axis);
     let (ua, va) = axis.uv();
     let (width, height, depth) = (frame.dims[ua], frame.dims[va], frame.dims[axis.index()]);
-    let mut by_row: std::collections::BTreeMap<u32, Vec<u32>> = Default::default();
+    let mut by_row: std::collections::BTreeMap<u32, Vec<(u32, u32)>> = Default::default();
     for &c in lost {
         if c < width * height {
-            by_row.entry(c / width).or_default().push(c % width);
+            by_row
+                .entry(c / width)
+                .or_default()
+                .push((c / width, c % width));
         }
     }
-    let projected: Vec<Projected> = mesh
-        .triangles
-        .par_iter()
-        .filter_map(|&t| project(mesh, &frame, axis, t))
-        .collect();
-    let rows = bucket_rows(&projected, height);
     let w = frame.words_per_column(axis) as usize;
     // (first word of the column, its words) for every lost column.
-    let refilled: Vec<(usize, Vec<u32>)> = by_row
-        .into_par_iter()
-        .flat_map_iter(|(iv, cols)| {
-            let mut columns: Vec<Vec<(f64, i8)>> = vec![Vec::new(); width as usize];
-            for &t in &rows[iv as usize] {
-                rasterize_row(
-                    &projected[t as usize],
-                    iv as i64,
-                    width as i64,
-                    &mut columns,
-                );
-            }
-            cols.into_iter().map(move |iu| {
+    let refilled = over_rows(mesh, &frame, axis, by_row, |cols, columns| {
+        cols.into_iter()
+            .map(|(iv, iu)| {
                 let mut bits = vec![0u32; w];
                 fill_column(&mut columns[iu as usize], depth, rule, &mut bits);
                 ((iv as usize * width as usize + iu as usize) * w, bits)
             })
-        })
-        .collect();
+            .collect()
+    });
     for (at, bits) in refilled {
         grid.words[at..at + w].copy_from_slice(&bits);
     }
@@ -305,52 +327,33 @@ pub fn column_windings(
         let (u, v) = axis.uv();
         (u, v, axis.index())
     };
-    let (width, height, depth) = (frame.dims[ua], frame.dims[va], frame.dims[da]);
+    let depth = frame.dims[da];
     let mut by_row: std::collections::BTreeMap<u32, Vec<usize>> = Default::default();
     for (n, v) in voxels.iter().enumerate() {
         by_row.entry(v[va]).or_default().push(n);
     }
-    let projected: Vec<Projected> = mesh
-        .triangles
-        .par_iter()
-        .filter_map(|&t| project(mesh, frame, axis, t))
-        .collect();
-    let rows = bucket_rows(&projected, height);
-    let rows_wanted: Vec<(u32, Vec<usize>)> = by_row.into_iter().collect();
-    let answers: Vec<Vec<(usize, i32)>> = rows_wanted
-        .par_iter()
-        .map(|(iv, members)| {
-            let mut columns: Vec<Vec<(f64, i8)>> = vec![Vec::new(); width as usize];
-            for &t in &rows[*iv as usize] {
-                rasterize_row(
-                    &projected[t as usize],
-                    *iv as i64,
-                    width as i64,
-                    &mut columns,
-                );
-            }
-            members
-                .iter()
-                .map(|&n| {
-                    let v = voxels[n];
-                    let starts = columns[v[ua] as usize]
-                        .iter()
-                        .map(|&(z, s)| (((z - 0.5).ceil().max(0.0).min(depth as f64)) as u32, s));
-                    let (mut winding, mut later) = (0i32, false);
-                    for (k, s) in starts {
-                        if k <= v[da] {
-                            winding += s as i32;
-                        } else {
-                            later = true;
-                        }
+    let answers = over_rows(mesh, frame, axis, by_row, |members, columns| {
+        members
+            .into_iter()
+            .map(|n| {
+                let v = voxels[n];
+                let starts = columns[v[ua] as usize]
+                    .iter()
+                    .map(|&(z, s)| (((z - 0.5).ceil().max(0.0).min(depth as f64)) as u32, s));
+                let (mut winding, mut later) = (0i32, false);
+                for (k, s) in starts {
+                    if k <= v[da] {
+                        winding += s as i32;
+                    } else {
+                        later = true;
                     }
-                    (n, if later { winding } else { 0 })
-                })
-                .collect()
-        })
-        .collect();
+                }
+                (n, if later { winding } else { 0 })
+            })
+            .collect()
+    });
     let mut out = vec![0; voxels.len()];
-    for (n, w) in answers.into_iter().flatten() {
+    for (n, w) in answers {
         out[n] = w;
     }
     out

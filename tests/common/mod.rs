@@ -14,6 +14,17 @@ pub fn validated_context() -> Context {
     .expect("a Vulkan device with the validation layer (see README: apt packages)")
 }
 
+/// The library's GPU facade with validation required (call `finish` at the end to assert no leak and no
+/// validation message).
+pub fn validated_gpu() -> gregvox::api::Gpu {
+    gregvox::api::Gpu::with_desc(&ContextDesc {
+        validation: Validation::Required,
+        sync_validation: true,
+        ..Default::default()
+    })
+    .expect("a Vulkan device with the validation layer (see README: apt packages)")
+}
+
 /// Runs `f` with a validated context; then asserts no allocation is alive and no validation message came.
 pub fn with_gpu<T>(f: impl FnOnce(&Context) -> T) -> T {
     let ctx = validated_context();

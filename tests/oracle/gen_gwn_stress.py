@@ -36,6 +36,9 @@ import time
 import igl
 import numpy as np
 
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from gen_gwn import centres, exact_w, rle  # noqa: E402  (the encoding and the exact sums, shared)
+
 ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 OUT = os.path.join(ROOT, "tests", "fixtures", "gwn_stress")
 BUNNY = os.path.join(ROOT, "assets", "models", "stanford-bunny.obj")
@@ -93,33 +96,6 @@ def clean(V, F):
         elif net < 0:
             keep.append(b[0])
     return F[np.sort(np.array(keep, dtype=np.int64))]
-
-
-def rle(data):
-    out = bytearray()
-    i, n = 0, len(data)
-    while i < n:
-        v, j = data[i], i + 1
-        while j < n and j - i < 255 and data[j] == v:
-            j += 1
-        out += bytes([v, j - i])
-        i = j
-    return bytes(out)
-
-
-def centres(lo, side, R):
-    p = side / R
-    c = (np.arange(R, dtype=np.float64) + 0.5) * p
-    X, Y, Z = np.meshgrid(c + lo[0], c + lo[1], c + lo[2], indexing="ij")
-    return np.stack([X.ravel(), Y.ravel(), Z.ravel()], axis=1)
-
-
-def exact_w(V, F, P):
-    out = np.empty(len(P))
-    step = max(1, 2_000_000 // max(1, len(F)))
-    for s in range(0, len(P), step):
-        out[s:s + step] = igl.winding_number(V, F, P[s:s + step])
-    return out
 
 
 def main():
