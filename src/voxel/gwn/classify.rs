@@ -40,11 +40,11 @@ pub const CELL: u32 = 2;
 /// A small cap's node is accepted for a box when (ρ + r) ≤ θ·D …
 pub const THETA: f64 = 0.3;
 /// … and r ≤ SPREAD·g (its variation over the ball stays a small part of its A/g²).
-pub const SPREAD: f64 = 0.12;
+pub const SPREAD: f64 = 0.3;
 /// Triangles per leaf of the caps' trees.
 pub const CAP_LEAF: usize = 2;
 /// A node kept at a cell is expanded at each voxel when ρ ≤ POINT_THETA·(D − r).
-pub const POINT_THETA: f64 = 0.3;
+pub const POINT_THETA: f64 = 0.5;
 /// Bound-only acceptance of a node (steradians).
 pub const BOUND_EPS: f64 = 1e-3;
 /// Bound-only acceptance of a ribbon node: ribbons are only ever bounded, and there are many.
