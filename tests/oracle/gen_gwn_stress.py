@@ -37,7 +37,7 @@ import igl
 import numpy as np
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from gen_gwn import centres, exact_w, rle  # noqa: E402  (the encoding and the exact sums, shared)
+from gen_gwn import centres, exact_w, read_obj, rle  # noqa: E402  (reader, encoding, exact sums: shared)
 
 ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 OUT = os.path.join(ROOT, "tests", "fixtures", "gwn_stress")
@@ -52,23 +52,6 @@ def fnv1a(data):
         h ^= b
         h = (h * 0x100000001B3) & 0xFFFFFFFFFFFFFFFF
     return h
-
-
-def read_obj(path):
-    V, T = [], []
-    with open(path) as fh:
-        for line in fh:
-            t = line.split("#")[0].split()
-            if not t:
-                continue
-            if t[0] == "v":
-                V.append([float(x) for x in t[1:4]])
-            elif t[0] == "f":
-                face = [int(tok.split("/")[0]) - 1 for tok in t[1:]]
-                for k in range(1, len(face) - 1):
-                    T.append([face[0], face[k], face[k + 1]])
-    V = np.array(V, dtype=np.float64).astype(np.float32).astype(np.float64)
-    return V, np.array(T, dtype=np.int64)
 
 
 def clean(V, F):

@@ -1,6 +1,8 @@
 //! [`PeelVoxelizer`]: Harada–Koshizuka depth peeling, per axis: count pre-pass → L peeling passes → fill →
 //! (with the host's triangles at hand) the check for columns that lost an equal-depth fragment, which the
-//! CPU scanline recomputes, so peeling gives the CPU's grid even where triangles coincide.
+//! CPU scanline recomputes, so peeling gives the CPU's grid even where triangles coincide. The check costs one
+//! dispatch and a readback of a bit per column; the repair costs the scanline of the lost columns' rows, at
+//! worst (every column lost: a mesh with every face duplicated) what `--method cpu` costs for the grid.
 //!
 //! Invariants: the two D32 depth images alternate between `DEPTH_ATTACHMENT_OPTIMAL` (current pass) and
 //! `DEPTH_READ_ONLY_OPTIMAL` (read by the next pass); the "previous" image of pass 0 is cleared to 0.0 so one

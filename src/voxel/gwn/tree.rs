@@ -311,14 +311,9 @@ impl Tree {
                 continue;
             }
             if gap > 0.0 && node.radius + ball.r <= accept.theta * d {
-                let (v, e) = expand(node, ball.c, d, ball.r, gap);
-                if e < bound {
-                    lo += v - e;
-                    hi += v + e;
-                } else {
-                    lo -= bound;
-                    hi += bound;
-                }
+                let (v, e) = expansion_or_bound(node, ball.c, d, ball.r, gap, bound);
+                lo += v - e;
+                hi += v + e;
             } else if node.is_leaf() {
                 lo -= bound;
                 hi += bound;
@@ -361,14 +356,9 @@ impl Tree {
                 && node.radius + ball.r <= accept.theta * d
                 && ball.r <= accept.spread * gap
             {
-                let (v, e) = expand(node, ball.c, d, ball.r, gap);
-                if e < bound {
-                    lo += v - e;
-                    hi += v + e;
-                } else {
-                    lo -= bound;
-                    hi += bound;
-                }
+                let (v, e) = expansion_or_bound(node, ball.c, d, ball.r, gap, bound);
+                lo += v - e;
+                hi += v + e;
             } else if gap > 0.0 && node.radius <= accept.point_theta * (d - ball.r) {
                 scratch.mid.push(i);
             } else if node.is_leaf() {
@@ -385,31 +375,19 @@ impl Tree {
     /// with the truncation bound, or ± its bound, whichever is narrower: (value, error).
     #[inline]
     pub fn share_at(&self, i: u32, q: [f64; 3], nu: f64) -> (f64, f64) {
-        let node = &self.nodes[i as usize];
-        let d = norm(sub(q, node.centre));
-        let gap = d - node.radius;
-        let bound = Self::node_bound(node, gap, nu);
-        if gap > 0.0 && node.radius < 0.95 * d {
-            let (v, e) = expand(node, q, d, 0.0, gap);
-            if e < bound {
-                return (v, e);
-            }
-        }
-        (0.0, bound)
+        self.share_over(i, &Ball { c: q, r: 0.0, nu })
     }
 
     /// Node `i`'s share over every point of `ball`: (value, error) as [`Tree::share_at`], the expansion's
     /// error including its variation over the ball.
+    #[inline]
     pub fn share_over(&self, i: u32, ball: &Ball) -> (f64, f64) {
         let node = &self.nodes[i as usize];
         let d = norm(sub(ball.c, node.centre));
         let gap = d - ball.r - node.radius;
         let bound = Self::node_bound(node, gap, ball.nu);
         if gap > 0.0 && node.radius < 0.95 * d {
-            let (v, e) = expand(node, ball.c, d, ball.r, gap);
-            if e < bound {
-                return (v, e);
-            }
+            return expansion_or_bound(node, ball.c, d, ball.r, gap, bound);
         }
         (0.0, bound)
     }
@@ -443,13 +421,9 @@ impl Tree {
                     continue;
                 }
                 if node.radius <= accept.theta * d {
-                    let (v, e) = expand(node, c, d, 0.0, gap);
-                    if e < bound {
-                        sum += v;
-                        err += e;
-                    } else {
-                        err += bound;
-                    }
+                    let (v, e) = expansion_or_bound(node, c, d, 0.0, gap, bound);
+                    sum += v;
+                    err += e;
                     continue;
                 }
             }
@@ -646,6 +620,25 @@ fn refine<T>(
             operations += 6.0;
         }
         shares.drain(..k);
+    }
+}
+
+/// A node's share over the ball of radius `r` at `c` (`d` from its centre, `gap` clear of it): its
+/// expansion with the truncation error when that is narrower than `bound`, else 0 ± `bound`.
+#[inline]
+fn expansion_or_bound(
+    node: &Node,
+    c: [f64; 3],
+    d: f64,
+    r: f64,
+    gap: f64,
+    bound: f64,
+) -> (f64, f64) {
+    let (v, e) = expand(node, c, d, r, gap);
+    if e < bound {
+        (v, e)
+    } else {
+        (0.0, bound)
     }
 }
 
