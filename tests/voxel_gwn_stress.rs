@@ -49,20 +49,7 @@ fn stress_mesh(name: &str) -> Mesh {
 fn oracle(name: &str, kind: &str, mesh: &Mesh) -> VoxelGrid {
     let c = common::oracle_case(&fixtures(), name, RES);
     let frame = gregvox::api::grid_frame(mesh, &VoxelizeOptions::default().res(RES)).unwrap();
-    let exact = |v: &serde_json::Value| v.as_str().unwrap().parse::<f64>().unwrap();
-    let origin: Vec<f64> = c["origin_text"]
-        .as_array()
-        .unwrap()
-        .iter()
-        .map(exact)
-        .collect();
-    assert_eq!(
-        (origin.as_slice(), exact(&c["side_text"])),
-        (frame.origin.as_slice(), frame.voxel_size[0] * RES as f64),
-        "{name}: the oracle sampled another grid"
-    );
-    let file = fixtures().join(c["files"][kind].as_str().unwrap());
-    common::load_mask(&file, frame, RES, c[kind].as_u64().unwrap())
+    common::oracle_mask(&c, &fixtures(), frame, RES, kind)
 }
 
 const CASES: [&str; 7] = [

@@ -207,14 +207,9 @@ pub fn fill_column(crossings: &mut [(f64, i8)], depth: u32, rule: FillRule, colu
 /// assert_eq!(grid.count(), 512);
 /// ```
 pub fn voxelize_cpu(mesh: &TriMesh, frame: &GridFrame, axis: Axis, rule: FillRule) -> VoxelGrid {
-    let (ua, va) = axis.uv();
-    let (width, height, depth) = (frame.dims[ua], frame.dims[va], frame.dims[axis.index()]);
-    let projected: Vec<Projected> = mesh
-        .triangles
-        .par_iter()
-        .filter_map(|&t| project(mesh, frame, axis, t))
-        .collect();
-    let rows = bucket_rows(&projected, height);
+    let ua = axis.uv().0;
+    let (width, depth) = (frame.dims[ua], frame.dims[axis.index()]);
+    let (projected, rows) = projected_rows(mesh, frame, axis);
     let mut grid = VoxelGrid::empty(*frame, axis);
     let w = frame.words_per_column(axis) as usize;
     let row_words = w * width as usize;
@@ -251,14 +246,9 @@ fn over_rows<W: Send, R: Send>(
     wanted: std::collections::BTreeMap<u32, W>,
     per_row: impl Fn(W, &mut [Vec<(f64, i8)>]) -> Vec<R> + Sync,
 ) -> Vec<R> {
-    let (ua, va) = axis.uv();
-    let (width, height) = (frame.dims[ua], frame.dims[va]);
-    let projected: Vec<Projected> = mesh
-        .triangles
-        .par_iter()
-        .filter_map(|&t| project(mesh, frame, axis, t))
-        .collect();
-    let rows = bucket_rows(&projected, height);
+    let ua = axis.uv().0;
+    let width = frame.dims[ua];
+    let (projected, rows) = projected_rows(mesh, frame, axis);
     wanted
         .into_par_iter()
         .flat_map_iter(|(iv, items)| {
@@ -377,7 +367,7 @@ pub fn relabel(mesh: &TriMesh, grid: &mut VoxelGrid, regions: &[Region], positiv
         let (u, v) = axis.uv();
         (u, v, axis.index())
     };
-    let (width, height, depth) = (frame.dims[ua], frame.dims[va], frame.dims[da]);
+    let (width, depth) = (frame.dims[ua], frame.dims[da]);
     // Per row: (u0, u1, d0, d1, k).
     let mut by_row: std::collections::BTreeMap<u32, Vec<[i64; 5]>> = Default::default();
     for &(lo, hi, k) in regions {
@@ -391,12 +381,7 @@ pub fn relabel(mesh: &TriMesh, grid: &mut VoxelGrid, regions: &[Region], positiv
             ]);
         }
     }
-    let projected: Vec<Projected> = mesh
-        .triangles
-        .par_iter()
-        .filter_map(|&t| project(mesh, &frame, axis, t))
-        .collect();
-    let rows = bucket_rows(&projected, height);
+    let (projected, rows) = projected_rows(mesh, &frame, axis);
     let rows_wanted: Vec<(u32, Vec<[i64; 5]>)> = by_row.into_iter().collect();
     let changes: Vec<Vec<(u32, u32, u32, bool)>> = rows_wanted
         .par_iter()
@@ -455,6 +440,21 @@ pub fn relabel(mesh: &TriMesh, grid: &mut VoxelGrid, regions: &[Region], positiv
     flipped
 }
 
+/// The triangles of `mesh` projected for `axis` (those with a non-zero snapped area), bucketed by row.
+fn projected_rows(
+    mesh: &TriMesh,
+    frame: &GridFrame,
+    axis: Axis,
+) -> (Vec<Projected>, Vec<Vec<u32>>) {
+    let projected: Vec<Projected> = mesh
+        .triangles
+        .par_iter()
+        .filter_map(|&t| project(mesh, frame, axis, t))
+        .collect();
+    let rows = bucket_rows(&projected, frame.dims[axis.uv().1]);
+    (projected, rows)
+}
+
 /// Triangles bucketed by the rows (of `height`) their snapped bounding box touches.
 fn bucket_rows(projected: &[Projected], height: u32) -> Vec<Vec<u32>> {
     let mut rows: Vec<Vec<u32>> = vec![Vec::new(); height as usize];
@@ -472,14 +472,9 @@ fn bucket_rows(projected: &[Projected], height: u32) -> Vec<Vec<u32>> {
 
 /// Number of crossings in the deepest column along `axis`: the layers depth peeling needs.
 pub fn max_depth_complexity(mesh: &TriMesh, frame: &GridFrame, axis: Axis) -> u32 {
-    let (ua, va) = axis.uv();
-    let (width, height) = (frame.dims[ua], frame.dims[va]);
-    let projected: Vec<Projected> = mesh
-        .triangles
-        .iter()
-        .filter_map(|&t| project(mesh, frame, axis, t))
-        .collect();
-    let rows = bucket_rows(&projected, height);
+    let ua = axis.uv().0;
+    let width = frame.dims[ua];
+    let (projected, rows) = projected_rows(mesh, frame, axis);
     let mut deepest = 0;
     let mut columns: Vec<Vec<(f64, i8)>> = vec![Vec::new(); width as usize];
     for (iv, tris) in rows.iter().enumerate() {

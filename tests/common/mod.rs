@@ -91,18 +91,16 @@ pub fn load_mask(
     g
 }
 
-/// The `inside` and `band` masks of oracle case `c` (an entry of a fixture folder's index.json) from `dir`,
-/// after checking that the oracle sampled `frame` (origin and side as shortest round-trip text: serde_json's
-/// default float parser is not correctly rounded, Rust's `str::parse` is).
-pub fn oracle_masks(
+/// Mask `kind` of oracle case `c` (an entry of a fixture folder's index.json) from `dir`, after checking
+/// that the oracle sampled `frame` (origin and side as shortest round-trip text: serde_json's default float
+/// parser is not correctly rounded, Rust's `str::parse` is).
+pub fn oracle_mask(
     c: &serde_json::Value,
     dir: &std::path::Path,
     frame: gregvox::voxel::grid::GridFrame,
     res: u32,
-) -> (
-    gregvox::voxel::grid::VoxelGrid,
-    gregvox::voxel::grid::VoxelGrid,
-) {
+    kind: &str,
+) -> gregvox::voxel::grid::VoxelGrid {
     let exact = |v: &serde_json::Value| v.as_str().unwrap().parse::<f64>().unwrap();
     let origin: Vec<f64> = c["origin_text"]
         .as_array()
@@ -116,11 +114,24 @@ pub fn oracle_masks(
         "{}: the oracle sampled another grid",
         c["model"]
     );
-    let load = |kind: &str| {
-        let file = dir.join(c["files"][kind].as_str().unwrap());
-        load_mask(&file, frame, res, c[kind].as_u64().unwrap())
-    };
-    (load("inside"), load("band"))
+    let file = dir.join(c["files"][kind].as_str().unwrap());
+    load_mask(&file, frame, res, c[kind].as_u64().unwrap())
+}
+
+/// The `inside` and `band` masks of oracle case `c` ([`oracle_mask`]).
+pub fn oracle_masks(
+    c: &serde_json::Value,
+    dir: &std::path::Path,
+    frame: gregvox::voxel::grid::GridFrame,
+    res: u32,
+) -> (
+    gregvox::voxel::grid::VoxelGrid,
+    gregvox::voxel::grid::VoxelGrid,
+) {
+    (
+        oracle_mask(c, dir, frame, res, "inside"),
+        oracle_mask(c, dir, frame, res, "band"),
+    )
 }
 
 /// The entry of `model` at `res` in the index.json of oracle fixture folder `dir`.
