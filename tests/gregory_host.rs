@@ -4,7 +4,7 @@
 //! kernel against the curvature pass and the CPU's fundamental forms, at the same bits at every width.
 mod common;
 
-use common::{gregory_points, random_patch, with_gpu};
+use common::{angle, gregory_points, random_patch, with_gpu};
 use glam::{DVec3, Vec3};
 use gregvox::engine::cage::{builtin_cage, cage_topology, icosphere_quad_cage};
 use gregvox::engine::gregory::{Evaluator, GregorySurface};
@@ -175,8 +175,10 @@ fn host_evaluator_matches_the_vulkan_kernel_at_rest_and_under_deformation() {
                 for (x, y) in a.iter().zip(&b) {
                     let (px, py) = (Vec3::from(x.xyz()), Vec3::from(y.xyz()));
                     dp = dp.max((px - py).length());
-                    dn = dn
-                        .max(Vec3::from(x.normal_xyz()).angle_between(Vec3::from(y.normal_xyz())));
+                    dn = dn.max(angle(
+                        Vec3::from(x.normal_xyz()),
+                        Vec3::from(y.normal_xyz()),
+                    ));
                     same += (x.position_key() == y.position_key()) as usize;
                     assert_eq!((x.position[3], x.normal[3]), (1.0, 0.0));
                 }

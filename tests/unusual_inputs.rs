@@ -758,10 +758,11 @@ fn subdivision_past_the_memory_left_is_refused_with_its_estimate() {
     let dir = scratch("subdivide-guard");
     let cube = model("opensubdiv/catmark_cube.obj");
     let cube = cube.to_str().unwrap();
-    let o = run_in(
+    // Under an 8 GiB address-space limit, so that a machine with more memory than the estimate refuses too.
+    let o = limited(
         &dir,
+        8 << 30,
         &["subdivide", cube, "--levels", "12", "--out", "c.obj"],
-        &[],
     );
     common::assert_one_error_line("--levels 12", &o, &["--levels 12", "402 M corners", "MiB"]);
     // Under a 1 GiB address-space limit, 9 levels (6.3 M corners, ~600 MiB) is refused by the estimate

@@ -113,10 +113,14 @@ fn abuffer_matches_the_cpu_on_a_torus_and_overlapping_spheres_along_every_axis()
                     a.count_differences(&p),
                     cpu.count()
                 );
-                // Same sampling up to sub-pixel snapping ties (notes §3): ≤ max(4, 1e-5·solid).
-                assert!(
-                    da <= 4.max(cpu.count() / 100_000),
-                    "{name} {axis:?} {rule:?}: {da}"
+                // Same sampling up to sub-pixel snapping ties (notes §3): none on lavapipe, elsewhere only
+                // at centres within the snapping band of a triangle.
+                let _ = da;
+                common::assert_same_up_to_snapping(
+                    &a,
+                    &cpu,
+                    mesh,
+                    &format!("{name} {res}³ {axis:?} {rule:?} A-buffer"),
                 );
             }
         }

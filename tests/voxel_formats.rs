@@ -470,3 +470,32 @@ fn write_dense_xyz_is_get_at_every_voxel_whatever_the_bit_axis() {
         assert!(dense.contains(&1) && dense.contains(&0));
     }
 }
+
+#[test]
+fn changing_the_bit_axis_keeps_every_voxel_between_every_pair_of_axes() {
+    // Dims that are and are not multiples of 32, on every axis, so partial words and partial bands of 32
+    // rows appear on each side of the 32 × 32 block transposes.
+    for dims in [[13, 7, 37], [64, 33, 32], [31, 65, 96], [1, 40, 1]] {
+        let frame = GridFrame {
+            dims,
+            origin: [0.0; 3],
+            voxel_size: [1.0; 3],
+        };
+        let g = pattern_in(frame);
+        let want = set_of(&g);
+        for from in Axis::ALL {
+            let a = g.to_axis(from);
+            for to in Axis::ALL {
+                let b = a.to_axis(to);
+                assert_eq!(b.bit_axis, to);
+                assert_eq!(set_of(&b), want, "{dims:?} {from:?} → {to:?}");
+                // No stray bits past the column ends: the words equal those of a grid set voxel by voxel.
+                let mut direct = VoxelGrid::empty(frame, to);
+                for &[i, j, k] in &want {
+                    direct.set(i, j, k, true);
+                }
+                assert_eq!(b.words, direct.words, "{dims:?} {from:?} → {to:?}");
+            }
+        }
+    }
+}

@@ -484,7 +484,7 @@ fn a_sheet_a_tenth_of_a_voxel_thick_keeps_every_voxel_it_crosses_with_fill_both(
 }
 
 #[test]
-fn auto_runs_the_cpu_scanline_on_a_cpu_device_and_says_why() {
+fn auto_runs_the_cpu_scanline_on_a_cpu_device_and_the_abuffer_on_a_gpu_and_says_why() {
     let out = gregvox(&["voxelize", &model_str("spot.obj"), "--res", "32", "--json"]);
     assert!(
         out.status.success(),
@@ -492,9 +492,16 @@ fn auto_runs_the_cpu_scanline_on_a_cpu_device_and_says_why() {
         String::from_utf8_lossy(&out.stderr)
     );
     let j: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
-    assert_eq!(j["method"], "cpu", "{j}");
+    // The device the binary picks (lavapipe in CI: a CPU device).
+    let (_, kind) = gregvox::gpu::context::probe_device().unwrap();
+    let (expected, why_word) = if kind == "CPU" {
+        ("cpu", "CPU")
+    } else {
+        ("abuffer", "GPU")
+    };
+    assert_eq!(j["method"], expected, "{kind}: {j}");
     let why = j["method_reason"].as_str().unwrap();
-    assert!(why.starts_with("auto: ") && why.contains("CPU"), "{why}");
+    assert!(why.starts_with("auto: ") && why.contains(why_word), "{why}");
     // The same grid as every named method.
     for m in ["cpu", "peel", "abuffer"] {
         let o = gregvox(&[
@@ -507,13 +514,17 @@ fn auto_runs_the_cpu_scanline_on_a_cpu_device_and_says_why() {
             m,
         ]);
         let k: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
-        assert_eq!(k["solid_voxels"], j["solid_voxels"], "{m}");
+        // Auto's grid is that of the method it names (the other methods may differ from it at centres
+        // within the rasterizer's snapping of a triangle on a GPU: tests/common::assert_same_up_to_snapping).
+        if m == expected {
+            assert_eq!(k["solid_voxels"], j["solid_voxels"], "{m}");
+        }
         assert_eq!(k["method"], m);
         assert!(k["method_reason"].is_null());
     }
     let text = gregvox(&["voxelize", &model_str("spot.obj"), "--res", "32"]);
     let s = String::from_utf8_lossy(&text.stdout);
-    assert!(s.contains("method: cpu (auto: "), "{s}");
+    assert!(s.contains(&format!("method: {expected} (auto: ")), "{s}");
 }
 
 /// Reads a NRRD header's placement: (sizes, spacing, centre of voxel 0).

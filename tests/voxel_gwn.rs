@@ -136,10 +136,13 @@ fn both_device_methods_give_the_cpus_grid() {
             let g = gpu
                 .voxelize(&c.mesh, &gwn(res).method(method).axes(Axes::One(Axis::Z)))
                 .unwrap();
-            assert_eq!(
-                g.grid.count_differences(&cpu.grid),
-                0,
-                "{name} {res}³ {method:?}: GPU and CPU grids differ"
+            // Identical on lavapipe; on other devices a closed mesh keeps the rasterizer's snapping ties
+            // (open ones are decided exactly near the surface, so their grids are identical everywhere).
+            common::assert_same_up_to_snapping(
+                &g.grid,
+                &cpu.grid,
+                &gregvox::voxel::mesh::TriMesh::fan(&c.mesh),
+                &format!("{name} {res}³ {method:?}"),
             );
         }
     }

@@ -175,15 +175,7 @@ fn gpu_peeling_matches_the_cpu_reference_on_a_torus_along_every_axis() {
     assert_eq!(layers[0], 4);
     for (axis, g) in gpu {
         let cpu = voxelize_cpu(&torus, &frame, axis, FillRule::Winding);
-        let diff = g.count_differences(&cpu);
-        eprintln!(
-            "torus 96³ axis {axis:?}: GPU vs CPU differ in {diff} of {}",
-            cpu.count()
-        );
-        assert!(
-            diff <= 4.max(cpu.count() / 100_000),
-            "axis {axis:?}: {diff}"
-        );
+        common::assert_same_up_to_snapping(&g, &cpu, &torus, &format!("torus 96³ axis {axis:?}"));
     }
 }
 

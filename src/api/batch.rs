@@ -465,15 +465,20 @@ struct Finished {
 
 /// The device a batch of `method` needs, made once for the whole batch: none for `cpu`, and none for `auto`
 /// on a CPU device (lavapipe) or without a usable Vulkan device, where `auto` means the CPU scanline.
+/// The device's pipelines are built here, before any model's clock starts.
 pub fn batch_device(method: Method) -> Result<Option<Gpu>> {
-    match method {
-        Method::Cpu => Ok(None),
+    let gpu = match method {
+        Method::Cpu => None,
         Method::Auto => match crate::gpu::context::probe_device() {
-            Ok((_, kind)) if kind != "CPU" => Gpu::new().map(Some),
-            _ => Ok(None),
+            Ok((_, kind)) if kind != "CPU" => Some(Gpu::new()?),
+            _ => None,
         },
-        _ => Gpu::new().map(Some),
+        _ => Some(Gpu::new()?),
+    };
+    if let Some(g) = &gpu {
+        g.prepare(method)?;
     }
+    Ok(gpu)
 }
 
 /// Voxelizes `inputs` (already sorted and sharded) with `gpu` (or the CPU where `gpu` is `None` and the

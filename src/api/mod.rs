@@ -787,6 +787,29 @@ impl Gpu {
         Ok(())
     }
 
+    /// Builds the pipelines `method` voxelizes with (`auto`: the A-buffer's, what it picks on a GPU) now
+    /// rather than on the first call, so that a batch's per-model times and time limits count the
+    /// models' own work, not the driver's shader compilation. `cpu` builds nothing.
+    pub fn prepare(&self, method: Method) -> Result<()> {
+        let stride = std::mem::size_of::<[f32; 3]>() as u32;
+        let mut cache = self.voxelizers.lock().unwrap_or_else(|e| e.into_inner());
+        match method {
+            Method::Cpu => {}
+            Method::Peel if cache.peel.is_none() => {
+                cache.peel = Some(GpuVoxelizer::Peel(Box::new(PeelVoxelizer::new(
+                    &self.ctx, stride,
+                )?)));
+            }
+            Method::Abuffer | Method::Auto if cache.abuffer.is_none() => {
+                cache.abuffer = Some(GpuVoxelizer::Abuffer(Box::new(AbufferVoxelizer::new(
+                    &self.ctx, stride,
+                )?)));
+            }
+            _ => {}
+        }
+        Ok(())
+    }
+
     /// A timestamp profiler for the calls that take one (one frame slot, up to 4,096 scopes).
     pub fn profiler(&self) -> Result<Profiler> {
         Profiler::new(&self.ctx, 1, 4096)

@@ -502,32 +502,81 @@ impl VoxelGrid {
     }
 
     /// The same voxels with bits along `axis`.
+    ///
+    /// Cost: O(voxels / 32) word operations, no per-voxel work: 32 source columns that are consecutive along
+    /// the new bit axis, one word of each, form a 32 × 32 bit block that one transpose turns into one word
+    /// of each of 32 new columns. Planes of the third axis (or 32-row bands) run in parallel; 1024³ takes
+    /// tens of milliseconds.
     pub fn to_axis(&self, axis: Axis) -> VoxelGrid {
         if axis == self.bit_axis {
             return self.clone();
         }
+        use rayon::prelude::*;
+        let dims = self.frame.dims.map(|n| n as usize);
+        let (d, e) = (self.bit_axis.index(), axis.index());
+        let f = 3 - d - e;
+        let (su, sv) = self.bit_axis.uv();
+        let (tu, tv) = axis.uv();
+        let nws = self.frame.words_per_column(self.bit_axis) as usize;
+        let nwt = self.frame.words_per_column(axis) as usize;
         let mut out = VoxelGrid::empty(self.frame, axis);
-        let (ua, va) = self.bit_axis.uv();
-        let da = self.bit_axis.index();
-        let (nu, nv) = (self.frame.dims[ua], self.frame.dims[va]);
-        let w = self.frame.words_per_column(self.bit_axis) as usize;
-        for v in 0..nv {
-            for u in 0..nu {
-                let base = (v as usize * nu as usize + u as usize) * w;
-                for (wi, &word) in self.words[base..base + w].iter().enumerate() {
-                    let mut bits = word;
-                    while bits != 0 {
-                        let b = bits.trailing_zeros();
-                        bits &= bits - 1;
-                        let mut ijk = [0u32; 3];
-                        ijk[ua] = u;
-                        ijk[va] = v;
-                        ijk[da] = wi as u32 * 32 + b;
-                        out.set(ijk[0], ijk[1], ijk[2], true);
-                    }
+        let src = &self.words;
+        // The 32 rows of block (e-word `eb`, d-word `dw`) in plane `fv`, transposed: row s holds bits
+        // e = 32·eb .. of the new column at d = 32·dw + s.
+        let block = |fv: usize, eb: usize, dw: usize| -> [u32; 32] {
+            let mut rows = [0u32; 32];
+            for (t, row) in rows.iter_mut().enumerate() {
+                let ev = eb * 32 + t;
+                if ev >= dims[e] {
+                    break;
                 }
+                let mut ijk = [0usize; 3];
+                ijk[e] = ev;
+                ijk[f] = fv;
+                *row = src[(ijk[sv] * dims[su] + ijk[su]) * nws + dw];
             }
+            transpose32(&mut rows);
+            rows
+        };
+        if tv == f {
+            // One chunk per plane f = v: its columns run along u = d.
+            out.words
+                .par_chunks_mut(dims[tu] * nwt)
+                .enumerate()
+                .for_each(|(fv, chunk)| {
+                    for eb in 0..nwt {
+                        for dw in 0..nws {
+                            let rows = block(fv, eb, dw);
+                            for (s, &row) in rows.iter().enumerate() {
+                                let dv = dw * 32 + s;
+                                if dv >= dims[d] {
+                                    break;
+                                }
+                                chunk[dv * nwt + eb] = row;
+                            }
+                        }
+                    }
+                });
+        } else {
+            // v = d: a chunk is a band of 32 values of d (one source word), every plane f = u inside.
+            debug_assert!(tv == d && tu == f);
+            out.words
+                .par_chunks_mut(32 * dims[tu] * nwt)
+                .enumerate()
+                .for_each(|(dw, chunk)| {
+                    let rows_here = chunk.len() / (dims[tu] * nwt);
+                    for fv in 0..dims[f] {
+                        for eb in 0..nwt {
+                            let rows = block(fv, eb, dw);
+                            for (s, &row) in rows.iter().take(rows_here).enumerate() {
+                                chunk[(s * dims[tu] + fv) * nwt + eb] = row;
+                            }
+                        }
+                    }
+                });
         }
+        // Bits past dims[e] in each new column's last word: the transposed rows of absent source columns
+        // (t ≥ dims[e]) were zero, so nothing to clear.
         out
     }
 
@@ -581,5 +630,22 @@ impl VoxelGrid {
             bit_axis: Axis::Z,
             words,
         }
+    }
+}
+
+/// Transposes a 32 × 32 bit matrix in place: afterwards bit s of `a[t]` is the former bit t of `a[s]`
+/// (Hacker's Delight §7-3, for low-bit-first rows).
+pub fn transpose32(a: &mut [u32; 32]) {
+    let (mut j, mut m) = (16usize, 0x0000_FFFFu32);
+    while j != 0 {
+        let mut k = 0usize;
+        while k < 32 {
+            let t = ((a[k] >> j) ^ a[k + j]) & m;
+            a[k] ^= t << j;
+            a[k + j] ^= t;
+            k = (k + j + 1) & !j;
+        }
+        j >>= 1;
+        m ^= m << j;
     }
 }
