@@ -2,7 +2,8 @@
 //! (single model at R = 256, a 2×2×2 scene graph at R = 300), NRRD and NPY parsed here from their published
 //! layouts (headers checked line by line), all compared voxel by voxel with the source grid.
 use gregvox::voxel::export::{
-    npy_bytes, npy_packed_bytes, nrrd_bytes, vox_bytes, write_grid, SaveOptions, VOX_MODEL_MAX,
+    binvox_bytes, npy_bytes, npy_packed_bytes, nrrd_bytes, vox_bytes, write_grid, SaveOptions,
+    VOX_MODEL_MAX,
 };
 use gregvox::voxel::grid::{Axis, GridFrame, VoxelGrid};
 use std::collections::HashSet;
@@ -497,5 +498,55 @@ fn changing_the_bit_axis_keeps_every_voxel_between_every_pair_of_axes() {
                 assert_eq!(b.words, direct.words, "{dims:?} {from:?} → {to:?}");
             }
         }
+    }
+}
+
+#[test]
+fn the_word_encoders_write_the_bytes_of_the_per_voxel_definitions() {
+    // binvox (cubic only) at sizes with partial words, runs longer than 255 and runs crossing columns and
+    // x slabs; npy and nrrd on non-cubic grids with partial words on every axis.
+    for res in [1u32, 31, 33, 64, 100] {
+        let mut g = pattern(res);
+        // A long solid stretch crossing many columns: runs past 255 that span slabs.
+        for x in res / 3..res / 2 {
+            for z in 0..res {
+                for y in 0..res {
+                    g.set(x, y, z, true);
+                }
+            }
+        }
+        let b = binvox_bytes(&g);
+        let data = &b[b.windows(5).position(|w| w == b"data\n").unwrap() + 5..];
+        assert_eq!(data, binvox_reference(&g).as_slice(), "binvox {res}³");
+    }
+    for dims in [[13, 7, 37], [64, 33, 32], [31, 65, 96], [1, 1, 1]] {
+        let g = pattern_in(GridFrame {
+            dims,
+            origin: [0.0; 3],
+            voxel_size: [1.0; 3],
+        });
+        let [nx, ny, nz] = dims;
+        let npy = npy_bytes(&g);
+        let head = npy.len() - (nx * ny * nz) as usize;
+        let mut want = Vec::new();
+        for x in 0..nx {
+            for y in 0..ny {
+                for z in 0..nz {
+                    want.push(g.get(x, y, z) as u8);
+                }
+            }
+        }
+        assert_eq!(&npy[head..], want.as_slice(), "npy {dims:?}");
+        let nrrd = nrrd_bytes(&g);
+        let head = nrrd.len() - (nx * ny * nz) as usize;
+        let mut want = Vec::new();
+        for z in 0..nz {
+            for y in 0..ny {
+                for x in 0..nx {
+                    want.push(g.get(x, y, z) as u8);
+                }
+            }
+        }
+        assert_eq!(&nrrd[head..], want.as_slice(), "nrrd {dims:?}");
     }
 }

@@ -27,6 +27,7 @@ use glam::DVec3;
 use std::path::Path;
 
 pub mod batch;
+pub mod query;
 pub mod tessellate;
 
 pub use crate::engine::voxelize::{Deadline, ProgressFn, DEFAULT_MAX_LAYERS};
@@ -39,6 +40,7 @@ pub use crate::voxel::export::SaveOptions;
 pub use crate::voxel::grid::{Axis, Bounds, GridFrame, GridSize, GridSpec, VoxelGrid};
 pub use crate::voxel::gwn::GwnStats;
 pub use crate::voxel::surface::Fill;
+pub use query::{MeshQuery, QueryOptions, SdfSign};
 
 /// Largest number of voxels along any axis (2048³ bits = 1 GiB).
 pub const MAX_RES: u32 = crate::voxel::grid::MAX_DIM;

@@ -20,6 +20,7 @@ pub mod peers;
 pub mod plot;
 pub mod thesis;
 pub mod voxel;
+pub mod writers;
 
 use crate::gpu::{Context, Profiler};
 use ash::vk;
@@ -29,8 +30,8 @@ use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 /// The suites, in run order. `peak` runs first: the floors of the other tables divide by its figures.
-pub const SUITES: [&str; 8] = [
-    "peak", "thesis", "gregory", "voxel", "gwn", "batch", "mesh", "scaling",
+pub const SUITES: [&str; 9] = [
+    "peak", "thesis", "gregory", "voxel", "gwn", "batch", "mesh", "writers", "scaling",
 ];
 
 /// What a run measures and where the inputs are.
@@ -622,6 +623,7 @@ pub fn run(cfg: &BenchConfig, command: &str) -> anyhow::Result<Report> {
                 "gwn" => gwn::run(cfg, &mut report)?,
                 "batch" => batch::run(cfg, &mut report)?,
                 "mesh" => mesh::run(cfg, peak.as_ref(), &mut report)?,
+                "writers" => writers::run(cfg, &mut report)?,
                 "scaling" => {
                     gregory::scaling(&ctx, cfg, &mut report)?;
                     voxel::scaling(&ctx, cfg, &mut report)?;

@@ -16,6 +16,7 @@
 //! let n = m.vertex_normals(&mesh.positions, NormalWeighting::Area);
 //! assert!(n.iter().all(|v| (v.length() - 1.0).abs() < 1e-12));
 //! ```
+pub mod distance;
 mod glb;
 pub mod host_kernels;
 mod load;

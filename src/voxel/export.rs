@@ -46,68 +46,133 @@ pub fn binvox_bytes(grid: &VoxelGrid) -> Vec<u8> {
         f.origin[0], f.origin[1], f.origin[2], side
     )
     .into_bytes();
-    // binvox runs y fastest: lay the bits along y so each (x, z) column streams in order. Whole words of
-    // one value (the bulk of any grid: empty space and solid interiors) extend the run by 32 at once, so a
-    // 1024³ grid encodes in word steps, not 10⁹ voxel steps.
+    // binvox runs y fastest: lay the bits along y so each (x, z) column streams in order (bit axis Y's
+    // columns are (u, v) = (z, x), stored x-major: the file's order). Slabs of x are encoded in parallel,
+    // straight into bytes except their first and last runs, which are joined with the neighbours' here:
+    // memory is the output's, whatever the number of runs.
     let g = grid.to_axis(Axis::Y);
-    let mut runs = Runs::default();
-    // For bit axis Y the columns are (u, v) = (z, x).
-    for x in 0..nx {
-        for z in 0..nz {
-            let col = g.column(z, x);
-            for (w, &word) in col.iter().enumerate() {
-                let bits = (ny - 32 * w as u32).min(32);
-                let full = if bits == 32 {
-                    u32::MAX
-                } else {
-                    (1u32 << bits) - 1
-                };
-                match word & full {
-                    0 => runs.push(0, bits),
-                    m if m == full => runs.push(1, bits),
-                    m => (0..bits).for_each(|b| runs.push((m >> b & 1) as u8, 1)),
+    let w = g.frame.words_per_column(Axis::Y) as usize;
+    let slab = (nz as usize * w).max(1);
+    let slabs: Vec<RunBytes> = {
+        use rayon::prelude::*;
+        g.words
+            .par_chunks(slab * 8)
+            .map(|words| {
+                let mut runs = RunBytes::default();
+                for col in words.chunks(w) {
+                    column_runs(col, ny, &mut runs);
                 }
+                runs
+            })
+            .collect()
+    };
+    out.reserve(slabs.iter().map(|r| r.bytes.len() + 4).sum());
+    let mut carry: Option<(u8, u64)> = None;
+    for r in slabs {
+        let Some(first) = r.first else { continue };
+        match (carry, r.last) {
+            // The slab is one run: it only lengthens or replaces the carry.
+            (Some(c), None) if c.0 == first.0 => carry = Some((c.0, c.1 + first.1)),
+            (c, None) => {
+                if let Some(c) = c {
+                    emit_run(&mut out, c);
+                }
+                carry = Some(first);
+            }
+            (c, Some(last)) => {
+                match c {
+                    Some(c) if c.0 == first.0 => emit_run(&mut out, (c.0, c.1 + first.1)),
+                    Some(c) => {
+                        emit_run(&mut out, c);
+                        emit_run(&mut out, first);
+                    }
+                    None => emit_run(&mut out, first),
+                }
+                out.extend_from_slice(&r.bytes);
+                carry = Some(last);
             }
         }
     }
-    runs.finish(&mut out);
+    if let Some(c) = carry {
+        emit_run(&mut out, c);
+    }
     out
 }
 
-/// The run-length pairs of binvox data: (value, count) with counts of at most 255.
+/// A stretch of binvox runs: the first run and the last run held open (a neighbouring stretch may continue
+/// them), the ones between already encoded.
 #[derive(Default)]
-struct Runs {
+struct RunBytes {
+    first: Option<(u8, u64)>,
     bytes: Vec<u8>,
-    value: u8,
-    count: u32,
+    /// The open run after `first`, if any.
+    last: Option<(u8, u64)>,
 }
 
-impl Runs {
-    /// Appends `n` voxels of `value`.
-    fn push(&mut self, value: u8, mut n: u32) {
-        if value != self.value && self.count > 0 {
-            self.bytes
-                .extend_from_slice(&[self.value, self.count as u8]);
-            self.count = 0;
-        }
-        self.value = value;
-        while n > 0 {
-            if self.count == 255 {
-                self.bytes.extend_from_slice(&[value, 255]);
-                self.count = 0;
+impl RunBytes {
+    #[inline]
+    fn push(&mut self, value: u8, n: u64) {
+        // The common case first: the open run continues, or a new one closes it.
+        if let Some(l) = &mut self.last {
+            if l.0 == value {
+                l.1 += n;
+            } else {
+                let done = std::mem::replace(l, (value, n));
+                emit_run(&mut self.bytes, done);
             }
-            let take = n.min(255 - self.count);
-            self.count += take;
-            n -= take;
+            return;
+        }
+        match &mut self.first {
+            None => self.first = Some((value, n)),
+            Some(f) if f.0 == value => f.1 += n,
+            Some(_) => self.last = Some((value, n)),
         }
     }
+}
 
-    fn finish(mut self, out: &mut Vec<u8>) {
-        if self.count > 0 {
-            self.bytes
-                .extend_from_slice(&[self.value, self.count as u8]);
+/// Appends run (value, n) as (value, count ≤ 255) pairs.
+#[inline]
+fn emit_run(out: &mut Vec<u8>, (value, mut n): (u8, u64)) {
+    if n <= 255 {
+        out.extend_from_slice(&[value, n as u8]);
+        return;
+    }
+    while n > 0 {
+        let take = n.min(255);
+        out.extend_from_slice(&[value, take as u8]);
+        n -= take;
+    }
+}
+
+/// Appends the runs of one column of `len` bits. Whole words of one value extend a run by 32 at once and
+/// mixed words go run by run (trailing zeros and ones), so the cost is per word and per run, never per
+/// voxel.
+fn column_runs(col: &[u32], len: u32, runs: &mut RunBytes) {
+    for (i, &word) in col.iter().enumerate() {
+        let bits = (len - 32 * i as u32).min(32);
+        let full = if bits == 32 {
+            u32::MAX
+        } else {
+            (1u32 << bits) - 1
+        };
+        match word & full {
+            0 => runs.push(0, bits as u64),
+            m if m == full => runs.push(1, bits as u64),
+            m => {
+                let (mut m, mut left) = (m, bits);
+                while left > 0 {
+                    let (value, n) = if m & 1 == 1 {
+                        (1, m.trailing_ones())
+                    } else {
+                        (0, m.trailing_zeros())
+                    };
+                    let n = n.min(left);
+                    runs.push(value, n as u64);
+                    m = m.checked_shr(n).unwrap_or(0);
+                    left -= n;
+                }
+            }
         }
-        out.append(&mut self.bytes);
     }
 }
 
@@ -364,18 +429,59 @@ fn npy_header(descr: &str, shape: [usize; 3]) -> Vec<u8> {
 /// NPY (version 1.0): a bool array of shape (X, Y, Z) in C order, `a[i, j, k]` = voxel (i, j, k), so
 /// `numpy.load` gives it ready to index.
 pub fn npy_bytes(grid: &VoxelGrid) -> Vec<u8> {
-    let [nx, ny, nz] = grid.frame.dims;
-    let mut out = npy_header("|b1", [nx as usize, ny as usize, nz as usize]);
-    out.reserve(grid.frame.voxel_count() as usize);
+    use rayon::prelude::*;
+    let [nx, ny, nz] = grid.frame.dims.map(|n| n as usize);
+    let header = npy_header("|b1", [nx, ny, nz]);
+    let head = header.len();
+    // Zeroed by the allocator (fresh pages), not by a sequential fill: the slabs below touch them first.
+    let mut out = vec![0u8; head + nx * ny * nz];
+    out[..head].copy_from_slice(&header);
     let g = grid.to_axis(Axis::Z);
-    for x in 0..nx {
-        for y in 0..ny {
-            // Bits along z: column (u, v) = (x, y).
-            let col = g.column(x, y);
-            out.extend((0..nz as usize).map(|z| (col[z / 32] >> (z % 32) & 1) as u8));
+    // Bits along z: column (u, v) = (x, y); a slab of x is ny·nz bytes of the output.
+    out[head..]
+        .par_chunks_mut((ny * nz).max(1))
+        .enumerate()
+        .for_each(|(x, slab)| {
+            for (y, row) in slab.chunks_mut(nz.max(1)).enumerate() {
+                expand_bits(g.column(x as u32, y as u32), row);
+            }
+        });
+    out
+}
+
+/// One byte (0 or 1) per bit of the little-endian byte: `BYTE_BITS[b]` read as little-endian bytes.
+static BYTE_BITS: [u64; 256] = {
+    let mut t = [0u64; 256];
+    let mut b = 0;
+    while b < 256 {
+        let mut i = 0;
+        while i < 8 {
+            t[b] |= (((b >> i) & 1) as u64) << (8 * i);
+            i += 1;
+        }
+        b += 1;
+    }
+    t
+};
+
+/// Writes the first `out.len()` bits of `words` (low bit first) as bytes 0/1: a word's 32 bytes are four
+/// table lookups, no per-bit reads.
+fn expand_bits(words: &[u32], out: &mut [u8]) {
+    let full = out.len() / 32;
+    for (dst, &w) in out.chunks_exact_mut(32).zip(words) {
+        let b = w.to_le_bytes();
+        dst[0..8].copy_from_slice(&BYTE_BITS[b[0] as usize].to_le_bytes());
+        dst[8..16].copy_from_slice(&BYTE_BITS[b[1] as usize].to_le_bytes());
+        dst[16..24].copy_from_slice(&BYTE_BITS[b[2] as usize].to_le_bytes());
+        dst[24..32].copy_from_slice(&BYTE_BITS[b[3] as usize].to_le_bytes());
+    }
+    let rest = &mut out[full * 32..];
+    if !rest.is_empty() {
+        let w = words[full];
+        for (i, d) in rest.iter_mut().enumerate() {
+            *d = (w >> i & 1) as u8;
         }
     }
-    out
 }
 
 /// NPY (version 1.0): uint8 array of shape (X, Y, ceil(Z/8)) in C order, the packed bits of z for each
@@ -401,20 +507,28 @@ pub fn nrrd_bytes(grid: &VoxelGrid) -> Vec<u8> {
     let [nx, ny, nz] = f.dims;
     let [hx, hy, hz] = f.voxel_size;
     let c = f.centre(0, 0, 0);
-    let mut out = format!(
+    let out = format!(
         "NRRD0004\ntype: uint8\ndimension: 3\nsizes: {nx} {ny} {nz}\nencoding: raw\nspace dimension: 3\n\
          space directions: ({hx},0,0) (0,{hy},0) (0,0,{hz})\nspace origin: ({},{},{})\n\n",
         c[0], c[1], c[2]
     )
     .into_bytes();
     let g = grid.to_axis(Axis::X);
-    // Bit axis X: columns (u, v) = (y, z); x runs fastest inside each column.
-    for z in 0..nz {
-        for y in 0..ny {
-            let col = g.column(y, z);
-            out.extend((0..nx as usize).map(|x| (col[x / 32] >> (x % 32) & 1) as u8));
-        }
-    }
+    // Bit axis X: columns (u, v) = (y, z), stored z-major: the file's order, x fastest in each column.
+    use rayon::prelude::*;
+    let (nx, w) = (nx as usize, g.frame.words_per_column(Axis::X) as usize);
+    let header = out;
+    let head = header.len();
+    let mut out = vec![0u8; head + nx * ny as usize * nz as usize];
+    out[..head].copy_from_slice(&header);
+    out[head..]
+        .par_chunks_mut((nx * ny as usize).max(1))
+        .zip(g.words.par_chunks((w * ny as usize).max(1)))
+        .for_each(|(slab, words)| {
+            for (row, col) in slab.chunks_mut(nx.max(1)).zip(words.chunks(w.max(1))) {
+                expand_bits(col, row);
+            }
+        });
     out
 }
 

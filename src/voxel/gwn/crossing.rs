@@ -15,7 +15,8 @@
 //! at q unless q lies on a triangle. [`Crossings::winding`] says so with `None` when the triangle's
 //! projection has area (orient3d = 0 inside it); triangles whose projection has none never count (their
 //! three edge tests cannot agree) and are not indexed: a point on one of those is found by the caller
-//! (`super::zone`'s on-surface list).
+//! (`super::zone`'s on-surface list), or by the index itself when built with
+//! [`Crossings::with_flat_triangles`].
 //!
 //! Cost: triangles are bucketed by their projected box over a grid of about 16 triangles a cell; a query
 //! tests the triangles of its cell (a box test, then at most four predicates). Triangles covering more
@@ -116,6 +117,17 @@ fn on_triangle(a: [f64; 3], b: [f64; 3], c: [f64; 3], q: [f64; 3]) -> bool {
 impl Crossings {
     /// The bucketed chain of `triangles` (local f64 corners).
     pub fn new(given: Vec<[[f64; 3]; 3]>) -> Crossings {
+        Crossings::build(given, false)
+    }
+
+    /// As [`Crossings::new`], with the triangles whose projection has no area indexed too (they never
+    /// count), so that [`Crossings::winding`] answers `None` on every triangle of the chain: what scattered
+    /// points need (`api::query`), where no near-zone list finds the points lying on them.
+    pub fn with_flat_triangles(given: Vec<[[f64; 3]; 3]>) -> Crossings {
+        Crossings::build(given, true)
+    }
+
+    fn build(given: Vec<[[f64; 3]; 3]>, flats: bool) -> Crossings {
         // The axis whose projections have the least total box area.
         let area = |axis: usize| -> f64 {
             let (u, v) = ((axis + 1) % 3, (axis + 2) % 3);
@@ -155,7 +167,7 @@ impl Crossings {
                 },
             ));
             sigma.push(s);
-            if s != 0 {
+            if s != 0 || flats {
                 for v in t {
                     for k in 0..2 {
                         lo[k] = lo[k].min(v[k]);
@@ -164,7 +176,7 @@ impl Crossings {
                 }
             }
         }
-        let indexed: Vec<bool> = sigma.iter().map(|&s| s != 0).collect();
+        let indexed: Vec<bool> = sigma.iter().map(|&s| s != 0 || flats).collect();
         let counted = indexed.iter().filter(|&&x| x).count();
         let mut c = Crossings {
             axis,
@@ -308,6 +320,10 @@ impl Crossings {
         let o = orient3d(point(a), point(b), point(c), point(q));
         if o == 0.0 && on_triangle(a, b, c, q) {
             return None;
+        }
+        if s == 0 {
+            // A flat triangle (indexed only for the test above): the ray never crosses it.
+            return Some(0);
         }
         if side(a, b, q) != s || side(b, c, q) != s || side(c, a, q) != s {
             return Some(0);

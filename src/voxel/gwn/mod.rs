@@ -206,6 +206,112 @@ fn check_budget(what: &str, bytes: u64, budget: u64) -> Result<()> {
     Ok(())
 }
 
+/// The fractional term X of a mesh (its proxy's caps and ribbons) with its trees, and M's triangles, local
+/// to an origin: what both the grid ([`resolve`]) and scattered points (`api::query`) evaluate.
+pub struct FractionalField {
+    pub fractional: Fractional,
+    /// M's triangles, local.
+    pub mesh: Vec<[[f64; 3]; 3]>,
+    /// X's triangles, local: caps first (loop by loop), then ribbons.
+    pub x: Vec<[[f64; 3]; 3]>,
+    /// Bytes of the trees and of the crossing index to come (what the budget counted).
+    pub fixed_bytes: u64,
+}
+
+impl FractionalField {
+    /// Builds the trees of `proxy`'s fractional term for `mesh`, in coordinates local to `origin`. `h` is
+    /// the length scale (the largest voxel edge): caps whose rim is [`LARGE_RIM`]·h or longer are bounded
+    /// through their rim. Refuses, before building, trees past `budget` bytes.
+    pub fn build(
+        mesh: &TriMesh,
+        proxy: &Proxy,
+        origin: [f64; 3],
+        h: f64,
+        budget: u64,
+    ) -> Result<FractionalField> {
+        let x = proxy.fractional(mesh, origin);
+        let m = local_triangles(mesh, origin);
+        // The caps' tree holds them cut into triangles of a few voxels (a fan's long triangles would keep every
+        // box near a large hole from being bounded); the crossing index keeps them whole, exactly closed.
+        let caps = proxy.cap.triangles.len();
+        let local = |v: u32| -> [f64; 3] {
+            let p = proxy.cap.position(mesh, v);
+            std::array::from_fn(|a| p[a] as f64 - origin[a])
+        };
+        // Large caps (rim of LARGE_RIM voxel edges or more) are bounded through their rim, small ones through
+        // their area.
+        let (mut small, mut large, mut rim) = (Vec::new(), Vec::new(), Vec::new());
+        for (n, lp) in proxy.cap.loops.iter().enumerate() {
+            let edges = &proxy.cap.rim[lp.rim_first as usize..(lp.rim_first + lp.edges) as usize];
+            let length: f64 = edges
+                .iter()
+                .map(|e| {
+                    let [p, q] = e.map(local);
+                    kernel::norm(std::array::from_fn(|a| q[a] - p[a]))
+                })
+                .sum();
+            if length >= LARGE_RIM * h {
+                large.push(n);
+                rim.extend(edges.iter().map(|e| e.map(local)));
+            } else {
+                small.push(n);
+            }
+        }
+        let loop_triangles = |loops: &[usize]| -> usize {
+            loops
+                .iter()
+                .map(|&n| proxy.cap.loops[n].count as usize)
+                .sum()
+        };
+        let loop_iter = |loops: Vec<usize>| {
+            let x = &x;
+            loops.into_iter().flat_map(move |n| {
+                let lp = proxy.cap.loops[n];
+                x[lp.first as usize..(lp.first + lp.count) as usize]
+                    .iter()
+                    .copied()
+            })
+        };
+        let (t, ribbons) = (mesh.triangles.len(), x.len() - caps);
+        let fixed = Tree::bytes_for(loop_triangles(&small), classify::CAP_LEAF)
+            + Tree::bytes_for(loop_triangles(&large), classify::LARGE_LEAF)
+            + Tree::bytes_for(ribbons, tree::LEAF)
+            + rim.len() as u64 * 120
+            + (t + x.len()) as u64 * 96;
+        check_budget(
+            &format!(
+                "the fractional term's trees and the crossing index: {} triangles of caps and ribbons, {t} of the \
+                 mesh",
+                x.len()
+            ),
+            fixed,
+            budget,
+        )?;
+        let ((caps_tree, large_tree), (rim_tree, ribbons_tree)) = rayon::join(
+            || {
+                rayon::join(
+                    || Tree::build_with(loop_iter(small), classify::CAP_LEAF),
+                    || Tree::build_with(loop_iter(large), classify::LARGE_LEAF),
+                )
+            },
+            || rayon::join(|| EdgeTree::build(&rim), || Tree::build(&x[caps..])),
+        );
+        drop(rim);
+        let fractional = Fractional {
+            caps: caps_tree,
+            large: large_tree,
+            rim: rim_tree,
+            ribbons: ribbons_tree,
+        };
+        Ok(FractionalField {
+            fractional,
+            mesh: m,
+            x,
+            fixed_bytes: fixed,
+        })
+    }
+}
+
 /// Turns `grid`, the winding rule (or, for [`Inside::Positive`], the positive rule) of `closed` = M' ∪ C'
 /// rasterized along its bit axis, into the generalized winding number's decision for `mesh` = M
 /// ([`GwnStats`] says what it took).
@@ -250,82 +356,14 @@ pub fn resolve(
         clock = std::time::Instant::now();
     };
     lap("start");
-    let x = proxy.fractional(mesh, frame.origin);
+    let FractionalField {
+        fractional,
+        mesh: m,
+        x,
+        fixed_bytes: fixed,
+    } = FractionalField::build(mesh, proxy, frame.origin, max_edge(&frame), params.budget)?;
     stats.fractional_triangles = x.len();
-    let m = local_triangles(mesh, frame.origin);
-    // The caps' tree holds them cut into triangles of a few voxels (a fan's long triangles would keep every
-    // box near a large hole from being bounded); the crossing index keeps them whole, exactly closed.
-    let caps = proxy.cap.triangles.len();
-    let local = |v: u32| -> [f64; 3] {
-        let p = proxy.cap.position(mesh, v);
-        std::array::from_fn(|a| p[a] as f64 - frame.origin[a])
-    };
-    // Large caps (rim of LARGE_RIM voxel edges or more) are bounded through their rim, small ones through
-    // their area.
-    let h = max_edge(&frame);
-    let (mut small, mut large, mut rim) = (Vec::new(), Vec::new(), Vec::new());
-    for (n, lp) in proxy.cap.loops.iter().enumerate() {
-        let edges = &proxy.cap.rim[lp.rim_first as usize..(lp.rim_first + lp.edges) as usize];
-        let length: f64 = edges
-            .iter()
-            .map(|e| {
-                let [p, q] = e.map(local);
-                kernel::norm(std::array::from_fn(|a| q[a] - p[a]))
-            })
-            .sum();
-        if length >= LARGE_RIM * h {
-            large.push(n);
-            rim.extend(edges.iter().map(|e| e.map(local)));
-        } else {
-            small.push(n);
-        }
-    }
-    let loop_triangles = |loops: &[usize]| -> usize {
-        loops
-            .iter()
-            .map(|&n| proxy.cap.loops[n].count as usize)
-            .sum()
-    };
-    let loop_iter = |loops: Vec<usize>| {
-        let x = &x;
-        loops.into_iter().flat_map(move |n| {
-            let lp = proxy.cap.loops[n];
-            x[lp.first as usize..(lp.first + lp.count) as usize]
-                .iter()
-                .copied()
-        })
-    };
-    let (t, ribbons) = (mesh.triangles.len(), x.len() - caps);
-    let fixed = Tree::bytes_for(loop_triangles(&small), classify::CAP_LEAF)
-        + Tree::bytes_for(loop_triangles(&large), classify::LARGE_LEAF)
-        + Tree::bytes_for(ribbons, tree::LEAF)
-        + rim.len() as u64 * 120
-        + (t + x.len()) as u64 * 96;
-    check_budget(
-        &format!(
-            "the fractional term's trees and the crossing index: {} triangles of caps and ribbons, {t} of the \
-             mesh",
-            x.len()
-        ),
-        fixed,
-        params.budget,
-    )?;
-    let ((caps_tree, large_tree), (rim_tree, ribbons_tree)) = rayon::join(
-        || {
-            rayon::join(
-                || Tree::build_with(loop_iter(small), classify::CAP_LEAF),
-                || Tree::build_with(loop_iter(large), classify::LARGE_LEAF),
-            )
-        },
-        || rayon::join(|| EdgeTree::build(&rim), || Tree::build(&x[caps..])),
-    );
-    drop(rim);
-    let fractional = Fractional {
-        caps: caps_tree,
-        large: large_tree,
-        rim: rim_tree,
-        ribbons: ribbons_tree,
-    };
+    let t = mesh.triangles.len();
     lap("trees");
     // The near zone: within `near` of M or of the cap (the ribbons lie within the weld's moves of M).
     // The ribbons are in the zone already (within the weld's moves of M); they are passed for the points

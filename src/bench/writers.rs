@@ -1,0 +1,151 @@
+//! Suite `writers`: every grid format encoded from a 1024³ grid (256³ with `--quick`), and the same bytes
+//! written to a file, against the goal of ≥ 1 G voxels/s of encoding.
+//!
+//! Invariants: the grids are made here, not voxelized (the suite measures the writers alone): a solid ball
+//! (the friendly case: long runs, whole words of one value) and hashed noise with about one voxel in three
+//! solid (the attack on run-length coding and on any per-word shortcut: every word mixed, a run every
+//! 1.5 voxels, binvox's worst case at twice the voxel count in bytes). Encode = the format's bytes in
+//! memory (`voxel::export::*_bytes`, or the bit-axis change and cast for `.raw`); write = the whole
+//! `write_grid` call to a file in the temporary folder (encoding, the temporary file, the rename; the
+//! sidecar), which is removed afterwards. `.vox` holds at most 256³ per model and is measured at 256³.
+use super::{median, num, BenchConfig, Report, Table};
+use crate::voxel::export::{
+    binvox_bytes, npy_bytes, npy_packed_bytes, nrrd_bytes, vox_bytes, write_grid, SaveOptions,
+};
+use crate::voxel::grid::{Axis, GridFrame, VoxelGrid};
+use rayon::prelude::*;
+use serde_json::Value;
+use std::time::Instant;
+
+/// A solid ball filling the grid's inscribed sphere, bits along z (the voxelizers' usual axis).
+fn ball(res: u32) -> VoxelGrid {
+    let mut g = VoxelGrid::empty(GridFrame::cubic(res, [0.0; 3], 1.0), Axis::Z);
+    let w = g.frame.words_per_column(Axis::Z) as usize;
+    let c = res as f64 / 2.0;
+    g.words
+        .par_chunks_mut(w * res as usize)
+        .enumerate()
+        .for_each(|(y, plane)| {
+            for (x, col) in plane.chunks_mut(w).enumerate() {
+                let d2 = (x as f64 + 0.5 - c).powi(2) + (y as f64 + 0.5 - c).powi(2);
+                let r2 = (0.45 * res as f64).powi(2) - d2;
+                if r2 <= 0.0 {
+                    continue;
+                }
+                let h = r2.sqrt();
+                let (z0, z1) = ((c - h).ceil().max(0.0) as u32, ((c + h) as u32).min(res));
+                for z in z0..z1 {
+                    col[z as usize / 32] |= 1 << (z % 32);
+                }
+            }
+        });
+    g
+}
+
+/// Hashed noise, about one voxel in three solid, bits along z.
+fn noise(res: u32) -> VoxelGrid {
+    let mut g = VoxelGrid::empty(GridFrame::cubic(res, [0.0; 3], 1.0), Axis::Z);
+    g.words.par_iter_mut().enumerate().for_each(|(i, w)| {
+        let mut x = (i as u64).wrapping_mul(0x9E37_79B9_7F4A_7C15) ^ 0x2545_F491_4F6C_DD1D;
+        x ^= x >> 29;
+        x = x.wrapping_mul(0xBF58_476D_1CE4_E5B9);
+        x ^= x >> 32;
+        // a & b of two uniform words: a quarter; | a sparse third word: about a third.
+        let (a, b, c) = (x as u32, (x >> 32) as u32, (x as u32).rotate_left(13));
+        *w = (a & b) | (c & a.rotate_left(7) & b.rotate_left(19));
+    });
+    // Clear the bits past z = res in each column's last word (none when res is a multiple of 32).
+    let rem = res % 32;
+    if rem != 0 {
+        let w = g.frame.words_per_column(Axis::Z) as usize;
+        for col in g.words.chunks_mut(w) {
+            col[w - 1] &= (1u32 << rem) - 1;
+        }
+    }
+    g
+}
+
+/// Median milliseconds of `repeats` runs of `f` (its result dropped outside the clock), and its size.
+fn time_bytes(repeats: usize, mut f: impl FnMut() -> usize) -> (f64, usize) {
+    let mut times = Vec::new();
+    let mut size = 0;
+    for _ in 0..repeats.max(1) {
+        let t = Instant::now();
+        size = f();
+        times.push(t.elapsed().as_secs_f64() * 1e3);
+    }
+    (median(&times), size)
+}
+
+/// The encoders by format: bytes of `g` in memory.
+fn encode(format: &str, g: &VoxelGrid) -> Vec<u8> {
+    match format {
+        "binvox" => binvox_bytes(g),
+        "npy" => npy_bytes(g),
+        "npy (packed)" => npy_packed_bytes(g),
+        "nrrd" => nrrd_bytes(g),
+        "raw" => bytemuck::cast_slice(&g.to_axis(Axis::Z).words).to_vec(),
+        "vox" => vox_bytes(g),
+        _ => unreachable!("formats listed below"),
+    }
+}
+
+/// Runs the suite.
+pub fn run(cfg: &BenchConfig, report: &mut Report) -> anyhow::Result<()> {
+    let out_dir =
+        std::env::temp_dir().join(format!("gregvox-bench-writers-{}", std::process::id()));
+    let res = if cfg.quick { 256 } else { 1024 };
+    let repeats = if cfg.quick { 1 } else { 3 };
+    let mut t = Table::new(
+        "writers",
+        &format!("Grid writers: encoding and writing a {res}³ grid (goal ≥ 1 G voxels/s of encoding)"),
+        &format!(
+            "Encode = the format's bytes in memory; write = the whole write_grid call to a file (encode, \
+             temporary file, rename, sidecar), median of {repeats}. G voxels/s = voxels / encode time. \
+             ball = a solid ball (long runs); noise = hashed noise, about one voxel in three solid (every \
+             word mixed: a run every 1.5 voxels, binvox's worst case). .vox holds at most 256³ per model \
+             and is measured at 256³. All {} rayon threads.",
+            rayon::current_num_threads()
+        ),
+        &[
+            "grid", "format", "res", "encode ms", "G voxels/s", "write ms", "MB", "write MB/s",
+        ],
+    );
+    std::fs::create_dir_all(&out_dir)?;
+    for (name, make) in [("ball", ball as fn(u32) -> VoxelGrid), ("noise", noise)] {
+        let big = make(res);
+        let small = make(res.min(256));
+        for format in ["binvox", "npy", "npy (packed)", "nrrd", "raw", "vox"] {
+            let g = if format == "vox" { &small } else { &big };
+            let voxels = g.frame.voxel_count() as f64;
+            let (enc, bytes) = time_bytes(repeats, || encode(format, g).len());
+            let ext = format.split(' ').next().unwrap_or(format);
+            let path = out_dir.join(format!("writers-{name}.{ext}"));
+            let opts = SaveOptions {
+                npy_packed: format == "npy (packed)",
+            };
+            let (write, _) = time_bytes(repeats, || {
+                write_grid(g, &path, &opts).map(|_| 0).unwrap_or(usize::MAX)
+            });
+            let _ = std::fs::remove_file(&path);
+            let _ = std::fs::remove_file(crate::voxel::export::sidecar_path(&path));
+            let mb = bytes as f64 / 1e6;
+            t.push(vec![
+                Value::from(name),
+                Value::from(format),
+                Value::from(g.frame.dims[0]),
+                num(enc),
+                num(voxels / (enc * 1e-3) / 1e9),
+                num(write),
+                num(mb),
+                num(mb / (write * 1e-3)),
+            ]);
+            eprintln!(
+                "gregvox bench: writers {name} {format}: encode {enc:.1} ms, write {write:.1} ms"
+            );
+        }
+    }
+    let _ = std::fs::remove_dir_all(&out_dir);
+    report.tables.push(t);
+    Ok(())
+}

@@ -1,0 +1,314 @@
+//! Closest points on a triangle soup: a bounding-volume hierarchy over the triangles and, per query point,
+//! the nearest triangle, the closest point on it, its barycentric coordinates and the distance.
+//!
+//! Invariants: coordinates are f64 (the callers pass f32 positions widened, local to an origin), so the
+//! distance is exact to well under an f32 ulp of the mesh's extent; every triangle counts, degenerate ones
+//! too (a zero-area triangle is a segment or a point, and its closest point is found as such); the answer
+//! is the nearest triangle, ties going to the lowest index, whatever the tree's shape.
+//!
+//! Cost model: building sorts the triangle centroids along the longest axis at every level, O(T log² T)
+//! (leaves of at most [`LEAF`] triangles); a query descends nearest child first and prunes every node whose
+//! box lies farther than the best distance so far: O(log T) nodes for a point near a well-spread surface.
+//! The worst case is a point equidistant from many triangles (the centre of a finely tessellated sphere):
+//! no box can be pruned and the query visits all T triangles. Far points cost little: the first leaf's
+//! distance prunes almost everything, since every box is then about as far.
+
+/// Triangles per leaf.
+pub const LEAF: usize = 8;
+
+/// The nearest triangle to a point.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Closest {
+    /// Index of the triangle (in the order given to [`DistanceTree::new`]).
+    pub triangle: u32,
+    /// The closest point on it.
+    pub point: [f64; 3],
+    /// Its barycentric coordinates (weights of the triangle's corners a, b, c; they sum to 1).
+    pub barycentric: [f64; 3],
+    /// The squared distance.
+    pub distance2: f64,
+}
+
+#[derive(Clone, Copy, Debug)]
+struct Node {
+    lo: [f64; 3],
+    hi: [f64; 3],
+    /// Leaf: first triangle slot; inner: first child (the second is `first + 1`).
+    first: u32,
+    /// Leaf: triangle count; inner: 0.
+    count: u32,
+}
+
+/// A bounding-volume hierarchy over triangles, for closest-point queries.
+pub struct DistanceTree {
+    nodes: Vec<Node>,
+    /// Triangles in leaf order, with their original indices.
+    triangles: Vec<[[f64; 3]; 3]>,
+    index: Vec<u32>,
+}
+
+fn sub(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
+    [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
+}
+
+fn dot(a: [f64; 3], b: [f64; 3]) -> f64 {
+    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+}
+
+/// The closest point of triangle (a, b, c) to p, as barycentric weights (Ericson, Real-Time Collision
+/// Detection §5.1.5, by Voronoi regions; degenerate triangles fall into an edge or vertex region).
+pub fn closest_on_triangle(p: [f64; 3], a: [f64; 3], b: [f64; 3], c: [f64; 3]) -> [f64; 3] {
+    let (ab, ac, ap) = (sub(b, a), sub(c, a), sub(p, a));
+    let (d1, d2) = (dot(ab, ap), dot(ac, ap));
+    if d1 <= 0.0 && d2 <= 0.0 {
+        return [1.0, 0.0, 0.0];
+    }
+    let bp = sub(p, b);
+    let (d3, d4) = (dot(ab, bp), dot(ac, bp));
+    if d3 >= 0.0 && d4 <= d3 {
+        return [0.0, 1.0, 0.0];
+    }
+    let vc = d1 * d4 - d3 * d2;
+    if vc <= 0.0 && d1 >= 0.0 && d3 <= 0.0 {
+        let v = if d1 - d3 > 0.0 { d1 / (d1 - d3) } else { 0.0 };
+        return [1.0 - v, v, 0.0];
+    }
+    let cp = sub(p, c);
+    let (d5, d6) = (dot(ab, cp), dot(ac, cp));
+    if d6 >= 0.0 && d5 <= d6 {
+        return [0.0, 0.0, 1.0];
+    }
+    let vb = d5 * d2 - d1 * d6;
+    if vb <= 0.0 && d2 >= 0.0 && d6 <= 0.0 {
+        let w = if d2 - d6 > 0.0 { d2 / (d2 - d6) } else { 0.0 };
+        return [1.0 - w, 0.0, w];
+    }
+    let va = d3 * d6 - d5 * d4;
+    if va <= 0.0 && (d4 - d3) >= 0.0 && (d5 - d6) >= 0.0 {
+        let den = (d4 - d3) + (d5 - d6);
+        let w = if den > 0.0 { (d4 - d3) / den } else { 0.0 };
+        return [0.0, 1.0 - w, w];
+    }
+    let sum = va + vb + vc;
+    if !(sum > 0.0) {
+        // A degenerate triangle whose regions all failed (rounding on a sliver): its nearest corner.
+        let d = [a, b, c].map(|q| dot(sub(p, q), sub(p, q)));
+        let k = (0..3).min_by(|&i, &j| d[i].total_cmp(&d[j])).unwrap_or(0);
+        let mut w = [0.0; 3];
+        w[k] = 1.0;
+        return w;
+    }
+    let (v, w) = (vb / sum, vc / sum);
+    [1.0 - v - w, v, w]
+}
+
+fn at(t: &[[f64; 3]; 3], w: [f64; 3]) -> [f64; 3] {
+    std::array::from_fn(|k| w[0] * t[0][k] + w[1] * t[1][k] + w[2] * t[2][k])
+}
+
+/// Squared distance from p to the box [lo, hi] (0 inside).
+fn box_distance2(p: [f64; 3], lo: [f64; 3], hi: [f64; 3]) -> f64 {
+    (0..3)
+        .map(|k| {
+            let d = (lo[k] - p[k]).max(0.0).max(p[k] - hi[k]);
+            d * d
+        })
+        .sum()
+}
+
+impl DistanceTree {
+    /// The tree over `triangles` (any, degenerate ones included).
+    pub fn new(triangles: &[[[f64; 3]; 3]]) -> DistanceTree {
+        let mut order: Vec<u32> = (0..triangles.len() as u32).collect();
+        let centroid = |i: u32| -> [f64; 3] {
+            let t = &triangles[i as usize];
+            std::array::from_fn(|k| (t[0][k] + t[1][k] + t[2][k]) / 3.0)
+        };
+        let mut nodes = vec![Node {
+            lo: [0.0; 3],
+            hi: [0.0; 3],
+            first: 0,
+            count: 0,
+        }];
+        // (node, range of `order`)
+        let mut stack = vec![(0usize, 0usize, order.len())];
+        while let Some((n, s, e)) = stack.pop() {
+            let (mut lo, mut hi) = ([f64::INFINITY; 3], [f64::NEG_INFINITY; 3]);
+            for &i in &order[s..e] {
+                for v in &triangles[i as usize] {
+                    for k in 0..3 {
+                        lo[k] = lo[k].min(v[k]);
+                        hi[k] = hi[k].max(v[k]);
+                    }
+                }
+            }
+            nodes[n].lo = lo;
+            nodes[n].hi = hi;
+            if e - s <= LEAF {
+                nodes[n].first = s as u32;
+                nodes[n].count = (e - s) as u32;
+                continue;
+            }
+            let axis = (0..3)
+                .max_by(|&a, &b| (hi[a] - lo[a]).total_cmp(&(hi[b] - lo[b])))
+                .unwrap_or(0);
+            let mid = (s + e) / 2;
+            order[s..e].select_nth_unstable_by(mid - s, |&a, &b| {
+                centroid(a)[axis]
+                    .total_cmp(&centroid(b)[axis])
+                    .then(a.cmp(&b))
+            });
+            let first = nodes.len();
+            nodes[n].first = first as u32;
+            nodes[n].count = 0;
+            for _ in 0..2 {
+                nodes.push(Node {
+                    lo: [0.0; 3],
+                    hi: [0.0; 3],
+                    first: 0,
+                    count: 0,
+                });
+            }
+            stack.push((first, s, mid));
+            stack.push((first + 1, mid, e));
+        }
+        DistanceTree {
+            nodes,
+            triangles: order.iter().map(|&i| triangles[i as usize]).collect(),
+            index: order,
+        }
+    }
+
+    /// Whether the tree holds no triangle.
+    pub fn is_empty(&self) -> bool {
+        self.triangles.is_empty()
+    }
+
+    /// Bytes held.
+    pub fn bytes(&self) -> u64 {
+        (self.nodes.len() * std::mem::size_of::<Node>() + self.triangles.len() * (72 + 4)) as u64
+    }
+
+    /// The nearest triangle to `p`; `None` for an empty tree.
+    pub fn closest(&self, p: [f64; 3], stack: &mut Vec<u32>) -> Option<Closest> {
+        if self.triangles.is_empty() {
+            return None;
+        }
+        let mut best = Closest {
+            triangle: u32::MAX,
+            point: [0.0; 3],
+            barycentric: [0.0; 3],
+            distance2: f64::INFINITY,
+        };
+        stack.clear();
+        stack.push(0);
+        while let Some(n) = stack.pop() {
+            let node = &self.nodes[n as usize];
+            if box_distance2(p, node.lo, node.hi) > best.distance2 {
+                continue;
+            }
+            if node.count > 0 {
+                let range = node.first as usize..(node.first + node.count) as usize;
+                for slot in range {
+                    let t = &self.triangles[slot];
+                    let w = closest_on_triangle(p, t[0], t[1], t[2]);
+                    let q = at(t, w);
+                    let d = sub(p, q);
+                    let d2 = dot(d, d);
+                    let id = self.index[slot];
+                    if d2 < best.distance2 || (d2 == best.distance2 && id < best.triangle) {
+                        best = Closest {
+                            triangle: id,
+                            point: q,
+                            barycentric: w,
+                            distance2: d2,
+                        };
+                    }
+                }
+                continue;
+            }
+            // Nearer child popped first.
+            let (a, b) = (node.first, node.first + 1);
+            let da = box_distance2(p, self.nodes[a as usize].lo, self.nodes[a as usize].hi);
+            let db = box_distance2(p, self.nodes[b as usize].lo, self.nodes[b as usize].hi);
+            if da <= db {
+                stack.push(b);
+                stack.push(a);
+            } else {
+                stack.push(a);
+                stack.push(b);
+            }
+        }
+        Some(best)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn brute(tris: &[[[f64; 3]; 3]], p: [f64; 3]) -> (u32, f64) {
+        let mut best = (u32::MAX, f64::INFINITY);
+        for (i, t) in tris.iter().enumerate() {
+            let q = at(t, closest_on_triangle(p, t[0], t[1], t[2]));
+            let d = sub(p, q);
+            let d2 = dot(d, d);
+            if d2 < best.1 {
+                best = (i as u32, d2);
+            }
+        }
+        best
+    }
+
+    #[test]
+    fn the_tree_finds_the_brute_force_nearest_triangle_degenerate_ones_included() {
+        let mut s = 0x1234_5678u64;
+        let mut r = || {
+            s ^= s << 13;
+            s ^= s >> 7;
+            s ^= s << 17;
+            (s >> 11) as f64 / (1u64 << 53) as f64 * 2.0 - 1.0
+        };
+        let mut tris: Vec<[[f64; 3]; 3]> = (0..500)
+            .map(|_| {
+                let c = [r(), r(), r()];
+                std::array::from_fn(|_| std::array::from_fn(|k| c[k] + 0.1 * r()))
+            })
+            .collect();
+        // A segment and a point.
+        tris.push([[0.0; 3], [0.5, 0.0, 0.0], [0.25, 0.0, 0.0]]);
+        tris.push([[0.3, 0.3, 0.3]; 3]);
+        let tree = DistanceTree::new(&tris);
+        let mut stack = Vec::new();
+        for _ in 0..2000 {
+            let p = [1.5 * r(), 1.5 * r(), 1.5 * r()];
+            let c = tree.closest(p, &mut stack).unwrap();
+            let (i, d2) = brute(&tris, p);
+            assert_eq!(c.distance2, d2, "{p:?}");
+            assert_eq!(c.triangle, i, "{p:?}");
+            let w = c.barycentric;
+            assert!((w[0] + w[1] + w[2] - 1.0).abs() < 1e-12 && w.iter().all(|&x| x >= 0.0));
+        }
+    }
+
+    #[test]
+    fn closest_points_by_region() {
+        let (a, b, c) = ([0.0, 0.0, 0.0], [2.0, 0.0, 0.0], [0.0, 2.0, 0.0]);
+        assert_eq!(
+            closest_on_triangle([0.5, 0.5, 3.0], a, b, c),
+            [0.5, 0.25, 0.25]
+        );
+        assert_eq!(
+            closest_on_triangle([-1.0, -1.0, 0.0], a, b, c),
+            [1.0, 0.0, 0.0]
+        );
+        assert_eq!(
+            closest_on_triangle([1.0, -1.0, 0.0], a, b, c),
+            [0.5, 0.5, 0.0]
+        );
+        assert_eq!(
+            closest_on_triangle([3.0, 3.0, 0.0], a, b, c),
+            [0.0, 0.5, 0.5]
+        );
+    }
+}

@@ -1,0 +1,232 @@
+//! Specification of the point queries (`api::query`): at uniform points in the padded box and at points
+//! near the surface, the winding number equals the plain sum of the solid angles (the exact formula
+//! libigl's `winding_number` evaluates) within 1e-6, occupancy equals |w| ≥ ½ of that sum wherever it is
+//! not within 1e-6 of ½, and distances equal the brute-force minimum over every triangle; on the bunny
+//! with its five holes, the bunny with a third of its triangles removed (thousands of holes), an unwelded
+//! noisy soup and a closed sphere (integer winding numbers). Points on the surface and bad input are
+//! defined too.
+mod common;
+
+use common::model;
+use gregvox::api::query::{MeshQuery, QueryOptions, SdfSign};
+use gregvox::api::Mesh;
+use gregvox::mesh::load_mesh_file;
+use gregvox::voxel::gwn::kernel::{triangle_distance, winding_sum};
+use gregvox::voxel::gwn::Inside;
+use gregvox::voxel::mesh::TriMesh;
+use gregvox::voxel::stress::{obj_text, soup, with_holes, SplitMix64};
+
+fn mesh_of(t: &TriMesh) -> Mesh {
+    gregvox::mesh::parse_obj(&obj_text(t), "case.obj").unwrap()
+}
+
+fn triangles(t: &TriMesh) -> Vec<[[f64; 3]; 3]> {
+    t.triangles
+        .iter()
+        .map(|f| f.map(|v| t.positions[v as usize].map(f64::from)))
+        .collect()
+}
+
+/// `n` uniform points in the box padded by 10 %, and `n` near the surface (vertices moved by Gaussian-ish
+/// offsets of 1 % of the box).
+fn points(t: &TriMesh, n: usize, seed: u64) -> Vec<[f64; 3]> {
+    let mut lo = [f64::INFINITY; 3];
+    let mut hi = [f64::NEG_INFINITY; 3];
+    for p in &t.positions {
+        for a in 0..3 {
+            lo[a] = lo[a].min(p[a] as f64);
+            hi[a] = hi[a].max(p[a] as f64);
+        }
+    }
+    let size: [f64; 3] = std::array::from_fn(|a| hi[a] - lo[a]);
+    let mut rng = SplitMix64(seed);
+    let mut out = Vec::new();
+    for _ in 0..n {
+        out.push(std::array::from_fn(|a| {
+            lo[a] - 0.1 * size[a] + 1.2 * size[a] * rng.unit()
+        }));
+    }
+    for _ in 0..n {
+        let tri = t.triangles[rng.below(t.triangles.len())];
+        let (u, v) = (rng.unit(), rng.unit());
+        let (u, v) = if u + v > 1.0 {
+            (1.0 - u, 1.0 - v)
+        } else {
+            (u, v)
+        };
+        let p = |k: usize| tri[k];
+        out.push(std::array::from_fn(|a| {
+            let c = |k: usize| t.positions[p(k) as usize][a] as f64;
+            let s = (rng.unit() + rng.unit() + rng.unit() - 1.5) * 0.01 * size[a];
+            c(0) + u * (c(1) - c(0)) + v * (c(2) - c(0)) + s
+        }));
+    }
+    out
+}
+
+fn check_case(name: &str, t: &TriMesh, n: usize) {
+    let mesh = mesh_of(t);
+    let q = MeshQuery::new(&mesh, &QueryOptions::default()).unwrap();
+    let pts = points(t, n, 7);
+    let (w, occ) = q.winding_and_occupancy(&pts).unwrap();
+    // The reference: the plain sum over the cleaned triangles (the same hygiene; these meshes have no
+    // duplicates, so it is every triangle).
+    let (clean, _) = t.clean();
+    let tris = triangles(&clean);
+    let all = triangles(t);
+    let d = q.unsigned_distance(&pts).unwrap();
+    let s = q.signed_distance(&pts).unwrap();
+    let mut worst = 0.0f64;
+    let mut near_half = 0;
+    let diag = {
+        let (lo, hi) = all.iter().flatten().fold(
+            ([f64::INFINITY; 3], [f64::NEG_INFINITY; 3]),
+            |(lo, hi), p| {
+                (
+                    std::array::from_fn(|a| lo[a].min(p[a])),
+                    std::array::from_fn(|a| hi[a].max(p[a])),
+                )
+            },
+        );
+        (0..3).map(|a| (hi[a] - lo[a]).powi(2)).sum::<f64>().sqrt()
+    };
+    for (i, p) in pts.iter().enumerate() {
+        let r = winding_sum(&tris, *p);
+        worst = worst.max((w[i] - r).abs());
+        assert!(
+            (w[i] - r).abs() < 1e-6,
+            "{name} point {i} {p:?}: {} vs {r}",
+            w[i]
+        );
+        if (r.abs() - 0.5).abs() > 1e-6 {
+            assert_eq!(occ[i], r.abs() >= 0.5, "{name} point {i}: w = {r}");
+        } else {
+            near_half += 1;
+        }
+        let bd = all
+            .iter()
+            .map(|t| triangle_distance(*p, t[0], t[1], t[2]))
+            .fold(f64::INFINITY, f64::min);
+        assert!(
+            (d.distance[i] as f64 - bd).abs() <= 1e-6 * diag,
+            "{name} point {i}: distance {} vs {bd}",
+            d.distance[i]
+        );
+        // The closest point lies on its face at the distance given.
+        let c = d.closest[i];
+        let cd = (0..3).map(|a| (c[a] - p[a]).powi(2)).sum::<f64>().sqrt();
+        assert!((cd - bd).abs() <= 1e-6 * diag, "{name} point {i}");
+        let f = all[d.face[i] as usize];
+        let b = d.barycentric[i];
+        let on: [f64; 3] =
+            std::array::from_fn(|a| b[0] * f[0][a] + b[1] * f[1][a] + b[2] * f[2][a]);
+        assert!(
+            (0..3).all(|a| (on[a] - c[a]).abs() <= 1e-9 * diag),
+            "{name} point {i}"
+        );
+        // Signed: negative inside.
+        assert_eq!(s.distance[i].abs(), d.distance[i]);
+        if d.distance[i] > 0.0 {
+            assert_eq!(s.distance[i] < 0.0, occ[i], "{name} point {i}");
+        }
+    }
+    eprintln!(
+        "{name}: {} points, worst |w − plain sum| {worst:.2e}, {near_half} within 1e-6 of ½, {} inside",
+        pts.len(),
+        occ.iter().filter(|&&o| o).count()
+    );
+}
+
+fn bunny() -> TriMesh {
+    TriMesh::fan(&load_mesh_file(model("stanford-bunny.obj")).unwrap())
+}
+
+#[test]
+fn the_open_bunny_matches_the_plain_sum_and_brute_force_distances() {
+    check_case("bunny", &bunny(), 300);
+}
+
+#[test]
+fn thousands_of_holes_and_an_unwelded_soup_match_the_plain_sum() {
+    let b = bunny();
+    check_case("bunny_holes_third", &with_holes(&b, 1.0 / 3.0, 3), 200);
+    check_case("bunny_soup", &soup(&b, 1e-7, 5), 200);
+}
+
+#[test]
+fn a_closed_mesh_gives_integer_winding_numbers() {
+    let sphere = TriMesh::sphere([0.1, 0.2, 0.3], 1.0, 24, 48, false);
+    check_case("sphere", &sphere, 500);
+    let q = MeshQuery::new(&mesh_of(&sphere), &QueryOptions::default()).unwrap();
+    let w = q
+        .winding_numbers(&[[0.1, 0.2, 0.3], [3.0, 0.0, 0.0]])
+        .unwrap();
+    assert_eq!(w, [1.0, 0.0]);
+}
+
+#[test]
+fn the_sign_conventions_and_the_positive_rule() {
+    let sphere = TriMesh::sphere([0.0; 3], 1.0, 16, 32, false);
+    // Inward orientation: w = −1 inside.
+    let mut inward = sphere.clone();
+    for t in &mut inward.triangles {
+        t.swap(1, 2);
+    }
+    let centre = [[0.0; 3]];
+    let q = MeshQuery::new(&mesh_of(&inward), &QueryOptions::default()).unwrap();
+    assert_eq!(q.winding_numbers(&centre).unwrap(), [-1.0]);
+    assert_eq!(q.occupancy(&centre).unwrap(), [true]);
+    assert!(q.signed_distance(&centre).unwrap().distance[0] < 0.0);
+    let positive = QueryOptions {
+        inside: Inside::Positive,
+        sdf_sign: SdfSign::InsidePositive,
+        ..QueryOptions::default()
+    };
+    let q = MeshQuery::new(&mesh_of(&inward), &positive).unwrap();
+    assert_eq!(q.occupancy(&centre).unwrap(), [false]);
+    let q = MeshQuery::new(&mesh_of(&sphere), &positive).unwrap();
+    assert!(q.signed_distance(&centre).unwrap().distance[0] > 0.0);
+}
+
+#[test]
+fn points_on_the_surface_get_the_plain_sum_and_distance_zero() {
+    let cube = TriMesh::cube([0.0; 3], 1.0);
+    let q = MeshQuery::new(&mesh_of(&cube), &QueryOptions::default()).unwrap();
+    let tris = triangles(&cube);
+    // On a face (one the crossing ray runs parallel to, and one it crosses), on an edge, on a vertex.
+    let on = [
+        [0.5, 0.0, 0.25],
+        [0.25, 0.5, 1.0],
+        [0.5, 0.0, 0.0],
+        [1.0, 1.0, 1.0],
+    ];
+    let w = q.winding_numbers(&on).unwrap();
+    for (p, w) in on.iter().zip(&w) {
+        assert_eq!(*w, winding_sum(&tris, *p), "{p:?}");
+    }
+    let d = q.signed_distance(&on).unwrap();
+    assert!(d.distance.iter().all(|&x| x == 0.0), "{:?}", d.distance);
+}
+
+#[test]
+fn bad_points_and_empty_meshes_are_refused_with_one_message() {
+    let cube = TriMesh::cube([0.0; 3], 1.0);
+    let q = MeshQuery::new(&mesh_of(&cube), &QueryOptions::default()).unwrap();
+    let e = q
+        .winding_numbers(&[[0.0; 3], [f64::NAN, 0.0, 0.0]])
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("point 1") && e.contains("not finite"), "{e}");
+    let flat =
+        gregvox::mesh::parse_obj("v 0 0 0\nv 1 0 0\nv 2 0 0\nf 1 2 3\n", "flat.obj").unwrap();
+    let e = MeshQuery::new(&flat, &QueryOptions::default())
+        .err()
+        .unwrap()
+        .to_string();
+    assert!(e.contains("no triangle"), "{e}");
+    let bad = QueryOptions {
+        tolerance: 0.0,
+        ..QueryOptions::default()
+    };
+    assert!(MeshQuery::new(&mesh_of(&cube), &bad).is_err());
+}
