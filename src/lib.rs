@@ -71,6 +71,7 @@ pub mod geom;
 pub mod gpu;
 pub mod io;
 pub mod mesh;
+pub mod npy;
 pub mod passes;
 pub mod surface;
 pub mod voxel;

@@ -94,7 +94,7 @@ fn check_case(name: &str, t: &TriMesh, n: usize) {
         let r = winding_sum(&tris, *p);
         worst = worst.max((w[i] - r).abs());
         assert!(
-            (w[i] - r).abs() < 1e-6,
+            (w[i] - r).abs() <= 1e-6,
             "{name} point {i} {p:?}: {} vs {r}",
             w[i]
         );

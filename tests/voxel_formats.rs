@@ -550,3 +550,107 @@ fn the_word_encoders_write_the_bytes_of_the_per_voxel_definitions() {
         assert_eq!(&nrrd[head..], want.as_slice(), "nrrd {dims:?}");
     }
 }
+
+/// The stored entries of a zip archive (what `.npz` writers produce): (name, bytes).
+fn zip_entries(z: &[u8]) -> Vec<(String, Vec<u8>)> {
+    let mut out = Vec::new();
+    let mut at = 0;
+    while z[at..].starts_with(&0x0403_4b50u32.to_le_bytes()) {
+        let u16_at = |o: usize| u16::from_le_bytes([z[at + o], z[at + o + 1]]) as usize;
+        let u32_at =
+            |o: usize| u32::from_le_bytes(z[at + o..at + o + 4].try_into().unwrap()) as usize;
+        assert_eq!(u16_at(8), 0, "stored");
+        let (size, name_len, extra) = (u32_at(18), u16_at(26), u16_at(28));
+        let name = String::from_utf8(z[at + 30..at + 30 + name_len].to_vec()).unwrap();
+        let start = at + 30 + name_len + extra;
+        out.push((name, z[start..start + size].to_vec()));
+        at = start + size;
+    }
+    out
+}
+
+/// The data of a version-1 `.npy` after its header, and the header text.
+fn npy_data(b: &[u8]) -> (String, &[u8]) {
+    let len = u16::from_le_bytes([b[8], b[9]]) as usize;
+    (
+        String::from_utf8(b[10..10 + len].to_vec()).unwrap(),
+        &b[10 + len..],
+    )
+}
+
+#[test]
+fn sparse_npz_lists_the_dense_grids_nonzeros_and_ply_their_centres() {
+    let frame = odd_frame();
+    let g = pattern_in(frame);
+    let dir = std::env::temp_dir().join(format!("gregvox-sparse-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let npz = dir.join("g.npz");
+    write_grid(&g, &npz, &SaveOptions::default()).unwrap();
+    let entries = zip_entries(&std::fs::read(&npz).unwrap());
+    let names: Vec<&str> = entries.iter().map(|e| e.0.as_str()).collect();
+    assert_eq!(
+        names,
+        ["coords.npy", "origin.npy", "voxel_size.npy", "dims.npy"]
+    );
+    let (head, data) = npy_data(&entries[0].1);
+    assert!(
+        head.contains("'<i4'") && head.contains(&format!("({}, 3)", g.count())),
+        "{head}"
+    );
+    let coords: Vec<[u32; 3]> = data
+        .chunks(12)
+        .map(|c| {
+            std::array::from_fn(|a| {
+                i32::from_le_bytes(c[4 * a..4 * a + 4].try_into().unwrap()) as u32
+            })
+        })
+        .collect();
+    // The dense grid's nonzeros in C order (x slowest): np.argwhere(dense).
+    let [nx, ny, nz] = frame.dims;
+    let mut want = Vec::new();
+    for i in 0..nx {
+        for j in 0..ny {
+            for k in 0..nz {
+                if g.get(i, j, k) {
+                    want.push([i, j, k]);
+                }
+            }
+        }
+    }
+    assert_eq!(coords, want);
+    let f64s = |b: &[u8]| -> Vec<f64> {
+        npy_data(b)
+            .1
+            .chunks(8)
+            .map(|c| f64::from_le_bytes(c.try_into().unwrap()))
+            .collect()
+    };
+    assert_eq!(f64s(&entries[1].1), frame.origin);
+    assert_eq!(f64s(&entries[2].1), frame.voxel_size);
+    let dims: Vec<i32> = npy_data(&entries[3].1)
+        .1
+        .chunks(4)
+        .map(|c| i32::from_le_bytes(c.try_into().unwrap()))
+        .collect();
+    assert_eq!(dims, frame.dims.map(|d| d as i32));
+    // PLY: the same voxels' centres, as float32.
+    let ply = dir.join("g.ply");
+    write_grid(&g, &ply, &SaveOptions::default()).unwrap();
+    let b = std::fs::read(&ply).unwrap();
+    let end = b.windows(11).position(|w| w == b"end_header\n").unwrap() + 11;
+    let head = String::from_utf8(b[..end].to_vec()).unwrap();
+    assert!(
+        head.contains(&format!("element vertex {}\n", want.len())),
+        "{head}"
+    );
+    let xyz: Vec<f32> = b[end..]
+        .chunks(4)
+        .map(|c| f32::from_le_bytes(c.try_into().unwrap()))
+        .collect();
+    assert_eq!(xyz.len(), 3 * want.len());
+    for (p, c) in xyz.chunks(3).zip(&want) {
+        let centre = frame.centre(c[0], c[1], c[2]);
+        assert_eq!(p, centre.map(|x| x as f32));
+    }
+    std::fs::remove_dir_all(&dir).unwrap();
+}

@@ -259,6 +259,35 @@ def voxelize(
     return grid
 
 
+def query(
+    V: Any,
+    F: Faces,
+    points: Any,
+    what: Sequence[str] = ("winding", "occupancy"),
+    rule: str = "gwn",
+    sdf_sign: str = "inside-negative",
+    tolerance: float = 1e-6,
+) -> Dict[str, np.ndarray]:
+    """Exact winding numbers, occupancy and distances of a mesh at ``points`` ((n, 3), float32 or float64),
+    as ``gregvox query`` computes them: a dict with one array per name of ``what`` in the order of the
+    points: ``winding`` float64 (within ``tolerance``), ``occupancy`` bool (``rule``: gwn = |w| >= 1/2,
+    gwn-positive = w >= 1/2, decided by bounds), ``sdf`` and ``udf`` float32 (``sdf_sign``:
+    inside-negative as libigl/Open3D/Warp, or inside-positive as trimesh/pysdf); ``closest`` adds ``face``
+    (uint32, the nearest triangle of the fan triangulation), ``closest`` and ``barycentric`` (float64
+    (n, 3)). The signs come from the exact winding number: right on open meshes and soups. The GIL is
+    released while it runs."""
+    V, ptr, idx = _mesh(V, F)
+    P = np.ascontiguousarray(points, dtype=np.float64)
+    if P.ndim != 2 or P.shape[1] != 3:
+        raise ValueError(f"points must have shape (n, 3), not {P.shape}")
+    if isinstance(what, str):
+        what = [w.strip() for w in what.split(",")]
+    out = _gregvox.query(V, ptr, idx, P, [str(w) for w in what], str(rule), str(sdf_sign), float(tolerance))
+    if "occupancy" in out:
+        out["occupancy"] = out["occupancy"].view(np.bool_)
+    return out
+
+
 # The engine names the CLI's flags in its messages; a Python caller gave keyword arguments.
 _FLAG_NAMES = [("--res ", "res="), ("--dims ", "dims="), ("--voxel-size ", "voxel_size="), ("--bbox", "bbox"),
                ("--pad ", "pad="), ("--res", "res"), ("--dims", "dims"), ("--voxel-size", "voxel_size"),

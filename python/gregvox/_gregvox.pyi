@@ -47,3 +47,13 @@ def voxelize(
     fill: str = ...,
     method: str = ...,
 ) -> Tuple[npt.NDArray[np.uint8], List[float], List[float], PackedGrid, str, float]: ...
+def query(
+    v: F64,
+    face_ptr: I64,
+    indices: I64,
+    points: F64,
+    what: List[str],
+    rule: str = ...,
+    sdf_sign: str = ...,
+    tolerance: float = ...,
+) -> Dict[str, npt.NDArray[np.generic]]: ...

@@ -591,6 +591,113 @@ fn grid_indices<'py>(
     idx.into_pyarray(py).reshape([m, 3])
 }
 
+/// Point queries (`gregvox::api::query`): for each name of `what` (winding, occupancy, sdf, udf, closest)
+/// an array in the order of the points: winding float64 (n,), occupancy bool as uint8 (n,), sdf/udf float32
+/// (n,), closest = (face uint32 (n,), point float64 (n, 3), barycentric float64 (n, 3)). The GIL is released
+/// while the mesh is prepared and the points are answered.
+#[pyfunction]
+#[pyo3(signature = (v, face_ptr, indices, points, what, rule="gwn", sdf_sign="inside-negative", tolerance=1e-6))]
+#[allow(clippy::too_many_arguments)]
+fn query<'py>(
+    py: Python<'py>,
+    v: PyReadonlyArray2<'_, f64>,
+    face_ptr: PyReadonlyArray1<'_, i64>,
+    indices: PyReadonlyArray1<'_, i64>,
+    points: PyReadonlyArray2<'_, f64>,
+    what: Vec<String>,
+    rule: &str,
+    sdf_sign: &str,
+    tolerance: f64,
+) -> PyResult<Bound<'py, pyo3::types::PyDict>> {
+    use gregvox::api::query::{MeshQuery, QueryOptions, SdfSign};
+    use gregvox::voxel::gwn::Inside;
+    let mesh = mesh_of(&v, &face_ptr, &indices)?;
+    if points.shape()[1] != 3 {
+        return Err(bad(format!(
+            "points must have shape (n, 3), not {:?}",
+            points.shape()
+        )));
+    }
+    let flat = points
+        .as_slice()
+        .map_err(|_| bad("points must be C-contiguous"))?;
+    let pts: Vec<[f64; 3]> = flat.chunks_exact(3).map(|p| [p[0], p[1], p[2]]).collect();
+    let opts = QueryOptions {
+        inside: choice(
+            "rule",
+            rule,
+            &[("gwn", Inside::Magnitude), ("gwn-positive", Inside::Positive)],
+        )?,
+        sdf_sign: choice(
+            "sdf_sign",
+            sdf_sign,
+            &[
+                ("inside-negative", SdfSign::InsideNegative),
+                ("inside-positive", SdfSign::InsidePositive),
+            ],
+        )?,
+        tolerance,
+        ..QueryOptions::default()
+    };
+    for w in &what {
+        if !["winding", "occupancy", "sdf", "udf", "closest"].contains(&w.as_str()) {
+            return Err(bad(format!(
+                "what '{w}' is not one of winding, occupancy, sdf, udf, closest"
+            )));
+        }
+    }
+    let want = |n: &str| what.iter().any(|w| w == n);
+    type Answers = (
+        Option<Vec<f64>>,
+        Option<Vec<bool>>,
+        Option<api::query::Distances>,
+        Option<api::query::Distances>,
+    );
+    let (winding, occupancy, sdf, udf): Answers = py
+        .allow_threads(|| -> gregvox::Result<Answers> {
+            let q = MeshQuery::new(&mesh, &opts)?;
+            let (w, o) = if want("winding") {
+                let (w, o) = q.winding_and_occupancy(&pts)?;
+                (Some(w), want("occupancy").then_some(o))
+            } else if want("occupancy") {
+                (None, Some(q.occupancy(&pts)?))
+            } else {
+                (None, None)
+            };
+            let sdf = want("sdf").then(|| q.signed_distance(&pts)).transpose()?;
+            let udf = (want("udf") || (want("closest") && sdf.is_none()))
+                .then(|| q.unsigned_distance(&pts))
+                .transpose()?;
+            Ok((w, o, sdf, udf))
+        })
+        .map_err(to_py)?;
+    let out = pyo3::types::PyDict::new(py);
+    let n = pts.len();
+    if let Some(w) = winding {
+        out.set_item("winding", w.into_pyarray(py))?;
+    }
+    if let Some(o) = occupancy {
+        let bytes: Vec<u8> = o.iter().map(|&b| b as u8).collect();
+        out.set_item("occupancy", bytes.into_pyarray(py))?;
+    }
+    if let Some(d) = &sdf {
+        out.set_item("sdf", d.distance.clone().into_pyarray(py))?;
+    }
+    if let (true, Some(d)) = (want("udf"), &udf) {
+        out.set_item("udf", d.distance.clone().into_pyarray(py))?;
+    }
+    if want("closest") {
+        if let Some(d) = sdf.as_ref().or(udf.as_ref()) {
+            out.set_item("face", d.face.clone().into_pyarray(py))?;
+            let c: Vec<f64> = d.closest.iter().flatten().copied().collect();
+            out.set_item("closest", c.into_pyarray(py).reshape([n, 3])?)?;
+            let b: Vec<f64> = d.barycentric.iter().flatten().copied().collect();
+            out.set_item("barycentric", b.into_pyarray(py).reshape([n, 3])?)?;
+        }
+    }
+    Ok(out)
+}
+
 #[pymodule]
 fn _gregvox(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<Device>()?;
@@ -603,5 +710,6 @@ fn _gregvox(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(voxelize, m)?)?;
     m.add_function(wrap_pyfunction!(grid_indices, m)?)?;
     m.add_function(wrap_pyfunction!(vertex_normals, m)?)?;
+    m.add_function(wrap_pyfunction!(query, m)?)?;
     Ok(())
 }

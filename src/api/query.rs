@@ -7,7 +7,7 @@
 //!   voxelize); the winding number takes the same hygiene as voxelize (exact duplicate triangles once,
 //!   opposite pairs cancelled, zero-area triangles dropped); distances take every triangle as given.
 //! - `winding`: the exact winding number w at the point, with an error below [`QueryOptions::tolerance`]
-//!   (default 1e-9); a closed mesh gives an exact integer. `occupancy`: |w| ≥ ½ ([`Inside::Magnitude`],
+//!   (default 1e-6); a closed mesh gives an exact integer. `occupancy`: |w| ≥ ½ ([`Inside::Magnitude`],
 //!   `--rule gwn`) or w ≥ ½ ([`Inside::Positive`], `--rule gwn-positive`, libigl's convention), decided
 //!   from rigorous bounds, never from a rounded value near ½.
 //! - Points exactly on a triangle: w is not defined there (it jumps across the surface). gregvox returns
@@ -35,6 +35,7 @@ use crate::error::{Error, Result};
 use crate::mesh::distance::{Closest, DistanceTree};
 use crate::voxel::gwn::classify::Scratches;
 use crate::voxel::gwn::crossing::Crossings;
+use crate::voxel::gwn::tree::Accept;
 use crate::voxel::gwn::{direct::FIRST, FractionalField, Inside, Proxy, FOUR_PI};
 use crate::voxel::mesh::TriMesh;
 use rayon::prelude::*;
@@ -56,7 +57,7 @@ pub struct QueryOptions {
     pub inside: Inside,
     /// How [`MeshQuery::signed_distance`] signs.
     pub sdf_sign: SdfSign,
-    /// The largest error of a returned winding number (default 1e-9).
+    /// The largest error of a returned winding number (default 1e-6).
     pub tolerance: f64,
     /// Bytes the trees and indices may take (default 1 GiB).
     pub budget: u64,
@@ -67,7 +68,7 @@ impl Default for QueryOptions {
         QueryOptions {
             inside: Inside::Magnitude,
             sdf_sign: SdfSign::InsideNegative,
-            tolerance: 1e-9,
+            tolerance: 1e-6,
             budget: 1 << 30,
         }
     }
@@ -96,7 +97,10 @@ pub struct MeshQuery {
     mesh_triangles: usize,
     crossings: Crossings,
     field: Option<FractionalField>,
-    distance: DistanceTree,
+    /// Built on the first distance query (occupancy and winding numbers never need it).
+    distance: std::sync::OnceLock<DistanceTree>,
+    /// Every fanned triangle, local (what distances and the samplers see).
+    triangles: Vec<[[f64; 3]; 3]>,
 }
 
 /// The length scale the weld works at: as voxelize at 256³ (a 512th of a voxel of a 256³ grid spanning the
@@ -106,7 +110,7 @@ const WELD_RES: f64 = 256.0;
 impl MeshQuery {
     /// Prepares `mesh` (at least one triangle of non-zero area).
     pub fn new(mesh: &Mesh, opts: &QueryOptions) -> Result<MeshQuery> {
-        if !(opts.tolerance > 0.0) {
+        if opts.tolerance.is_nan() || opts.tolerance <= 0.0 {
             return Err(Error::Invalid(format!(
                 "the winding number's tolerance must be positive, not {}",
                 opts.tolerance
@@ -157,7 +161,8 @@ impl MeshQuery {
             mesh_triangles,
             crossings: Crossings::with_flat_triangles(chain),
             field,
-            distance: DistanceTree::new(&all),
+            distance: std::sync::OnceLock::new(),
+            triangles: all,
         })
     }
 
@@ -165,18 +170,33 @@ impl MeshQuery {
         std::array::from_fn(|a| p[a] - self.shift[a])
     }
 
-    /// The winding number at local `q` and whether it is inside.
-    fn winding_at(&self, q: [f64; 3], scratch: &mut Scratches) -> (f64, bool) {
+    /// The winding number at local `q` (within the tolerance when `value`, else only as exact as the
+    /// decision needs) and whether it is inside.
+    fn winding_at(&self, q: [f64; 3], value: bool, scratch: &mut Scratches) -> (f64, bool) {
         let inside = self.opts.inside;
         if let Some(n) = self.crossings.winding(q) {
             let Some(field) = &self.field else {
                 return (n as f64, inside.of_value(n as f64));
             };
-            let tol = self.opts.tolerance * FOUR_PI;
+            let tol = if value {
+                self.opts.tolerance * FOUR_PI
+            } else {
+                f64::INFINITY
+            };
+            // For a value, the first traversal already aims at the tolerance (each accepted share's
+            // bound below it), so that few rounds of opening follow.
+            let accept = if value {
+                Accept {
+                    theta: FIRST.theta,
+                    eps: tol * 0.25,
+                }
+            } else {
+                FIRST
+            };
             let decided = field.fractional.adaptive(
                 q,
                 0.0,
-                &FIRST,
+                &accept,
                 |lo, hi| {
                     let (a, b) = (n as f64 - hi / FOUR_PI, n as f64 - lo / FOUR_PI);
                     let inside = inside.of_interval(a, b)?;
@@ -203,42 +223,50 @@ impl MeshQuery {
         Ok(())
     }
 
-    /// Winding numbers and occupancies at `points` (world coordinates).
-    pub fn winding_and_occupancy(&self, points: &[[f64; 3]]) -> Result<(Vec<f64>, Vec<bool>)> {
+    fn evaluate(&self, points: &[[f64; 3]], value: bool) -> Result<(Vec<f64>, Vec<bool>)> {
         Self::check(points)?;
         Ok(points
             .par_iter()
             .map_init(Scratches::default, |s, &p| {
-                self.winding_at(self.local(p), s)
+                self.winding_at(self.local(p), value, s)
             })
             .unzip())
     }
 
-    /// Exact winding numbers at `points`.
-    pub fn winding_numbers(&self, points: &[[f64; 3]]) -> Result<Vec<f64>> {
-        Ok(self.winding_and_occupancy(points)?.0)
+    /// Winding numbers (within [`QueryOptions::tolerance`]) and occupancies at `points` (world
+    /// coordinates).
+    pub fn winding_and_occupancy(&self, points: &[[f64; 3]]) -> Result<(Vec<f64>, Vec<bool>)> {
+        self.evaluate(points, true)
     }
 
-    /// Whether each point is inside (the rule of [`QueryOptions::inside`]).
+    /// Exact winding numbers at `points` (within [`QueryOptions::tolerance`]).
+    pub fn winding_numbers(&self, points: &[[f64; 3]]) -> Result<Vec<f64>> {
+        Ok(self.evaluate(points, true)?.0)
+    }
+
+    /// Whether each point is inside (the rule of [`QueryOptions::inside`]), decided by bounds: the
+    /// winding number is refined only until its interval leaves ½.
     pub fn occupancy(&self, points: &[[f64; 3]]) -> Result<Vec<bool>> {
-        Ok(self.winding_and_occupancy(points)?.1)
+        Ok(self.evaluate(points, false)?.1)
     }
 
     fn distances(&self, points: &[[f64; 3]], signed: bool) -> Result<Distances> {
         Self::check(points)?;
+        let tree = self
+            .distance
+            .get_or_init(|| DistanceTree::new(&self.triangles));
         let rows: Vec<(f32, [f64; 3], u32, [f64; 3])> = points
             .par_iter()
             .map_init(
                 || (Vec::new(), Scratches::default()),
                 |(stack, s), &p| {
                     let q = self.local(p);
-                    let c: Closest = self
-                        .distance
+                    let c: Closest = tree
                         .closest(q, stack)
                         .expect("a prepared mesh has triangles");
                     let mut d = c.distance2.sqrt() as f32;
                     if signed && d > 0.0 {
-                        let (_, inside) = self.winding_at(q, s);
+                        let (_, inside) = self.winding_at(q, false, s);
                         let negative = inside == (self.opts.sdf_sign == SdfSign::InsideNegative);
                         if negative {
                             d = -d;
@@ -314,4 +342,125 @@ pub fn unsigned_distance(mesh: &Mesh, points: &[[f64; 3]]) -> Result<Distances> 
 /// Distances from `points` to `mesh`, negative inside (the exact winding number's |w| ≥ ½).
 pub fn signed_distance(mesh: &Mesh, points: &[[f64; 3]]) -> Result<Distances> {
     MeshQuery::new(mesh, &QueryOptions::default())?.signed_distance(points)
+}
+
+/// One sampler of a dataset recipe (`--sample uniform:N,near:σ:N,surface:N`).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum SampleSpec {
+    /// N points uniform in the mesh's box padded by `pad` of its size on each side.
+    Uniform(usize),
+    /// N area-weighted surface points moved by normal offsets of standard deviation σ (mesh units) per axis.
+    Near { sigma: f64, n: usize },
+    /// N area-weighted surface points with their triangles' normals (not queried: they lie on the surface).
+    Surface(usize),
+}
+
+impl SampleSpec {
+    /// Parses `uniform:N,near:SIGMA:N,surface:N` (any order, any repeats).
+    pub fn parse_list(text: &str) -> Result<Vec<SampleSpec>> {
+        let bad = |part: &str, why: &str| {
+            Error::Invalid(format!(
+                "--sample {part}: {why} (expected uniform:N, near:SIGMA:N or surface:N)"
+            ))
+        };
+        let count = |part: &str, n: &str| -> Result<usize> {
+            n.parse::<usize>()
+                .ok()
+                .filter(|&n| n > 0 && n <= MAX_SAMPLES)
+                .ok_or_else(|| bad(part, &format!("a count from 1 to {MAX_SAMPLES}")))
+        };
+        text.split(',')
+            .map(|part| {
+                let f: Vec<&str> = part.trim().split(':').collect();
+                match f.as_slice() {
+                    ["uniform", n] => Ok(SampleSpec::Uniform(count(part, n)?)),
+                    ["surface", n] => Ok(SampleSpec::Surface(count(part, n)?)),
+                    ["near", s, n] => {
+                        let sigma = s
+                            .parse::<f64>()
+                            .ok()
+                            .filter(|x| x.is_finite() && *x > 0.0)
+                            .ok_or_else(|| bad(part, "σ must be a positive number"))?;
+                        Ok(SampleSpec::Near {
+                            sigma,
+                            n: count(part, n)?,
+                        })
+                    }
+                    _ => Err(bad(part, "unknown sampler")),
+                }
+            })
+            .collect()
+    }
+}
+
+/// Most points one sampler may ask for (a billion: 24 GB of f64 points).
+pub const MAX_SAMPLES: usize = 1_000_000_000;
+
+/// Sampled points (world coordinates).
+#[derive(Clone, Debug, Default)]
+pub struct Samples {
+    /// The uniform and near-surface points, sampler by sampler in the order given: what gets queried.
+    pub points: Vec<[f64; 3]>,
+    /// The surface samplers' points and their normals.
+    pub surface_points: Vec<[f64; 3]>,
+    pub surface_normals: Vec<[f64; 3]>,
+}
+
+impl MeshQuery {
+    /// Draws `specs` with `seed` (sampler k uses the stream `seed` + k, so adding a sampler does not move
+    /// the others' points); uniform boxes are padded by `pad` × the box's size on each side.
+    pub fn sample(&self, specs: &[SampleSpec], pad: f64, seed: u64) -> Result<Samples> {
+        use crate::geom::random::SplitMix64;
+        use crate::mesh::sample;
+        if !(pad.is_finite() && pad >= 0.0) {
+            return Err(Error::Invalid(format!("--pad must be ≥ 0, not {pad}")));
+        }
+        let total: usize = specs
+            .iter()
+            .map(|s| match *s {
+                SampleSpec::Uniform(n) | SampleSpec::Surface(n) | SampleSpec::Near { n, .. } => n,
+            })
+            .sum();
+        if total as u64 * 48 > self.opts.budget {
+            return Err(Error::Budget {
+                what: format!("{total} sample points"),
+                detail: format!("the query budget of {} MiB", self.opts.budget >> 20),
+            });
+        }
+        let table = sample::area_table(&self.triangles);
+        let mut lo = [f64::INFINITY; 3];
+        let mut hi = [f64::NEG_INFINITY; 3];
+        for p in self.triangles.iter().flatten() {
+            for a in 0..3 {
+                lo[a] = lo[a].min(p[a]);
+                hi[a] = hi[a].max(p[a]);
+            }
+        }
+        let world = |p: [f64; 3]| -> [f64; 3] { std::array::from_fn(|a| p[a] + self.shift[a]) };
+        let mut out = Samples::default();
+        for (k, spec) in specs.iter().enumerate() {
+            let mut rng = SplitMix64(seed.wrapping_add(k as u64));
+            match *spec {
+                SampleSpec::Uniform(n) => {
+                    let (l, h): ([f64; 3], [f64; 3]) = (
+                        std::array::from_fn(|a| lo[a] - pad * (hi[a] - lo[a])),
+                        std::array::from_fn(|a| hi[a] + pad * (hi[a] - lo[a])),
+                    );
+                    out.points
+                        .extend(sample::uniform(l, h, n, &mut rng).into_iter().map(world));
+                }
+                SampleSpec::Near { sigma, n } => out.points.extend(
+                    sample::near(&self.triangles, &table, sigma, n, &mut rng)
+                        .into_iter()
+                        .map(world),
+                ),
+                SampleSpec::Surface(n) => {
+                    let (p, nrm) = sample::surface(&self.triangles, &table, n, &mut rng);
+                    out.surface_points.extend(p.into_iter().map(world));
+                    out.surface_normals.extend(nrm);
+                }
+            }
+        }
+        Ok(out)
+    }
 }

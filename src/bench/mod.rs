@@ -18,6 +18,7 @@ pub mod mesh;
 pub mod peak;
 pub mod peers;
 pub mod plot;
+pub mod query;
 pub mod thesis;
 pub mod voxel;
 pub mod writers;
@@ -30,8 +31,8 @@ use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 /// The suites, in run order. `peak` runs first: the floors of the other tables divide by its figures.
-pub const SUITES: [&str; 9] = [
-    "peak", "thesis", "gregory", "voxel", "gwn", "batch", "mesh", "writers", "scaling",
+pub const SUITES: [&str; 10] = [
+    "peak", "thesis", "gregory", "voxel", "gwn", "query", "batch", "mesh", "writers", "scaling",
 ];
 
 /// What a run measures and where the inputs are.
@@ -621,6 +622,7 @@ pub fn run(cfg: &BenchConfig, command: &str) -> anyhow::Result<Report> {
                 }
                 "voxel" => voxel::run(&ctx, cfg, peak.as_ref(), &mut report)?,
                 "gwn" => gwn::run(cfg, &mut report)?,
+                "query" => query::run(cfg, &mut report)?,
                 "batch" => batch::run(cfg, &mut report)?,
                 "mesh" => mesh::run(cfg, peak.as_ref(), &mut report)?,
                 "writers" => writers::run(cfg, &mut report)?,

@@ -16,7 +16,7 @@ pub struct BenchArgs {
     /// Output folder for results.json, benchmarks.md, the CSV tables and the PNG plots.
     #[arg(long, default_value = "out/bench")]
     pub out: PathBuf,
-    /// Run only these suites (repeatable): peak, thesis, gregory, voxel, gwn, batch, mesh, writers, scaling.
+    /// Run only these suites (repeatable): peak, thesis, gregory, voxel, gwn, query, batch, mesh, writers, scaling.
     #[arg(long = "suite", value_name = "NAME")]
     pub suites: Vec<String>,
     /// Repeats per measurement (the median is reported); default 3 with --quick, else 7.

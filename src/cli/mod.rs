@@ -7,6 +7,7 @@ pub mod batch;
 pub mod bench;
 pub mod info;
 pub mod mesh;
+pub mod query;
 pub mod tessellate;
 pub mod voxelize;
 
@@ -34,6 +35,9 @@ pub enum Command {
     /// Voxelize many models (files, folders, globs, manifests) with one device: sharding for job arrays
     /// (--shard I/N, Slurm, RANK/WORLD_SIZE), resume, a JSONL report.
     Batch(batch::BatchArgs),
+    /// Exact winding numbers, occupancy and signed/unsigned distances at given (.npy) or sampled points,
+    /// into an .npz (dataset building: Occupancy Networks, DeepSDF, IF-Net).
+    Query(query::QueryArgs),
     /// Run the live demo in a window, or offscreen writing PNG frames.
     Demo(crate::demo::DemoArgs),
     /// Run the benchmark suites: tables (markdown, CSV, JSON) and scaling plots (PNG).
@@ -85,6 +89,7 @@ pub fn main() -> ExitCode {
         Command::Subdivide(a) => mesh::run_subdivide(&a),
         Command::Demo(a) => crate::demo::run(&a),
         Command::Voxelize(a) => voxelize::run(&a),
+        Command::Query(a) => query::run(&a),
         Command::Batch(a) => batch::run(&a),
         Command::Tessellate(a) => tessellate::run(&a),
         Command::Bench(a) => bench::run(&a),

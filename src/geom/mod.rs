@@ -20,6 +20,7 @@ pub mod compat;
 pub mod curvature;
 pub mod gregory;
 pub mod nurbs;
+pub mod random;
 pub mod raster;
 pub mod ray;
 pub mod real;

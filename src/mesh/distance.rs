@@ -90,7 +90,7 @@ pub fn closest_on_triangle(p: [f64; 3], a: [f64; 3], b: [f64; 3], c: [f64; 3]) -
         return [0.0, 1.0 - w, w];
     }
     let sum = va + vb + vc;
-    if !(sum > 0.0) {
+    if sum.is_nan() || sum <= 0.0 {
         // A degenerate triangle whose regions all failed (rounding on a sliver): its nearest corner.
         let d = [a, b, c].map(|q| dot(sub(p, q), sub(p, q)));
         let k = (0..3).min_by(|&i, &j| d[i].total_cmp(&d[j])).unwrap_or(0);

@@ -25,6 +25,7 @@ mod normals;
 mod obj;
 mod off;
 mod ply;
+pub mod sample;
 mod sparse;
 mod stl;
 mod subdivision;

@@ -269,7 +269,11 @@ pub struct SaveOptions {
 }
 
 /// The voxel formats [`write_grid`] knows, by extension.
-pub const FORMATS: [&str; 5] = ["binvox", "npy", "nrrd", "raw", "vox"];
+pub const FORMATS: [&str; 7] = ["binvox", "npy", "npz", "nrrd", "ply", "raw", "vox"];
+
+/// Most solid voxels a sparse output (`.npz` coordinates, `.ply` centres) takes: 12 bytes each within the
+/// 4 GiB of an `.npz` without zip64.
+pub const SPARSE_MAX_VOXELS: u64 = (u32::MAX as u64 - (64 << 20)) / 12;
 
 /// Refuses, before any work, a grid that `path`'s format cannot hold (an unknown extension, a non-cubic grid
 /// for binvox, too many voxels for `.vox`). `solid` is the solid-voxel count when known.
@@ -277,14 +281,14 @@ pub fn check_format(frame: &GridFrame, path: &Path, solid: Option<u64>) -> Resul
     let ext = extension(path);
     if ext.is_empty() {
         return Err(Error::Invalid(format!(
-            "{}: the output has no extension to name its voxel format (use .binvox, .npy, .nrrd, .raw or \
-             .vox, or - for .binvox on standard output)",
+            "{}: the output has no extension to name its voxel format (use .binvox, .npy, .npz, .nrrd, .ply, \
+             .raw or .vox, or - for .binvox on standard output)",
             path.display()
         )));
     }
     if !FORMATS.contains(&ext.as_str()) {
         return Err(Error::Invalid(format!(
-            "{}: unknown voxel format '.{ext}' (use .binvox, .npy, .nrrd, .raw or .vox)",
+            "{}: unknown voxel format '.{ext}' (use .binvox, .npy, .npz, .nrrd, .ply, .raw or .vox)",
             path.display()
         )));
     }
@@ -297,6 +301,15 @@ pub fn check_format(frame: &GridFrame, path: &Path, solid: Option<u64>) -> Resul
              {hx}×{hy}×{hz}; use .npy, .nrrd, .raw or .vox, or --res for a cubic grid",
             path.display()
         )));
+    }
+    if ext == "npz" || ext == "ply" {
+        if let Some(n) = solid.filter(|&n| n > SPARSE_MAX_VOXELS) {
+            return Err(Error::Invalid(format!(
+                "{}: {n} solid voxels are too many for a sparse .{ext} (at most {SPARSE_MAX_VOXELS}, 12 \
+                 bytes each within 4 GiB); use a dense format (.npy, .nrrd, .raw, .binvox)",
+                path.display()
+            )));
+        }
     }
     if ext == "vox" {
         if let Some(n) = solid.filter(|&n| n > VOX_MAX_VOXELS) {
@@ -360,6 +373,12 @@ pub fn write_grid(grid: &VoxelGrid, path: &Path, opts: &SaveOptions) -> Result<(
         "npy" => write_atomically(path, |w| w.write_all(&npy_bytes(grid))),
         "nrrd" => write_atomically(path, |w| w.write_all(&nrrd_bytes(grid))),
         "vox" => write_atomically(path, |w| w.write_all(&vox_bytes(grid))),
+        "npz" => {
+            let bytes = sparse_npz_bytes(grid)
+                .map_err(|e| Error::Invalid(format!("{}: {e}", path.display())))?;
+            write_atomically(path, |w| w.write_all(&bytes))
+        }
+        "ply" => write_atomically(path, |w| w.write_all(&ply_bytes(grid))),
         "raw" => {
             let g = grid.to_axis(Axis::Z);
             let bytes: &[u8] = bytemuck::cast_slice(&g.words);
@@ -408,22 +427,9 @@ fn write_sidecar(grid: &VoxelGrid, path: &Path, layout: &str) -> Result<()> {
     write_atomically(&sidecar_path(path), |w| w.write_all(text.as_bytes()))
 }
 
-/// An NPY (version 1.0) header for `descr` and `shape`, padded to 64 bytes.
+/// An NPY (version 1.0) header for `descr` and a 3-d `shape`.
 fn npy_header(descr: &str, shape: [usize; 3]) -> Vec<u8> {
-    // numpy rejects extra header keys: the placement goes to the JSON sidecar.
-    let dict = format!(
-        "{{'descr': '{descr}', 'fortran_order': False, 'shape': ({}, {}, {}), }}",
-        shape[0], shape[1], shape[2]
-    );
-    let mut h = dict.into_bytes();
-    while (10 + h.len() + 1) % 64 != 0 {
-        h.push(b' ');
-    }
-    h.push(b'\n');
-    let mut out = b"\x93NUMPY\x01\x00".to_vec();
-    out.extend_from_slice(&(h.len() as u16).to_le_bytes());
-    out.extend_from_slice(&h);
-    out
+    crate::npy::npy_header(descr, &shape)
 }
 
 /// NPY (version 1.0): a bool array of shape (X, Y, Z) in C order, `a[i, j, k]` = voxel (i, j, k), so
@@ -679,5 +685,74 @@ pub fn vox_bytes(grid: &VoxelGrid) -> Vec<u8> {
     let mut out = b"VOX ".to_vec();
     out.extend_from_slice(&150u32.to_le_bytes());
     vox_chunk(&mut out, b"MAIN", &[], &children);
+    out
+}
+
+/// The solid voxels' indices, sorted (x slowest, then y, z fastest): what the sparse outputs list. Slabs of x
+/// run in parallel, set bits found word by word.
+pub fn solid_coords(grid: &VoxelGrid) -> Vec<[u32; 3]> {
+    use rayon::prelude::*;
+    let g = grid.to_axis(Axis::Z);
+    let [nx, ny, _] = g.frame.dims;
+    let w = g.frame.words_per_column(Axis::Z) as usize;
+    let slabs: Vec<Vec<[u32; 3]>> = (0..nx)
+        .into_par_iter()
+        .map(|x| {
+            let mut out = Vec::new();
+            for y in 0..ny {
+                // Bit axis Z: column (u, v) = (x, y).
+                for (wi, &word) in g.column(x, y).iter().enumerate().take(w) {
+                    let mut bits = word;
+                    while bits != 0 {
+                        let b = bits.trailing_zeros();
+                        bits &= bits - 1;
+                        out.push([x, y, wi as u32 * 32 + b]);
+                    }
+                }
+            }
+            out
+        })
+        .collect();
+    slabs.concat()
+}
+
+/// The sparse `.npz` of `grid` (the MinkowskiEngine / spconv / TRELLIS input): `coords` (int32, N × 3, the
+/// solid voxels' (i, j, k), sorted), `origin` and `voxel_size` (float64, 3: voxel (i, j, k) has its centre
+/// at origin + (index + ½)·voxel_size), `dims` (int32, 3).
+pub fn sparse_npz_bytes(grid: &VoxelGrid) -> std::result::Result<Vec<u8>, String> {
+    use crate::npy::Array;
+    let coords = solid_coords(grid);
+    let f = &grid.frame;
+    let i32s = |v: &[u32], shape: Vec<usize>| Array {
+        descr: "<i4",
+        shape,
+        data: v.iter().flat_map(|&x| (x as i32).to_le_bytes()).collect(),
+    };
+    let flat: Vec<u32> = coords.iter().flatten().copied().collect();
+    crate::npy::npz_bytes(&[
+        ("coords", i32s(&flat, vec![coords.len(), 3])),
+        ("origin", Array::f64s(&f.origin)),
+        ("voxel_size", Array::f64s(&f.voxel_size)),
+        ("dims", i32s(&f.dims, vec![3])),
+    ])
+}
+
+/// A binary little-endian PLY of the solid voxels' centres (float32 x, y, z vertices, no faces), in the
+/// order of [`solid_coords`].
+pub fn ply_bytes(grid: &VoxelGrid) -> Vec<u8> {
+    let coords = solid_coords(grid);
+    let mut out = format!(
+        "ply\nformat binary_little_endian 1.0\ncomment gregvox voxel centres\nelement vertex {}\n\
+         property float x\nproperty float y\nproperty float z\nend_header\n",
+        coords.len()
+    )
+    .into_bytes();
+    out.reserve(coords.len() * 12);
+    for c in coords {
+        let p = grid.frame.centre(c[0], c[1], c[2]);
+        for x in p {
+            out.extend_from_slice(&(x as f32).to_le_bytes());
+        }
+    }
     out
 }

@@ -4,7 +4,6 @@
 //! Invariants: positions are finite (checked by the constructors that take user data); every index is in
 //! range. Hygiene compares vertex *positions* bit for bit, so unwelded duplicates are found too.
 use crate::error::{Error, Result};
-use std::collections::HashMap;
 
 /// A triangle mesh.
 #[derive(Clone, Debug, Default, PartialEq)]
@@ -14,8 +13,6 @@ pub struct TriMesh {
 }
 
 /// Indices of the triangles over one position triple: (forward, reversed orientation).
-type Orientations = (Vec<usize>, Vec<usize>);
-
 /// What [`TriMesh::clean`] removed.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize)]
 pub struct CleanReport {
@@ -104,47 +101,42 @@ impl TriMesh {
     /// assert_eq!((clean.triangles.len(), report.duplicates, report.zero_area), (n, n, 1));
     /// ```
     pub fn clean(&self) -> (TriMesh, CleanReport) {
+        use rayon::prelude::*;
         let mut report = CleanReport::default();
         let key = |v: u32| self.positions[v as usize].map(f32::to_bits);
-        // Per position-triple: indices of the triangles of each orientation.
-        let mut groups: HashMap<[[u32; 3]; 3], Orientations> = HashMap::new();
-        let mut order = Vec::new();
-        for (i, t) in self.triangles.iter().enumerate() {
-            let p = [key(t[0]), key(t[1]), key(t[2])];
-            if zero_area(self, *t) {
-                report.zero_area += 1;
-                continue;
-            }
-            // Canonical rotation: start at the smallest position; the orientation is the order of the rest.
-            let r = (0..3).min_by_key(|&k| p[k]).unwrap();
-            let (a, b, c) = (p[r], p[(r + 1) % 3], p[(r + 2) % 3]);
-            let (k, forward) = if b < c {
-                ([a, b, c], true)
-            } else {
-                ([a, c, b], false)
-            };
-            let e = groups.entry(k).or_insert_with(|| {
-                order.push(k);
-                (Vec::new(), Vec::new())
-            });
-            if forward {
-                e.0.push(i)
-            } else {
-                e.1.push(i)
-            }
-        }
+        // Each triangle's position triple in a canonical rotation (starting at the smallest position) with
+        // its orientation (the order of the other two); sorted, equal triples sit together, by index.
+        let mut keyed: Vec<([[u32; 3]; 3], u32, bool)> = self
+            .triangles
+            .par_iter()
+            .enumerate()
+            .filter(|(_, t)| !zero_area(self, **t))
+            .map(|(i, t)| {
+                let p = [key(t[0]), key(t[1]), key(t[2])];
+                let r = (0..3).min_by_key(|&k| p[k]).unwrap();
+                let (a, b, c) = (p[r], p[(r + 1) % 3], p[(r + 2) % 3]);
+                if b < c {
+                    ([a, b, c], i as u32, true)
+                } else {
+                    ([a, c, b], i as u32, false)
+                }
+            })
+            .collect();
+        report.zero_area = self.triangles.len() - keyed.len();
+        keyed.par_sort_unstable_by(|x, y| (x.0, x.1).cmp(&(y.0, y.1)));
         let mut keep = Vec::new();
-        for k in order {
-            let (f, b) = &groups[&k];
-            let net = f.len() as i64 - b.len() as i64;
-            let pairs = f.len().min(b.len());
+        for group in keyed.chunk_by(|x, y| x.0 == y.0) {
+            // The first (lowest-index) triangle of each orientation.
+            let f = group.iter().filter(|g| g.2).count();
+            let b = group.len() - f;
+            let pairs = f.min(b);
             report.cancelled += 2 * pairs;
-            if net > 0 {
-                keep.push(f[0]);
-                report.duplicates += f.len() - pairs - 1;
-            } else if net < 0 {
-                keep.push(b[0]);
-                report.duplicates += b.len() - pairs - 1;
+            if f > b {
+                keep.push(group.iter().find(|g| g.2).map_or(0, |g| g.1 as usize));
+                report.duplicates += f - pairs - 1;
+            } else if b > f {
+                keep.push(group.iter().find(|g| !g.2).map_or(0, |g| g.1 as usize));
+                report.duplicates += b - pairs - 1;
             }
         }
         keep.sort_unstable();
