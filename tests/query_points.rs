@@ -224,6 +224,16 @@ fn bad_points_and_empty_meshes_are_refused_with_one_message() {
         .unwrap()
         .to_string();
     assert!(e.contains("no triangle"), "{e}");
+    // Prepared for unsigned distances only: the same distances, and a clear error for the rest.
+    let d = MeshQuery::distances_only(&mesh_of(&cube), &QueryOptions::default()).unwrap();
+    let p = [[0.5, 0.5, 2.0], [0.25, 0.5, 0.5]];
+    assert_eq!(
+        d.unsigned_distance(&p).unwrap().distance,
+        q.unsigned_distance(&p).unwrap().distance
+    );
+    let e = d.occupancy(&p).unwrap_err().to_string();
+    assert!(e.contains("distances only"), "{e}");
+    assert!(d.signed_distance(&p).is_err());
     let bad = QueryOptions {
         tolerance: 0.0,
         ..QueryOptions::default()

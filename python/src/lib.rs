@@ -655,7 +655,11 @@ fn query<'py>(
     );
     let (winding, occupancy, sdf, udf): Answers = py
         .allow_threads(|| -> gregvox::Result<Answers> {
-            let q = MeshQuery::new(&mesh, &opts)?;
+            let q = if want("winding") || want("occupancy") || want("sdf") {
+                MeshQuery::new(&mesh, &opts)?
+            } else {
+                MeshQuery::distances_only(&mesh, &opts)?
+            };
             let (w, o) = if want("winding") {
                 let (w, o) = q.winding_and_occupancy(&pts)?;
                 (Some(w), want("occupancy").then_some(o))

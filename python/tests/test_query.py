@@ -61,7 +61,7 @@ def test_the_cli_gives_the_same_arrays(cli, tmp_path):
     P = points(300, seed=2)
     np.save(tmp_path / "p.npy", P)
     obj = tmp_path / "box.obj"
-    obj.write_text("".join(f"v {x!r} {y!r} {z!r}\n" for x, y, z in V) + "".join(f"f {a+1} {b+1} {c+1}\n" for a, b, c in F))
+    obj.write_text("".join(f"v {float(x)!r} {float(y)!r} {float(z)!r}\n" for x, y, z in V) + "".join(f"f {a+1} {b+1} {c+1}\n" for a, b, c in F))
     cli.run("query", obj, "--points", tmp_path / "p.npy", "--what", "winding,occupancy,sdf", "--out", tmp_path / "q.npz")
     z = np.load(tmp_path / "q.npz")
     out = gregvox.query(V, F, P, what=("winding", "occupancy", "sdf"))

@@ -131,7 +131,7 @@ pub fn run(cfg: &BenchConfig, report: &mut Report) -> anyhow::Result<()> {
                     .map(|v| v.distance.len())
             });
             let udf_ms = time(repeats, || {
-                MeshQuery::new(&mesh, &opts)
+                MeshQuery::distances_only(&mesh, &opts)
                     .and_then(|q| q.unsigned_distance(&points))
                     .map(|v| v.distance.len())
             });

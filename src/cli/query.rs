@@ -121,7 +121,14 @@ pub fn run(args: &QueryArgs) -> anyhow::Result<()> {
         tolerance: args.tolerance,
         ..QueryOptions::default()
     };
-    let q = MeshQuery::new(&mesh, &opts).map_err(|e| e.for_input(&args.input))?;
+    // Unsigned distances alone need no winding number: no weld, caps or crossing index.
+    let only_udf = what.iter().all(|w| w == "udf");
+    let q = if only_udf {
+        MeshQuery::distances_only(&mesh, &opts)
+    } else {
+        MeshQuery::new(&mesh, &opts)
+    }
+    .map_err(|e| e.for_input(&args.input))?;
     let prepared = start.elapsed().as_secs_f64();
     let mut arrays: Vec<(&str, Array)> = Vec::new();
     let points = match (points_in, &specs) {

@@ -74,9 +74,10 @@ pub struct VoxelizeArgs {
     pub input: PathBuf,
     #[command(flatten)]
     pub grid: GridArgs,
-    /// Output file: .binvox (cubic grids only), .npy, .nrrd, .raw or .vox. A .npy/.raw/.vox output gets a
-    /// sidecar named after the whole file (a.npy → a.npy.json) with dims, voxel_size, origin and the
-    /// index-to-world matrix, so a.npy and a.raw side by side keep their own.
+    /// Output file: .binvox (cubic grids only), .npy, .nrrd, .raw or .vox; sparse: .npz (`coords` int32
+    /// N×3 of the solid voxels, sorted, with `origin`, `voxel_size`, `dims`) or .ply (their centres). A
+    /// .npy/.raw/.vox output gets a sidecar named after the whole file (a.npy → a.npy.json) with dims,
+    /// voxel_size, origin and the index-to-world matrix, so a.npy and a.raw side by side keep their own.
     #[arg(long)]
     pub out: Option<PathBuf>,
     /// Treat the input as a quad cage: evaluate its ACC-2 Gregory surface at this level on the GPU and voxelize

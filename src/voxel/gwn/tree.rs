@@ -232,6 +232,10 @@ pub struct Scratch {
     pub near: Vec<u32>,
     /// Nodes left to the caller's points ([`Tree::cell`]).
     pub mid: Vec<u32>,
+    /// The most work (shares evaluated, six per share opened) [`adaptive`] may do before it gives up and
+    /// answers `None`, so that a caller with a cheaper exact answer (the plain sum over a small mesh) takes
+    /// it instead; 0: no limit.
+    pub work_limit: u64,
 }
 
 impl Tree {
@@ -569,6 +573,7 @@ fn refine<T>(
     mut decide: impl FnMut(f64, f64) -> Option<T>,
     scratch: &mut Scratch,
 ) -> Option<T> {
+    let scratch_limit = scratch.work_limit;
     let shares = &mut scratch.shares;
     let (mut sum, mut err, mut mag) = (base, base_err, base.abs());
     for s in shares.iter() {
@@ -583,7 +588,7 @@ fn refine<T>(
         if let Some(answer) = decide(sum - err - round, sum + err + round) {
             return Some(answer);
         }
-        if shares.is_empty() {
+        if shares.is_empty() || (scratch_limit > 0 && operations > scratch_limit as f64) {
             return None;
         }
         // Open the worst quarter (at least 8) of the shares.
