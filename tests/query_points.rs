@@ -74,6 +74,9 @@ fn check_case(name: &str, t: &TriMesh, n: usize) {
     let (clean, _) = t.clean();
     let tris = triangles(&clean);
     let all = triangles(t);
+    // The occupancy call decides by octree cells of points (shared bounds), not point by point: the same
+    // answers.
+    let shared = q.occupancy(&pts).unwrap();
     let d = q.unsigned_distance(&pts).unwrap();
     let s = q.signed_distance(&pts).unwrap();
     let mut worst = 0.0f64;
@@ -100,6 +103,7 @@ fn check_case(name: &str, t: &TriMesh, n: usize) {
         );
         if (r.abs() - 0.5).abs() > 1e-6 {
             assert_eq!(occ[i], r.abs() >= 0.5, "{name} point {i}: w = {r}");
+            assert_eq!(shared[i], occ[i], "{name} point {i}: w = {r}");
         } else {
             near_half += 1;
         }
