@@ -158,6 +158,27 @@ fn thousands_of_holes_and_an_unwelded_soup_match_the_plain_sum() {
 }
 
 #[test]
+fn a_prism_with_huge_polygon_caps_matches_the_plain_sum() {
+    // Two 4,000-gons fanned from one vertex: 3,998 long slivers per cap meeting at a point, the attack on
+    // the crossing index's buckets (every cell crossed by slivers) and on the distance tree's boxes. Open
+    // on one side panel: the fractional term is a cap across it.
+    let n = 4000u32;
+    let mut positions = Vec::new();
+    for z in [0.0f32, 1.0] {
+        for i in 0..n {
+            let t = std::f32::consts::TAU * i as f32 / n as f32;
+            positions.push([t.cos(), t.sin(), z]);
+        }
+    }
+    let mut faces: Vec<Vec<u32>> = vec![(0..n).rev().collect(), (n..2 * n).collect()];
+    for i in 1..n {
+        faces.push(vec![i - 1, i, n + i, n + i - 1]);
+    }
+    let prism = TriMesh::from_polygons(positions, &faces).unwrap();
+    check_case("prism_4000_gon_caps", &prism, 150);
+}
+
+#[test]
 fn a_closed_mesh_gives_integer_winding_numbers() {
     let sphere = TriMesh::sphere([0.1, 0.2, 0.3], 1.0, 24, 48, false);
     check_case("sphere", &sphere, 500);

@@ -793,23 +793,26 @@ impl Gpu {
     /// rather than on the first call, so that a batch's per-model times and time limits count the
     /// models' own work, not the driver's shader compilation. `cpu` builds nothing.
     pub fn prepare(&self, method: Method) -> Result<()> {
-        let stride = std::mem::size_of::<[f32; 3]>() as u32;
         let mut cache = self.voxelizers.lock().unwrap_or_else(|e| e.into_inner());
         match method {
             Method::Cpu => {}
-            Method::Peel if cache.peel.is_none() => {
-                cache.peel = Some(GpuVoxelizer::Peel(Box::new(PeelVoxelizer::new(
-                    &self.ctx, stride,
-                )?)));
-            }
+            Method::Peel if cache.peel.is_none() => cache.peel = Some(self.new_voxelizer(method)?),
             Method::Abuffer | Method::Auto if cache.abuffer.is_none() => {
-                cache.abuffer = Some(GpuVoxelizer::Abuffer(Box::new(AbufferVoxelizer::new(
-                    &self.ctx, stride,
-                )?)));
+                cache.abuffer = Some(self.new_voxelizer(Method::Abuffer)?)
             }
             _ => {}
         }
         Ok(())
+    }
+
+    /// A new voxelizer for a GPU `method` (the A-buffer's for `Abuffer`, depth peeling's otherwise).
+    fn new_voxelizer(&self, method: Method) -> Result<GpuVoxelizer> {
+        let stride = std::mem::size_of::<[f32; 3]>() as u32;
+        Ok(if method == Method::Abuffer {
+            GpuVoxelizer::Abuffer(Box::new(AbufferVoxelizer::new(&self.ctx, stride)?))
+        } else {
+            GpuVoxelizer::Peel(Box::new(PeelVoxelizer::new(&self.ctx, stride)?))
+        })
     }
 
     /// A timestamp profiler for the calls that take one (one frame slot, up to 4,096 scopes).
@@ -956,7 +959,6 @@ impl Gpu {
         Vec<crate::engine::voxelize::AxisStats>,
     )> {
         let ctx = &self.ctx;
-        let stride = std::mem::size_of::<[f32; 3]>() as u32;
         // Take the method's voxelizer from the cache (a concurrent call on the same `Gpu` finds the slot
         // empty and builds its own), set this call's options, and put it back whatever the outcome.
         let cached = {
@@ -968,10 +970,7 @@ impl Gpu {
         };
         let mut v = match cached {
             Some(v) => v,
-            None if method == Method::Abuffer => {
-                GpuVoxelizer::Abuffer(Box::new(AbufferVoxelizer::new(ctx, stride)?))
-            }
-            None => GpuVoxelizer::Peel(Box::new(PeelVoxelizer::new(ctx, stride)?)),
+            None => self.new_voxelizer(method)?,
         };
         match &mut v {
             GpuVoxelizer::Abuffer(a) => {

@@ -312,13 +312,7 @@ impl MeshQuery {
         let local: Vec<[f64; 3]> = points.iter().map(|&p| self.local(p)).collect();
         let mut out = vec![false; points.len()];
         let mut order: Vec<u32> = (0..points.len() as u32).collect();
-        let (mut lo, mut hi) = ([f64::INFINITY; 3], [f64::NEG_INFINITY; 3]);
-        for q in &local {
-            for a in 0..3 {
-                lo[a] = lo[a].min(q[a]);
-                hi[a] = hi[a].max(q[a]);
-            }
-        }
+        let (lo, hi) = bounds(local.iter().copied());
         let answers = std::sync::Mutex::new(Vec::new());
         if !points.is_empty() {
             self.occupancy_cell(field, &local, &mut order, lo, hi, 0, &answers);
@@ -480,19 +474,27 @@ impl MeshQuery {
     }
 }
 
+/// The box of `points` (min, max corners).
+fn bounds(points: impl IntoIterator<Item = [f64; 3]>) -> ([f64; 3], [f64; 3]) {
+    points.into_iter().fold(
+        ([f64::INFINITY; 3], [f64::NEG_INFINITY; 3]),
+        |(lo, hi), p| {
+            (
+                std::array::from_fn(|a| lo[a].min(p[a])),
+                std::array::from_fn(|a| hi[a].max(p[a])),
+            )
+        },
+    )
+}
+
 /// The longest side of the box of the triangles' vertices (1 for a degenerate box).
 fn extent(tri: &TriMesh) -> f64 {
-    let mut lo = [f64::INFINITY; 3];
-    let mut hi = [f64::NEG_INFINITY; 3];
-    for t in &tri.triangles {
-        for &v in t {
-            let p = tri.positions[v as usize];
-            for a in 0..3 {
-                lo[a] = lo[a].min(p[a] as f64);
-                hi[a] = hi[a].max(p[a] as f64);
-            }
-        }
-    }
+    let (lo, hi) = bounds(
+        tri.triangles
+            .iter()
+            .flatten()
+            .map(|&v| tri.positions[v as usize].map(f64::from)),
+    );
     let e = (0..3).map(|a| hi[a] - lo[a]).fold(0.0f64, f64::max);
     if e > 0.0 {
         e
@@ -605,14 +607,7 @@ impl MeshQuery {
             });
         }
         let table = sample::area_table(&self.triangles);
-        let mut lo = [f64::INFINITY; 3];
-        let mut hi = [f64::NEG_INFINITY; 3];
-        for p in self.triangles.iter().flatten() {
-            for a in 0..3 {
-                lo[a] = lo[a].min(p[a]);
-                hi[a] = hi[a].max(p[a]);
-            }
-        }
+        let (lo, hi) = bounds(self.triangles.iter().flatten().copied());
         let world = |p: [f64; 3]| -> [f64; 3] { std::array::from_fn(|a| p[a] + self.shift[a]) };
         let mut out = Samples::default();
         for (k, spec) in specs.iter().enumerate() {

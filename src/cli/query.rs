@@ -146,19 +146,16 @@ pub fn run(args: &QueryArgs) -> anyhow::Result<()> {
                 ));
             }
             let p32 = f32_rows(&s.points);
-            arrays.push((
-                "points",
-                if args.compact {
-                    Array::points_f16(&p32)
-                } else {
-                    Array::points_f32(&p32)
-                },
-            ));
+            let written = if args.compact {
+                Array::points_f16(&p32)
+            } else {
+                Array::points_f32(&p32)
+            };
             // The points as written are the points queried (f32 or f16 rounding included), so the
             // answers describe the file's points exactly.
-            if args.compact {
-                let a = Array::points_f16(&p32);
-                a.data
+            let queried = if args.compact {
+                written
+                    .data
                     .chunks(6)
                     .map(|c| {
                         std::array::from_fn(|k| {
@@ -168,7 +165,9 @@ pub fn run(args: &QueryArgs) -> anyhow::Result<()> {
                     .collect()
             } else {
                 p32.iter().map(|p| p.map(f64::from)).collect()
-            }
+            };
+            arrays.push(("points", written));
+            queried
         }
         (None, None) => unreachable!("clap requires --points or --sample"),
     };
