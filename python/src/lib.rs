@@ -626,7 +626,10 @@ fn query<'py>(
         inside: choice(
             "rule",
             rule,
-            &[("gwn", Inside::Magnitude), ("gwn-positive", Inside::Positive)],
+            &[
+                ("gwn", Inside::Magnitude),
+                ("gwn-positive", Inside::Positive),
+            ],
         )?,
         sdf_sign: choice(
             "sdf_sign",
