@@ -32,6 +32,7 @@ __all__ = [
     "vertex_normals",
     "topology",
     "subdivide",
+    "simplify",
 ]
 
 Faces = Union[np.ndarray, Sequence[Sequence[int]]]
@@ -432,3 +433,53 @@ def vertex_normals(V: Any, F: Faces, weighting: str = "area") -> np.ndarray:
     ``area`` (libigl's default), corner ``angle`` (trimesh's ``vertex_normals``) or ``uniform``; an
     unreferenced vertex gets a zero normal (never NaN)."""
     return _gregvox.vertex_normals(*_mesh(V, F), str(weighting))
+
+
+def simplify(
+    V: Any,
+    F: Faces,
+    ratio: Optional[float] = None,
+    faces: Optional[int] = None,
+    error: Optional[float] = None,
+    placement: str = "optimal",
+    lock_border: bool = False,
+    allow_topology: bool = False,
+    prune: float = 0.0,
+    report: bool = False,
+):
+    """Reduces a mesh by parallel quadric edge collapses, as ``gregvox simplify``: returns ``(V, F, error)``,
+    ``V`` float64 (n, 3), ``F`` int64 (m, 3) triangles, ``error`` the largest collapse error (a length in the
+    mesh's units); with ``report=True`` the third item is the whole report (a dict: faces, vertices, error,
+    relative_error, collapses, passes, locked_vertices, pruned_faces, seconds).
+
+    Targets (the first reached stops; at least one): ``ratio`` of the triangles kept, ``faces`` at most,
+    ``error`` a fraction of the bounding-box diagonal. ``placement``: "optimal" (the quadric's minimum) or
+    "keep" (an endpoint). The topology is kept (manifold stays manifold, closed stays closed, the Euler
+    characteristic and the pieces stay) unless ``allow_topology``; no triangle flips; borders move only
+    along themselves (``lock_border``: not at all); vertices sharing a position (attribute seams) stay;
+    ``prune`` removes pieces smaller than that fraction of the diagonal. The GIL is released while it runs.
+
+    >>> V = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1]], float)
+    >>> F = np.array([[0, 2, 1], [0, 1, 3], [1, 2, 3], [2, 0, 3]])
+    >>> V2, F2, err = gregvox.simplify(V, F, ratio=0.5)
+    >>> F2.shape  # a tetrahedron is the smallest closed mesh
+    (4, 3)
+    """
+    if ratio is None and faces is None and error is None:
+        raise ValueError("simplify needs a target: ratio, faces or error")
+    V, ptr, idx = _mesh(V, F)
+    (V2, ptr2, idx2), rep = _gregvox.simplify(
+        V,
+        ptr,
+        idx,
+        None if ratio is None else float(ratio),
+        None if faces is None else int(faces),
+        None if error is None else float(error),
+        str(placement),
+        bool(lock_border),
+        bool(allow_topology),
+        float(prune),
+    )
+    rep = json.loads(rep)
+    F2 = idx2.reshape(-1, 3)
+    return V2, F2, (rep if report else rep["error"])

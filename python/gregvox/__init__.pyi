@@ -73,3 +73,15 @@ def query(
     sdf_sign: str = ...,
     tolerance: float = ...,
 ) -> Dict[str, npt.NDArray[Any]]: ...
+def simplify(
+    V: npt.ArrayLike,
+    F: Faces,
+    ratio: Optional[float] = ...,
+    faces: Optional[int] = ...,
+    error: Optional[float] = ...,
+    placement: str = ...,
+    lock_border: bool = ...,
+    allow_topology: bool = ...,
+    prune: float = ...,
+    report: bool = ...,
+) -> Tuple[npt.NDArray[np.float64], npt.NDArray[np.int64], Any]: ...

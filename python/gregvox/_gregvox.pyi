@@ -57,3 +57,15 @@ def query(
     sdf_sign: str = ...,
     tolerance: float = ...,
 ) -> Dict[str, npt.NDArray[np.generic]]: ...
+def simplify(
+    v: F64,
+    face_ptr: I64,
+    indices: I64,
+    ratio: Optional[float],
+    faces: Optional[int],
+    error: Optional[float],
+    placement: str,
+    lock_border: bool,
+    allow_topology: bool,
+    prune: float,
+) -> Tuple[Tuple[npt.NDArray[np.float64], npt.NDArray[np.int64], npt.NDArray[np.int64]], str]: ...

@@ -233,6 +233,49 @@ fn subdivide<'py>(
     Ok(arrays_of(py, &out))
 }
 
+/// Mesh reduction (`gregvox simplify`): ((V float64 (n, 3), offsets, indices of triangles), report JSON).
+#[pyfunction]
+#[pyo3(signature = (v, face_ptr, indices, ratio, faces, error, placement, lock_border, allow_topology, prune))]
+#[allow(clippy::too_many_arguments)]
+fn simplify<'py>(
+    py: Python<'py>,
+    v: PyReadonlyArray2<'_, f64>,
+    face_ptr: PyReadonlyArray1<'_, i64>,
+    indices: PyReadonlyArray1<'_, i64>,
+    ratio: Option<f64>,
+    faces: Option<usize>,
+    error: Option<f64>,
+    placement: &str,
+    lock_border: bool,
+    allow_topology: bool,
+    prune: f64,
+) -> PyResult<(MeshArrays<'py>, String)> {
+    let mesh = mesh_of(&v, &face_ptr, &indices)?;
+    let placement = choice(
+        "placement",
+        placement,
+        &[
+            ("keep", api::Placement::Keep),
+            ("optimal", api::Placement::Optimal),
+        ],
+    )?;
+    let opts = api::SimplifyOptions {
+        ratio,
+        faces,
+        error,
+        placement,
+        lock_border,
+        allow_topology,
+        prune,
+    };
+    let out = py
+        .allow_threads(|| api::simplify(&mesh, &opts))
+        .map_err(to_py)?;
+    let report =
+        serde_json::to_string(&out.report).map_err(|e| PyRuntimeError::new_err(e.to_string()))?;
+    Ok((arrays_of(py, &out.mesh), report))
+}
+
 /// The mesh matrices as CSR triplets (data, indices, indptr, shape) by name: `M` (|V| × |F|, the slot of
 /// each corner, 1-based), `E` (|V| × |V|, face + 1 of each half-edge i → j), `Mt_corner` (the vertex →
 /// corner map: for row v, the corner ids).
@@ -718,5 +761,6 @@ fn _gregvox(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(grid_indices, m)?)?;
     m.add_function(wrap_pyfunction!(vertex_normals, m)?)?;
     m.add_function(wrap_pyfunction!(query, m)?)?;
+    m.add_function(wrap_pyfunction!(simplify, m)?)?;
     Ok(())
 }

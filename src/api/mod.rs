@@ -28,6 +28,7 @@ use std::path::Path;
 
 pub mod batch;
 pub mod query;
+pub mod simplify;
 pub mod tessellate;
 
 pub use crate::engine::voxelize::{Deadline, ProgressFn, DEFAULT_MAX_LAYERS};
@@ -41,6 +42,9 @@ pub use crate::voxel::grid::{Axis, Bounds, GridFrame, GridSize, GridSpec, VoxelG
 pub use crate::voxel::gwn::GwnStats;
 pub use crate::voxel::surface::Fill;
 pub use query::{MeshQuery, QueryOptions, SdfSign};
+pub use simplify::{
+    simplify, simplify_lod, Placement, SimplifiedMesh, SimplifyOptions, SimplifyReport,
+};
 
 /// Largest number of voxels along any axis (2048³ bits = 1 GiB).
 pub const MAX_RES: u32 = crate::voxel::grid::MAX_DIM;

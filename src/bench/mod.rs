@@ -19,6 +19,7 @@ pub mod peak;
 pub mod peers;
 pub mod plot;
 pub mod query;
+pub mod simplify;
 pub mod thesis;
 pub mod voxel;
 pub mod writers;
@@ -31,8 +32,9 @@ use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 /// The suites, in run order. `peak` runs first: the floors of the other tables divide by its figures.
-pub const SUITES: [&str; 10] = [
-    "peak", "thesis", "gregory", "voxel", "gwn", "query", "batch", "mesh", "writers", "scaling",
+pub const SUITES: [&str; 11] = [
+    "peak", "thesis", "gregory", "voxel", "gwn", "query", "batch", "mesh", "writers", "simplify",
+    "scaling",
 ];
 
 /// What a run measures and where the inputs are.
@@ -626,6 +628,7 @@ pub fn run(cfg: &BenchConfig, command: &str) -> anyhow::Result<Report> {
                 "batch" => batch::run(cfg, &mut report)?,
                 "mesh" => mesh::run(cfg, peak.as_ref(), &mut report)?,
                 "writers" => writers::run(cfg, &mut report)?,
+                "simplify" => simplify::run(cfg, &mut report)?,
                 "scaling" => {
                     gregory::scaling(&ctx, cfg, &mut report)?;
                     voxel::scaling(&ctx, cfg, &mut report)?;

@@ -8,6 +8,7 @@ pub mod bench;
 pub mod info;
 pub mod mesh;
 pub mod query;
+pub mod simplify;
 pub mod tessellate;
 pub mod voxelize;
 
@@ -38,6 +39,9 @@ pub enum Command {
     /// Exact winding numbers, occupancy and signed/unsigned distances at given (.npy) or sampled points,
     /// into an .npz (dataset building: Occupancy Networks, DeepSDF, IF-Net).
     Query(query::QueryArgs),
+    /// Reduce a mesh (OBJ, STL, PLY, OFF, glTF/GLB) by parallel quadric edge collapses to a ratio, a face
+    /// count or an error, keeping its topology, borders and seams; levels of detail with --lod.
+    Simplify(simplify::SimplifyArgs),
     /// Run the live demo in a window, or offscreen writing PNG frames.
     Demo(crate::demo::DemoArgs),
     /// Run the benchmark suites: tables (markdown, CSV, JSON) and scaling plots (PNG).
@@ -90,6 +94,7 @@ pub fn main() -> ExitCode {
         Command::Demo(a) => crate::demo::run(&a),
         Command::Voxelize(a) => voxelize::run(&a),
         Command::Query(a) => query::run(&a),
+        Command::Simplify(a) => simplify::run(&a),
         Command::Batch(a) => batch::run(&a),
         Command::Tessellate(a) => tessellate::run(&a),
         Command::Bench(a) => bench::run(&a),

@@ -26,10 +26,12 @@ mod obj;
 mod off;
 mod ply;
 pub mod sample;
+pub mod simplify;
 mod sparse;
 mod stl;
 mod subdivision;
 mod topology;
+pub mod write;
 
 pub use load::{load_mesh_file, parse_mesh_bytes, MeshFormat};
 pub use matrix::{ActionMap, FaceLayout, HalfEdgeFace, MeshMatrix, VertexCorners, NONE};

@@ -1,0 +1,1173 @@
+//! Mesh reduction by parallel quadric-error edge collapses ("Instant Level-of-Detail" passes over the
+//! mesh matrices): every pass collapses, all at once, the valid edges whose cost is the smallest in their
+//! neighbourhood, and applies them as `B' = K·B`, one gather of the index buffer.
+//!
+//! # Algorithm
+//! - Quadrics (Garland–Heckbert): each triangle's plane quadric weighted by its area, summed at its
+//!   corners; each boundary edge adds the quadric of the plane through it perpendicular to its triangle,
+//!   weighted by its squared length × [`BOUNDARY_WEIGHT`]. A collapse adds the two quadrics. The cost of
+//!   placing the merged vertex at p is Q(p) / w (w the summed weights: a mean squared distance to the
+//!   planes the vertex stands for), so `sqrt(cost)` is a length: the error reported.
+//! - Placement: [`Placement::Keep`] moves the removed vertex onto the kept one (the cheaper direction
+//!   that is valid); [`Placement::Optimal`] solves Q's 3 × 3 system, falls back to the best point of the
+//!   edge when the system is singular (flat or straight regions) or its solution lies far from the edge.
+//! - One pass: (1) vertex → faces and vertex → neighbours (with each edge's face count) from the current
+//!   triangles; (2) for every edge, validity and the cheapest valid placement; (3) key = (cost as f32,
+//!   edge index), m1(v) = the least key of v's edges, m2(v) = the least m1 over v's closed one-ring, and
+//!   an edge is chosen when its key equals m2 at both ends; (4) the chosen collapses are applied together:
+//!   positions and quadrics of the survivors, then the index gather `t' = K[t]`, dropping the triangles
+//!   that lost a corner. Two chosen edges are never within one edge of each other (if one touched the
+//!   other's closed one-ring, the smaller key would be that ring's m2), so no triangle moves under two
+//!   collapses and every check made in (2) still holds in (4): the pass equals some sequential order.
+//! - The stop: the face target reached (the last pass takes only its cheapest collapses, in key order),
+//!   no valid collapse left, or none under the error bound.
+//!
+//! # Guarantees (for the edges that are manifold and consistently oriented)
+//! - Topology: the link condition (an interior edge's endpoints share exactly its two opposite vertices,
+//!   a boundary edge's exactly one); an interior edge never joins two boundary vertices; an opposite
+//!   vertex never drops below valence 3 (interior) or loses its last triangle (boundary). So manifold in
+//!   gives manifold out, a closed mesh stays closed, the Euler characteristic and the number of pieces
+//!   are kept (a tetrahedron is the smallest closed piece, a lone triangle the smallest open one).
+//! - Boundaries: a boundary vertex is only ever kept (its position unchanged) unless the edge is a
+//!   boundary edge, so a border moves only along itself; `lock_border` pins every boundary vertex.
+//! - Seams: vertices that share a position bit for bit with another vertex (attribute seams as exporters
+//!   write them) and every vertex of a non-manifold or inconsistently oriented fan are locked: they are
+//!   never removed or moved, so seams and non-manifold parts come out untouched.
+//! - No flips: a collapse is rejected when any triangle it moves turns by more than [`MAX_TURN_COS`]'s
+//!   angle (or becomes degenerate).
+//! - Deterministic: every per-vertex or per-edge result is computed in a fixed order within fixed blocks,
+//!   keys break ties by edge index, so the result does not depend on the number of threads.
+//! - `allow_topology` drops the link, valence and boundary-joining rules (holes may close, handles may
+//!   pinch, pieces may vanish); triangles that lose a corner are still removed, and duplicates made by a
+//!   collapse are removed too.
+//!
+//! # Cost model
+//! A pass is O(F + V + E·d) (d the valence: link and flip checks) and collapses a share of the edges
+//! (the local minima of neighbourhoods of about 30 edges, ~5–8 % of the vertices on a regular mesh), so
+//! a reduction to a fraction r costs about (1 − r)/0.06 passes over a shrinking mesh, O(F / 0.06) in all.
+//! The worst cases: a mesh where most edges are invalid (locked seams, unwelded soups: every vertex on a
+//! border of its own lone triangle, nothing collapses, one pass and out) and a high-valence fan (one
+//! vertex of a huge polygon's fan: its checks cost d² once per pass; a pass still collapses one edge of
+//! the fan, so a fan of d triangles takes d passes of O(F) each — bounded by a pass cap of
+//! [`MAX_PASSES`]).
+use glam::DVec3;
+use rayon::prelude::*;
+use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
+
+/// Weight of a boundary edge's perpendicular plane, per squared edge length.
+pub const BOUNDARY_WEIGHT: f64 = 10.0;
+/// A moved triangle must keep its normal within acos(0.2) ≈ 78° of where it was.
+pub const MAX_TURN_COS: f64 = 0.2;
+/// Passes stop after this many (the reduction reached so far is returned).
+pub const MAX_PASSES: usize = 100_000;
+/// A pass considers this share of the candidate edges, the cheapest.
+pub const PASS_SHARE: f64 = 0.2;
+/// Rounds of local-minimum selection per pass (a bound on a pass's work: see the cost model).
+pub const MAX_ROUNDS: usize = 16;
+/// Vertices per block of the parallel loops (fixed, so results do not depend on the thread count).
+const BLOCK: usize = 2048;
+
+/// Where the merged vertex of a collapse goes.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+#[cfg_attr(feature = "cli", derive(clap::ValueEnum))]
+pub enum Placement {
+    /// On one of the two endpoints (the output's vertices are a subset of the input's).
+    Keep,
+    /// At the quadric's minimum (on the edge where the quadric is singular).
+    #[default]
+    Optimal,
+}
+
+/// What to reduce to and what to keep.
+#[derive(Debug, Clone, PartialEq)]
+pub struct SimplifyOptions {
+    /// Stop when at most this many triangles are left.
+    pub target_faces: usize,
+    /// Never make a collapse whose error (a length, see the module docs) exceeds this.
+    pub max_error: f64,
+    /// See [`Placement`].
+    pub placement: Placement,
+    /// Boundary vertices never move nor disappear.
+    pub lock_border: bool,
+    /// Drop the rules that keep the topology (see the module docs).
+    pub allow_topology: bool,
+    /// Before reducing, remove the pieces (vertex-connected) whose bounding-box diagonal is at most this
+    /// fraction of the whole mesh's; 0 keeps every piece.
+    pub prune: f64,
+}
+
+impl Default for SimplifyOptions {
+    fn default() -> Self {
+        SimplifyOptions {
+            target_faces: 0,
+            max_error: f64::INFINITY,
+            placement: Placement::Optimal,
+            lock_border: false,
+            allow_topology: false,
+            prune: 0.0,
+        }
+    }
+}
+
+/// A reduced triangle mesh and how it was reached.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Simplified {
+    /// The referenced vertices, in the order of their first input ids.
+    pub positions: Vec<DVec3>,
+    pub triangles: Vec<[u32; 3]>,
+    /// For every output vertex, the input vertex it stands for (the survivor of its collapses).
+    pub source_vertex: Vec<u32>,
+    /// The largest collapse error made (a length: see the module docs); 0 when nothing collapsed.
+    pub error: f64,
+    /// Collapses made.
+    pub collapses: usize,
+    /// Parallel passes run.
+    pub passes: usize,
+    /// Vertices locked (seams, non-manifold fans, and with `lock_border` the boundary).
+    pub locked_vertices: usize,
+    /// Triangles removed with pruned pieces.
+    pub pruned_triangles: usize,
+    /// Triangles dropped on input because two corners were the same vertex.
+    pub degenerate_input: usize,
+}
+
+/// A symmetric quadric Q(p) = pᵀAp + 2bᵀp + c with its weight.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+struct Quadric {
+    /// a00 a01 a02 a11 a12 a22
+    a: [f64; 6],
+    b: [f64; 3],
+    c: f64,
+    w: f64,
+}
+
+impl Quadric {
+    /// The plane n·p + d = 0 (n unit), weighted.
+    fn plane(n: DVec3, d: f64, w: f64) -> Quadric {
+        Quadric {
+            a: [
+                w * n.x * n.x,
+                w * n.x * n.y,
+                w * n.x * n.z,
+                w * n.y * n.y,
+                w * n.y * n.z,
+                w * n.z * n.z,
+            ],
+            b: [w * n.x * d, w * n.y * d, w * n.z * d],
+            c: w * d * d,
+            w,
+        }
+    }
+    fn add(&mut self, o: &Quadric) {
+        for k in 0..6 {
+            self.a[k] += o.a[k];
+        }
+        for k in 0..3 {
+            self.b[k] += o.b[k];
+        }
+        self.c += o.c;
+        self.w += o.w;
+    }
+    fn sum(&self, o: &Quadric) -> Quadric {
+        let mut s = *self;
+        s.add(o);
+        s
+    }
+    fn a_times(&self, p: DVec3) -> DVec3 {
+        let a = &self.a;
+        DVec3::new(
+            a[0] * p.x + a[1] * p.y + a[2] * p.z,
+            a[1] * p.x + a[3] * p.y + a[4] * p.z,
+            a[2] * p.x + a[4] * p.y + a[5] * p.z,
+        )
+    }
+    fn b(&self) -> DVec3 {
+        DVec3::from_array(self.b)
+    }
+    /// Q(p) / w, clamped at 0 (rounding can make it slightly negative).
+    fn cost(&self, p: DVec3) -> f64 {
+        if self.w <= 0.0 {
+            return 0.0;
+        }
+        let q = p.dot(self.a_times(p)) + 2.0 * self.b().dot(p) + self.c;
+        (q / self.w).max(0.0)
+    }
+    /// The minimiser of Q when A is well conditioned.
+    fn minimiser(&self) -> Option<DVec3> {
+        let a = &self.a;
+        let m = glam::DMat3::from_cols(
+            DVec3::new(a[0], a[1], a[2]),
+            DVec3::new(a[1], a[3], a[4]),
+            DVec3::new(a[2], a[4], a[5]),
+        );
+        let det = m.determinant();
+        let tr = a[0] + a[3] + a[5];
+        // Relative to the scale of A: a rank-deficient A (flat or straight region) has det ≈ 0.
+        if tr.is_nan() || tr <= 0.0 || det.abs() <= 1e-9 * (tr / 3.0).powi(3) {
+            return None;
+        }
+        let x = m.inverse() * (-self.b());
+        x.is_finite().then_some(x)
+    }
+}
+
+/// Vertex flags.
+const LOCKED: u8 = 1;
+
+/// The per-pass adjacency: vertex → faces, vertex → distinct neighbours with the edge's face count.
+struct Adjacency {
+    vf_ptr: Vec<u32>,
+    vf: Vec<u32>,
+    /// Neighbours of v: `nb[2·vf_ptr[v] .. 2·vf_ptr[v] + nb_len[v]]`, sorted.
+    nb: Vec<u32>,
+    /// Faces on edge (v, neighbour), parallel to `nb`.
+    nb_faces: Vec<u8>,
+    nb_len: Vec<u32>,
+    /// Whether v has a boundary edge (an edge with one triangle).
+    border: Vec<bool>,
+}
+
+impl Adjacency {
+    fn build(n: usize, tri: &[[u32; 3]]) -> Adjacency {
+        let mut vf_ptr = vec![0u32; n + 1];
+        for t in tri {
+            for &v in t {
+                vf_ptr[v as usize + 1] += 1;
+            }
+        }
+        for v in 0..n {
+            vf_ptr[v + 1] += vf_ptr[v];
+        }
+        let mut fill = vf_ptr.clone();
+        let mut vf = vec![0u32; vf_ptr[n] as usize];
+        for (f, t) in tri.iter().enumerate() {
+            for &v in t {
+                vf[fill[v as usize] as usize] = f as u32;
+                fill[v as usize] += 1;
+            }
+        }
+        let total = 2 * vf.len();
+        let mut nb = vec![0u32; total];
+        let mut nb_faces = vec![0u8; total];
+        let mut nb_len = vec![0u32; n];
+        {
+            let starts: Vec<usize> = (0..n.div_ceil(BLOCK))
+                .map(|b| 2 * vf_ptr[b * BLOCK] as usize)
+                .collect();
+            let nb_blocks = split_at_offsets(&mut nb, &starts);
+            let nbf_blocks = split_at_offsets(&mut nb_faces, &starts);
+            nb_blocks
+                .into_par_iter()
+                .zip(nbf_blocks)
+                .zip(nb_len.par_chunks_mut(BLOCK))
+                .enumerate()
+                .for_each(|(b, ((nbs, nbfs), lens))| {
+                    let base = 2 * vf_ptr[b * BLOCK] as usize;
+                    let mut scratch: Vec<u32> = Vec::new();
+                    for (i, len) in lens.iter_mut().enumerate() {
+                        let v = (b * BLOCK + i) as u32;
+                        let (s, e) = (vf_ptr[v as usize] as usize, vf_ptr[v as usize + 1] as usize);
+                        scratch.clear();
+                        for &f in &vf[s..e] {
+                            for &u in &tri[f as usize] {
+                                if u != v {
+                                    scratch.push(u);
+                                }
+                            }
+                        }
+                        scratch.sort_unstable();
+                        let out = 2 * s - base;
+                        let mut k = 0usize;
+                        let mut j = 0usize;
+                        while j < scratch.len() {
+                            let u = scratch[j];
+                            let mut c = 0usize;
+                            while j < scratch.len() && scratch[j] == u {
+                                c += 1;
+                                j += 1;
+                            }
+                            nbs[out + k] = u;
+                            nbfs[out + k] = c.min(255) as u8;
+                            k += 1;
+                        }
+                        *len = k as u32;
+                    }
+                });
+        }
+        let mut adj = Adjacency {
+            vf_ptr,
+            vf,
+            nb,
+            nb_faces,
+            nb_len,
+            border: Vec::new(),
+        };
+        adj.border = (0..n as u32)
+            .into_par_iter()
+            .map(|v| adj.neighbours(v).1.contains(&1))
+            .collect();
+        adj
+    }
+    fn faces(&self, v: u32) -> &[u32] {
+        &self.vf[self.vf_ptr[v as usize] as usize..self.vf_ptr[v as usize + 1] as usize]
+    }
+    fn neighbours(&self, v: u32) -> (&[u32], &[u8]) {
+        let s = 2 * self.vf_ptr[v as usize] as usize;
+        let e = s + self.nb_len[v as usize] as usize;
+        (&self.nb[s..e], &self.nb_faces[s..e])
+    }
+    fn is_border(&self, v: u32) -> bool {
+        self.border[v as usize]
+    }
+}
+
+/// Splits `data` at the given increasing offsets (the first is the start of the first piece).
+fn split_at_offsets<'a, T>(data: &'a mut [T], starts: &[usize]) -> Vec<&'a mut [T]> {
+    let mut out = Vec::with_capacity(starts.len());
+    let mut rest = data;
+    let mut at = starts.first().copied().unwrap_or(0);
+    rest = &mut rest[at..];
+    for k in 0..starts.len() {
+        let end = starts.get(k + 1).copied().unwrap_or(at + rest.len());
+        let (head, tail) = rest.split_at_mut(end - at);
+        out.push(head);
+        rest = tail;
+        at = end;
+    }
+    out
+}
+
+/// An edge that may collapse, with the cost of its cheapest placement (validity not yet checked).
+#[derive(Debug, Clone, Copy)]
+struct Candidate {
+    a: u32,
+    b: u32,
+    faces: u8,
+    cost: f64,
+}
+
+/// A valid collapse: `remove` goes into `keep`, which moves to `to`.
+#[derive(Debug, Clone, Copy)]
+struct Collapse {
+    keep: u32,
+    remove: u32,
+    to: DVec3,
+    cost: f64,
+}
+
+/// The simplifier's state between passes.
+struct State<'a> {
+    pos: Vec<DVec3>,
+    quad: Vec<Quadric>,
+    /// The input's area-weighted normal summed over the input vertices each vertex stands for: the
+    /// orientation of the original surface that a moved triangle must keep facing.
+    normal: Vec<DVec3>,
+    flags: Vec<u8>,
+    tri: Vec<[u32; 3]>,
+    opts: &'a SimplifyOptions,
+}
+
+/// Whether the fan of triangles around `v` is one disc or half-disc, consistently oriented.
+fn fan_is_manifold(v: u32, faces: &[u32], tri: &[[u32; 3]]) -> bool {
+    // (previous, next) corner of v in every face; the fan is one chain when following next → previous
+    // visits every face once.
+    let pn: Vec<(u32, u32)> = faces
+        .iter()
+        .map(|&f| {
+            let t = tri[f as usize];
+            let k = t.iter().position(|&x| x == v).unwrap_or(0);
+            (t[(k + 2) % 3], t[(k + 1) % 3])
+        })
+        .collect();
+    let n = pn.len();
+    if n == 0 {
+        return true;
+    }
+    // Each corner may appear at most once as a "next" and once as a "prev".
+    let mut nexts: Vec<u32> = pn.iter().map(|p| p.1).collect();
+    let mut prevs: Vec<u32> = pn.iter().map(|p| p.0).collect();
+    nexts.sort_unstable();
+    prevs.sort_unstable();
+    if nexts.windows(2).any(|w| w[0] == w[1]) || prevs.windows(2).any(|w| w[0] == w[1]) {
+        return false;
+    }
+    // Start from a face whose prev is nobody's next (the fan's open end), else anywhere.
+    let start = (0..n)
+        .find(|&i| nexts.binary_search(&pn[i].0).is_err())
+        .unwrap_or(0);
+    let mut seen = 1usize;
+    let mut cur = start;
+    loop {
+        let next = pn[cur].1;
+        match (0..n).find(|&i| pn[i].0 == next) {
+            Some(i) if i != start => {
+                cur = i;
+                seen += 1;
+                if seen > n {
+                    return false;
+                }
+            }
+            _ => break,
+        }
+    }
+    seen == n
+}
+
+impl State<'_> {
+    /// Candidate collapses of every edge owned (lower id) by the vertices of block `b`: the cheapest
+    /// placement the locks and the boundary rule allow, under `bound`, not yet checked for validity.
+    fn candidates(&self, adj: &Adjacency, b: usize, bound: f64) -> Vec<Candidate> {
+        let n = self.pos.len();
+        let mut out = Vec::new();
+        for v in b * BLOCK..((b + 1) * BLOCK).min(n) {
+            let a = v as u32;
+            let (nbs, nbf) = adj.neighbours(a);
+            for (k, &u) in nbs.iter().enumerate() {
+                if u < a {
+                    continue;
+                }
+                let opts = self.options(adj, a, u, nbf[k]);
+                let best = opts
+                    .iter()
+                    .flatten()
+                    .map(|c| c.cost)
+                    .fold(f64::INFINITY, f64::min);
+                if best <= bound {
+                    out.push(Candidate {
+                        a,
+                        b: u,
+                        faces: nbf[k],
+                        cost: best,
+                    });
+                }
+            }
+        }
+        out
+    }
+
+    /// The placements edge (a, b) with `faces` triangles on it may take (at most two), with their costs.
+    fn options(&self, adj: &Adjacency, a: u32, b: u32, faces: u8) -> [Option<Collapse>; 2] {
+        let none = [None, None];
+        let (fa, fb) = (self.flags[a as usize], self.flags[b as usize]);
+        if (fa & LOCKED != 0 && fb & LOCKED != 0) || faces == 0 || faces > 2 {
+            return none;
+        }
+        let border_edge = faces == 1;
+        let (ba, bb) = (adj.is_border(a), adj.is_border(b));
+        if !self.opts.allow_topology && !border_edge && ba && bb {
+            return none; // would pinch two boundary stretches together
+        }
+        let (qa, qb) = (&self.quad[a as usize], &self.quad[b as usize]);
+        let q = qa.sum(qb);
+        // The error of a placement is the larger of the two endpoints' own (each one's planes, each
+        // normalised by its own weight): the sum's normalisation would let a light vertex (a spike of one
+        // triangle) vanish into a heavy one at a diluted cost.
+        let cost = |p: DVec3| qa.cost(p).max(qb.cost(p));
+        let (pa, pb) = (self.pos[a as usize], self.pos[b as usize]);
+        // A locked vertex never goes; on an interior edge a boundary vertex stays where it is.
+        let can_remove_a = fa & LOCKED == 0 && (border_edge || !ba);
+        let can_remove_b = fb & LOCKED == 0 && (border_edge || !bb);
+        // Boundary edges collapse onto an endpoint: the border stays on its own vertices.
+        if self.opts.placement == Placement::Optimal && can_remove_a && can_remove_b && !border_edge
+        {
+            let to = optimal_point(&q, pa, pb);
+            return [
+                Some(Collapse {
+                    keep: a,
+                    remove: b,
+                    to,
+                    cost: cost(to),
+                }),
+                None,
+            ];
+        }
+        let mut out = none;
+        if can_remove_b {
+            out[0] = Some(Collapse {
+                keep: a,
+                remove: b,
+                to: pa,
+                cost: cost(pa),
+            });
+        }
+        if can_remove_a {
+            out[1] = Some(Collapse {
+                keep: b,
+                remove: a,
+                to: pb,
+                cost: cost(pb),
+            });
+        }
+        out
+    }
+
+    /// The cheapest placement of a candidate that keeps the topology and flips nothing, if any.
+    fn validate(&self, adj: &Adjacency, c: &Candidate, bound: f64) -> Option<Collapse> {
+        let border_edge = c.faces == 1;
+        if !self.opts.allow_topology && !self.link_ok(adj, c.a, c.b, border_edge) {
+            return None;
+        }
+        let mut opts: Vec<Collapse> = self
+            .options(adj, c.a, c.b, c.faces)
+            .into_iter()
+            .flatten()
+            .collect();
+        opts.sort_by(|x, y| x.cost.total_cmp(&y.cost));
+        // `bound` is the pass's cost limit: the other direction of an edge is taken only if it is as
+        // cheap as the edges this pass considers (a corner must not go because its edge was cheap the
+        // other way round).
+        opts.into_iter()
+            .filter(|o| o.cost as f32 <= bound as f32)
+            .find(|o| {
+                let moved_keep = self.pos[o.keep as usize] != o.to;
+                self.no_flips(adj, o.remove, o.keep, o.to)
+                    && (!moved_keep || self.no_flips(adj, o.keep, o.remove, o.to))
+            })
+    }
+
+    /// The link condition Lk(a) ∩ Lk(b) = Lk(ab) (vertices and edges, with a dummy vertex joined to the
+    /// boundary) and the valence rules of the opposite vertices.
+    fn link_ok(&self, adj: &Adjacency, a: u32, b: u32, border_edge: bool) -> bool {
+        // The vertices opposite the edge: one per triangle on it.
+        let mut opp = [u32::MAX; 2];
+        let mut n_opp = 0;
+        for &f in adj.faces(a) {
+            let t = self.tri[f as usize];
+            if t.contains(&b) {
+                if n_opp == 2 {
+                    return false;
+                }
+                opp[n_opp] = t.into_iter().find(|&x| x != a && x != b).unwrap_or(a);
+                n_opp += 1;
+            }
+        }
+        if n_opp != if border_edge { 1 } else { 2 } {
+            return false;
+        }
+        // Vertices of the links: the common neighbours are exactly the opposite vertices.
+        let (na, fa) = adj.neighbours(a);
+        let (nb, fb) = adj.neighbours(b);
+        let (mut i, mut j, mut common) = (0, 0, 0);
+        while i < na.len() && j < nb.len() {
+            match na[i].cmp(&nb[j]) {
+                std::cmp::Ordering::Less => i += 1,
+                std::cmp::Ordering::Greater => j += 1,
+                std::cmp::Ordering::Equal => {
+                    let c = na[i];
+                    if !opp[..n_opp].contains(&c) {
+                        return false;
+                    }
+                    common += 1;
+                    let c_faces = adj.faces(c).len();
+                    // c loses a triangle: it must keep one, and an interior c must keep valence ≥ 3.
+                    if c_faces <= 1 || (!adj.is_border(c) && c_faces <= 3) {
+                        return false;
+                    }
+                    // A triangle a b c whose other two edges are boundary edges too would fold to an edge
+                    // (the dummy edge c–∞ in both links); a triangle on a non-manifold edge stays.
+                    if (border_edge && fa[i] == 1 && fb[j] == 1) || fa[i] > 2 || fb[j] > 2 {
+                        return false;
+                    }
+                    i += 1;
+                    j += 1;
+                }
+            }
+        }
+        if common != n_opp {
+            return false;
+        }
+        // Edges of the links: an interior edge's opposite vertices c, d must not form a triangle with both
+        // a and b (a valence-3 vertex over an existing triangle: the collapse would double it).
+        if !border_edge {
+            let (c, d) = (opp[0], opp[1]);
+            let has_cd = |v: u32| {
+                adj.faces(v).iter().any(|&f| {
+                    let t = self.tri[f as usize];
+                    t.contains(&c) && t.contains(&d)
+                })
+            };
+            if has_cd(a) && has_cd(b) {
+                return false;
+            }
+        }
+        true
+    }
+
+    /// Whether moving `v` to `to` (merging it with `other`) keeps every surviving triangle of `v` turned
+    /// by less than acos([`MAX_TURN_COS`]) and non-degenerate.
+    fn no_flips(&self, adj: &Adjacency, v: u32, other: u32, to: DVec3) -> bool {
+        let merged = self.normal[v as usize] + self.normal[other as usize];
+        for &f in adj.faces(v) {
+            let t = self.tri[f as usize];
+            if t.contains(&other) {
+                continue; // removed by the collapse
+            }
+            let p = t.map(|x| self.pos[x as usize]);
+            let n0 = (p[1] - p[0]).cross(p[2] - p[0]);
+            let q = t.map(|x| if x == v { to } else { self.pos[x as usize] });
+            let n1 = (q[1] - q[0]).cross(q[2] - q[0]);
+            let l0 = n0.length_squared();
+            if l0 == 0.0 {
+                continue; // a degenerate triangle has no orientation to keep
+            }
+            let l1 = n1.length_squared();
+            if l1 <= l0 * 1e-12 || n0.dot(n1) <= MAX_TURN_COS * (l0 * l1).sqrt() {
+                return false;
+            }
+            // Against the input, not only the previous step: turns of less than 90° per collapse must
+            // not add up to a fold.
+            let reference: DVec3 = t
+                .iter()
+                .map(|&x| {
+                    if x == v {
+                        merged
+                    } else {
+                        self.normal[x as usize]
+                    }
+                })
+                .sum();
+            if n1.dot(reference) <= 0.0 {
+                return false;
+            }
+        }
+        true
+    }
+}
+
+/// The quadric's minimiser when it is well defined and near the edge, else the best point of the edge.
+fn optimal_point(q: &Quadric, pa: DVec3, pb: DVec3) -> DVec3 {
+    let d = pb - pa;
+    let len = d.length();
+    if let Some(x) = q.minimiser() {
+        // Far from the edge the quadric is extrapolating: keep to the edge's neighbourhood.
+        if x.distance(0.5 * (pa + pb)) <= len {
+            return x;
+        }
+    }
+    // Q(pa + t d) = Q(pa) + 2t (A pa + b)·d + t² dᵀAd.
+    let g = (q.a_times(pa) + q.b()).dot(d);
+    let h = d.dot(q.a_times(d));
+    let t = if h > 0.0 {
+        (-g / h).clamp(0.0, 1.0)
+    } else {
+        0.5
+    };
+    let mut best = pa + t * d;
+    let mut best_cost = q.cost(best);
+    for p in [pa, pb, 0.5 * (pa + pb)] {
+        let c = q.cost(p);
+        if c < best_cost {
+            best = p;
+            best_cost = c;
+        }
+    }
+    best
+}
+
+/// Reduces a triangle mesh (see the module docs). Indices must be in range (the API validates them).
+pub fn simplify(positions: &[DVec3], triangles: &[[u32; 3]], opts: &SimplifyOptions) -> Simplified {
+    let n = positions.len();
+    let mut tri: Vec<[u32; 3]> = triangles
+        .iter()
+        .copied()
+        .filter(|t| t[0] != t[1] && t[1] != t[2] && t[0] != t[2])
+        .collect();
+    let degenerate_input = triangles.len() - tri.len();
+    let mut pruned_triangles = 0;
+    if opts.prune > 0.0 {
+        let before = tri.len();
+        tri = prune_small_pieces(positions, tri, opts.prune);
+        pruned_triangles = before - tri.len();
+    }
+    let adj = Adjacency::build(n, &tri);
+    // Locks: seams (bit-identical positions of distinct referenced vertices), non-manifold fans,
+    // optionally the border.
+    let mut flags = vec![0u8; n];
+    let referenced: Vec<bool> = (0..n).map(|v| adj.vf_ptr[v] < adj.vf_ptr[v + 1]).collect();
+    let mut order: Vec<u32> = (0..n as u32).filter(|&v| referenced[v as usize]).collect();
+    let key = |v: u32| positions[v as usize].to_array().map(f64::to_bits);
+    order.par_sort_unstable_by_key(|&v| (key(v), v));
+    for w in order.windows(2) {
+        if key(w[0]) == key(w[1]) {
+            flags[w[0] as usize] |= LOCKED;
+            flags[w[1] as usize] |= LOCKED;
+        }
+    }
+    flags.par_iter_mut().enumerate().for_each(|(v, fl)| {
+        let v = v as u32;
+        let (_, nbf) = adj.neighbours(v);
+        if nbf.iter().any(|&c| c > 2) || !fan_is_manifold(v, adj.faces(v), &tri) {
+            *fl |= LOCKED;
+        }
+        if opts.lock_border && adj.is_border(v) {
+            *fl |= LOCKED;
+        }
+    });
+    let locked_vertices = (0..n)
+        .filter(|&v| referenced[v] && flags[v] & LOCKED != 0)
+        .count();
+    let quad = initial_quadrics(positions, &tri, &adj);
+    let normal: Vec<DVec3> = (0..n as u32)
+        .into_par_iter()
+        .map(|v| {
+            adj.faces(v)
+                .iter()
+                .map(|&f| {
+                    let p = tri[f as usize].map(|x| positions[x as usize]);
+                    (p[1] - p[0]).cross(p[2] - p[0])
+                })
+                .sum()
+        })
+        .collect();
+    let mut st = State {
+        pos: positions.to_vec(),
+        quad,
+        normal,
+        flags,
+        tri,
+        opts,
+    };
+    // The original id of each current vertex (vertices are renumbered when compacted).
+    let mut ids: Vec<u32> = (0..n as u32).collect();
+    let bound = if opts.max_error.is_finite() {
+        opts.max_error.max(0.0).powi(2)
+    } else {
+        f64::INFINITY
+    };
+    let (mut error2, mut collapses, mut passes) = (0.0f64, 0usize, 0usize);
+    let mut adj = Some(adj);
+    // Vertices removed since the arrays were last compacted (the unreferenced input ones count too).
+    let mut dead = referenced.iter().filter(|&&r| !r).count();
+    while st.tri.len() > opts.target_faces && passes < MAX_PASSES {
+        let a = adj
+            .take()
+            .unwrap_or_else(|| Adjacency::build(st.pos.len(), &st.tri));
+        passes += 1;
+        let nv = st.pos.len();
+        let blocks = nv.div_ceil(BLOCK);
+        let cands: Vec<Candidate> = (0..blocks)
+            .into_par_iter()
+            .map(|b| st.candidates(&a, b, bound))
+            .collect::<Vec<_>>()
+            .concat();
+        if cands.is_empty() {
+            break;
+        }
+        // This pass considers the cheapest share of the candidates: a greedy order's first steps, taken
+        // in parallel (past the target, the chosen are cut in key order below).
+        let share = (cands.len() as f64 * PASS_SHARE).ceil() as usize;
+        let mut take = share.clamp(1, cands.len());
+        let keys: Vec<u64> = cands
+            .iter()
+            .enumerate()
+            .map(|(i, c)| ((c.cost as f32).to_bits() as u64) << 32 | scramble(i as u32) as u64)
+            .collect();
+        let want = st.tri.len() - opts.target_faces;
+        // When every considered candidate is invalid, consider four times as many, up to all of them.
+        let mut chosen = loop {
+            let limit = {
+                let mut k = keys.clone();
+                let (_, nth, _) = k.select_nth_unstable(take - 1);
+                *nth
+            };
+            let mut active: Vec<u32> = (0..cands.len() as u32)
+                .filter(|&i| keys[i as usize] <= limit)
+                .collect();
+            let limit_cost = f32::from_bits((limit >> 32) as u32) as f64;
+            let chosen = independent_collapses(
+                &st,
+                &a,
+                &cands,
+                &keys,
+                &mut active,
+                limit_cost.min(bound),
+                want,
+            );
+            if !chosen.is_empty() || take == cands.len() {
+                break chosen;
+            }
+            take = (take * 4).min(cands.len());
+        };
+        // Past the target, only the cheapest collapses of this pass are made (in key order).
+        let mut removed = 0usize;
+        let cut = chosen
+            .iter()
+            .position(|c| {
+                let done = removed >= want;
+                removed += c.2 as usize;
+                done
+            })
+            .unwrap_or(chosen.len());
+        chosen.truncate(cut);
+        if chosen.is_empty() {
+            break;
+        }
+        // K: remove → keep; the survivors move and take the sum of the quadrics.
+        let mut remap: Vec<u32> = (0..nv as u32).collect();
+        for (_, c, _) in &chosen {
+            remap[c.remove as usize] = c.keep;
+            st.pos[c.keep as usize] = c.to;
+            let qr = st.quad[c.remove as usize];
+            st.quad[c.keep as usize].add(&qr);
+            let nr = st.normal[c.remove as usize];
+            st.normal[c.keep as usize] += nr;
+            error2 = error2.max(c.cost);
+        }
+        collapses += chosen.len();
+        drop(a);
+        let allow = opts.allow_topology;
+        // B' = K·B: one gather of the index buffer; triangles that lost a corner go.
+        st.tri = st
+            .tri
+            .par_iter()
+            .filter_map(|t| {
+                let u = t.map(|x| remap[x as usize]);
+                (u[0] != u[1] && u[1] != u[2] && u[0] != u[2]).then_some(u)
+            })
+            .collect();
+        if allow {
+            dedup_triangles(&mut st.tri);
+        }
+        // Compact the vertex arrays once half of them are gone, so a pass costs the live mesh only.
+        dead += chosen.len();
+        if dead * 2 > nv {
+            compact(&mut st, &mut ids);
+            dead = 0;
+        }
+    }
+    let (positions, triangles, source_vertex) = finish(&st, &ids);
+    Simplified {
+        positions,
+        triangles,
+        source_vertex,
+        error: error2.sqrt(),
+        collapses,
+        passes,
+        locked_vertices,
+        pruned_triangles,
+        degenerate_input,
+    }
+}
+
+/// A bijection of u32 (odd multiplications and xor-shifts): ties of cost are broken in a scattered but
+/// fixed order. Breaking them by edge index would make the local minima of a flat region (every cost 0)
+/// a sweep front, one row of collapses per pass; keys stay unique, as the selection needs.
+fn scramble(mut x: u32) -> u32 {
+    x ^= x >> 16;
+    x = x.wrapping_mul(0x7feb_352d);
+    x ^= x >> 15;
+    x = x.wrapping_mul(0x846c_a68b);
+    x ^= x >> 16;
+    x
+}
+
+/// Picks non-interfering collapses among the `active` candidates (indices, in increasing key order):
+/// rounds of local minima (an edge whose key is the least over the edges touching its endpoints' closed
+/// one-rings), each checked for validity; a valid one blocks its closed one-rings for the rest of the
+/// pass, an invalid one leaves. Stops when `faces` triangles would be removed, nothing is active, or after
+/// [`MAX_ROUNDS`] rounds. Returns (key, collapse, triangles removed) in key order.
+fn independent_collapses(
+    st: &State,
+    adj: &Adjacency,
+    cands: &[Candidate],
+    keys: &[u64],
+    active: &mut Vec<u32>,
+    bound: f64,
+    faces: usize,
+) -> Vec<(u64, Collapse, u8)> {
+    let nv = st.pos.len();
+    let m1: Vec<AtomicU64> = (0..nv).map(|_| AtomicU64::new(u64::MAX)).collect();
+    let blocked: Vec<AtomicBool> = (0..nv).map(|_| AtomicBool::new(false)).collect();
+    let mut chosen: Vec<(u64, Collapse, u8)> = Vec::new();
+    let mut removed = 0usize;
+    for _ in 0..MAX_ROUNDS {
+        if active.is_empty() || removed >= faces {
+            break;
+        }
+        active.par_iter().for_each(|&i| {
+            let c = &cands[i as usize];
+            let k = keys[i as usize];
+            m1[c.a as usize].fetch_min(k, Ordering::Relaxed);
+            m1[c.b as usize].fetch_min(k, Ordering::Relaxed);
+        });
+        let m2 = |v: u32| {
+            let (nbs, _) = adj.neighbours(v);
+            nbs.iter()
+                .fold(m1[v as usize].load(Ordering::Relaxed), |m, &u| {
+                    m.min(m1[u as usize].load(Ordering::Relaxed))
+                })
+        };
+        let minima: Vec<u32> = active
+            .par_iter()
+            .copied()
+            .filter(|&i| {
+                let c = &cands[i as usize];
+                let k = keys[i as usize];
+                // The least at both ends first (cheap), then over the closed one-rings.
+                m1[c.a as usize].load(Ordering::Relaxed) == k
+                    && m1[c.b as usize].load(Ordering::Relaxed) == k
+                    && m2(c.a) == k
+                    && m2(c.b) == k
+            })
+            .collect();
+        let valid: Vec<(u32, Option<Collapse>)> = minima
+            .par_iter()
+            .map(|&i| (i, st.validate(adj, &cands[i as usize], bound)))
+            .collect();
+        for (i, v) in valid {
+            let Some(col) = v else { continue };
+            let c = &cands[i as usize];
+            for e in [c.a, c.b] {
+                blocked[e as usize].store(true, Ordering::Relaxed);
+                for &u in adj.neighbours(e).0 {
+                    blocked[u as usize].store(true, Ordering::Relaxed);
+                }
+            }
+            chosen.push((keys[i as usize], col, c.faces));
+            removed += c.faces as usize;
+        }
+        active.par_iter().for_each(|&i| {
+            let c = &cands[i as usize];
+            m1[c.a as usize].store(u64::MAX, Ordering::Relaxed);
+            m1[c.b as usize].store(u64::MAX, Ordering::Relaxed);
+        });
+        active.retain(|&i| {
+            let c = &cands[i as usize];
+            minima.binary_search(&i).is_err()
+                && !blocked[c.a as usize].load(Ordering::Relaxed)
+                && !blocked[c.b as usize].load(Ordering::Relaxed)
+        });
+    }
+    chosen.sort_unstable_by_key(|c| c.0);
+    chosen
+}
+
+/// Renumbers the referenced vertices in order and drops the others.
+fn compact(st: &mut State, ids: &mut Vec<u32>) {
+    let n = st.pos.len();
+    let mut used = vec![false; n];
+    for t in &st.tri {
+        for &v in t {
+            used[v as usize] = true;
+        }
+    }
+    let mut new_id = vec![u32::MAX; n];
+    let mut k = 0u32;
+    for v in 0..n {
+        if used[v] {
+            new_id[v] = k;
+            k += 1;
+        }
+    }
+    let keep = |v: usize| used[v];
+    let gather = |v: &mut Vec<DVec3>| {
+        *v = (0..n).filter(|&i| keep(i)).map(|i| v[i]).collect();
+    };
+    gather(&mut st.pos);
+    st.quad = (0..n).filter(|&i| keep(i)).map(|i| st.quad[i]).collect();
+    st.normal = (0..n).filter(|&i| keep(i)).map(|i| st.normal[i]).collect();
+    st.flags = (0..n).filter(|&i| keep(i)).map(|i| st.flags[i]).collect();
+    *ids = (0..n).filter(|&i| keep(i)).map(|i| ids[i]).collect();
+    for t in st.tri.iter_mut() {
+        *t = t.map(|v| new_id[v as usize]);
+    }
+}
+
+/// The referenced vertices (in order), the triangles renumbered, and their input ids.
+fn finish(st: &State, ids: &[u32]) -> (Vec<DVec3>, Vec<[u32; 3]>, Vec<u32>) {
+    let n = st.pos.len();
+    let mut new_id = vec![u32::MAX; n];
+    for t in &st.tri {
+        for &v in t {
+            new_id[v as usize] = 0;
+        }
+    }
+    let mut positions = Vec::new();
+    let mut source = Vec::new();
+    for v in 0..n {
+        if new_id[v] == 0 {
+            new_id[v] = positions.len() as u32;
+            positions.push(st.pos[v]);
+            source.push(ids[v]);
+        }
+    }
+    let triangles = st
+        .tri
+        .iter()
+        .map(|t| t.map(|v| new_id[v as usize]))
+        .collect();
+    (positions, triangles, source)
+}
+
+/// Removes triangles over the same three vertices as an earlier one (any orientation).
+fn dedup_triangles(tri: &mut Vec<[u32; 3]>) {
+    let mut seen = std::collections::HashSet::with_capacity(tri.len());
+    tri.retain(|t| {
+        let mut s = *t;
+        s.sort_unstable();
+        seen.insert(s)
+    });
+}
+
+/// Area-weighted plane quadrics at every corner, plus boundary-edge quadrics; summed per vertex over its
+/// faces in face order (deterministic).
+fn initial_quadrics(pos: &[DVec3], tri: &[[u32; 3]], adj: &Adjacency) -> Vec<Quadric> {
+    let face_q: Vec<Quadric> = tri
+        .par_iter()
+        .map(|t| {
+            let p = t.map(|v| pos[v as usize]);
+            let n = (p[1] - p[0]).cross(p[2] - p[0]);
+            let l = n.length();
+            if l == 0.0 || !l.is_finite() {
+                return Quadric::default();
+            }
+            let u = n / l;
+            Quadric::plane(u, -u.dot(p[0]), 0.5 * l)
+        })
+        .collect();
+    (0..pos.len() as u32)
+        .into_par_iter()
+        .map(|v| {
+            let mut q = Quadric::default();
+            for &f in adj.faces(v) {
+                q.add(&face_q[f as usize]);
+            }
+            let (nbs, nbf) = adj.neighbours(v);
+            for (k, &u) in nbs.iter().enumerate() {
+                if nbf[k] != 1 {
+                    continue;
+                }
+                // The one triangle on the boundary edge (v, u).
+                let f = adj
+                    .faces(v)
+                    .iter()
+                    .copied()
+                    .find(|&f| tri[f as usize].contains(&u));
+                let Some(f) = f else { continue };
+                let t = tri[f as usize];
+                let p = t.map(|x| pos[x as usize]);
+                let n = (p[1] - p[0]).cross(p[2] - p[0]);
+                let e = pos[u as usize] - pos[v as usize];
+                let m = e.cross(n);
+                let l = m.length();
+                if l == 0.0 || !l.is_finite() {
+                    continue;
+                }
+                let m = m / l;
+                q.add(&Quadric::plane(
+                    m,
+                    -m.dot(pos[v as usize]),
+                    BOUNDARY_WEIGHT * e.length_squared(),
+                ));
+            }
+            q
+        })
+        .collect()
+}
+
+/// Drops the vertex-connected pieces whose bounding-box diagonal is at most `fraction` of the mesh's.
+fn prune_small_pieces(pos: &[DVec3], tri: Vec<[u32; 3]>, fraction: f64) -> Vec<[u32; 3]> {
+    let n = pos.len();
+    let mut parent: Vec<u32> = (0..n as u32).collect();
+    fn find(p: &mut [u32], mut x: u32) -> u32 {
+        while p[x as usize] != x {
+            let g = p[p[x as usize] as usize];
+            p[x as usize] = g;
+            x = g;
+        }
+        x
+    }
+    for t in &tri {
+        let r0 = find(&mut parent, t[0]);
+        for &v in &t[1..] {
+            let r = find(&mut parent, v);
+            if r != r0 {
+                let (lo, hi) = (r.min(r0), r.max(r0));
+                parent[hi as usize] = lo;
+            }
+        }
+    }
+    let mut lo = vec![DVec3::splat(f64::INFINITY); n];
+    let mut hi = vec![DVec3::splat(f64::NEG_INFINITY); n];
+    let (mut all_lo, mut all_hi) = (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY));
+    for t in &tri {
+        for &v in t {
+            let r = find(&mut parent, v) as usize;
+            lo[r] = lo[r].min(pos[v as usize]);
+            hi[r] = hi[r].max(pos[v as usize]);
+            all_lo = all_lo.min(pos[v as usize]);
+            all_hi = all_hi.max(pos[v as usize]);
+        }
+    }
+    let limit = fraction * (all_hi - all_lo).length();
+    tri.into_iter()
+        .filter(|t| {
+            let r = find(&mut parent, t[0]) as usize;
+            (hi[r] - lo[r]).length() > limit
+        })
+        .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn grid(n: u32) -> (Vec<DVec3>, Vec<[u32; 3]>) {
+        let mut p = Vec::new();
+        for j in 0..=n {
+            for i in 0..=n {
+                p.push(DVec3::new(i as f64, j as f64, 0.0));
+            }
+        }
+        let mut t = Vec::new();
+        let id = |i: u32, j: u32| j * (n + 1) + i;
+        for j in 0..n {
+            for i in 0..n {
+                t.push([id(i, j), id(i + 1, j), id(i + 1, j + 1)]);
+                t.push([id(i, j), id(i + 1, j + 1), id(i, j + 1)]);
+            }
+        }
+        (p, t)
+    }
+
+    #[test]
+    fn a_flat_grid_reduces_without_error_and_keeps_its_border() {
+        let (p, t) = grid(10);
+        let s = simplify(
+            &p,
+            &t,
+            &SimplifyOptions {
+                target_faces: 20,
+                ..Default::default()
+            },
+        );
+        assert!(s.triangles.len() <= 40, "{}", s.triangles.len());
+        assert!(s.error < 1e-9);
+        // Every output vertex stays in the square and the square's corners remain.
+        for c in [
+            DVec3::ZERO,
+            DVec3::new(10.0, 0.0, 0.0),
+            DVec3::new(10.0, 10.0, 0.0),
+        ] {
+            assert!(s.positions.iter().any(|&q| q.distance(c) < 1e-9), "{c}");
+        }
+    }
+
+    #[test]
+    fn split_at_offsets_covers_the_tail() {
+        let mut v = [0, 1, 2, 3, 4, 5];
+        let parts = split_at_offsets(&mut v, &[1, 3]);
+        assert_eq!(parts.len(), 2);
+        assert_eq!(parts[0], [1, 2]);
+        assert_eq!(parts[1], [3, 4, 5]);
+    }
+
+    #[test]
+    fn a_bowtie_fan_is_not_manifold() {
+        let tri = [[0, 1, 2], [0, 3, 4]];
+        assert!(!fan_is_manifold(0, &[0, 1], &tri));
+        assert!(fan_is_manifold(1, &[0], &tri));
+        let tri = [[0, 1, 2], [0, 2, 3], [0, 3, 1]];
+        assert!(fan_is_manifold(0, &[0, 1, 2], &tri));
+    }
+}
