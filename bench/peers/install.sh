@@ -4,7 +4,8 @@
 # - apt: libosd-dev (OpenSubdiv 3.5) and a C++ compiler, fonts-dejavu-core (plot labels); for the GPU peer
 #   EGL + OpenGL through glvnd and Mesa (libegl-dev, libopengl-dev, libgl1 — libosdGPU dlopens libGL.so.1 —,
 #   libegl-mesa0, libgl1-mesa-dri: llvmpipe where there is no GPU);
-# - pip: libigl, trimesh, numpy, scipy (bench/peers/requirements.txt);
+# - pip: libigl, trimesh, numpy, scipy, fast-simplification, pyfqmr (bench/peers/requirements.txt);
+# - builds examples/meshopt_peer.rs (meshoptimizer through the meshopt crate) into target/bench-peers;
 # - builds bench/peers/osd_eval_bench.cpp into target/bench-peers/osd_eval_bench and
 #   bench/peers/osd_glcompute_bench.cpp into target/bench-peers/osd_glcompute_bench (where `gregvox bench`
 #   looks by default; `--peers DIR` to change).
@@ -22,11 +23,15 @@ if [ -n "$missing" ]; then
     $SUDO apt-get update -qq
     DEBIAN_FRONTEND=noninteractive $SUDO apt-get install -y -qq --no-install-recommends $missing
 fi
-python3 -c "import igl, trimesh, numpy, scipy" 2>/dev/null ||
+python3 -c "import igl, trimesh, numpy, scipy, fast_simplification, pyfqmr" 2>/dev/null ||
     python3 -m pip install --break-system-packages -r "$here/requirements.txt" ||
     python3 -m pip install -r "$here/requirements.txt"
 mkdir -p "$root/target/bench-peers"
 c++ -O2 -fopenmp -std=c++14 -o "$root/target/bench-peers/osd_eval_bench" "$here/osd_eval_bench.cpp" -losdCPU
 c++ -O2 -std=c++14 -o "$root/target/bench-peers/osd_glcompute_bench" "$here/osd_glcompute_bench.cpp" \
     -losdGPU -losdCPU -lEGL -lOpenGL
+# The meshoptimizer peer of the simplify suite: an example of this crate (the meshopt crate compiles
+# meshoptimizer's C++ source), copied where `gregvox bench` looks for peers.
+cargo build --release --quiet --example meshopt_peer --manifest-path "$root/Cargo.toml"
+cp "$root/target/release/examples/meshopt_peer" "$root/target/bench-peers/meshopt_peer"
 echo "peers installed: target/bench-peers/osd_eval_bench, target/bench-peers/osd_glcompute_bench, python3 libigl + trimesh"

@@ -11,7 +11,9 @@
 //! (1.1 M triangles); a CAD-like block (flat faces finely tessellated, a cylinder boss: large flat
 //! regions and sharp creases); a gregvox voxel surface (the bunny voxelized at 96³ by the CPU scanline,
 //! every exposed voxel face two triangles: staircases, and non-manifold edges where voxels touch along
-//! an edge only, which gregvox locks).
+//! an edge only, which gregvox locks); and the attacks: one 100,000-gon (a fan vertex of valence
+//! 100,000; 20,000 with `--quick`) and the bunny as an unwelded noisy soup (every triangle its own
+//! piece: nothing may collapse, and finding that out must be cheap).
 use super::peers::{self, Peer};
 use super::{median, num, BenchConfig, Report, Table};
 use crate::api::{simplify, Mesh, SimplifyOptions};
@@ -90,6 +92,18 @@ pub fn cad_block(n: u32, seg: u32) -> Mesh {
         faces.push(vec![top, at(rings, s), at(rings, s + 1)]);
     }
     Mesh::from_polygons(positions, &faces).expect("a valid block")
+}
+
+/// One polygon of `n` corners on the unit circle (its fan vertex has valence n: the attack on per-vertex
+/// work).
+pub fn disc(n: u32) -> Mesh {
+    let ring: Vec<DVec3> = (0..n)
+        .map(|k| {
+            let a = std::f64::consts::TAU * k as f64 / n as f64;
+            DVec3::new(a.cos(), a.sin(), 0.0)
+        })
+        .collect();
+    Mesh::from_polygons(ring, &[(0..n).collect()]).expect("a valid polygon")
 }
 
 /// The exposed faces of a voxel grid as triangles, corners welded on the lattice.
@@ -176,6 +190,7 @@ pub fn run(cfg: &BenchConfig, report: &mut Report) -> anyhow::Result<()> {
     if cfg.quick {
         cases.push(("spot", load_mesh_file(cfg.model("spot.obj")?)?));
         cases.push(("cad_block", cad_block(24, 64)));
+        cases.push(("one 20,000-gon (fan)", disc(20_000)));
     } else {
         cases.push(("stanford-bunny", bunny.clone()));
         cases.push((

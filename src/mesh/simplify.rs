@@ -1,55 +1,70 @@
 //! Mesh reduction by parallel quadric-error edge collapses ("Instant Level-of-Detail" passes over the
-//! mesh matrices): every pass collapses, all at once, the valid edges whose cost is the smallest in their
-//! neighbourhood, and applies them as `B' = K·B`, one gather of the index buffer.
+//! mesh matrices): every pass collapses, all at once, an independent set of the cheapest valid edges, and
+//! applies them as `B' = K·B`, one gather of the index buffer.
 //!
 //! # Algorithm
 //! - Quadrics (Garland–Heckbert): each triangle's plane quadric weighted by its area, summed at its
 //!   corners; each boundary edge adds the quadric of the plane through it perpendicular to its triangle,
-//!   weighted by its squared length × [`BOUNDARY_WEIGHT`]. A collapse adds the two quadrics. The cost of
-//!   placing the merged vertex at p is Q(p) / w (w the summed weights: a mean squared distance to the
-//!   planes the vertex stands for), so `sqrt(cost)` is a length: the error reported.
+//!   weighted by its squared length × [`BOUNDARY_WEIGHT`]. A collapse adds the two quadrics. Q(p) / w (w
+//!   the summed weights) is a mean squared distance to the planes a vertex stands for; the cost of
+//!   placing a collapse at p is the larger of its two endpoints' (each normalised by its own weight: with
+//!   the sum's weight, a light vertex — a spike of one triangle — would vanish into a heavy one at a
+//!   diluted cost), and `sqrt(cost)` is the error reported, a length.
 //! - Placement: [`Placement::Keep`] moves the removed vertex onto the kept one (the cheaper direction
-//!   that is valid); [`Placement::Optimal`] solves Q's 3 × 3 system, falls back to the best point of the
-//!   edge when the system is singular (flat or straight regions) or its solution lies far from the edge.
+//!   that is valid); [`Placement::Optimal`] places it at the summed quadric's minimum, or at the best
+//!   point of the edge when the 3 × 3 system is singular (flat or straight regions) or its solution lies
+//!   far from the edge. Boundary edges collapse onto an endpoint in both modes.
 //! - One pass: (1) vertex → faces and vertex → neighbours (with each edge's face count) from the current
-//!   triangles; (2) for every edge, validity and the cheapest valid placement; (3) key = (cost as f32,
-//!   edge index), m1(v) = the least key of v's edges, m2(v) = the least m1 over v's closed one-ring, and
-//!   an edge is chosen when its key equals m2 at both ends; (4) the chosen collapses are applied together:
-//!   positions and quadrics of the survivors, then the index gather `t' = K[t]`, dropping the triangles
-//!   that lost a corner. Two chosen edges are never within one edge of each other (if one touched the
-//!   other's closed one-ring, the smaller key would be that ring's m2), so no triangle moves under two
-//!   collapses and every check made in (2) still holds in (4): the pass equals some sequential order.
-//! - The stop: the face target reached (the last pass takes only its cheapest collapses, in key order),
+//!   triangles; (2) every edge's cheapest placement the locks allow (its cost reused from the last pass
+//!   when neither endpoint changed); (3) key = (cost as f32, a bijective scramble of the edge index: ties
+//!   of a flat region broken in a scattered order, not as a sweep); the pass considers the cheapest
+//!   [`PASS_SHARE`] of the edges; (4) rounds of local minima: m1(v) = the least key of v's considered
+//!   edges, an edge is a local minimum when its key is the least over the edges touching its endpoints'
+//!   closed one-rings; local minima are checked (link condition, valence, flips) and the valid ones block
+//!   their closed one-rings for the rest of the pass, up to [`MAX_ROUNDS`] rounds; (5) the chosen
+//!   collapses are applied together: positions, quadrics and normals of the survivors, then the index
+//!   gather `t' = K[t]`, dropping the triangles that lost a corner. Two chosen edges never touch each
+//!   other's closed one-rings, so no triangle moves under two collapses and every check made in (4)
+//!   still holds in (5): the pass equals some sequential order of collapses.
+//! - The stop: the face target reached (the last pass keeps only its cheapest collapses, in key order),
 //!   no valid collapse left, or none under the error bound.
 //!
 //! # Guarantees (for the edges that are manifold and consistently oriented)
-//! - Topology: the link condition (an interior edge's endpoints share exactly its two opposite vertices,
-//!   a boundary edge's exactly one); an interior edge never joins two boundary vertices; an opposite
-//!   vertex never drops below valence 3 (interior) or loses its last triangle (boundary). So manifold in
-//!   gives manifold out, a closed mesh stays closed, the Euler characteristic and the number of pieces
-//!   are kept (a tetrahedron is the smallest closed piece, a lone triangle the smallest open one).
-//! - Boundaries: a boundary vertex is only ever kept (its position unchanged) unless the edge is a
-//!   boundary edge, so a border moves only along itself; `lock_border` pins every boundary vertex.
+//! - Topology: the link condition Lk(a) ∩ Lk(b) = Lk(ab) on vertices and edges (an interior edge's
+//!   endpoints share exactly its two opposite vertices, which do not form a triangle with both; a
+//!   boundary edge's exactly one); an interior edge never joins two boundary vertices; an opposite vertex
+//!   never drops below valence 3 (interior) or loses its last triangle; a triangle on a non-manifold edge
+//!   is never removed. So manifold in gives manifold out, a closed mesh stays closed, the Euler
+//!   characteristic and the number of pieces are kept (a tetrahedron is the smallest closed piece, a lone
+//!   triangle the smallest open one).
+//! - Boundaries: a boundary vertex is only ever kept (its position unchanged) or removed along a boundary
+//!   edge onto its neighbour, so a border stays on its own input vertices; `lock_border` pins them all.
 //! - Seams: vertices that share a position bit for bit with another vertex (attribute seams as exporters
-//!   write them) and every vertex of a non-manifold or inconsistently oriented fan are locked: they are
-//!   never removed or moved, so seams and non-manifold parts come out untouched.
-//! - No flips: a collapse is rejected when any triangle it moves turns by more than [`MAX_TURN_COS`]'s
-//!   angle (or becomes degenerate).
-//! - Deterministic: every per-vertex or per-edge result is computed in a fixed order within fixed blocks,
-//!   keys break ties by edge index, so the result does not depend on the number of threads.
+//!   write them) and every vertex of a non-manifold or inconsistently oriented fan are locked: never
+//!   removed nor moved, so seams and non-manifold parts come out untouched (weld first to reduce them).
+//! - No flips: a collapse is rejected when a triangle it moves turns by more than acos([`MAX_TURN_COS`]),
+//!   becomes degenerate, or faces against the input's area-weighted normal summed over the input
+//!   vertices its corners stand for (so turns that are small one collapse at a time cannot add up to a
+//!   fold).
+//! - Deterministic: every per-vertex or per-edge result is computed in a fixed order within fixed blocks
+//!   and keys are unique, so the result does not depend on the number of threads.
 //! - `allow_topology` drops the link, valence and boundary-joining rules (holes may close, handles may
-//!   pinch, pieces may vanish); triangles that lose a corner are still removed, and duplicates made by a
-//!   collapse are removed too.
+//!   pinch, pieces may vanish); triangles that lose a corner are removed, and so are the duplicates a
+//!   collapse makes.
 //!
 //! # Cost model
-//! A pass is O(F + V + E·d) (d the valence: link and flip checks) and collapses a share of the edges
-//! (the local minima of neighbourhoods of about 30 edges, ~5–8 % of the vertices on a regular mesh), so
-//! a reduction to a fraction r costs about (1 − r)/0.06 passes over a shrinking mesh, O(F / 0.06) in all.
-//! The worst cases: a mesh where most edges are invalid (locked seams, unwelded soups: every vertex on a
-//! border of its own lone triangle, nothing collapses, one pass and out) and a high-valence fan (one
-//! vertex of a huge polygon's fan: its checks cost d² once per pass; a pass still collapses one edge of
-//! the fan, so a fan of d triangles takes d passes of O(F) each — bounded by a pass cap of
-//! [`MAX_PASSES`]).
+//! A pass is O(F + V) for the adjacency and the gather, O(E) for the costs (only the edges around the
+//! last pass's survivors are costed again) and the rounds, and O(E'·d) for the checks of the local
+//! minima (d the valence). Each valid collapse blocks about 10 vertices, so a pass collapses up to about
+//! 8 % of the vertices: a reduction to 50 % takes ~7 passes and to 1 % ~40 over a shrinking mesh
+//! (measured on the bunny). The worst cases: a mesh where most edges are invalid (locked seams, unwelded
+//! soups: every vertex on a border of its own lone triangle — nothing is a candidate, one pass and out),
+//! rounds of invalid local minima (a chain where each round finds the next: capped at [`MAX_ROUNDS`] a
+//! pass, when every considered edge is invalid the pass considers four times as many), flat regions where
+//! every cost ties (the scrambled tie-break keeps them parallel: a tessellated box goes from 8,064 to 806
+//! triangles in 28 passes, against 199 with ties broken by index) and a high-valence fan (a 4,000-gon's
+//! fan vertex: its checks cost d² and only one of its edges collapses a pass; measured in
+//! `tests/mesh_simplify.rs`). Passes are capped at [`MAX_PASSES`].
 use glam::DVec3;
 use rayon::prelude::*;
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
@@ -62,6 +77,8 @@ pub const MAX_TURN_COS: f64 = 0.2;
 pub const MAX_PASSES: usize = 100_000;
 /// A pass considers this share of the candidate edges, the cheapest.
 pub const PASS_SHARE: f64 = 0.2;
+/// A pass considers the candidates up to this factor of its share's largest cost.
+pub const SLACK: f32 = 1.5;
 /// Rounds of local-minimum selection per pass (a bound on a pass's work: see the cost model).
 pub const MAX_ROUNDS: usize = 16;
 /// Vertices per block of the parallel loops (fixed, so results do not depend on the thread count).
@@ -346,6 +363,18 @@ struct Candidate {
     cost: f64,
 }
 
+/// The last pass's candidates, for the edges whose endpoints it left alone.
+struct Cache {
+    /// Sorted by (a, b), a < b.
+    cands: Vec<Candidate>,
+    /// `cands[ptr[a] .. ptr[a + 1]]` are the edges a owns.
+    ptr: Vec<u32>,
+    /// The survivors and the removed vertices of the last pass.
+    dirty: Vec<bool>,
+    /// The last pass's boundary flags.
+    border: Vec<bool>,
+}
+
 /// A valid collapse: `remove` goes into `keep`, which moves to `to`.
 #[derive(Debug, Clone, Copy)]
 struct Collapse {
@@ -370,8 +399,9 @@ struct State<'a> {
 /// Whether the fan of triangles around `v` is one disc or half-disc, consistently oriented.
 fn fan_is_manifold(v: u32, faces: &[u32], tri: &[[u32; 3]]) -> bool {
     // (previous, next) corner of v in every face; the fan is one chain when following next → previous
-    // visits every face once.
-    let pn: Vec<(u32, u32)> = faces
+    // visits every face once. Sorted lookups: O(d log d) for a vertex of d faces (a huge polygon's fan
+    // vertex has all of them).
+    let mut pn: Vec<(u32, u32)> = faces
         .iter()
         .map(|&f| {
             let t = tri[f as usize];
@@ -380,15 +410,14 @@ fn fan_is_manifold(v: u32, faces: &[u32], tri: &[[u32; 3]]) -> bool {
         })
         .collect();
     let n = pn.len();
-    if n == 0 {
+    if n <= 1 {
         return true;
     }
-    // Each corner may appear at most once as a "next" and once as a "prev".
+    pn.sort_unstable();
     let mut nexts: Vec<u32> = pn.iter().map(|p| p.1).collect();
-    let mut prevs: Vec<u32> = pn.iter().map(|p| p.0).collect();
     nexts.sort_unstable();
-    prevs.sort_unstable();
-    if nexts.windows(2).any(|w| w[0] == w[1]) || prevs.windows(2).any(|w| w[0] == w[1]) {
+    // Each corner may appear at most once as a "next" and once as a "prev".
+    if nexts.windows(2).any(|w| w[0] == w[1]) || pn.windows(2).any(|w| w[0].0 == w[1].0) {
         return false;
     }
     // Start from a face whose prev is nobody's next (the fan's open end), else anywhere.
@@ -399,8 +428,8 @@ fn fan_is_manifold(v: u32, faces: &[u32], tri: &[[u32; 3]]) -> bool {
     let mut cur = start;
     loop {
         let next = pn[cur].1;
-        match (0..n).find(|&i| pn[i].0 == next) {
-            Some(i) if i != start => {
+        match pn.binary_search_by_key(&next, |p| p.0) {
+            Ok(i) if i != start => {
                 cur = i;
                 seen += 1;
                 if seen > n {
@@ -415,15 +444,34 @@ fn fan_is_manifold(v: u32, faces: &[u32], tri: &[[u32; 3]]) -> bool {
 
 impl State<'_> {
     /// Candidate collapses of every edge owned (lower id) by the vertices of block `b`: the cheapest
-    /// placement the locks and the boundary rule allow, under `bound`, not yet checked for validity.
-    fn candidates(&self, adj: &Adjacency, b: usize, bound: f64) -> Vec<Candidate> {
+    /// placement the locks and the boundary rule allow, under `bound`, not yet checked for validity. An
+    /// edge whose endpoints the last pass left alone (same quadric, position and boundary status) takes
+    /// the last pass's answer from `cache`: only the edges around the survivors are costed again.
+    fn candidates(
+        &self,
+        adj: &Adjacency,
+        b: usize,
+        bound: f64,
+        cache: Option<&Cache>,
+    ) -> Vec<Candidate> {
         let n = self.pos.len();
         let mut out = Vec::new();
+        let clean = |v: u32| {
+            cache.is_some_and(|c| !c.dirty[v as usize] && c.border[v as usize] == adj.is_border(v))
+        };
         for v in b * BLOCK..((b + 1) * BLOCK).min(n) {
             let a = v as u32;
             let (nbs, nbf) = adj.neighbours(a);
+            let a_clean = clean(a);
             for (k, &u) in nbs.iter().enumerate() {
                 if u < a {
+                    continue;
+                }
+                if let (true, Some(c)) = (a_clean && clean(u), cache) {
+                    let owned = &c.cands[c.ptr[v] as usize..c.ptr[v + 1] as usize];
+                    if let Ok(i) = owned.binary_search_by_key(&u, |x| x.b) {
+                        out.push(owned[i]);
+                    }
                     continue;
                 }
                 let opts = self.options(adj, a, u, nbf[k]);
@@ -736,6 +784,7 @@ pub fn simplify(positions: &[DVec3], triangles: &[[u32; 3]], opts: &SimplifyOpti
     };
     let (mut error2, mut collapses, mut passes) = (0.0f64, 0usize, 0usize);
     let mut adj = Some(adj);
+    let mut cache: Option<Cache> = None;
     // Vertices removed since the arrays were last compacted (the unreferenced input ones count too).
     let mut dead = referenced.iter().filter(|&&r| !r).count();
     while st.tri.len() > opts.target_faces && passes < MAX_PASSES {
@@ -747,7 +796,7 @@ pub fn simplify(positions: &[DVec3], triangles: &[[u32; 3]], opts: &SimplifyOpti
         let blocks = nv.div_ceil(BLOCK);
         let cands: Vec<Candidate> = (0..blocks)
             .into_par_iter()
-            .map(|b| st.candidates(&a, b, bound))
+            .map(|b| st.candidates(&a, b, bound, cache.as_ref()))
             .collect::<Vec<_>>()
             .concat();
         if cands.is_empty() {
@@ -756,7 +805,8 @@ pub fn simplify(positions: &[DVec3], triangles: &[[u32; 3]], opts: &SimplifyOpti
         // This pass considers the cheapest share of the candidates: a greedy order's first steps, taken
         // in parallel (past the target, the chosen are cut in key order below).
         let share = (cands.len() as f64 * PASS_SHARE).ceil() as usize;
-        let mut take = share.clamp(1, cands.len());
+        let needed = (st.tri.len() - opts.target_faces).div_ceil(2);
+        let mut take = share.min(needed).clamp(1, cands.len());
         let keys: Vec<u64> = cands
             .iter()
             .enumerate()
@@ -765,15 +815,18 @@ pub fn simplify(positions: &[DVec3], triangles: &[[u32; 3]], opts: &SimplifyOpti
         let want = st.tri.len() - opts.target_faces;
         // When every considered candidate is invalid, consider four times as many, up to all of them.
         let mut chosen = loop {
-            let limit = {
+            let nth = {
                 let mut k = keys.clone();
                 let (_, nth, _) = k.select_nth_unstable(take - 1);
                 *nth
             };
+            // Every candidate within SLACK of the take-th cost (all ties of a flat region at once): the
+            // cheap edges blocked this pass wait for the next one instead of costlier ones going first.
+            let limit_cost = (f32::from_bits((nth >> 32) as u32) * SLACK) as f64;
+            let limit = ((limit_cost as f32).to_bits() as u64) << 32 | u32::MAX as u64;
             let mut active: Vec<u32> = (0..cands.len() as u32)
                 .filter(|&i| keys[i as usize] <= limit)
                 .collect();
-            let limit_cost = f32::from_bits((limit >> 32) as u32) as f64;
             let chosen = independent_collapses(
                 &st,
                 &a,
@@ -814,6 +867,12 @@ pub fn simplify(positions: &[DVec3], triangles: &[[u32; 3]], opts: &SimplifyOpti
             error2 = error2.max(c.cost);
         }
         collapses += chosen.len();
+        let mut dirty = vec![false; nv];
+        for (_, c, _) in &chosen {
+            dirty[c.keep as usize] = true;
+            dirty[c.remove as usize] = true;
+        }
+        let border = a.border.clone();
         drop(a);
         let allow = opts.allow_topology;
         // B' = K·B: one gather of the index buffer; triangles that lost a corner go.
@@ -833,6 +892,22 @@ pub fn simplify(positions: &[DVec3], triangles: &[[u32; 3]], opts: &SimplifyOpti
         if dead * 2 > nv {
             compact(&mut st, &mut ids);
             dead = 0;
+            cache = None; // the ids changed
+        } else if !allow {
+            // (With `allow_topology` duplicates are removed, which changes edges far from the survivors.)
+            let mut ptr = vec![0u32; nv + 1];
+            for c in &cands {
+                ptr[c.a as usize + 1] += 1;
+            }
+            for v in 0..nv {
+                ptr[v + 1] += ptr[v];
+            }
+            cache = Some(Cache {
+                cands,
+                ptr,
+                dirty,
+                border,
+            });
         }
     }
     let (positions, triangles, source_vertex) = finish(&st, &ids);
