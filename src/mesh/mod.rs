@@ -1,4 +1,6 @@
-//! Mesh loading (OBJ, STL, PLY, OFF, glTF/GLB: [`load_mesh_file`]) and mesh connectivity as sparse matrices (`MeshMatrix`): topology, normals, subdivision.
+//! Mesh loading (OBJ, STL, PLY, OFF, glTF/GLB: [`load_mesh_file`]) and writing ([`write`]: OBJ, PLY, STL,
+//! GLB), mesh connectivity as sparse matrices (`MeshMatrix`): topology, normals, subdivision, and
+//! reduction by parallel quadric edge collapses ([`simplify`]).
 //!
 //! Ownership: [`Mesh`] (positions + polygon faces as read) is the input; [`MeshMatrix`] owns the
 //! connectivity (M, Mᵀ, E) and answers every topology question; positions stay outside it as
