@@ -1,4 +1,4 @@
-//! Mesh loading (OBJ, STL, PLY, OFF, glTF/GLB: [`load_mesh_file`]) and writing ([`write`]: OBJ, PLY, STL,
+//! Mesh loading (OBJ, STL, PLY, OFF, glTF/GLB: [`load_mesh_file`]) and writing ([`mod@write`]: OBJ, PLY, STL,
 //! GLB), mesh connectivity as sparse matrices (`MeshMatrix`): topology, normals, subdivision, and
 //! reduction by parallel quadric edge collapses ([`simplify`]).
 //!
