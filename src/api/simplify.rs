@@ -58,18 +58,6 @@ pub struct SimplifiedMesh {
     pub source_vertex: Vec<u32>,
 }
 
-/// The mesh's triangles (every polygon fanned from its first corner).
-fn triangles(mesh: &Mesh) -> Vec<[u32; 3]> {
-    let mut t = Vec::with_capacity(mesh.indices.len());
-    for f in 0..mesh.n_faces() {
-        let face = mesh.face(f);
-        for k in 1..face.len().saturating_sub(1) {
-            t.push([face[0], face[k], face[k + 1]]);
-        }
-    }
-    t
-}
-
 fn diagonal(p: &[DVec3]) -> f64 {
     let (lo, hi) = p.iter().fold(
         (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY)),
@@ -121,7 +109,7 @@ fn check(opts: &SimplifyOptions) -> Result<()> {
 /// ```
 pub fn simplify(mesh: &Mesh, opts: &SimplifyOptions) -> Result<SimplifiedMesh> {
     check(opts)?;
-    let tri = triangles(mesh);
+    let tri = mesh.fan_triangles();
     if tri.is_empty() {
         return Err(Error::Mesh("simplify: the mesh has no faces".into()));
     }
@@ -187,7 +175,7 @@ pub fn simplify_lod(
             "simplify: --lod must be 1 ..= 32 levels, not {levels}"
         )));
     }
-    let tri = triangles(mesh);
+    let tri = mesh.fan_triangles();
     if tri.is_empty() {
         return Err(Error::Mesh("simplify: the mesh has no faces".into()));
     }

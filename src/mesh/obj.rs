@@ -120,20 +120,32 @@ impl Mesh {
     /// assert_eq!((t.face(0), t.face(1)), (&[0, 1, 2][..], &[0, 2, 3][..]));
     /// ```
     pub fn triangulated(&self) -> Mesh {
-        let mut face_ptr = vec![0u32];
-        let mut indices = Vec::with_capacity(self.indices.len() * 2);
-        for f in 0..self.n_faces() {
-            let face = self.face(f);
-            for k in 1..face.len() - 1 {
-                indices.extend_from_slice(&[face[0], face[k], face[k + 1]]);
-                face_ptr.push(indices.len() as u32);
-            }
-        }
+        let tri = self.fan_triangles();
         Mesh {
             positions: self.positions.clone(),
-            face_ptr,
-            indices,
+            face_ptr: (0..=tri.len() as u32).map(|k| 3 * k).collect(),
+            indices: tri.into_iter().flatten().collect(),
         }
+    }
+
+    /// Every face fanned from its first corner, as index triples (faces of fewer than 3 corners give
+    /// none).
+    ///
+    /// ```
+    /// # use gregvox::mesh::Mesh; use glam::DVec3;
+    /// let p = vec![DVec3::ZERO, DVec3::X, DVec3::ONE, DVec3::Y];
+    /// let m = Mesh::from_polygons(p, &[vec![0, 1, 2, 3]]).unwrap();
+    /// assert_eq!(m.fan_triangles(), [[0, 1, 2], [0, 2, 3]]);
+    /// ```
+    pub fn fan_triangles(&self) -> Vec<[u32; 3]> {
+        let mut t = Vec::with_capacity(self.indices.len());
+        for f in 0..self.n_faces() {
+            let face = self.face(f);
+            for k in 1..face.len().saturating_sub(1) {
+                t.push([face[0], face[k], face[k + 1]]);
+            }
+        }
+        t
     }
 
     /// Checks the invariants (no file, so errors name face and vertex indices).

@@ -1143,31 +1143,17 @@ fn initial_quadrics(pos: &[DVec3], tri: &[[u32; 3]], adj: &Adjacency) -> Vec<Qua
 /// Drops the vertex-connected pieces whose bounding-box diagonal is at most `fraction` of the mesh's.
 fn prune_small_pieces(pos: &[DVec3], tri: Vec<[u32; 3]>, fraction: f64) -> Vec<[u32; 3]> {
     let n = pos.len();
-    let mut parent: Vec<u32> = (0..n as u32).collect();
-    fn find(p: &mut [u32], mut x: u32) -> u32 {
-        while p[x as usize] != x {
-            let g = p[p[x as usize] as usize];
-            p[x as usize] = g;
-            x = g;
-        }
-        x
-    }
+    let mut sets = super::topology::UnionFind::new(n);
     for t in &tri {
-        let r0 = find(&mut parent, t[0]);
-        for &v in &t[1..] {
-            let r = find(&mut parent, v);
-            if r != r0 {
-                let (lo, hi) = (r.min(r0), r.max(r0));
-                parent[hi as usize] = lo;
-            }
-        }
+        sets.union(t[0], t[1]);
+        sets.union(t[0], t[2]);
     }
     let mut lo = vec![DVec3::splat(f64::INFINITY); n];
     let mut hi = vec![DVec3::splat(f64::NEG_INFINITY); n];
     let (mut all_lo, mut all_hi) = (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY));
     for t in &tri {
         for &v in t {
-            let r = find(&mut parent, v) as usize;
+            let r = sets.find(v) as usize;
             lo[r] = lo[r].min(pos[v as usize]);
             hi[r] = hi[r].max(pos[v as usize]);
             all_lo = all_lo.min(pos[v as usize]);
@@ -1177,7 +1163,7 @@ fn prune_small_pieces(pos: &[DVec3], tri: Vec<[u32; 3]>, fraction: f64) -> Vec<[
     let limit = fraction * (all_hi - all_lo).length();
     tri.into_iter()
         .filter(|t| {
-            let r = find(&mut parent, t[0]) as usize;
+            let r = sets.find(t[0]) as usize;
             (hi[r] - lo[r]).length() > limit
         })
         .collect()

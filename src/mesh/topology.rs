@@ -14,17 +14,17 @@ use serde::Serialize;
 use std::collections::BTreeMap;
 
 /// Union-find with path halving; labels are handed out in order of first appearance.
-struct UnionFind {
+pub(crate) struct UnionFind {
     parent: Vec<u32>,
 }
 
 impl UnionFind {
-    fn new(n: usize) -> Self {
+    pub(crate) fn new(n: usize) -> Self {
         UnionFind {
             parent: (0..n as u32).collect(),
         }
     }
-    fn find(&mut self, mut x: u32) -> u32 {
+    pub(crate) fn find(&mut self, mut x: u32) -> u32 {
         while self.parent[x as usize] != x {
             let g = self.parent[self.parent[x as usize] as usize];
             self.parent[x as usize] = g;
@@ -32,7 +32,7 @@ impl UnionFind {
         }
         x
     }
-    fn union(&mut self, a: u32, b: u32) {
+    pub(crate) fn union(&mut self, a: u32, b: u32) {
         let (ra, rb) = (self.find(a), self.find(b));
         if ra != rb {
             // The smaller root wins: the result does not depend on the union order's details.

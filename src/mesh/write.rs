@@ -44,17 +44,6 @@ impl MeshOut {
     }
 }
 
-fn fan(mesh: &Mesh) -> Vec<[u32; 3]> {
-    let mut t = Vec::with_capacity(mesh.indices.len());
-    for f in 0..mesh.n_faces() {
-        let face = mesh.face(f);
-        for k in 1..face.len().saturating_sub(1) {
-            t.push([face[0], face[k], face[k + 1]]);
-        }
-    }
-    t
-}
-
 /// Writes `mesh` in the format of `path`'s extension.
 pub fn write_mesh(path: impl AsRef<Path>, mesh: &Mesh) -> Result<()> {
     let path = path.as_ref();
@@ -105,7 +94,7 @@ pub fn write_ply(path: impl AsRef<Path>, mesh: &Mesh) -> Result<()> {
 
 /// Binary STL: 80-byte header, the triangle count, each triangle's unit normal and corners (f32).
 pub fn write_stl(path: impl AsRef<Path>, mesh: &Mesh) -> Result<()> {
-    let tri = fan(mesh);
+    let tri = mesh.fan_triangles();
     if tri.len() > u32::MAX as usize {
         return Err(Error::Invalid(format!(
             "{}: {} triangles, more than binary STL counts",
@@ -144,7 +133,7 @@ pub fn write_glb_levels(
     let mut bin: Vec<u8> = Vec::new();
     let (mut views, mut accessors, mut meshes, mut nodes) = (vec![], vec![], vec![], vec![]);
     for (k, (mesh, extras)) in levels.iter().enumerate() {
-        let tri = fan(mesh);
+        let tri = mesh.fan_triangles();
         let (mut lo, mut hi) = ([f32::INFINITY; 3], [f32::NEG_INFINITY; 3]);
         let pos_at = bin.len();
         for p in &mesh.positions {

@@ -33,16 +33,9 @@ impl TriMesh {
             .iter()
             .map(|p| [p.x as f32, p.y as f32, p.z as f32])
             .collect();
-        let mut triangles = Vec::new();
-        for f in 0..mesh.n_faces() {
-            let face = mesh.face(f);
-            for k in 1..face.len() - 1 {
-                triangles.push([face[0], face[k], face[k + 1]]);
-            }
-        }
         TriMesh {
             positions,
-            triangles,
+            triangles: mesh.fan_triangles(),
         }
     }
 
