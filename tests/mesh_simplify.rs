@@ -671,3 +671,40 @@ fn worst_cases_finish_and_keep_their_guarantees() {
     assert_topology_kept("grid", &grid, &out.mesh);
     assert_eq!(flipped(&grid, &out.mesh), 0);
 }
+
+#[test]
+fn allow_topology_reduces_past_the_topological_minimum_without_degenerate_triangles() {
+    let torus = of_trimesh(&gregvox::voxel::mesh::TriMesh::torus(
+        [0.0; 3], 1.0, 0.3, 48, 24,
+    ));
+    let kept = reduce(
+        &torus,
+        SimplifyOptions {
+            faces: Some(0),
+            ..Default::default()
+        },
+    );
+    let free = reduce(
+        &torus,
+        SimplifyOptions {
+            faces: Some(0),
+            allow_topology: true,
+            ..Default::default()
+        },
+    );
+    assert!(
+        free.report.faces < kept.report.faces,
+        "{} vs {}",
+        free.report.faces,
+        kept.report.faces
+    );
+    // Triangles never repeat a corner, and no two triangles share their three vertices.
+    let mut seen = std::collections::HashSet::new();
+    for f in 0..free.mesh.n_faces() {
+        let mut t = [0u32; 3];
+        t.copy_from_slice(free.mesh.face(f));
+        assert!(t[0] != t[1] && t[1] != t[2] && t[0] != t[2]);
+        t.sort_unstable();
+        assert!(seen.insert(t), "duplicate triangle {t:?}");
+    }
+}
