@@ -5,24 +5,15 @@ mod mesh_common;
 use glam::DVec3;
 use gregvox::api::{simplify, simplify_lod, topology, Placement, SimplifyOptions};
 use gregvox::mesh::distance::DistanceTree;
-use gregvox::mesh::{load_obj, Mesh};
+use gregvox::mesh::{load_obj, Mesh, MeshMatrix};
 use mesh_common::model;
 
 /// A test model, fan-triangulated as `simplify` triangulates it (topology is compared on triangles:
 /// fanning two quads that share three vertices can itself make a non-manifold edge, as in suzanne).
 fn load(name: &str) -> Mesh {
-    triangulated(&load_obj(model(&format!("{name}.obj"))).unwrap())
-}
-
-fn triangulated(m: &Mesh) -> Mesh {
-    let mut f = Vec::new();
-    for k in 0..m.n_faces() {
-        let face = m.face(k);
-        for j in 1..face.len() - 1 {
-            f.push(vec![face[0], face[j], face[j + 1]]);
-        }
-    }
-    Mesh::from_polygons(m.positions.clone(), &f).unwrap()
+    load_obj(model(&format!("{name}.obj")))
+        .unwrap()
+        .triangulated()
 }
 
 fn tris(m: &Mesh) -> Vec<[[f64; 3]; 3]> {
@@ -164,21 +155,9 @@ fn ratio(r: f64) -> SimplifyOptions {
     }
 }
 
-/// Boundary vertices of a mesh (by id) from its edge uses.
+/// Boundary vertices of a mesh (by id), sorted: its boundary loops' vertices.
 fn boundary_vertices(m: &Mesh) -> Vec<u32> {
-    let mut count = std::collections::HashMap::new();
-    for f in 0..m.n_faces() {
-        let face = m.face(f);
-        for k in 0..face.len() {
-            let (a, b) = (face[k], face[(k + 1) % face.len()]);
-            *count.entry((a.min(b), a.max(b))).or_insert(0) += 1;
-        }
-    }
-    let mut v: Vec<u32> = count
-        .into_iter()
-        .filter(|&(_, c)| c == 1)
-        .flat_map(|((a, b), _)| [a, b])
-        .collect();
+    let mut v: Vec<u32> = MeshMatrix::from_mesh(m).boundary_loops().concat();
     v.sort_unstable();
     v.dedup();
     v
@@ -444,11 +423,10 @@ fn attribute_seams_and_non_manifold_parts_are_untouched() {
             );
         }
     }
-    // Three sheets on one edge: the non-manifold edge and its fans survive as they are.
+    // Three spheres side by side, rotated copies of one another: three pieces, kept.
     let mut t = gregvox::voxel::mesh::TriMesh::default();
     for k in 0..3 {
         let mut sheet = gregvox::voxel::mesh::TriMesh::sphere([0.0; 3], 1.0, 8, 16, false);
-        let base = t.positions.len() as u32;
         let angle = k as f32 * 2.0;
         for p in &mut sheet.positions {
             let (x, y) = (p[0], p[1]);
@@ -458,9 +436,9 @@ fn attribute_seams_and_non_manifold_parts_are_untouched() {
                 p[2],
             ];
         }
-        let _ = base;
         t.append(&sheet);
     }
+    // Three triangles on one edge (a fin): the non-manifold edge and its fans survive as they are.
     let fin = Mesh::from_polygons(
         vec![
             DVec3::ZERO,

@@ -70,7 +70,8 @@ fn diagonal(p: &[DVec3]) -> f64 {
     }
 }
 
-fn check(opts: &SimplifyOptions) -> Result<()> {
+/// The options checked, and the mesh's triangles (an error when there are none).
+fn checked_triangles(mesh: &Mesh, opts: &SimplifyOptions) -> Result<Vec<[u32; 3]>> {
     let bad = |what: &str, v: f64| {
         Error::Invalid(format!(
             "simplify: {what} must be a finite number ≥ 0{}, not {v}",
@@ -90,7 +91,11 @@ fn check(opts: &SimplifyOptions) -> Result<()> {
     if !(opts.prune.is_finite() && (0.0..=1.0).contains(&opts.prune)) {
         return Err(bad("prune", opts.prune));
     }
-    Ok(())
+    let tri = mesh.fan_triangles();
+    if tri.is_empty() {
+        return Err(Error::Mesh("simplify: the mesh has no faces".into()));
+    }
+    Ok(tri)
 }
 
 /// Reduces `mesh` (see [`crate::mesh::simplify`]).
@@ -108,11 +113,7 @@ fn check(opts: &SimplifyOptions) -> Result<()> {
 /// assert!(gregvox::api::topology(&out.mesh).closed);
 /// ```
 pub fn simplify(mesh: &Mesh, opts: &SimplifyOptions) -> Result<SimplifiedMesh> {
-    check(opts)?;
-    let tri = mesh.fan_triangles();
-    if tri.is_empty() {
-        return Err(Error::Mesh("simplify: the mesh has no faces".into()));
-    }
+    let tri = checked_triangles(mesh, opts)?;
     let diag = diagonal(&mesh.positions);
     let start = std::time::Instant::now();
     let mut target = 0usize;
@@ -147,14 +148,8 @@ fn package(s: Simplified, input_faces: usize, diag: f64, seconds: f64) -> Simpli
         pruned_faces: s.pruned_triangles,
         seconds,
     };
-    let face_ptr = (0..=s.triangles.len() as u32).map(|k| 3 * k).collect();
-    let indices = s.triangles.iter().flatten().copied().collect();
     SimplifiedMesh {
-        mesh: Mesh {
-            positions: s.positions,
-            face_ptr,
-            indices,
-        },
+        mesh: Mesh::of_triangles(s.positions, &s.triangles),
         report,
         source_vertex: s.source_vertex,
     }
@@ -169,24 +164,16 @@ pub fn simplify_lod(
     opts: &SimplifyOptions,
     levels: usize,
 ) -> Result<Vec<SimplifiedMesh>> {
-    check(opts)?;
+    let tri = checked_triangles(mesh, opts)?;
     if !(1..=32).contains(&levels) {
         return Err(Error::Invalid(format!(
             "simplify: --lod must be 1 ..= 32 levels, not {levels}"
         )));
     }
-    let tri = mesh.fan_triangles();
-    if tri.is_empty() {
-        return Err(Error::Mesh("simplify: the mesh has no faces".into()));
-    }
     // Level 0: the input itself, triangulated.
     let n = tri.len();
     let mut out = vec![SimplifiedMesh {
-        mesh: Mesh {
-            positions: mesh.positions.clone(),
-            face_ptr: (0..=n as u32).map(|k| 3 * k).collect(),
-            indices: tri.into_iter().flatten().collect(),
-        },
+        mesh: Mesh::of_triangles(mesh.positions.clone(), &tri),
         report: SimplifyReport {
             input_faces: n,
             faces: n,

@@ -358,7 +358,7 @@ pub fn run(cfg: &BenchConfig, report: &mut Report) -> anyhow::Result<()> {
             };
             t.push(vec![
                 Value::from(*name),
-                Value::from(mesh_triangles(mesh)),
+                Value::from(mesh.fan_triangles().len()),
                 num(r),
                 num(ms),
                 Value::from(faces),
@@ -388,10 +388,4 @@ pub fn run(cfg: &BenchConfig, report: &mut Report) -> anyhow::Result<()> {
     let _ = std::fs::remove_dir_all(&dir);
     report.tables.push(t);
     Ok(())
-}
-
-fn mesh_triangles(m: &Mesh) -> usize {
-    (0..m.n_faces())
-        .map(|f| m.face(f).len().saturating_sub(2))
-        .sum()
 }

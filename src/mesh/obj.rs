@@ -120,11 +120,16 @@ impl Mesh {
     /// assert_eq!((t.face(0), t.face(1)), (&[0, 1, 2][..], &[0, 2, 3][..]));
     /// ```
     pub fn triangulated(&self) -> Mesh {
-        let tri = self.fan_triangles();
+        Mesh::of_triangles(self.positions.clone(), &self.fan_triangles())
+    }
+
+    /// A triangle mesh from indices the caller has already checked (in range, three distinct corners
+    /// or not: no validation here).
+    pub(crate) fn of_triangles(positions: Vec<DVec3>, tri: &[[u32; 3]]) -> Mesh {
         Mesh {
-            positions: self.positions.clone(),
+            positions,
             face_ptr: (0..=tri.len() as u32).map(|k| 3 * k).collect(),
-            indices: tri.into_iter().flatten().collect(),
+            indices: tri.iter().flatten().copied().collect(),
         }
     }
 

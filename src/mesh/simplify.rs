@@ -506,7 +506,6 @@ impl State<'_> {
             return none; // would pinch two boundary stretches together
         }
         let (qa, qb) = (&self.quad[a as usize], &self.quad[b as usize]);
-        let q = qa.sum(qb);
         // The error of a placement is the larger of the two endpoints' own (each one's planes, each
         // normalised by its own weight): the sum's normalisation would let a light vertex (a spike of one
         // triangle) vanish into a heavy one at a diluted cost.
@@ -518,7 +517,7 @@ impl State<'_> {
         // Boundary edges collapse onto an endpoint: the border stays on its own vertices.
         if self.opts.placement == Placement::Optimal && can_remove_a && can_remove_b && !border_edge
         {
-            let to = optimal_point(&q, pa, pb);
+            let to = optimal_point(&qa.sum(qb), pa, pb);
             return [
                 Some(Collapse {
                     keep: a,
@@ -555,16 +554,17 @@ impl State<'_> {
         if !self.opts.allow_topology && !self.link_ok(adj, c.a, c.b, border_edge) {
             return None;
         }
-        let mut opts: Vec<Collapse> = self
-            .options(adj, c.a, c.b, c.faces)
-            .into_iter()
-            .flatten()
-            .collect();
-        opts.sort_by(|x, y| x.cost.total_cmp(&y.cost));
+        let mut opts = self.options(adj, c.a, c.b, c.faces);
+        // Cheaper direction first (None last).
+        opts.sort_by(|x, y| match (x, y) {
+            (Some(x), Some(y)) => x.cost.total_cmp(&y.cost),
+            (x, y) => y.is_some().cmp(&x.is_some()),
+        });
         // `bound` is the pass's cost limit: the other direction of an edge is taken only if it is as
         // cheap as the edges this pass considers (a corner must not go because its edge was cheap the
         // other way round).
         opts.into_iter()
+            .flatten()
             .filter(|o| o.cost as f32 <= bound as f32)
             .find(|o| {
                 let moved_keep = self.pos[o.keep as usize] != o.to;
@@ -857,8 +857,11 @@ pub fn simplify(positions: &[DVec3], triangles: &[[u32; 3]], opts: &SimplifyOpti
         }
         // K: remove → keep; the survivors move and take the sum of the quadrics.
         let mut remap: Vec<u32> = (0..nv as u32).collect();
+        let mut dirty = vec![false; nv];
         for (_, c, _) in &chosen {
             remap[c.remove as usize] = c.keep;
+            dirty[c.keep as usize] = true;
+            dirty[c.remove as usize] = true;
             st.pos[c.keep as usize] = c.to;
             let qr = st.quad[c.remove as usize];
             st.quad[c.keep as usize].add(&qr);
@@ -867,13 +870,7 @@ pub fn simplify(positions: &[DVec3], triangles: &[[u32; 3]], opts: &SimplifyOpti
             error2 = error2.max(c.cost);
         }
         collapses += chosen.len();
-        let mut dirty = vec![false; nv];
-        for (_, c, _) in &chosen {
-            dirty[c.keep as usize] = true;
-            dirty[c.remove as usize] = true;
-        }
-        let border = a.border.clone();
-        drop(a);
+        let Adjacency { border, .. } = a;
         let allow = opts.allow_topology;
         // B' = K·B: one gather of the index buffer; triangles that lost a corner go.
         st.tri = st
@@ -910,11 +907,11 @@ pub fn simplify(positions: &[DVec3], triangles: &[[u32; 3]], opts: &SimplifyOpti
             });
         }
     }
-    let (positions, triangles, source_vertex) = finish(&st, &ids);
+    compact(&mut st, &mut ids);
     Simplified {
-        positions,
-        triangles,
-        source_vertex,
+        positions: st.pos,
+        triangles: st.tri,
+        source_vertex: ids,
         error: error2.sqrt(),
         collapses,
         passes,
@@ -1017,7 +1014,8 @@ fn independent_collapses(
     chosen
 }
 
-/// Renumbers the referenced vertices in order and drops the others.
+/// Renumbers the referenced vertices in order and drops the others (between passes, and at the end:
+/// the output keeps the referenced vertices in the order of their input ids).
 fn compact(st: &mut State, ids: &mut Vec<u32>) {
     let n = st.pos.len();
     let mut used = vec![false; n];
@@ -1034,44 +1032,21 @@ fn compact(st: &mut State, ids: &mut Vec<u32>) {
             k += 1;
         }
     }
-    let keep = |v: usize| used[v];
-    let gather = |v: &mut Vec<DVec3>| {
-        *v = (0..n).filter(|&i| keep(i)).map(|i| v[i]).collect();
-    };
-    gather(&mut st.pos);
-    st.quad = (0..n).filter(|&i| keep(i)).map(|i| st.quad[i]).collect();
-    st.normal = (0..n).filter(|&i| keep(i)).map(|i| st.normal[i]).collect();
-    st.flags = (0..n).filter(|&i| keep(i)).map(|i| st.flags[i]).collect();
-    *ids = (0..n).filter(|&i| keep(i)).map(|i| ids[i]).collect();
+    fn kept<T: Copy>(v: &[T], used: &[bool]) -> Vec<T> {
+        v.iter()
+            .zip(used)
+            .filter(|(_, &u)| u)
+            .map(|(x, _)| *x)
+            .collect()
+    }
+    st.pos = kept(&st.pos, &used);
+    st.quad = kept(&st.quad, &used);
+    st.normal = kept(&st.normal, &used);
+    st.flags = kept(&st.flags, &used);
+    *ids = kept(ids, &used);
     for t in st.tri.iter_mut() {
         *t = t.map(|v| new_id[v as usize]);
     }
-}
-
-/// The referenced vertices (in order), the triangles renumbered, and their input ids.
-fn finish(st: &State, ids: &[u32]) -> (Vec<DVec3>, Vec<[u32; 3]>, Vec<u32>) {
-    let n = st.pos.len();
-    let mut new_id = vec![u32::MAX; n];
-    for t in &st.tri {
-        for &v in t {
-            new_id[v as usize] = 0;
-        }
-    }
-    let mut positions = Vec::new();
-    let mut source = Vec::new();
-    for v in 0..n {
-        if new_id[v] == 0 {
-            new_id[v] = positions.len() as u32;
-            positions.push(st.pos[v]);
-            source.push(ids[v]);
-        }
-    }
-    let triangles = st
-        .tri
-        .iter()
-        .map(|t| t.map(|v| new_id[v as usize]))
-        .collect();
-    (positions, triangles, source)
 }
 
 /// Removes triangles over the same three vertices as an earlier one (any orientation).
