@@ -5,6 +5,9 @@
 //! so a failed write leaves nothing; PLY, STL and GLB store positions as f32 (what their readers expect);
 //! STL and GLB store triangles (polygons fanned from their first corner); an extension outside the list
 //! is an error naming it, before anything is written.
+//!
+//! Cost: O(V + F) with the whole output built in memory (PLY, STL, GLB: one buffer each) and written once;
+//! a polygon over 255 corners (PLY's `uchar` count) is an error, not a truncated face.
 use super::obj::{write_obj, Mesh};
 use crate::error::{Error, Result};
 use std::path::Path;

@@ -12,7 +12,6 @@ pub struct TriMesh {
     pub triangles: Vec<[u32; 3]>,
 }
 
-/// Indices of the triangles over one position triple: (forward, reversed orientation).
 /// What [`TriMesh::clean`] removed.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize)]
 pub struct CleanReport {
