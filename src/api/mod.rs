@@ -509,7 +509,8 @@ impl Voxelization {
 }
 
 fn prepare(mesh: &Mesh, opts: &VoxelizeOptions) -> Result<Prepared> {
-    let topo = topology(mesh);
+    // Only whether it is closed, and the open edges the report names (`MeshMatrix::edge_counts`).
+    let (boundary_edges, non_manifold_edges) = MeshMatrix::from_mesh(mesh).edge_counts();
     // The box of the vertices the faces use: a stray unreferenced vertex must not move the grid.
     let shift = local_origin(mesh);
     let fan = fan_local(mesh, shift);
@@ -520,7 +521,8 @@ fn prepare(mesh: &Mesh, opts: &VoxelizeOptions) -> Result<Prepared> {
             "no triangle with a non-zero area to voxelize".into(),
         ));
     }
-    let open = !topo.closed;
+    let closed = boundary_edges == 0 && non_manifold_edges == 0;
+    let open = !closed;
     let gwn = opts.rule.is_gwn();
     let three = match opts.axes {
         Axes::Three => true,
@@ -574,8 +576,8 @@ fn prepare(mesh: &Mesh, opts: &VoxelizeOptions) -> Result<Prepared> {
     } else if open && opts.fill != Fill::Surface && !rule.is_gwn() {
         notes.push(format!(
             "open mesh ({} boundary and {} non-manifold edges){}",
-            topo.boundary_edges,
-            topo.non_manifold_edges,
+            boundary_edges,
+            non_manifold_edges,
             if three {
                 ": peeling along x, y and z with a 2-of-3 vote"
             } else {
@@ -590,9 +592,9 @@ fn prepare(mesh: &Mesh, opts: &VoxelizeOptions) -> Result<Prepared> {
         fill: opts.fill,
         triangles: tri.triangles.len(),
         removed,
-        closed: topo.closed,
-        boundary_edges: topo.boundary_edges,
-        non_manifold_edges: topo.non_manifold_edges,
+        closed,
+        boundary_edges,
+        non_manifold_edges,
         axes: Vec::new(),
         layers: Vec::new(),
         notes,

@@ -42,6 +42,16 @@ fn voxelize_process(file: &Path, res: u32, extra: &[&str]) -> anyhow::Result<(f6
 
 /// libigl's fast winding number at the centres of gregvox's --res `res` grid over `file`.
 fn libigl(cfg: &BenchConfig, file: &Path, res: u32) -> anyhow::Result<Peer> {
+    libigl_within(cfg, file, res, None)
+}
+
+/// As [`libigl`], killed after `limit`.
+fn libigl_within(
+    cfg: &BenchConfig,
+    file: &Path,
+    res: u32,
+    limit: Option<std::time::Duration>,
+) -> anyhow::Result<Peer> {
     let tri = TriMesh::fan(&load_mesh_file(file)?);
     let used: Vec<[f32; 3]> = tri
         .triangles
@@ -54,9 +64,10 @@ fn libigl(cfg: &BenchConfig, file: &Path, res: u32) -> anyhow::Result<Peer> {
     args.push(format!("{:.17e}", frame.voxel_size[0]));
     args.push("1".into());
     args.push("--no-trimesh".into());
-    Ok(peers::python(
+    Ok(peers::python_within(
         &cfg.repo.join("bench/peers/voxel_peers.py"),
         &args,
+        limit,
     ))
 }
 
@@ -175,7 +186,99 @@ fn tables(cfg: &BenchConfig, report: &mut Report, dir: &Path) -> anyhow::Result<
         soup.push(vec![res.into(), num(s), num(w), num(s / w)]);
     }
     report.tables.push(soup);
+    worst_table(cfg, report, dir, &cases)?;
     closed_table(cfg, report, dir, repeats)
+}
+
+/// Table `gwn_worst`: the inputs that attack the cost model, one whole process each: two loops of half a
+/// million edges (huge caps, and w = ½ on both end discs: every voxel near them decided one by one), and
+/// thousands of holes at 1024³ (the per-voxel work grows with the surface's voxels).
+fn worst_table(
+    cfg: &BenchConfig,
+    report: &mut Report,
+    dir: &Path,
+    cases: &[(String, PathBuf, String)],
+) -> anyhow::Result<()> {
+    let mut t = Table::new(
+        "gwn_worst",
+        "The generalized winding number's worst cases",
+        "One whole `gregvox voxelize MESH --res R --json` process each (default options). open_tube: a \
+         cylinder open at both ends, two boundary loops of half the triangle count each (each cap one \
+         polygon of that many sides; w is ½ on both end discs); bunny_holes_5pct at a high resolution: the \
+         voxels evaluated one by one grow with the surface's voxel count. libigl = fast_winding_number ≥ 0.5 \
+         at the same centres where it runs in reasonable time (not at 1024³: 10⁹ centres), killed after \
+         120 s (5 s with --quick): `> ms (killed)`, and the speed-up is then a lower bound.",
+        &[
+            "mesh",
+            "triangles",
+            "loops",
+            "res",
+            "gregvox ms",
+            "libigl fwn ms",
+            "speed-up",
+            "boxes",
+            "one by one",
+            "direct",
+        ],
+    );
+    let (segments, tube_res, holes_res) = if cfg.quick {
+        (20_000, 32, 128)
+    } else {
+        (500_000, 128, 1024)
+    };
+    let tube = dir.join("open_tube.obj");
+    std::fs::write(&tube, obj_text(&crate::voxel::stress::open_tube(segments)))?;
+    let holes = cases
+        .iter()
+        .find(|c| c.0 == "bunny_holes_5pct")
+        .map(|c| c.1.clone())
+        .ok_or_else(|| anyhow::anyhow!("the stress suite has no bunny_holes_5pct"))?;
+    for (name, file, res, peer) in [
+        ("open_tube", tube, tube_res, true),
+        ("bunny_holes_5pct", holes, holes_res, false),
+    ] {
+        eprintln!("gregvox bench: gwn worst case {name} {res}³");
+        let (ms, json) = voxelize_process(&file, res, &[])?;
+        // libigl's tree struggles too on the tube (minutes at 128³): it gets a time limit, and the row
+        // says what it reached.
+        let limit = std::time::Duration::from_secs(if cfg.quick { 5 } else { 120 });
+        let (igl_ms, igl_cell) = if peer {
+            eprintln!("gregvox bench: gwn worst case libigl {name} {res}³");
+            let p = libigl_within(cfg, &file, res, Some(limit))?;
+            let ms = peer_number(&p, "igl_s").map(|s| s * 1e3);
+            let cell: Value = match (&p, ms) {
+                (_, Some(ms)) => num(ms),
+                (Peer::Failed(e), None) if e.contains("did not finish") => {
+                    format!("> {} (killed)", limit.as_millis()).into()
+                }
+                (p, None) => p.status().into(),
+            };
+            (ms, cell)
+        } else {
+            let why = if res >= 1024 { " (10⁹ centres)" } else { "" };
+            (None, format!("not run{why}").into())
+        };
+        let stage = |k: &str| json["gwn"][k].clone();
+        t.push(vec![
+            name.into(),
+            json["triangles"].clone(),
+            stage("loops_capped"),
+            res.into(),
+            num(ms),
+            igl_cell.clone(),
+            match (&igl_cell, igl_ms) {
+                (Value::String(s), None) if s.contains("killed") => {
+                    format!("> {:.3}", limit.as_secs_f64() * 1e3 / ms).into()
+                }
+                _ => speedup(igl_ms, ms),
+            },
+            stage("boxes_evaluated"),
+            stage("voxels_evaluated"),
+            stage("direct_voxels"),
+        ]);
+    }
+    report.tables.push(t);
+    Ok(())
 }
 
 /// Closed meshes: `--rule gwn` against `--rule winding` (one axis), whole processes, outputs compared byte

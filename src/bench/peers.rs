@@ -37,8 +37,42 @@ impl Peer {
 
 /// Runs `program args…` and parses every stdout line that is a JSON value.
 pub fn run(program: &Path, args: &[String]) -> Peer {
-    let out = match Command::new(program).args(args).output() {
+    run_within(program, args, None)
+}
+
+/// As [`run`], killing the peer once it has run `limit` (then [`Peer::Failed`] says so): for the inputs
+/// that attack a peer as well as gregvox, where it may run for hours.
+pub fn run_within(program: &Path, args: &[String], limit: Option<std::time::Duration>) -> Peer {
+    let output = match limit {
+        None => Command::new(program).args(args).output(),
+        Some(limit) => Command::new(program)
+            .args(args)
+            .stdout(std::process::Stdio::piped())
+            .stderr(std::process::Stdio::piped())
+            .spawn()
+            .and_then(|mut child| {
+                let start = std::time::Instant::now();
+                loop {
+                    if child.try_wait()?.is_some() {
+                        return child.wait_with_output();
+                    }
+                    if start.elapsed() >= limit {
+                        child.kill()?;
+                        child.wait()?;
+                        return Err(std::io::Error::new(
+                            std::io::ErrorKind::TimedOut,
+                            format!("killed after {} s", limit.as_secs()),
+                        ));
+                    }
+                    std::thread::sleep(std::time::Duration::from_millis(50));
+                }
+            }),
+    };
+    let out = match output {
         Ok(o) => o,
+        Err(e) if e.kind() == std::io::ErrorKind::TimedOut => {
+            return Peer::Failed(format!("did not finish: {e}"))
+        }
         Err(e) if e.kind() == std::io::ErrorKind::NotFound => {
             return Peer::Missing(format!("{} not found", program.display()))
         }
@@ -64,10 +98,15 @@ pub fn run(program: &Path, args: &[String]) -> Peer {
 
 /// Runs a Python peer script with `python3`.
 pub fn python(script: &Path, args: &[String]) -> Peer {
+    python_within(script, args, None)
+}
+
+/// As [`python`], killed after `limit` ([`run_within`]).
+pub fn python_within(script: &Path, args: &[String], limit: Option<std::time::Duration>) -> Peer {
     if !script.is_file() {
         return Peer::Missing(format!("{} not found", script.display()));
     }
     let mut all = vec![script.display().to_string()];
     all.extend_from_slice(args);
-    run(Path::new("python3"), &all)
+    run_within(Path::new("python3"), &all, limit)
 }

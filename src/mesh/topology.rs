@@ -696,6 +696,12 @@ impl MeshMatrix {
         let m = MeshMatrix::new(n - 1, &face_ptr, idx)?;
         Ok((m, map))
     }
+    /// (boundary edges, non-manifold edges): the part of [`MeshMatrix::report`] that says whether the mesh
+    /// is closed, without the rest of the report (components, loops, fans), which costs more than a small
+    /// voxelization.
+    pub fn edge_counts(&self) -> (usize, usize) {
+        open_edge_counts(&self.edge_uses())
+    }
 
     /// The topology report (see [`TopologyReport`]).
     ///
@@ -708,8 +714,7 @@ impl MeshMatrix {
     /// ```
     pub fn report(&self) -> TopologyReport {
         let uses = self.edge_uses();
-        let boundary_edges = uses.iter().filter(|u| u.faces() == 1).count();
-        let non_manifold_edges = uses.iter().filter(|u| u.faces() > 2).count();
+        let (boundary_edges, non_manifold_edges) = open_edge_counts(&uses);
         let inconsistent_edges = uses
             .iter()
             .filter(|u| u.faces() == 2 && (u.forward == 2 || u.backward == 2))
@@ -757,4 +762,12 @@ impl MeshMatrix {
             face_order_histogram: order.into_iter().map(|(k, v)| (k.to_string(), v)).collect(),
         }
     }
+}
+
+/// (edges used by one face, edges used by more than two).
+fn open_edge_counts(uses: &[EdgeUse]) -> (usize, usize) {
+    (
+        uses.iter().filter(|u| u.faces() == 1).count(),
+        uses.iter().filter(|u| u.faces() > 2).count(),
+    )
 }

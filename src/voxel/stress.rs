@@ -19,6 +19,9 @@
 //! - `teapot`: the Utah teapot as shipped (a real open model).
 //!
 //! The bunny itself (five holes) is the suite's baseline, and the soup's welded twin.
+//!
+//! Outside the suite, [`open_tube`] attacks the caps themselves: two loops of any number of edges (the
+//! bench's `gwn_worst` table uses half a million each; `tests/voxel_gwn.rs` checks 10⁵ against the plain sum).
 use super::mesh::TriMesh;
 use std::fmt::Write as _;
 
@@ -71,6 +74,29 @@ pub fn soup(mesh: &TriMesh, noise: f64, seed: u64) -> TriMesh {
                 .push(p.map(|x| (x as f64 + noise * (2.0 * rng.unit() - 1.0)) as f32));
         }
         out.triangles.push([n, n + 1, n + 2]);
+    }
+    out
+}
+
+/// An open tube: a cylinder of radius ½ and height 1 round z, `segments` quads (two triangles each) round,
+/// outward, both ends open: two boundary loops of `segments` edges each, whose caps are one polygon of
+/// `segments` sides apiece. The attack on the caps (a loop of a million edges) and on the voxels near them
+/// (w is ½ on the end planes, so every voxel near either end disc must be decided one by one).
+pub fn open_tube(segments: usize) -> TriMesh {
+    let n = segments.max(3);
+    let mut out = TriMesh::default();
+    for z in [-0.5f64, 0.5] {
+        for i in 0..n {
+            let a = std::f64::consts::TAU * i as f64 / n as f64;
+            out.positions
+                .push([(0.5 * a.cos()) as f32, (0.5 * a.sin()) as f32, z as f32]);
+        }
+    }
+    let n32 = n as u32;
+    for i in 0..n32 {
+        let j = (i + 1) % n32;
+        out.triangles.push([i, j, n32 + j]);
+        out.triangles.push([i, n32 + j, n32 + i]);
     }
     out
 }

@@ -349,9 +349,9 @@ fn weld(mesh: &TriMesh, tolerance: f64) -> (Vec<u32>, usize, f64) {
         (x[0] - y[0]).powi(2) + (x[1] - y[1]).powi(2) + (x[2] - y[2]).powi(2)
             <= tolerance * tolerance
     };
-    // Edges bucketed by the cell (edge 4τ) of their midpoint: twins' midpoints lie within τ of each other, so
-    // a twin is in the same cell or across a face the midpoint lies within τ of.
-    let size = 4.0 * tolerance;
+    // Edges bucketed by the cell (edge 16τ) of their midpoint: twins' midpoints lie within τ of each other, so
+    // a twin is in the same cell or across a face the midpoint lies within τ (a sixteenth of a cell) of.
+    let size = 16.0 * tolerance;
     let midpoint = |e: &(u32, u32)| -> [f64; 3] {
         let (a, b) = (p(e.0), p(e.1));
         std::array::from_fn(|k| (a[k] + b[k]) * 0.5 / size)
@@ -383,42 +383,60 @@ fn weld(mesh: &TriMesh, tolerance: f64) -> (Vec<u32>, usize, f64) {
             parent[hi as usize] = lo;
         }
     };
-    for (i, e) in boundary.iter().enumerate() {
-        let m = midpoint(e);
-        let c = m.map(|x| x.floor() as i64);
-        // Per axis: this cell, and the neighbour across a face within τ (a quarter of a cell).
-        let reach = |k: usize| -> [i64; 2] {
-            let f = m[k] - c[k] as f64;
-            if f < 0.25 {
-                [0, -1]
-            } else if f > 0.75 {
-                [0, 1]
-            } else {
-                [0, 0]
-            }
-        };
-        let (rx, ry, rz) = (reach(0), reach(1), reach(2));
-        let mut seen: [[i64; 3]; 8] = [[i64::MIN; 3]; 8];
-        let mut count = 0;
-        for dz in rz {
-            for dy in ry {
-                for dx in rx {
-                    let key = [c[0] + dx, c[1] + dy, c[2] + dz];
-                    if seen[..count].contains(&key) {
-                        continue;
-                    }
-                    seen[count] = key;
-                    count += 1;
-                    for &(_, j) in find_cell(key) {
-                        let f = boundary[j as usize];
-                        if j as usize != i && near(e.0, f.1) && near(e.1, f.0) {
-                            union(&mut parent, e.0, f.1);
-                            union(&mut parent, e.1, f.0);
+    // The twins, found in parallel in the cells' order (neighbouring searches share cache lines), then joined.
+    let twins: Vec<(u32, u32)> = keyed
+        .par_iter()
+        .enumerate()
+        .flat_map_iter(|(at, &(c, i))| {
+            let e = boundary[i as usize];
+            let m = midpoint(&e);
+            // Per axis: this cell, and the neighbour across a face within τ.
+            let reach = |k: usize| -> [i64; 2] {
+                let f = m[k] - c[k] as f64;
+                if f < 1.0 / 16.0 {
+                    [0, -1]
+                } else if f > 15.0 / 16.0 {
+                    [0, 1]
+                } else {
+                    [0, 0]
+                }
+            };
+            let (rx, ry, rz) = (reach(0), reach(1), reach(2));
+            let mut seen: [[i64; 3]; 8] = [[i64::MIN; 3]; 8];
+            let mut count = 0;
+            let mut found = Vec::new();
+            for dz in rz {
+                for dy in ry {
+                    for dx in rx {
+                        let key = [c[0] + dx, c[1] + dy, c[2] + dz];
+                        if seen[..count].contains(&key) {
+                            continue;
+                        }
+                        seen[count] = key;
+                        count += 1;
+                        // The edge's own cell is the run it sits in; the others are searched for.
+                        let run = if key == c {
+                            let lo = keyed[..at].iter().rev().take_while(|k| k.0 == c).count();
+                            let hi = keyed[at..].iter().take_while(|k| k.0 == c).count();
+                            &keyed[at - lo..at + hi]
+                        } else {
+                            find_cell(key)
+                        };
+                        for &(_, j) in run {
+                            let f = boundary[j as usize];
+                            if j != i && near(e.0, f.1) && near(e.1, f.0) {
+                                found.push((e.0, f.1));
+                                found.push((e.1, f.0));
+                            }
                         }
                     }
                 }
             }
-        }
+            found
+        })
+        .collect();
+    for (a, b) in twins {
+        union(&mut parent, a, b);
     }
     let (mut moved, mut max_shift) = (0usize, 0.0f64);
     for v in 0..n as u32 {

@@ -4,8 +4,10 @@
 //! A box is labelled when an interval for w_X over the ball round its voxel centres lies strictly between
 //! two half-integers; its voxels then need no more (k = 0: the rasterized grid stands; k ≠ 0: their
 //! crossing count decides, `super::cpu::relabel`). Otherwise its 2³ children are tried, down to cells of
-//! 2³ voxels, which are finished voxel by voxel. A voxel no bound labels goes to the direct evaluation
-//! (`super::direct`).
+//! 2³ voxels, which are finished voxel by voxel: each voxel starts from the cell's interval (the far fields
+//! at the voxel, every kept node's share over the cell) and replaces the widest shares by their values at
+//! the voxel until it is labelled, so a voxel beside one cap triangle evaluates that triangle and not the
+//! cell's whole list. A voxel no bound labels goes to the direct evaluation (`super::direct`).
 //!
 //! The interval is a dual traversal, as in a fast multipole method: each box inherits from its parent the
 //! interval of the nodes already accepted (valid over the parent's ball, hence over its own) and the list
@@ -274,6 +276,13 @@ pub fn classify(
     if x.is_empty() {
         return Ok(Labels::default());
     }
+    let mut roots = Vec::new();
+    for (tree, tag) in [(&x.caps, SMALL), (&x.large, LARGE), (&x.ribbons, RIBBON)] {
+        if !tree.is_empty() {
+            assert!(tree.nodes.len() < INDEX as usize, "a tree of 2³⁰ nodes");
+            roots.push(tag);
+        }
+    }
     let walk = Walk {
         frame,
         x,
@@ -284,13 +293,6 @@ pub fn classify(
         over_budget: AtomicBool::new(false),
         params: params(),
     };
-    let mut roots = Vec::new();
-    for (tree, tag) in [(&x.caps, SMALL), (&x.large, LARGE), (&x.ribbons, RIBBON)] {
-        if !tree.is_empty() {
-            assert!(tree.nodes.len() < INDEX as usize, "a tree of 2³⁰ nodes");
-            roots.push(tag);
-        }
-    }
     let dims = frame.dims.map(|d| d.div_ceil(TOP));
     let tops: Vec<[u32; 3]> = (0..dims[2])
         .flat_map(|z| (0..dims[1]).flat_map(move |y| (0..dims[0]).map(move |x| [x, y, z])))
@@ -375,89 +377,16 @@ impl Walk<'_> {
             return found;
         }
         found.boxes_evaluated = 1;
-        let (frame, p) = (self.frame, &self.params);
+        let frame = self.frame;
         let (lo, hi) = box_range(frame, b, edge);
         let ball = ball_of(frame, lo, hi, self.nu);
         let cell = edge == CELL;
         let mut local = inherited.map(|l| l.moved_to(ball.c));
-        let mut keep = Vec::with_capacity(open.len());
-        let mut stack = open.to_vec();
-        while let Some(tag) = stack.pop() {
-            let tree = self.tree_of(tag);
-            let thin = tag & !INDEX == RIBBON;
-            let part = (tag & !INDEX == LARGE) as usize;
-            let i = tag & INDEX;
-            let node = &tree.nodes[i as usize];
-            let d = super::kernel::norm(crate::voxel::surface::sub(ball.c, node.centre));
-            let gap = d - ball.r - node.radius;
-            let bound = Tree::node_bound(node, gap, self.nu);
-            if bound <= if thin { THIN_EPS } else { BOUND_EPS } {
-                local[part].err += bound;
-                continue;
-            }
-            let separated = gap > 0.0 && node.radius + ball.r <= p.theta * d;
-            if !thin && separated && ball.r <= p.spread * gap {
-                match tree.local_share(i, &ball) {
-                    Some((v, g, e)) if e < bound => {
-                        let l = &mut local[part];
-                        l.value += v;
-                        for (lg, gk) in l.gradient.iter_mut().zip(g) {
-                            *lg += gk;
-                        }
-                        l.err += e;
-                    }
-                    _ => local[part].err += bound,
-                }
-                continue;
-            }
-            if !node.is_leaf() && (cell || (!separated && node.radius >= ball.r)) {
-                // At a cell every node is opened until it can be expanded at each voxel (or is a leaf).
-                let point = gap > 0.0 && node.radius <= p.point_theta * (d - ball.r);
-                if !(cell && !thin && point) {
-                    let t = tag & !INDEX;
-                    stack.push(node.first | t);
-                    stack.push((node.first + 1) | t);
-                    continue;
-                }
-            }
-            keep.push(tag);
-        }
+        let keep = self.gather(&ball, cell, &mut local, open);
         // The whole box: the far fields over the ball and what was kept, bounded over the ball. The large caps
         // also through their rim, when that is narrower.
-        let (mut sl, mut sh) = local[0].over(ball.r);
-        let (mut ll, mut lh) = local[1].over(ball.r);
-        for &tag in &keep {
-            let tree = self.tree_of(tag);
-            let node = &tree.nodes[(tag & INDEX) as usize];
-            let (mut v, mut e) = tree.share_over(tag & INDEX, &ball);
-            if node.is_leaf() && e > BOUND_EPS {
-                // Triangle by triangle: thin ones by their bound, fat ones exactly at the centre.
-                let thin = tag & !INDEX == RIBBON;
-                let (mut tv, mut te) = (0.0, 0.0);
-                for t in &tree.triangles[node.first as usize..(node.first + node.count) as usize] {
-                    if thin {
-                        te += t.bound_over(&ball);
-                    } else {
-                        let (a, b) = t.share_over(&ball);
-                        tv += a;
-                        te += b;
-                    }
-                }
-                if te < e {
-                    (v, e) = (tv, te);
-                }
-            }
-            if tag & !INDEX == LARGE {
-                ll += v - e;
-                lh += v + e;
-            } else {
-                sl += v - e;
-                sh += v + e;
-            }
-            if sh - sl > FOUR_PI {
-                break;
-            }
-        }
+        let (small, large, shares) = self.kept_shares(&ball, &local, &keep, cell);
+        let ((sl, sh), (mut ll, mut lh)) = (small, large);
         if sh - sl < FOUR_PI && lh - ll > 0.02 * FOUR_PI && !self.x.large.is_empty() {
             if let Some((bl, bh)) =
                 SCRATCH.with(|s| self.x.large_interval(&ball, &mut s.borrow_mut()))
@@ -474,7 +403,7 @@ impl Walk<'_> {
             return found;
         }
         if cell {
-            self.cell_voxels(lo, hi, &local, &keep, &mut found);
+            self.cell_voxels(lo, hi, &local, &keep, &shares, &mut found);
             let added = (found.voxels.len() + found.undecided.len()) as u64;
             if self.listed.fetch_add(added, Ordering::Relaxed) + added > self.limits.max_listed {
                 self.over_budget.store(true, Ordering::Relaxed);
@@ -500,17 +429,129 @@ impl Walk<'_> {
         found.merge(below)
     }
 
-    /// A cell voxel by voxel: the far fields at each voxel, the kept nodes at each voxel (expansions, leaf
-    /// triangles exactly or by their bound).
+    /// The nodes of `open` examined for `ball`: far ones go into the far fields `local` (as expansions
+    /// accepted when the ball's radius is at most the spread times their gap, or as bounds), the rest are
+    /// opened or returned (kept) for the ball's voxels or children.
+    fn gather(&self, ball: &Ball, cell: bool, local: &mut [Local; 2], open: &[u32]) -> Vec<u32> {
+        let p = &self.params;
+        let mut keep = Vec::with_capacity(open.len());
+        let mut stack = open.to_vec();
+        while let Some(tag) = stack.pop() {
+            let tree = self.tree_of(tag);
+            let thin = tag & !INDEX == RIBBON;
+            let part = (tag & !INDEX == LARGE) as usize;
+            let i = tag & INDEX;
+            let node = &tree.nodes[i as usize];
+            let d = super::kernel::norm(crate::voxel::surface::sub(ball.c, node.centre));
+            let gap = d - ball.r - node.radius;
+            let bound = Tree::node_bound(node, gap, self.nu);
+            if bound <= if thin { THIN_EPS } else { BOUND_EPS } {
+                local[part].err += bound;
+                continue;
+            }
+            let separated = gap > 0.0 && node.radius + ball.r <= p.theta * d;
+            if !thin && separated && ball.r <= p.spread * gap {
+                match tree.local_share(i, ball) {
+                    Some((v, g, e)) if e < bound => {
+                        let l = &mut local[part];
+                        l.value += v;
+                        for (lg, gk) in l.gradient.iter_mut().zip(g) {
+                            *lg += gk;
+                        }
+                        l.err += e;
+                    }
+                    _ => local[part].err += bound,
+                }
+                continue;
+            }
+            if !node.is_leaf() && (cell || (!separated && node.radius >= ball.r)) {
+                // At a cell every node is opened until it can be expanded at each voxel (or is a leaf).
+                let point = gap > 0.0 && node.radius <= p.point_theta * (d - ball.r);
+                if !(cell && !thin && point) {
+                    let t = tag & !INDEX;
+                    stack.push(node.first | t);
+                    stack.push((node.first + 1) | t);
+                    continue;
+                }
+            }
+            keep.push(tag);
+        }
+        keep
+    }
+
+    /// The intervals (small caps and ribbons; large caps) over `ball` of the far fields and the kept nodes,
+    /// and at a cell each kept node's share (value, error) over the ball.
+    #[allow(clippy::type_complexity)]
+    fn kept_shares(
+        &self,
+        ball: &Ball,
+        local: &[Local; 2],
+        keep: &[u32],
+        cell: bool,
+    ) -> ((f64, f64), (f64, f64), Vec<(f64, f64)>) {
+        let (mut sl, mut sh) = local[0].over(ball.r);
+        let (mut ll, mut lh) = local[1].over(ball.r);
+        // Each kept node's share over the ball, which a cell's voxels start from.
+        let mut shares = Vec::with_capacity(if cell { keep.len() } else { 0 });
+        for &tag in keep {
+            let tree = self.tree_of(tag);
+            let node = &tree.nodes[(tag & INDEX) as usize];
+            let (mut v, mut e) = tree.share_over(tag & INDEX, ball);
+            if node.is_leaf() && e > BOUND_EPS {
+                // Triangle by triangle: thin ones by their bound, fat ones exactly at the centre.
+                let thin = tag & !INDEX == RIBBON;
+                let (mut tv, mut te) = (0.0, 0.0);
+                for t in &tree.triangles[node.first as usize..(node.first + node.count) as usize] {
+                    if thin {
+                        te += t.bound_over(ball);
+                    } else {
+                        let (a, b) = t.share_over(ball);
+                        tv += a;
+                        te += b;
+                    }
+                }
+                if te < e {
+                    (v, e) = (tv, te);
+                }
+            }
+            if tag & !INDEX == LARGE {
+                ll += v - e;
+                lh += v + e;
+            } else {
+                sl += v - e;
+                sh += v + e;
+            }
+            if cell {
+                shares.push((v, e));
+            } else if sh - sl > FOUR_PI {
+                break;
+            }
+        }
+        ((sl, sh), (ll, lh), shares)
+    }
+
+    /// A cell voxel by voxel. Each voxel starts from the far fields at its centre and the kept nodes' shares
+    /// over the cell's ball (`shares`, parallel to `keep`), then replaces those shares by their values at the
+    /// voxel, the widest first, until its interval is labelled: near a cap a few triangles decide, and the
+    /// far part of the list is never evaluated twice. A voxel still unlabelled with every kept node at its
+    /// centre refines them (`refine_from`) unless the far fields' own error already straddles a
+    /// half-integer; what is left goes to the direct evaluation.
     fn cell_voxels(
         &self,
         lo: [u32; 3],
         hi: [u32; 3],
         local: &[Local; 2],
         keep: &[u32],
+        shares: &[(f64, f64)],
         found: &mut Labels,
     ) {
         let (frame, nu) = (self.frame, self.nu);
+        // The widest shares first.
+        let mut order: Vec<u32> = (0..keep.len() as u32).collect();
+        order.sort_unstable_by(|&a, &b| shares[b as usize].1.total_cmp(&shares[a as usize].1));
+        let (ball_v, ball_e) = shares
+            .iter()
+            .fold((0.0, 0.0), |(v, e), &(sv, se)| (v + sv, e + se));
         for z in lo[2]..hi[2] {
             for y in lo[1]..hi[1] {
                 for xx in lo[0]..hi[0] {
@@ -520,43 +561,30 @@ impl Walk<'_> {
                     }
                     found.voxels_evaluated += 1;
                     let q = centre(frame, [xx, y, z]);
-                    let (far, err) = (local[0].value_at(q), local[0].err);
-                    let (large, large_err) = (local[1].value_at(q), local[1].err);
-                    let (mut vl, mut vh) =
-                        (far + large - err - large_err, far + large + err + large_err);
-                    for &tag in keep {
-                        let tree = self.tree_of(tag);
-                        let i = tag & INDEX;
-                        let node = &tree.nodes[i as usize];
-                        if !node.is_leaf() {
-                            let (v, e) = tree.share_at(i, q, nu);
-                            vl += v - e;
-                            vh += v + e;
-                            continue;
+                    let far = local[0].value_at(q) + local[1].value_at(q);
+                    let far_err = local[0].err + local[1].err;
+                    let (mut v, mut e) = (far + ball_v, far_err + ball_e);
+                    let mut answer = label(v - e, v + e);
+                    for &j in &order {
+                        if answer.is_some() {
+                            break;
                         }
-                        for t in
-                            &tree.triangles[node.first as usize..(node.first + node.count) as usize]
-                        {
-                            let b = t.bound(q, nu);
-                            if b <= TRI_EPS {
-                                vl -= b;
-                                vh += b;
-                            } else {
-                                let (w, e) = t.solid_angle(q);
-                                vl += w - e;
-                                vh += w + e;
-                            }
+                        let (sv, se) = shares[j as usize];
+                        let (pv, pe) = self.share_at_voxel(keep[j as usize], q);
+                        if pe < se {
+                            v += pv - sv;
+                            e += pe - se;
+                            answer = label(v - e, v + e);
                         }
                     }
-                    let mut answer = label(vl, vh);
-                    if answer.is_none() {
+                    if answer.is_none() && label(v - far_err, v + far_err).is_some() {
                         // Refine the kept nodes at this voxel on top of the far fields.
                         answer = SCRATCH.with(|s| {
                             refine_from(
                                 &[&self.x.caps, &self.x.large, &self.x.ribbons],
                                 q,
                                 nu,
-                                (far + large, err + large_err),
+                                (far, far_err),
                                 keep.iter().map(|&t| (t >> TREE_SHIFT, t & INDEX)),
                                 label,
                                 &mut s.borrow_mut().caps,
@@ -571,6 +599,29 @@ impl Walk<'_> {
                 }
             }
         }
+    }
+
+    /// A kept node's share at the voxel centre `q`: its expansion, or its leaf triangles exactly (the thin
+    /// ones, and any whose bound is below [`TRI_EPS`], by their bound).
+    fn share_at_voxel(&self, tag: u32, q: [f64; 3]) -> (f64, f64) {
+        let tree = self.tree_of(tag);
+        let i = tag & INDEX;
+        let node = &tree.nodes[i as usize];
+        if !node.is_leaf() {
+            return tree.share_at(i, q, self.nu);
+        }
+        let (mut v, mut e) = (0.0, 0.0);
+        for t in &tree.triangles[node.first as usize..(node.first + node.count) as usize] {
+            let b = t.bound(q, self.nu);
+            if b <= TRI_EPS {
+                e += b;
+            } else {
+                let (w, we) = t.solid_angle(q);
+                v += w;
+                e += we;
+            }
+        }
+        (v, e)
     }
 }
 

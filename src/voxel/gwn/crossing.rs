@@ -19,8 +19,11 @@
 //! [`Crossings::with_flat_triangles`].
 //!
 //! Cost: triangles are bucketed by their projected box over a grid of about 16 triangles a cell; a query
-//! tests the triangles of its cell (a box test, then at most four predicates). Triangles covering more
-//! than [`WIDE`] cells go to one list every query scans.
+//! tests the triangles of its cell (a box test, then at most four predicates). A triangle covering more
+//! than [`WIDE`] cells goes to the first coarser grid (cells 4× wider, then 16×, … up to one cell) where it
+//! covers at most that many, so a query tests its cell at each of the O(log) grids: the big triangles of a
+//! cap across a polygon of a million sides (which cover the whole disc at every scale of the recursion)
+//! cost a query the few whose box holds it, not a list of all of them.
 use rayon::prelude::*;
 use robust::{orient2d, orient3d, Coord, Coord3D};
 
@@ -35,11 +38,57 @@ pub struct Crossings {
     tris: Vec<[[f64; 3]; 3]>,
     sigma: Vec<i8>,
     lo: [f64; 2],
+    /// The grids, finest first (cells 4× wider each), the last one cell.
+    levels: Vec<Level>,
+}
+
+/// One grid of buckets over the projected boxes.
+struct Level {
     cell: f64,
     dims: [usize; 2],
+    /// Bucket `c` is `items[starts[c]..starts[c + 1]]`.
     starts: Vec<u32>,
     items: Vec<u32>,
-    wide: Vec<u32>,
+}
+
+impl Level {
+    fn new(cell: f64, extent: [f64; 2]) -> Level {
+        Level {
+            cell,
+            dims: [
+                ((extent[0] / cell).floor() as usize + 1).min(4096),
+                ((extent[1] / cell).floor() as usize + 1).min(4096),
+            ],
+            starts: Vec::new(),
+            items: Vec::new(),
+        }
+    }
+
+    /// The cell along axis `k` of an offset from the grid's corner, clamped to the grid.
+    fn index(&self, offset: f64, k: usize) -> usize {
+        ((offset / self.cell).floor().max(0.0) as usize).min(self.dims[k] - 1)
+    }
+
+    /// The cells `((x0, x1), (y0, y1))` (inclusive) the projected box of `t` covers, `lo` the grid's corner.
+    fn range(&self, t: &[[f64; 3]; 3], lo: [f64; 2]) -> ((usize, usize), (usize, usize)) {
+        let span = |k: usize| {
+            let a = t.iter().map(|v| v[k]).fold(f64::INFINITY, f64::min);
+            let b = t.iter().map(|v| v[k]).fold(f64::NEG_INFINITY, f64::max);
+            (self.index(a - lo[k], k), self.index(b - lo[k], k))
+        };
+        (span(0), span(1))
+    }
+
+    /// The bucket of the point at offset (x, y) from the grid's corner: clamped to the grid as the boxes
+    /// are (a point past the far side tests the last cell's triangles, whose boxes then reject it), none
+    /// before the corner.
+    fn bucket(&self, x: f64, y: f64) -> &[u32] {
+        if !(x >= 0.0 && y >= 0.0) {
+            return &[];
+        }
+        let c = self.index(y, 1) * self.dims[0] + self.index(x, 0);
+        &self.items[self.starts[c] as usize..self.starts[c + 1] as usize]
+    }
 }
 
 fn sign(x: f64) -> i8 {
@@ -183,11 +232,7 @@ impl Crossings {
             tris: triangles,
             sigma,
             lo,
-            cell: 1.0,
-            dims: [1, 1],
-            starts: vec![0, 0],
-            items: Vec::new(),
-            wide: Vec::new(),
+            levels: Vec::new(),
         };
         if counted == 0 {
             return c;
@@ -198,58 +243,66 @@ impl Crossings {
             .sqrt()
             .max(extent[0].max(extent[1]) / 4096.0)
             .max(1e-300);
-        let dims = [
-            ((extent[0] / cell).floor() as usize + 1).min(4096),
-            ((extent[1] / cell).floor() as usize + 1).min(4096),
-        ];
-        c.cell = cell;
-        c.dims = dims;
-        let index = |offset: f64, k: usize| -> usize {
-            ((offset / cell).floor().max(0.0) as usize).min(dims[k] - 1)
+        let mut levels = vec![Level::new(cell, extent)];
+        while let Some(last) = levels.last().filter(|l| l.dims != [1, 1]) {
+            levels.push(Level::new(last.cell * 4.0, extent));
+        }
+        // Each triangle's level: the first where it covers at most WIDE cells (the last has one).
+        let covered = |l: &Level, t: &[[f64; 3]; 3]| {
+            let ((x0, x1), (y0, y1)) = l.range(t, lo);
+            (x1 - x0 + 1) * (y1 - y0 + 1)
         };
-        let range = |t: &[[f64; 3]; 3], k: usize| {
-            let a = t.iter().map(|v| v[k]).fold(f64::INFINITY, f64::min);
-            let b = t.iter().map(|v| v[k]).fold(f64::NEG_INFINITY, f64::max);
-            (index(a - lo[k], k), index(b - lo[k], k))
-        };
-        let mut counts = vec![0u32; dims[0] * dims[1] + 1];
-        for (i, t) in c.tris.iter().enumerate() {
-            if !indexed[i] {
-                continue;
+        let level_of: Vec<u8> = c
+            .tris
+            .par_iter()
+            .enumerate()
+            .map(|(i, t)| {
+                if !indexed[i] {
+                    return u8::MAX;
+                }
+                levels
+                    .iter()
+                    .position(|l| covered(l, t) <= WIDE)
+                    .unwrap_or(levels.len() - 1) as u8
+            })
+            .collect();
+        // Triangle indices grouped by level (in index order within each).
+        let mut by_level: Vec<Vec<u32>> = vec![Vec::new(); levels.len()];
+        for (i, &l) in level_of.iter().enumerate() {
+            if l != u8::MAX {
+                by_level[l as usize].push(i as u32);
             }
-            let ((x0, x1), (y0, y1)) = (range(t, 0), range(t, 1));
-            if (x1 - x0 + 1) * (y1 - y0 + 1) > WIDE {
-                c.wide.push(i as u32);
-                continue;
-            }
-            for y in y0..=y1 {
-                for x in x0..=x1 {
-                    counts[y * dims[0] + x + 1] += 1;
+        }
+        for (level, mine) in levels.iter_mut().zip(&by_level) {
+            let dims = level.dims;
+            let mut counts = vec![0u32; dims[0] * dims[1] + 1];
+            for &i in mine {
+                let ((x0, x1), (y0, y1)) = level.range(&c.tris[i as usize], lo);
+                for y in y0..=y1 {
+                    for x in x0..=x1 {
+                        counts[y * dims[0] + x + 1] += 1;
+                    }
                 }
             }
-        }
-        for i in 1..counts.len() {
-            counts[i] += counts[i - 1];
-        }
-        let mut fill = counts.clone();
-        c.items = vec![0; counts[counts.len() - 1] as usize];
-        for (i, t) in c.tris.iter().enumerate() {
-            if !indexed[i] {
-                continue;
+            for i in 1..counts.len() {
+                counts[i] += counts[i - 1];
             }
-            let ((x0, x1), (y0, y1)) = (range(t, 0), range(t, 1));
-            if (x1 - x0 + 1) * (y1 - y0 + 1) > WIDE {
-                continue;
-            }
-            for y in y0..=y1 {
-                for x in x0..=x1 {
-                    let slot = &mut fill[y * dims[0] + x];
-                    c.items[*slot as usize] = i as u32;
-                    *slot += 1;
+            let mut fill = counts.clone();
+            let mut items = vec![0; counts[counts.len() - 1] as usize];
+            for &i in mine {
+                let ((x0, x1), (y0, y1)) = level.range(&c.tris[i as usize], lo);
+                for y in y0..=y1 {
+                    for x in x0..=x1 {
+                        let slot = &mut fill[y * dims[0] + x];
+                        items[*slot as usize] = i;
+                        *slot += 1;
+                    }
                 }
             }
+            level.starts = counts;
+            level.items = items;
         }
-        c.starts = counts;
+        c.levels = levels;
         c
     }
 
@@ -267,7 +320,12 @@ impl Crossings {
     /// Bytes held (what the memory budget counts).
     pub fn bytes(&self) -> u64 {
         (self.tris.len() * (std::mem::size_of::<[[f64; 3]; 3]>() + 1)
-            + (self.starts.len() + self.items.len() + self.wide.len()) * 4) as u64
+            + self
+                .levels
+                .iter()
+                .map(|l| l.starts.len() + l.items.len())
+                .sum::<usize>()
+                * 4) as u64
     }
 
     /// The winding number of the chain at `q` (local), or `None` when `q` lies on one of its triangles whose
@@ -276,21 +334,12 @@ impl Crossings {
         let q = self.permute(q);
         let mut n = 0i32;
         let (x, y) = (q[0] - self.lo[0], q[1] - self.lo[1]);
-        let cell = if x < 0.0 || y < 0.0 {
-            None
-        } else {
-            let (cx, cy) = ((x / self.cell).floor(), (y / self.cell).floor());
-            (cx < self.dims[0] as f64 && cy < self.dims[1] as f64)
-                .then(|| cy as usize * self.dims[0] + cx as usize)
-        };
-        let bucket = match cell {
-            Some(c) => &self.items[self.starts[c] as usize..self.starts[c + 1] as usize],
-            None => &[][..],
-        };
-        for &i in bucket.iter().chain(&self.wide) {
-            match self.crosses(i as usize, q) {
-                Some(s) => n += s as i32,
-                None => return None,
+        for level in &self.levels {
+            for &i in level.bucket(x, y) {
+                match self.crosses(i as usize, q) {
+                    Some(s) => n += s as i32,
+                    None => return None,
+                }
             }
         }
         Some(n)
@@ -350,33 +399,24 @@ mod tests {
             .collect()
     }
 
-    #[test]
-    fn the_crossing_count_of_closed_meshes_is_their_winding_number() {
-        let mut mesh = TriMesh::cube([0.0; 3], 1.0);
-        let mut inner = TriMesh::cube([0.25; 3], 0.5);
-        for t in &mut inner.triangles {
-            t.swap(1, 2);
-        }
-        mesh.append(&inner);
-        mesh.append(&TriMesh::sphere([1.0, 0.5, 0.5], 0.4, 6, 9, false));
-        let tris = local(&mesh);
-        let c = Crossings::new(tris.clone());
+    /// The crossing counts of `tris` at every point of the lattice `steps` (per axis: count, step, start)
+    /// against the plain sum: equal off the surface, `None` only on it (points on a face seen edge-on along
+    /// the ray are the caller's to find). The counts seen off the surface.
+    fn counts_on_lattice(
+        tris: &[[[f64; 3]; 3]],
+        steps: [(usize, f64, f64); 3],
+    ) -> std::collections::BTreeSet<i32> {
+        let c = Crossings::new(tris.to_vec());
         let mut seen = std::collections::BTreeSet::new();
-        for i in 0..=12 {
-            for j in 0..=12 {
-                for k in 0..=12 {
-                    // x and y on the lattice of the cubes' edges and vertices: rays along vertical faces,
-                    // through edges and vertices, the perturbation's cases.
-                    let q = [
-                        i as f64 / 8.0 - 0.25,
-                        j as f64 / 8.0 - 0.25,
-                        k as f64 / 8.0 - 0.3,
-                    ];
-                    let w = winding_sum(&tris, q);
+        for i in 0..=steps[0].0 {
+            for j in 0..=steps[1].0 {
+                for k in 0..=steps[2].0 {
+                    let at = |a: usize, n: usize| n as f64 * steps[a].1 + steps[a].2;
+                    let q = [at(0, i), at(1, j), at(2, k)];
+                    let w = winding_sum(tris, q);
                     let on = tris.iter().any(|t| {
                         crate::voxel::gwn::kernel::triangle_distance(q, t[0], t[1], t[2]) < 1e-12
                     });
-                    // Points on a face seen edge-on along the ray are the caller's to find.
                     match c.winding(q) {
                         Some(n) if !on => {
                             assert!((w - n as f64).abs() < 1e-9, "{q:?}: {n} vs {w}");
@@ -388,6 +428,57 @@ mod tests {
                 }
             }
         }
+        seen
+    }
+
+    #[test]
+    fn the_crossing_count_of_closed_meshes_is_their_winding_number() {
+        let mut mesh = TriMesh::cube([0.0; 3], 1.0);
+        let mut inner = TriMesh::cube([0.25; 3], 0.5);
+        for t in &mut inner.triangles {
+            t.swap(1, 2);
+        }
+        mesh.append(&inner);
+        mesh.append(&TriMesh::sphere([1.0, 0.5, 0.5], 0.4, 6, 9, false));
+        // x and y on the lattice of the cubes' edges and vertices: rays along vertical faces, through edges
+        // and vertices, the perturbation's cases.
+        let seen = counts_on_lattice(
+            &local(&mesh),
+            [(12, 0.125, -0.25), (12, 0.125, -0.25), (12, 0.125, -0.3)],
+        );
+        assert!(
+            seen.contains(&0) && seen.contains(&1) && seen.contains(&2),
+            "{seen:?}"
+        );
+    }
+
+    #[test]
+    fn big_triangles_go_to_coarser_grids_and_still_count_where_they_cover() {
+        // A closed drum: an open tube of 4,000 segments (tiny triangles) shut by two fans from the axis (long
+        // slivers from the centre to the rim, each covering many cells of the finest grid), and a big box
+        // around half of it. The fans must be found from coarser grids at every point they cover.
+        let mut mesh = crate::voxel::stress::open_tube(4000);
+        let n = 4000u32;
+        let (bottom, top) = (mesh.positions.len() as u32, mesh.positions.len() as u32 + 1);
+        mesh.positions.push([0.0, 0.0, -0.5]);
+        mesh.positions.push([0.0, 0.0, 0.5]);
+        for i in 0..n {
+            let j = (i + 1) % n;
+            mesh.triangles.push([bottom, j, i]);
+            mesh.triangles.push([top, n + i, n + j]);
+        }
+        mesh.append(&TriMesh::cube([0.1, -0.7, -0.7], 1.4));
+        let tris = local(&mesh);
+        let c = Crossings::new(tris.clone());
+        assert!(c.levels.len() > 2 && c.levels.iter().skip(1).any(|l| !l.items.is_empty()));
+        let seen = counts_on_lattice(
+            &tris,
+            [
+                (20, 1.0 / 14.0, -0.71),
+                (20, 1.0 / 14.0, -0.69),
+                (8, 1.0 / 6.0, -0.63),
+            ],
+        );
         assert!(
             seen.contains(&0) && seen.contains(&1) && seen.contains(&2),
             "{seen:?}"

@@ -25,9 +25,15 @@
 //! Invariants: triangles are reordered so each leaf owns a contiguous range ([`Tree::triangles`]); a
 //! node's children are `first` and `first + 1`; moments are translated up the tree exactly (no second
 //! pass over the triangles), radii are the smaller of the children's spheres grown and the half-diagonal of
-//! the node's box. The build is O(n log n) and the tree O(n) memory ([`Tree::bytes`]).
+//! the node's box. The build is O(n log n) and the tree O(n) memory ([`Tree::bytes`]): median splits over
+//! compact items (a triangle's box, centroid and index, not the whole [`TreeTriangle`]), halves of more than
+//! `PARALLEL_BUILD` triangles built on other threads into node ranges fixed in advance (`node_count`), so
+//! the tree — node order included — is the same whatever the number of threads. A single triangle's share
+//! over a ball takes its exact distance to the ball (its bounding ball's gap, beside a large cap triangle,
+//! would be near zero and the variation bound cubed).
 use super::kernel::{norm, segment_distance2, solid_angle_bounded, triangle_distance};
 use crate::voxel::surface::{cross, dot, sub};
+use rayon::prelude::*;
 
 /// Triangles per leaf at most, by default (thin ribbons; caps use smaller leaves, whose balls stay the
 /// size of one cap triangle however sparse the caps are).
@@ -110,11 +116,21 @@ impl TreeTriangle {
     #[inline]
     pub fn share_over(&self, ball: &Ball) -> (f64, f64) {
         let bound = self.bound_over(ball);
-        // The gap to the triangle's ball (the exact distance costs more than it saves here).
-        let gap = (norm(sub(ball.c, self.centre)) - self.radius - ball.r) * (1.0 - 1e-12);
+        let variation = |gap: f64| 2.0 * self.area * ball.r / (gap * gap * gap);
+        // The gap to the triangle's ball first; where that leaves a wide share, the gap to the triangle
+        // itself (beside a large triangle its ball's gap is far smaller, and the variation bound goes as its
+        // cube), less its rounding: a few ulps of the coordinates' scale.
+        let mut gap = (norm(sub(ball.c, self.centre)) - self.radius - ball.r) * (1.0 - 1e-12);
+        if gap <= 0.0 || variation(gap) > WIDE_SHARE.min(bound) {
+            let scale = norm(ball.c) + norm(self.centre) + self.radius;
+            gap = gap.max(
+                (triangle_distance(ball.c, self.a, self.b, self.c) - ball.r - 1e-12 * scale)
+                    * (1.0 - 1e-9),
+            );
+        }
         if gap > 0.0 {
             let (v, e) = self.solid_angle(ball.c);
-            let e = e + 2.0 * self.area * ball.r / (gap * gap * gap);
+            let e = e + variation(gap);
             if e < bound {
                 return (v, e);
             }
@@ -145,6 +161,9 @@ impl TreeTriangle {
         (self.area / (d * d)).min(std::f64::consts::TAU * self.width / d)
     }
 }
+
+/// A triangle's share over a ball wider than this (steradians) is worth its exact distance to the ball.
+const WIDE_SHARE: f64 = 1e-3;
 
 /// A node of the tree.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
@@ -246,13 +265,24 @@ impl Tree {
 
     /// The tree of `triangles` with at most `leaf` triangles a leaf.
     pub fn build_with(triangles: impl IntoIterator<Item = [[f64; 3]; 3]>, leaf: usize) -> Tree {
-        let mut tris: Vec<TreeTriangle> = triangles.into_iter().map(TreeTriangle::new).collect();
-        if tris.is_empty() {
+        let corners: Vec<[[f64; 3]; 3]> = triangles.into_iter().collect();
+        if corners.is_empty() {
             return Tree::default();
         }
-        let mut nodes = vec![Node::default()];
-        let n = tris.len();
-        build_node(&mut nodes, &mut tris, 0, 0, n, leaf.max(1));
+        let mut items: Vec<Item> = corners
+            .par_iter()
+            .enumerate()
+            .map(|(i, t)| Item::of(i, t))
+            .collect();
+        let leaf = leaf.max(1);
+        let mut nodes = vec![Node::default(); node_count(items.len(), leaf)];
+        let (root, rest) = nodes.split_first_mut().expect("one node at least");
+        build_into(&corners, &mut items, 0, root, rest, 1, leaf);
+        // The triangles in leaf order.
+        let tris: Vec<TreeTriangle> = items
+            .par_iter()
+            .map(|it| TreeTriangle::new(corners[it.index as usize]))
+            .collect();
         Tree {
             nodes,
             triangles: tris,
@@ -792,63 +822,147 @@ impl Tree {
     }
 }
 
-/// Builds node `at` over `tris[start..end]` (reordering them), then its children.
-fn build_node(
-    nodes: &mut Vec<Node>,
-    tris: &mut [TreeTriangle],
-    at: usize,
-    start: usize,
-    end: usize,
-    leaf: usize,
-) {
-    let (mut lo, mut hi) = ([f64::INFINITY; 3], [f64::NEG_INFINITY; 3]);
-    let (mut clo, mut chi) = ([f64::INFINITY; 3], [f64::NEG_INFINITY; 3]);
-    for t in &tris[start..end] {
-        for v in [t.a, t.b, t.c] {
+/// What the build moves while it splits: a triangle's index, its corners' box and its centroid (a fraction
+/// of a [`TreeTriangle`]'s bytes, so the median selections stay cheap on hundreds of thousands of ribbons).
+#[derive(Clone, Copy)]
+struct Item {
+    lo: [f64; 3],
+    hi: [f64; 3],
+    centroid: [f64; 3],
+    index: u32,
+}
+
+impl Item {
+    fn of(index: usize, corners: &[[f64; 3]; 3]) -> Item {
+        let (mut lo, mut hi) = ([f64::INFINITY; 3], [f64::NEG_INFINITY; 3]);
+        for &v in corners {
             for k in 0..3 {
                 lo[k] = lo[k].min(v[k]);
                 hi[k] = hi[k].max(v[k]);
             }
         }
-        let m = centroid(t);
-        for k in 0..3 {
-            clo[k] = clo[k].min(m[k]);
-            chi[k] = chi[k].max(m[k]);
+        Item {
+            lo,
+            hi,
+            centroid: std::array::from_fn(|k| {
+                (corners[0][k] + corners[1][k] + corners[2][k]) / 3.0
+            }),
+            index: index as u32,
         }
     }
+}
+
+/// Nodes of the tree over `n` triangles with at most `leaf` a leaf (median splits): 2·leaves − 1, in
+/// O(log n). Halving ⌊s/2⌋, ⌈s/2⌉ keeps every level's sizes within one of each other, so a level is two
+/// (size, count) pairs.
+fn node_count(n: usize, leaf: usize) -> usize {
+    let (mut level, mut leaves) = (vec![(n, 1usize)], 0usize);
+    while !level.is_empty() {
+        let mut next: Vec<(usize, usize)> = Vec::with_capacity(2);
+        for (size, count) in level {
+            if size <= leaf {
+                leaves += count;
+                continue;
+            }
+            for half in [size / 2, size - size / 2] {
+                match next.iter_mut().find(|(s, _)| *s == half) {
+                    Some((_, c)) => *c += count,
+                    None => next.push((half, count)),
+                }
+            }
+        }
+        level = next;
+    }
+    2 * leaves - 1
+}
+
+/// Items from which a subtree's halves are built in parallel.
+const PARALLEL_BUILD: usize = 4096;
+
+/// Builds the subtree over `items` (reordered; they start at `offset` in the whole list, which leaves
+/// index) into `root` and `rest` (its other nodes, which start at index `rest_base`): an inner node's
+/// children are `rest[0]` and `rest[1]`, then come the left child's other nodes, then the right child's.
+/// Median split of the centroids along the longest axis of their box; the layout does not depend on the
+/// number of threads (large halves are built in parallel into their own ranges).
+fn build_into(
+    corners: &[[[f64; 3]; 3]],
+    items: &mut [Item],
+    offset: usize,
+    root: &mut Node,
+    rest: &mut [Node],
+    rest_base: usize,
+    leaf: usize,
+) {
+    let n = items.len();
+    let (lo, hi, clo, chi) = bounds(items);
     let centre: [f64; 3] = std::array::from_fn(|k| 0.5 * (lo[k] + hi[k]));
-    if end - start <= leaf {
+    if n <= leaf {
         let mut node = Node {
             centre,
-            first: start as u32,
-            count: (end - start) as u32,
+            first: offset as u32,
+            count: n as u32,
             ..Node::default()
         };
         let mut radius = 0.0f64;
-        for t in &tris[start..end] {
+        for item in items.iter() {
+            let t = TreeTriangle::new(corners[item.index as usize]);
             for v in [t.a, t.b, t.c] {
                 radius = radius.max(norm(sub(v, centre)));
             }
-            add_triangle(&mut node, t);
+            add_triangle(&mut node, &t);
         }
         node.radius = radius * (1.0 + 1e-12);
-        nodes[at] = node;
+        *root = node;
         return;
     }
-    // Median split of the centroids along the longest axis of their box.
     let axis = (0..3)
         .max_by(|&a, &b| (chi[a] - clo[a]).total_cmp(&(chi[b] - clo[b])))
         .expect("three axes");
-    let mid = start + (end - start) / 2;
-    tris[start..end].select_nth_unstable_by(mid - start, |p, q| {
-        centroid(p)[axis].total_cmp(&centroid(q)[axis])
+    let mid = n / 2;
+    items.select_nth_unstable_by(mid, |p, q| {
+        p.centroid[axis]
+            .total_cmp(&q.centroid[axis])
+            .then(p.index.cmp(&q.index))
     });
-    let first = nodes.len();
-    nodes.push(Node::default());
-    nodes.push(Node::default());
-    build_node(nodes, tris, first, start, mid, leaf);
-    build_node(nodes, tris, first + 1, mid, end, leaf);
-    let (l, r) = (nodes[first], nodes[first + 1]);
+    let (left, right) = items.split_at_mut(mid);
+    let (children, below) = rest.split_at_mut(2);
+    let (l, r) = children.split_at_mut(1);
+    let (left_rest, right_rest) = below.split_at_mut(node_count(mid, leaf) - 1);
+    let right_base = rest_base + 2 + left_rest.len();
+    let mut build_left = || {
+        build_into(
+            corners,
+            left,
+            offset,
+            &mut l[0],
+            left_rest,
+            rest_base + 2,
+            leaf,
+        )
+    };
+    let mut build_right = || {
+        build_into(
+            corners,
+            right,
+            offset + mid,
+            &mut r[0],
+            right_rest,
+            right_base,
+            leaf,
+        )
+    };
+    if n > PARALLEL_BUILD {
+        rayon::join(build_left, build_right);
+    } else {
+        build_left();
+        build_right();
+    }
+    *root = inner_node(centre, 0.5 * norm(sub(hi, lo)), rest_base, &l[0], &r[0]);
+}
+
+/// The inner node over children `l` and `r` (stored at `first`, `first + 1`), centred at `centre` (the
+/// middle of its triangles' box, `half_diagonal` its half diagonal).
+fn inner_node(centre: [f64; 3], half_diagonal: f64, first: usize, l: &Node, r: &Node) -> Node {
     let mut node = Node {
         centre,
         first: first as u32,
@@ -857,20 +971,30 @@ fn build_node(
         width: l.width + r.width,
         ..Node::default()
     };
-    let half_diagonal = 0.5 * norm(sub(hi, lo));
     let grown = [l, r]
         .iter()
         .map(|c| norm(sub(c.centre, centre)) + c.radius)
         .fold(0.0f64, f64::max);
     node.radius = grown.min(half_diagonal) * (1.0 + 1e-12);
     for child in [l, r] {
-        translate_into(&mut node, &child);
+        translate_into(&mut node, child);
     }
-    nodes[at] = node;
+    node
 }
 
-fn centroid(t: &TreeTriangle) -> [f64; 3] {
-    std::array::from_fn(|k| (t.a[k] + t.b[k] + t.c[k]) / 3.0)
+/// The box of the items' corners and the box of their centroids.
+fn bounds(items: &[Item]) -> ([f64; 3], [f64; 3], [f64; 3], [f64; 3]) {
+    let (mut lo, mut hi) = ([f64::INFINITY; 3], [f64::NEG_INFINITY; 3]);
+    let (mut clo, mut chi) = ([f64::INFINITY; 3], [f64::NEG_INFINITY; 3]);
+    for item in items {
+        for k in 0..3 {
+            lo[k] = lo[k].min(item.lo[k]);
+            hi[k] = hi[k].max(item.hi[k]);
+            clo[k] = clo[k].min(item.centroid[k]);
+            chi[k] = chi[k].max(item.centroid[k]);
+        }
+    }
+    (lo, hi, clo, chi)
 }
 
 /// Adds triangle `t`'s area, width mass and moments about `node.centre`.
@@ -963,6 +1087,87 @@ mod tests {
         assert!((root.area - direct.area).abs() < 1e-12);
     }
 
+    #[test]
+    fn a_tree_built_in_parallel_is_the_same_tree_whatever_the_threads_and_holds_every_triangle_once(
+    ) {
+        // Past PARALLEL_BUILD triangles the halves are built on other threads into their own node ranges.
+        let tris = soup(5 * PARALLEL_BUILD + 17, 0.01, 2);
+        let built = |threads: usize| {
+            rayon::ThreadPoolBuilder::new()
+                .num_threads(threads)
+                .build()
+                .unwrap()
+                .install(|| Tree::build_with(tris.iter().copied(), LEAF))
+        };
+        let one = built(1);
+        for threads in [2, 3, 8] {
+            let other = built(threads);
+            assert!(one.nodes == other.nodes, "{threads} threads");
+            assert!(
+                one.triangles
+                    .iter()
+                    .zip(&other.triangles)
+                    .all(|(a, b)| a.a == b.a && a.b == b.b && a.c == b.c),
+                "{threads} threads"
+            );
+        }
+        assert_eq!(one.nodes.len(), node_count(tris.len(), LEAF));
+        fn recursive(n: usize, leaf: usize) -> usize {
+            if n <= leaf {
+                1
+            } else {
+                1 + recursive(n / 2, leaf) + recursive(n - n / 2, leaf)
+            }
+        }
+        for (n, leaf) in [
+            (1, 1),
+            (2, 1),
+            (7, 2),
+            (1000, 8),
+            (12345, 3),
+            (5 * PARALLEL_BUILD + 17, 8),
+        ] {
+            assert_eq!(node_count(n, leaf), recursive(n, leaf), "{n} {leaf}");
+        }
+        // Walk from the root: every node reached once, every leaf range disjoint, all triangles covered, each
+        // triangle inside the balls of its leaf and of every node above it.
+        let mut covered = vec![false; one.triangles.len()];
+        let mut reached = vec![false; one.nodes.len()];
+        let mut stack = vec![(0u32, Vec::<u32>::new())];
+        while let Some((i, mut above)) = stack.pop() {
+            assert!(!std::mem::replace(&mut reached[i as usize], true));
+            let node = one.nodes[i as usize];
+            above.push(i);
+            if node.is_leaf() {
+                assert!(node.count as usize <= LEAF);
+                for k in node.first..node.first + node.count {
+                    assert!(!std::mem::replace(&mut covered[k as usize], true));
+                    let t = &one.triangles[k as usize];
+                    for v in [t.a, t.b, t.c] {
+                        for &a in &above {
+                            let ball = one.nodes[a as usize];
+                            assert!(norm(sub(v, ball.centre)) <= ball.radius);
+                        }
+                    }
+                }
+            } else {
+                stack.push((node.first, above.clone()));
+                stack.push((node.first + 1, above));
+            }
+        }
+        assert!(covered.iter().all(|&c| c) && reached.iter().all(|&r| r));
+        // The triangles are the input's, reordered.
+        let key = |t: &[[f64; 3]; 3]| t.map(|v| v.map(f64::to_bits));
+        let mut given: Vec<_> = tris.iter().map(key).collect();
+        let mut held: Vec<_> = one
+            .triangles
+            .iter()
+            .map(|t| key(&[t.a, t.b, t.c]))
+            .collect();
+        given.sort_unstable();
+        held.sort_unstable();
+        assert!(given == held);
+    }
     #[test]
     fn the_second_moment_of_a_triangle_is_its_integral() {
         // ∫ x xᵀ dA over a triangle by a fine midpoint rule against (Σ v vᵀ + s sᵀ)·A/12.
