@@ -13,6 +13,7 @@ packages=(
   fonts-dejavu-core                                                       # labels of `gregvox bench`'s plots
   procps util-linux                                                       # kill and prlimit, used by the tests
   python3 python3-venv                                                    # the Python package (pip install ./python)
+  python3-openvdb                                                         # OpenVDB's reader: the .vdb tests' oracle
 )
 missing=()
 for p in "${packages[@]}"; do

@@ -593,3 +593,38 @@ fn ctrl_c_stops_after_the_models_in_flight_and_a_rerun_finishes() {
     );
     cleanup(&data);
 }
+
+#[test]
+fn batch_writes_every_voxelize_format_openvdb_and_boundary_meshes_included() {
+    let data = scratch("formats");
+    std::fs::write(data.join("a.obj"), cube_obj(0.0, 1.0)).unwrap();
+    std::fs::write(data.join("b.obj"), cube_obj(2.0, 0.5)).unwrap();
+    let d = data.to_str().unwrap();
+    for format in ["vdb", "obj", "npz"] {
+        let out = data.with_extension(format!("out-{format}"));
+        let o = out.to_str().unwrap();
+        let run = gregvox(&args(d, o, "8", &["--format", format]), &[]);
+        assert!(
+            run.status.success(),
+            "{}",
+            String::from_utf8_lossy(&run.stderr)
+        );
+        for stem in ["a", "b"] {
+            let path = out.join(format!("{stem}.{format}"));
+            let bytes = std::fs::read(&path).unwrap();
+            match format {
+                "vdb" => assert_eq!(&bytes[..8], &0x5644_4220i64.to_le_bytes()),
+                // A cube filling its 8³ grid: one closed box of 6·64 voxel faces.
+                "obj" => assert_eq!(
+                    String::from_utf8_lossy(&bytes)
+                        .lines()
+                        .filter(|l| l.starts_with("f "))
+                        .count(),
+                    6 * 64
+                ),
+                _ => assert_eq!(&bytes[..2], b"PK"),
+            }
+        }
+    }
+    cleanup(&data);
+}

@@ -194,12 +194,24 @@ class Grid:
         """World centres of the solid voxels, float64 (n, 3), in ``np.argwhere(occupancy)`` order."""
         return self.origin + (np.argwhere(self.occupancy) + 0.5) * self.voxel_size
 
-    def save(self, path: Union[str, os.PathLike], npy_packed: bool = False) -> None:
+    def save(self, path: Union[str, os.PathLike], npy_packed: bool = False, ply_boundary: bool = False) -> None:
         """Writes the grid in the format its extension names: ``.binvox``, ``.npy`` (bool (X, Y, Z), or
-        packed bits with ``npy_packed``), ``.nrrd``, ``.raw`` or ``.vox``, with the sidecar JSON where the
-        CLI writes one; byte for byte what ``gregvox voxelize --out`` writes. The file is written
+        packed bits with ``npy_packed``), ``.npz`` (sparse coordinates), ``.nrrd``, ``.ply`` (the solid
+        voxels' centres, or the boundary mesh with ``ply_boundary``), ``.raw`` or ``.vox``, with the sidecar
+        JSON where the CLI writes one, or ``.obj``, ``.stl``, ``.glb``: the solid's boundary mesh (see
+        ``boundary_mesh``); byte for byte what ``gregvox voxelize --out`` writes. The file is written
         atomically; ``OSError`` if it cannot be, ``ValueError`` if the format cannot hold the grid."""
-        self._packed.save(os.fspath(path), bool(npy_packed))
+        self._packed.save(os.fspath(path), bool(npy_packed), bool(ply_boundary))
+
+    def boundary_mesh(self) -> Tuple[np.ndarray, np.ndarray]:
+        """The solid's boundary as a closed, manifold, consistently oriented triangle mesh in world
+        coordinates: ``V`` float64 (n, 3) and ``F`` int64 (m, 3), each voxel face between a solid and an
+        empty voxel as two triangles (more where an edge is pinched), normals outward. Voxels touching only
+        along an edge or at a corner get separate shells (their shared corners and edges are split and moved
+        1/64 of a voxel apart), so the mesh is manifold on any grid, and voxelizing it on the same grid gives
+        the grid back. ``save`` to ``.obj``/``.ply`` keeps the faces as polygons. ``ValueError`` for a
+        noise-like grid whose boundary exceeds 2^28 voxel faces."""
+        return self._packed.boundary_mesh()
 
     def __repr__(self) -> str:
         return f"gregvox.Grid(dims={self.dims}, solid={int(self.occupancy.sum())})"

@@ -367,15 +367,46 @@ struct PackedGrid {
 
 #[pymethods]
 impl PackedGrid {
-    /// Writes the grid in the format the extension names (.binvox, .npy, .raw, .vox, .vdb…), atomically.
-    #[pyo3(signature = (path, npy_packed=false))]
-    fn save(&self, py: Python<'_>, path: std::path::PathBuf, npy_packed: bool) -> PyResult<()> {
+    /// Writes the grid in the format the extension names (.binvox, .npy, .npz, .nrrd, .ply, .raw, .vox; .obj, .stl, .glb:
+    /// the solid's boundary mesh), atomically.
+    #[pyo3(signature = (path, npy_packed=false, ply_boundary=false))]
+    fn save(
+        &self,
+        py: Python<'_>,
+        path: std::path::PathBuf,
+        npy_packed: bool,
+        ply_boundary: bool,
+    ) -> PyResult<()> {
         if let Err(e) = gregvox::io::check_output(&path) {
             return Err(to_py(e));
         }
-        let opts = SaveOptions { npy_packed };
+        let opts = SaveOptions {
+            npy_packed,
+            ply_boundary,
+        };
         py.allow_threads(|| self.grid.save_with(&path, &opts))
             .map_err(to_py)
+    }
+    /// The solid's boundary: vertices float64 (n, 3) and triangles int64 (m, 3), closed, manifold,
+    /// outward (each voxel face's polygon fanned from its first corner).
+    #[allow(clippy::type_complexity)]
+    fn boundary_mesh<'py>(
+        &self,
+        py: Python<'py>,
+    ) -> PyResult<(
+        Bound<'py, numpy::PyArray2<f64>>,
+        Bound<'py, numpy::PyArray2<i64>>,
+    )> {
+        let mesh = py
+            .allow_threads(|| gregvox::voxel::boundary::boundary_mesh(&self.grid))
+            .map_err(to_py)?;
+        let v: Vec<f64> = mesh.positions.iter().flat_map(|p| p.to_array()).collect();
+        let tris = mesh.fan_triangles();
+        let f: Vec<i64> = tris.iter().flatten().map(|&i| i as i64).collect();
+        Ok((
+            v.into_pyarray(py).reshape([mesh.positions.len(), 3])?,
+            f.into_pyarray(py).reshape([tris.len(), 3])?,
+        ))
     }
 }
 

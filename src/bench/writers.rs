@@ -8,6 +8,8 @@
 //! memory (`voxel::export::*_bytes`, or the bit-axis change and cast for `.raw`); write = the whole
 //! `write_grid` call to a file in the temporary folder (encoding, the temporary file, the rename; the
 //! sidecar), which is removed afterwards. `.vox` holds at most 256³ per model and is measured at 256³.
+//! Table `boundary` measures the solid's boundary mesh (`.obj`/`.stl`/`.glb`/`.ply` with `--ply-boundary`)
+//! on the ball and on the noise, whose every voxel is on the boundary.
 use super::{median, num, BenchConfig, Report, Table};
 use crate::voxel::export::{
     binvox_bytes, npy_bytes, npy_packed_bytes, nrrd_bytes, vox_bytes, write_grid, SaveOptions,
@@ -86,6 +88,7 @@ fn encode(format: &str, g: &VoxelGrid) -> Vec<u8> {
         "nrrd" => nrrd_bytes(g),
         "raw" => bytemuck::cast_slice(&g.to_axis(Axis::Z).words).to_vec(),
         "vox" => vox_bytes(g),
+        "vdb" => crate::voxel::vdb::vdb_bytes(g),
         _ => unreachable!("formats listed below"),
     }
 }
@@ -115,7 +118,7 @@ pub fn run(cfg: &BenchConfig, report: &mut Report) -> anyhow::Result<()> {
     for (name, make) in [("ball", ball as fn(u32) -> VoxelGrid), ("noise", noise)] {
         let big = make(res);
         let small = make(res.min(256));
-        for format in ["binvox", "npy", "npy (packed)", "nrrd", "raw", "vox"] {
+        for format in ["binvox", "npy", "npy (packed)", "nrrd", "raw", "vdb", "vox"] {
             let g = if format == "vox" { &small } else { &big };
             let voxels = g.frame.voxel_count() as f64;
             let (enc, bytes) = time_bytes(repeats, || encode(format, g).len());
@@ -123,6 +126,7 @@ pub fn run(cfg: &BenchConfig, report: &mut Report) -> anyhow::Result<()> {
             let path = out_dir.join(format!("writers-{name}.{ext}"));
             let opts = SaveOptions {
                 npy_packed: format == "npy (packed)",
+                ..Default::default()
             };
             let (write, _) = time_bytes(repeats, || {
                 write_grid(g, &path, &opts).map(|_| 0).unwrap_or(usize::MAX)
@@ -145,7 +149,92 @@ pub fn run(cfg: &BenchConfig, report: &mut Report) -> anyhow::Result<()> {
             );
         }
     }
+    report.tables.push(t);
+    boundary(cfg, report, &out_dir)?;
     let _ = std::fs::remove_dir_all(&out_dir);
+    Ok(())
+}
+
+/// Table `boundary`: the solid's boundary mesh (`voxel::boundary`) of the ball at 1024³ (256³ quick) and
+/// of the noise at 128³ (32³ quick; its 1024³ is past the quad limit and measured as the refusal), built
+/// and written as binary PLY.
+fn boundary(
+    cfg: &BenchConfig,
+    report: &mut Report,
+    out_dir: &std::path::Path,
+) -> anyhow::Result<()> {
+    use crate::voxel::boundary::boundary_mesh;
+    let repeats = if cfg.quick { 1 } else { 3 };
+    let (ball_res, noise_res, refused_res) = if cfg.quick {
+        (256, 32, 1024)
+    } else {
+        (1024, 128, 1024)
+    };
+    let mut t = Table::new(
+        "boundary",
+        "The solid's boundary mesh: closed, manifold, outward quads of the voxel faces",
+        &format!(
+            "build = boundary_mesh (boundary lattice points by whole words, the sheet table, quads by rows), \
+             write = the whole .ply (--ply-boundary) write_grid call, median of {repeats}. ball = a solid \
+             ball (the friendly case); noise = hashed noise, a third solid (every voxel on the boundary, \
+             corners split everywhere: the attack); noise {refused_res}³ = past the {} quad limit, refused \
+             after the popcount pass. All {} rayon threads.",
+            crate::voxel::boundary::MAX_BOUNDARY_QUADS,
+            rayon::current_num_threads()
+        ),
+        &[
+            "grid", "res", "quads", "vertices", "build ms", "M quads/s", "write ms", "MB",
+        ],
+    );
+    for (name, make, res) in [
+        ("ball", ball as fn(u32) -> VoxelGrid, ball_res),
+        ("noise", noise, noise_res),
+    ] {
+        let g = make(res);
+        let mut size = (0, 0);
+        let (build, _) = time_bytes(repeats, || {
+            let m = boundary_mesh(&g).expect("under the quad limit");
+            size = (m.n_faces(), m.positions.len());
+            0
+        });
+        let path = out_dir.join(format!("boundary-{name}.ply"));
+        let opts = SaveOptions {
+            ply_boundary: true,
+            ..Default::default()
+        };
+        let (write, _) = time_bytes(repeats, || {
+            write_grid(&g, &path, &opts)
+                .map(|_| 0)
+                .unwrap_or(usize::MAX)
+        });
+        let mb = std::fs::metadata(&path).map(|m| m.len()).unwrap_or(0) as f64 / 1e6;
+        let _ = std::fs::remove_file(&path);
+        t.push(vec![
+            Value::from(name),
+            Value::from(res),
+            Value::from(size.0),
+            Value::from(size.1),
+            num(build),
+            num(size.0 as f64 / (build * 1e-3) / 1e6),
+            num(write),
+            num(mb),
+        ]);
+        eprintln!(
+            "gregvox bench: boundary {name} {res}³: build {build:.1} ms, write {write:.1} ms"
+        );
+    }
+    let g = noise(refused_res);
+    let (refuse, _) = time_bytes(repeats, || boundary_mesh(&g).map(|_| 0).unwrap_or(1));
+    t.push(vec![
+        Value::from("noise (refused)"),
+        Value::from(refused_res),
+        Value::Null,
+        Value::Null,
+        num(refuse),
+        Value::Null,
+        Value::Null,
+        Value::Null,
+    ]);
     report.tables.push(t);
     Ok(())
 }

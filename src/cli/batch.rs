@@ -27,8 +27,9 @@ pub struct BatchArgs {
     /// Output folder; each model's relative folder is kept.
     #[arg(long, value_name = "D")]
     pub out_dir: Option<PathBuf>,
-    /// Output format when no --name is given.
-    #[arg(long, value_parser = clap::builder::PossibleValuesParser::new(["binvox", "npy", "nrrd", "raw", "vox"]), default_value = "binvox")]
+    /// Output format when no --name is given (every voxelize --out format: .obj/.stl/.glb write the
+    /// boundary mesh).
+    #[arg(long, value_parser = clap::builder::PossibleValuesParser::new(crate::voxel::export::FORMATS), default_value = "binvox")]
     pub format: String,
     /// Output file name template: {stem}, {name}, {dir}, {res}, {index} (e.g. '{stem}_{res}.npy').
     #[arg(long, value_name = "TEMPLATE")]
@@ -123,6 +124,7 @@ pub fn run(args: &BatchArgs) -> anyhow::Result<()> {
         names,
         save: SaveOptions {
             npy_packed: args.grid.npy_packed,
+            ply_boundary: args.grid.ply_boundary,
         },
         resume: !args.no_resume,
         timeout: args.timeout_per_model,

@@ -36,6 +36,10 @@ pub struct GridArgs {
     /// Write .npy as packed bits (uint8, X×Y×ceil(Z/8), little bit order) instead of a bool X×Y×Z array.
     #[arg(long)]
     pub npy_packed: bool,
+    /// Write .ply as the solid's boundary mesh (as .obj, .stl and .glb are) instead of the solid voxels'
+    /// centres.
+    #[arg(long)]
+    pub ply_boundary: bool,
     /// Peel along 1 axis, or 3 with a 2-of-3 vote of the winding rule on the uncapped mesh (default: 1; 3
     /// for open meshes under --rule winding or parity).
     #[arg(long, value_parser = clap::builder::PossibleValuesParser::new(["1", "3"]))]
@@ -74,8 +78,10 @@ pub struct VoxelizeArgs {
     pub input: PathBuf,
     #[command(flatten)]
     pub grid: GridArgs,
-    /// Output file: .binvox (cubic grids only), .npy, .nrrd, .raw or .vox; sparse: .npz (`coords` int32
-    /// N×3 of the solid voxels, sorted, with `origin`, `voxel_size`, `dims`) or .ply (their centres). A
+    /// Output file: .binvox (cubic grids only), .npy, .nrrd, .raw, .vox or .vdb (an OpenVDB BoolGrid); sparse: .npz (`coords` int32
+    /// N×3 of the solid voxels, sorted, with `origin`, `voxel_size`, `dims`) or .ply (their centres); the
+    /// solid's boundary as a closed, manifold, outward quad mesh: .obj, .stl, .glb (.ply with
+    /// --ply-boundary). A
     /// .npy/.raw/.vox output gets a sidecar named after the whole file (a.npy → a.npy.json) with dims,
     /// voxel_size, origin and the index-to-world matrix, so a.npy and a.raw side by side keep their own.
     #[arg(long)]
@@ -247,6 +253,7 @@ pub fn run(args: &VoxelizeArgs) -> anyhow::Result<()> {
             out,
             &SaveOptions {
                 npy_packed: args.grid.npy_packed,
+                ply_boundary: args.grid.ply_boundary,
             },
         )?;
         wrote = Some(match sidecar_of(out) {

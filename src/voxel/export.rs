@@ -1,6 +1,7 @@
 //! Voxel grid exporters, chosen by file extension: `.binvox`, `.npy` (a plain `(X, Y, Z)` bool array, or
 //! packed bits with [`SaveOptions::npy_packed`]), `.nrrd` (uint8), `.raw` (packed bits), `.vox` (MagicaVoxel,
-//! multi-model scene graph).
+//! multi-model scene graph), `.vdb` (an OpenVDB `BoolGrid`, `voxel::vdb`); sparse `.npz` (coordinates) and `.ply` (centres); the solid's boundary mesh
+//! as `.obj`, `.stl`, `.glb` (`.ply` with [`SaveOptions::ply_boundary`]), built by `voxel::boundary`.
 //!
 //! Placement (the grid contract of `grid.rs`): voxel (i,j,k) has its centre at origin + (index + ½)·voxel
 //! size on each axis. Every output records it: binvox `dim`/`translate`/`scale`, NRRD `sizes`, `space
@@ -273,10 +274,18 @@ pub struct SaveOptions {
     /// `.npy` as packed bits, uint8 of shape (X, Y, ceil(Z/8)), little bit order (`--npy-packed`), instead
     /// of a bool (X, Y, Z) array.
     pub npy_packed: bool,
+    /// `.ply` as the solid's boundary mesh (`--ply-boundary`) instead of the solid voxels' centres.
+    pub ply_boundary: bool,
 }
 
-/// The voxel formats [`write_grid`] knows, by extension.
-pub const FORMATS: [&str; 7] = ["binvox", "npy", "npz", "nrrd", "ply", "raw", "vox"];
+/// The voxel formats [`write_grid`] knows, by extension: `.obj`, `.stl` and `.glb` (and `.ply` with
+/// [`SaveOptions::ply_boundary`]) hold the solid's boundary mesh ([`super::boundary::boundary_mesh`]).
+pub const FORMATS: [&str; 11] = [
+    "binvox", "glb", "npy", "npz", "nrrd", "obj", "ply", "raw", "stl", "vdb", "vox",
+];
+
+/// The formats that hold the solid's boundary as a mesh rather than voxels.
+pub const MESH_FORMATS: [&str; 3] = ["glb", "obj", "stl"];
 
 /// Most solid voxels a sparse output (`.npz` coordinates, `.ply` centres) takes: 12 bytes each within the
 /// 4 GiB of an `.npz` without zip64.
@@ -289,13 +298,14 @@ pub fn check_format(frame: &GridFrame, path: &Path, solid: Option<u64>) -> Resul
     if ext.is_empty() {
         return Err(Error::Invalid(format!(
             "{}: the output has no extension to name its voxel format (use .binvox, .npy, .npz, .nrrd, .ply, \
-             .raw or .vox, or - for .binvox on standard output)",
+             .raw, .vdb or .vox, .obj, .stl or .glb for the boundary mesh, or - for .binvox on standard output)",
             path.display()
         )));
     }
     if !FORMATS.contains(&ext.as_str()) {
         return Err(Error::Invalid(format!(
-            "{}: unknown voxel format '.{ext}' (use .binvox, .npy, .npz, .nrrd, .ply, .raw or .vox)",
+            "{}: unknown voxel format '.{ext}' (use .binvox, .npy, .npz, .nrrd, .ply, .raw, .vdb or .vox, or \
+             .obj, .stl or .glb for the boundary mesh)",
             path.display()
         )));
     }
@@ -346,9 +356,11 @@ fn extension(path: &Path) -> String {
 /// The grid goes first: a grid write that fails (a full disk) leaves the previous output and its
 /// sidecar as they were. (`gregvox batch` counts an output complete only when both files exist.)
 pub fn write_grid(grid: &VoxelGrid, path: &Path, opts: &SaveOptions) -> Result<()> {
-    check_format(&grid.frame, path, Some(grid.count()))?;
-    let [x, y, z] = grid.frame.dims;
     let ext = extension(path);
+    // A boundary .ply holds faces, not one vertex per solid voxel: the sparse limit is not its.
+    let solid = (!(ext == "ply" && opts.ply_boundary)).then(|| grid.count());
+    check_format(&grid.frame, path, solid)?;
+    let [x, y, z] = grid.frame.dims;
     let layout = match ext.as_str() {
         "npy" if opts.npy_packed => Some(format!(
             "uint8 ({x}, {y}, {}): bits of z, little bit order \
@@ -385,7 +397,10 @@ pub fn write_grid(grid: &VoxelGrid, path: &Path, opts: &SaveOptions) -> Result<(
                 .map_err(|e| Error::Invalid(format!("{}: {e}", path.display())))?;
             write_atomically(path, |w| w.write_all(&bytes))
         }
+        "ply" if opts.ply_boundary => write_boundary(grid, path),
         "ply" => write_atomically(path, |w| w.write_all(&ply_bytes(grid))),
+        "obj" | "stl" | "glb" => write_boundary(grid, path),
+        "vdb" => write_atomically(path, |w| w.write_all(&super::vdb::vdb_bytes(grid))),
         "raw" => {
             let g = grid.to_axis(Axis::Z);
             let bytes: &[u8] = bytemuck::cast_slice(&g.words);
@@ -397,6 +412,14 @@ pub fn write_grid(grid: &VoxelGrid, path: &Path, opts: &SaveOptions) -> Result<(
         Some(layout) => write_sidecar(grid, path, &layout),
         None => Ok(()),
     }
+}
+
+/// The solid's boundary mesh written in the mesh format of `path`'s extension; its placement is the
+/// world coordinates of the vertices.
+fn write_boundary(grid: &VoxelGrid, path: &Path) -> Result<()> {
+    let mesh = super::boundary::boundary_mesh(grid)
+        .map_err(|e| Error::Invalid(format!("{}: {e}", path.display())))?;
+    crate::mesh::write::write_mesh(path, &mesh)
 }
 
 /// The JSON sidecar of a `.npy`/`.raw`/`.vox` output (see the module doc).
