@@ -171,7 +171,7 @@ fn bad_inputs_end_with_one_clear_line() {
             "--res",
             "8",
             "--out",
-            "x.stl",
+            "x.fbx",
         ]),
         "unknown voxel format",
     );

@@ -217,10 +217,10 @@ fn write_grid_writes_vox_with_a_sidecar_and_rejects_unknown_extensions() {
         serde_json::from_slice(&std::fs::read(dir.join("p.vox.json")).unwrap()).unwrap();
     assert_eq!(side["dims"], serde_json::json!([20, 20, 20]));
     assert_eq!(side["voxel_size"], serde_json::json!([0.15, 0.15, 0.15]));
-    let err = write_grid(&g, &dir.join("p.stl"), &SaveOptions::default())
+    let err = write_grid(&g, &dir.join("p.fbx"), &SaveOptions::default())
         .unwrap_err()
         .to_string();
-    assert!(err.contains("unknown voxel format '.stl'"), "{err}");
+    assert!(err.contains("unknown voxel format '.fbx'"), "{err}");
     std::fs::remove_dir_all(&dir).unwrap();
 }
 

@@ -216,6 +216,56 @@ def test_vdb_files_read_back_in_openvdb_equal_the_grid(cli, models, tmp_path, na
     assert (tmp_path / "cli.vdb").read_bytes() == path.read_bytes()
 
 
+_LEVEL_SET_CHECK = r"""
+import json, sys
+import numpy as np
+import pyopenvdb as vdb
+path, shape = sys.argv[1], tuple(json.loads(sys.argv[2]))
+g = vdb.read(path, "sdf")
+values = np.zeros(shape, dtype=np.float32)
+g.copyToArray(values, ijk=(0, 0, 0))
+active = []
+for it in g.citerOnValues():
+    assert it.min == it.max, "a level set has no active tiles"
+    active.append([*it.min, it.value])
+np.save(sys.argv[3], values)
+np.save(sys.argv[4], np.array(active, dtype=np.float64))
+print(json.dumps(dict(cls=g.gridClass, background=float(g.background), count=int(g.activeVoxelCount()))))
+"""
+
+
+def test_a_level_set_vdb_reads_back_in_openvdb_signed_by_the_grid_with_the_query_distances(cli, models, tmp_path):
+    exe = _openvdb_python()
+    if exe is None:
+        if os.environ.get("CI"):
+            pytest.fail("CI needs Debian's python3-openvdb (scripts/setup.sh installs it)")
+        pytest.skip("OpenVDB's Python module (Debian python3-openvdb) is not installed")
+    mesh = models / "teapot.obj"
+    V, F = gregvox.load_mesh(mesh)
+    grid = gregvox.voxelize(V, F, res=48)
+    path = tmp_path / "ls.vdb"
+    report = cli.json("voxelize", mesh, "--res", "48", "--what", "sdf", "--half-width", "2", "--out", path, "--json")
+    out = subprocess.run(
+        [exe, "-c", _LEVEL_SET_CHECK, str(path), json.dumps(list(grid.dims)), str(tmp_path / "v.npy"),
+         str(tmp_path / "a.npy")],
+        capture_output=True, text=True,
+    )
+    assert out.returncode == 0, out.stderr
+    got = json.loads(out.stdout)
+    h = grid.voxel_size.max()
+    assert got["cls"] == "level set" and abs(got["background"] - 2 * h) < 1e-6 * h
+    assert got["count"] == report["level_set"]["active_voxels"] > 0
+    values = np.load(tmp_path / "v.npy")
+    # Negative exactly on the solid voxels; ±background off the band.
+    np.testing.assert_array_equal(values < 0, grid.occupancy)
+    active = np.load(tmp_path / "a.npy")
+    ijk = active[:, :3].astype(int)
+    centres = grid.origin + (ijk + 0.5) * grid.voxel_size
+    sdf = gregvox.query(V, F, centres, what="sdf")["sdf"]
+    np.testing.assert_allclose(active[:, 3], sdf, rtol=1e-6, atol=1e-7 * h)
+    assert (np.abs(active[:, 3]) < got["background"]).all()
+
+
 def test_grid_centres_and_matrix_follow_the_contract():
     V, F = cube()
     grid = gregvox.voxelize(V, F, dims=(4, 4, 4), bbox=((0, 0, 0), (1, 1, 1)))

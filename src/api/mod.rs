@@ -27,6 +27,7 @@ use glam::DVec3;
 use std::path::Path;
 
 pub mod batch;
+pub mod levelset;
 pub mod query;
 pub mod simplify;
 pub mod tessellate;

@@ -9,7 +9,10 @@
 //! `write_grid` call to a file in the temporary folder (encoding, the temporary file, the rename; the
 //! sidecar), which is removed afterwards. `.vox` holds at most 256³ per model and is measured at 256³.
 //! Table `boundary` measures the solid's boundary mesh (`.obj`/`.stl`/`.glb`/`.ply` with `--ply-boundary`)
-//! on the ball and on the noise, whose every voxel is on the boundary.
+//! on the ball and on the noise, whose every voxel is on the boundary. Table `level_set` measures the
+//! narrow-band level set (`--what sdf`) against OpenVDB's own `createLevelSetFromPolygons`
+//! (`bench/peers/levelset_peer.py`, Debian's `python3-openvdb`) on the bunny, the bunny with a third of its
+//! triangles removed and one 100,000-gon (the attack on per-triangle work).
 use super::{median, num, BenchConfig, Report, Table};
 use crate::voxel::export::{
     binvox_bytes, npy_bytes, npy_packed_bytes, nrrd_bytes, vox_bytes, write_grid, SaveOptions,
@@ -151,6 +154,7 @@ pub fn run(cfg: &BenchConfig, report: &mut Report) -> anyhow::Result<()> {
     }
     report.tables.push(t);
     boundary(cfg, report, &out_dir)?;
+    level_set(cfg, report, &out_dir)?;
     let _ = std::fs::remove_dir_all(&out_dir);
     Ok(())
 }
@@ -235,6 +239,132 @@ fn boundary(
         Value::Null,
         Value::Null,
     ]);
+    report.tables.push(t);
+    Ok(())
+}
+
+/// Table `level_set`: `voxelize --what sdf` as the library runs it (voxelization, then the band's exact
+/// distances and the file's bytes) against OpenVDB's mesh-to-level-set at the same voxels.
+fn level_set(
+    cfg: &BenchConfig,
+    report: &mut Report,
+    out_dir: &std::path::Path,
+) -> anyhow::Result<()> {
+    use super::peers::{self, Peer};
+    use crate::api::{levelset::level_set, voxelize_on_cpu, Mesh, VoxelizeOptions};
+    use crate::voxel::mesh::TriMesh;
+    use crate::voxel::stress::{obj_text, with_holes};
+    let res = if cfg.quick { 64 } else { 256 };
+    let repeats = if cfg.quick { 1 } else { 3 };
+    let half_width = crate::voxel::levelset::HALF_WIDTH;
+    let bunny = crate::mesh::load_mesh_file(cfg.model("stanford-bunny.obj")?)?;
+    let holes = with_holes(&TriMesh::fan(&bunny), 1.0 / 3.0, 3);
+    let as_mesh = |t: &TriMesh| -> anyhow::Result<Mesh> {
+        let faces: Vec<Vec<u32>> = t.triangles.iter().map(|f| f.to_vec()).collect();
+        let p = t
+            .positions
+            .iter()
+            .map(|p| glam::DVec3::from(p.map(f64::from)))
+            .collect();
+        Ok(Mesh::from_polygons(p, &faces)?)
+    };
+    let cases: Vec<(&str, Mesh)> = vec![
+        ("stanford-bunny", bunny.clone()),
+        ("bunny_holes_third", as_mesh(&holes)?),
+        (
+            "disc (one 100,000-gon)",
+            super::simplify::disc(if cfg.quick { 10_000 } else { 100_000 }),
+        ),
+    ];
+    let mut t = Table::new(
+        "level_set",
+        &format!("Narrow-band level sets (--what sdf, half-width {half_width}) vs OpenVDB, {res}³"),
+        &format!(
+            "gregvox: voxelize = voxelize_on_cpu (the exact generalized winding number: the sign); \
+             level set = api::levelset::level_set (surface voxels, dilation, exact distances of the band \
+             within the half-width) + the .vdb bytes; total = both. OpenVDB = \
+             FloatGrid.createLevelSetFromPolygons at the same voxel centres (exact band distances, sign \
+             by flood fill: meant for closed meshes), its own threading, through Debian's python3-openvdb \
+             (bench/peers/levelset_peer.py). Medians of {repeats}; speed-up = OpenVDB / gregvox total. \
+             Active voxels differ where the two bands' edges differ (OpenVDB keeps |d| < half-width·h \
+             where its sweep reaches)."
+        ),
+        &[
+            "mesh", "faces", "voxelize ms", "level set ms", "total ms", "active", "OpenVDB ms",
+            "OpenVDB active", "speed-up",
+        ],
+    );
+    let openvdb = std::process::Command::new("/usr/bin/python3")
+        .args(["-c", "import pyopenvdb"])
+        .output()
+        .is_ok_and(|o| o.status.success());
+    for (name, mesh) in cases {
+        let opts = VoxelizeOptions::default().res(res);
+        let mut v = None;
+        let (vox, _) = time_bytes(repeats, || {
+            v = voxelize_on_cpu(&mesh, &opts).ok();
+            0
+        });
+        let Some(v) = v else {
+            anyhow::bail!("level_set bench: {name} did not voxelize");
+        };
+        let mut active = 0;
+        let (ls_ms, _) = time_bytes(repeats, || {
+            let ls = level_set(&mesh, &v.grid, half_width).expect("within the band limit");
+            active = ls.active_count();
+            crate::voxel::vdb::level_set_bytes(&ls).len()
+        });
+        let obj = out_dir.join("level-set-peer.obj");
+        let tri = TriMesh::fan(&mesh);
+        std::fs::write(&obj, obj_text(&tri))?;
+        let f = &v.grid.frame;
+        let peer = if openvdb {
+            peers::run_within(
+                std::path::Path::new("/usr/bin/python3"),
+                &[
+                    cfg.repo
+                        .join("bench/peers/levelset_peer.py")
+                        .display()
+                        .to_string(),
+                    obj.display().to_string(),
+                    f.voxel_size[0].to_string(),
+                    format!("{},{},{}", f.origin[0], f.origin[1], f.origin[2]),
+                    half_width.to_string(),
+                    repeats.to_string(),
+                ],
+                Some(std::time::Duration::from_secs(300)),
+            )
+        } else {
+            Peer::Missing("Debian's python3-openvdb".into())
+        };
+        let (peer_ms, peer_active) = match &peer {
+            Peer::Ran(v) => (
+                v.first()
+                    .and_then(|o| o["seconds"].as_f64())
+                    .map(|s| s * 1e3),
+                v.first().and_then(|o| o["active"].as_u64()),
+            ),
+            _ => (None, None),
+        };
+        let total = vox + ls_ms;
+        t.push(vec![
+            Value::from(name),
+            Value::from(mesh.n_faces()),
+            num(vox),
+            num(ls_ms),
+            num(total),
+            Value::from(active),
+            peer_ms
+                .map(num)
+                .unwrap_or_else(|| Value::from(peer.status())),
+            peer_active.map(Value::from).unwrap_or(Value::Null),
+            super::speedup(peer_ms, total),
+        ]);
+        eprintln!(
+            "gregvox bench: level_set {name}: voxelize {vox:.1} ms, level set {ls_ms:.1} ms, OpenVDB {}",
+            peer_ms.map_or(peer.status(), |m| format!("{m:.1} ms"))
+        );
+    }
     report.tables.push(t);
     Ok(())
 }

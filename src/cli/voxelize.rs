@@ -90,11 +90,28 @@ pub struct VoxelizeArgs {
     /// it straight from the device-local vertex buffer (no CPU round trip of the surface).
     #[arg(long, value_name = "LEVEL")]
     pub gregory_level: Option<u32>,
+    /// What the output holds: `occupancy` (the solid voxels), or `sdf`, a narrow-band signed distance level
+    /// set (an OpenVDB FloatGrid of class "level set" named `sdf`, .vdb only): exact distances at the band's
+    /// voxel centres, negative on the solid voxels, ±half-width voxels elsewhere.
+    #[arg(long, value_enum, default_value = "occupancy")]
+    pub what: GridWhat,
+    /// The level set's half-width in voxels on each side of the surface (--what sdf).
+    #[arg(long, value_name = "N", default_value_t = crate::api::levelset::HALF_WIDTH)]
+    pub half_width: u32,
     /// Print the summary as JSON.
     #[arg(long)]
     pub json: bool,
     #[command(flatten)]
     pub profile: ProfileArgs,
+}
+
+/// What `voxelize --out` writes.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+pub enum GridWhat {
+    /// The solid voxels.
+    Occupancy,
+    /// A narrow-band signed distance level set (.vdb).
+    Sdf,
 }
 
 fn parse_numbers<T: std::str::FromStr, const N: usize>(
@@ -188,6 +205,27 @@ impl GridArgs {
 /// Runs `gregvox voxelize`: argument checks, then one call of the library API, then printing.
 pub fn run(args: &VoxelizeArgs) -> anyhow::Result<()> {
     let mut opts = args.grid.options()?;
+    if args.what == GridWhat::Sdf {
+        let vdb = args
+            .out
+            .as_ref()
+            .and_then(|o| o.extension())
+            .and_then(|e| e.to_str());
+        if !vdb.is_some_and(|e| e.eq_ignore_ascii_case("vdb")) {
+            anyhow::bail!("--what sdf writes an OpenVDB level set: give --out X.vdb");
+        }
+        if args.gregory_level.is_some() {
+            anyhow::bail!(
+                "--what sdf needs the mesh's triangles: it does not combine with --gregory-level"
+            );
+        }
+        if !(1..=64).contains(&args.half_width) {
+            anyhow::bail!(
+                "--half-width {} is out of range: give 1 to 64 voxels",
+                args.half_width
+            );
+        }
+    }
     if let Some(out) = &args.out {
         // Unknown formats and unwritable paths before the mesh is even read (nothing is thrown away at the
         // end); the grid-dependent checks once its frame is known.
@@ -248,7 +286,20 @@ pub fn run(args: &VoxelizeArgs) -> anyhow::Result<()> {
         args.profile.emit(p)?;
     }
     let mut wrote = None;
-    if let Some(out) = &args.out {
+    let mut level_set = None;
+    if let (Some(out), GridWhat::Sdf) = (&args.out, args.what) {
+        let ls = crate::api::levelset::level_set(&mesh, grid, args.half_width)
+            .map_err(|e| e.for_input(&args.input))?;
+        let bytes = crate::voxel::vdb::level_set_bytes(&ls);
+        crate::io::write_atomic(out, |w| w.write_all(&bytes))?;
+        wrote = Some(format!("wrote {}\n", out.display()));
+        level_set = Some(serde_json::json!({
+            "active_voxels": ls.active_count(),
+            "leaves": ls.leaves.len(),
+            "background": ls.background,
+            "half_width": args.half_width,
+        }));
+    } else if let Some(out) = &args.out {
         grid.save_with(
             out,
             &SaveOptions {
@@ -277,6 +328,10 @@ pub fn run(args: &VoxelizeArgs) -> anyhow::Result<()> {
         });
         if let (Some(s), serde_json::Value::Object(e)) = (summary.as_object_mut(), extra) {
             s.extend(e);
+            // Only for --what sdf: the occupancy summary stays as it was.
+            if let Some(ls) = level_set {
+                s.insert("level_set".into(), ls);
+            }
         }
         let json = format!("{}\n", serde_json::to_string_pretty(&summary)?);
         if to_stdout {

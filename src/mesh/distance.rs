@@ -179,6 +179,115 @@ impl DistanceTree {
         }
     }
 
+    /// The tree over `triangles` cut into pieces no longer than about `max_edge` (the limit grows until
+    /// there are at most `max_pieces`), for distances only: a piece keeps its triangle's index, and the
+    /// nearest piece gives the nearest triangle's distance, but closest points and barycentric coordinates
+    /// are the piece's. Long slivers (the fan of one huge polygon) get tight boxes this way, where whole
+    /// they would overlap every query near them. A triangle is cut into strips parallel to its longest
+    /// edge and each strip into quads (two pieces each), so a sliver costs its length / `max_edge` pieces
+    /// (longest-edge bisection would cost the square of that).
+    pub fn new_split(
+        triangles: &[[[f64; 3]; 3]],
+        max_edge: f64,
+        max_pieces: usize,
+    ) -> DistanceTree {
+        let d2 = |a: [f64; 3], b: [f64; 3]| (0..3).map(|k| (a[k] - b[k]).powi(2)).sum::<f64>();
+        // (longest edge index, its length, the height of the opposite corner over it)
+        let shape = |t: &[[f64; 3]; 3]| {
+            let e = [d2(t[0], t[1]), d2(t[1], t[2]), d2(t[2], t[0])];
+            let k = (0..3).max_by(|&a, &b| e[a].total_cmp(&e[b])).unwrap_or(0);
+            let (a, b, c) = (t[k], t[(k + 1) % 3], t[(k + 2) % 3]);
+            let len = e[k].sqrt();
+            let ac = [0, 1, 2].map(|x| c[x] - a[x]);
+            let along = if len > 0.0 {
+                (0..3).map(|x| ac[x] * (b[x] - a[x])).sum::<f64>() / len
+            } else {
+                0.0
+            };
+            let height = (d2(c, a) - along * along).max(0.0).sqrt();
+            (k, len, height)
+        };
+        // Pieces of a triangle cut by lines across its longest edge AB every `limit` (and at the foot of
+        // C's altitude), each strip then into rows at most `limit` high: about (len / limit + 1) ·
+        // (height / limit + 1) quads, two pieces each.
+        let count = |limit: f64, t: &[[f64; 3]; 3]| -> f64 {
+            let (_, len, height) = shape(t);
+            if !(len.is_finite() && height.is_finite()) || len <= limit && height <= limit {
+                return 1.0;
+            }
+            2.0 * ((len / limit).ceil() + 1.0) * (height / limit).ceil().max(1.0)
+        };
+        let mut limit = max_edge.max(f64::MIN_POSITIVE);
+        for _ in 0..64 {
+            let pieces: f64 = triangles.iter().map(|t| count(limit, t)).sum();
+            if pieces <= max_pieces.max(triangles.len()) as f64 || !limit.is_finite() {
+                break;
+            }
+            limit *= (pieces / max_pieces as f64).sqrt().max(2.0);
+        }
+        let mut pieces = Vec::with_capacity(triangles.len());
+        let mut owner = Vec::with_capacity(triangles.len());
+        let lerp = |p: [f64; 3], q: [f64; 3], f: f64| -> [f64; 3] {
+            std::array::from_fn(|x| p[x] + f * (q[x] - p[x]))
+        };
+        for (i, t) in triangles.iter().enumerate() {
+            if count(limit, t) <= 1.0 {
+                pieces.push(*t);
+                owner.push(i as u32);
+                continue;
+            }
+            let (k, len, _) = shape(t);
+            let (a, b, c) = (t[k], t[(k + 1) % 3], t[(k + 2) % 3]);
+            let xc = (0..3).map(|x| (c[x] - a[x]) * (b[x] - a[x])).sum::<f64>() / (len * len);
+            let xc = xc.clamp(0.0, 1.0);
+            // Cuts along AB as fractions, the foot of C's altitude among them.
+            let n = (len / limit).ceil().max(1.0) as usize;
+            let mut cuts: Vec<f64> = (0..=n).map(|x| x as f64 / n as f64).collect();
+            cuts.push(xc);
+            cuts.sort_by(f64::total_cmp);
+            cuts.dedup();
+            // The triangle's top above fraction x of AB: on AC left of the foot, on CB right of it.
+            let top = |x: f64| {
+                if x <= xc {
+                    if xc > 0.0 {
+                        lerp(a, c, x / xc)
+                    } else {
+                        c
+                    }
+                } else if xc < 1.0 {
+                    lerp(c, b, (x - xc) / (1.0 - xc))
+                } else {
+                    c
+                }
+            };
+            for w in cuts.windows(2) {
+                let (x0, x1) = (w[0], w[1]);
+                let (b0, b1) = (lerp(a, b, x0), lerp(a, b, x1));
+                let (t0, t1) = (top(x0), top(x1));
+                let high = d2(b0, t0).max(d2(b1, t1)).sqrt();
+                let rows = (high / limit).ceil().max(1.0) as usize;
+                for j in 0..rows {
+                    let (f0, f1) = (j as f64 / rows as f64, (j + 1) as f64 / rows as f64);
+                    let q = [
+                        lerp(b0, t0, f0),
+                        lerp(b1, t1, f0),
+                        lerp(b1, t1, f1),
+                        lerp(b0, t0, f1),
+                    ];
+                    for tri in [[q[0], q[1], q[2]], [q[0], q[2], q[3]]] {
+                        pieces.push(tri);
+                        owner.push(i as u32);
+                    }
+                }
+            }
+        }
+        let mut tree = DistanceTree::new(&pieces);
+        for i in &mut tree.index {
+            *i = owner[*i as usize];
+        }
+        tree
+    }
+
     /// Whether the tree holds no triangle.
     pub fn is_empty(&self) -> bool {
         self.triangles.is_empty()
@@ -191,6 +300,18 @@ impl DistanceTree {
 
     /// The nearest triangle to `p`; `None` for an empty tree.
     pub fn closest(&self, p: [f64; 3], stack: &mut Vec<u32>) -> Option<Closest> {
+        self.closest_within(p, f64::INFINITY, stack)
+    }
+
+    /// The nearest triangle to `p` if one lies within squared distance `limit2` (inclusive), else `None`:
+    /// every box farther than the limit is pruned from the start, so a point far from the surface costs
+    /// a few box tests (the narrow-band level sets ask only within their half-width).
+    pub fn closest_within(
+        &self,
+        p: [f64; 3],
+        limit2: f64,
+        stack: &mut Vec<u32>,
+    ) -> Option<Closest> {
         if self.triangles.is_empty() {
             return None;
         }
@@ -198,7 +319,7 @@ impl DistanceTree {
             triangle: u32::MAX,
             point: [0.0; 3],
             barycentric: [0.0; 3],
-            distance2: f64::INFINITY,
+            distance2: limit2,
         };
         stack.clear();
         stack.push(0);
@@ -239,7 +360,7 @@ impl DistanceTree {
                 stack.push(b);
             }
         }
-        Some(best)
+        (best.triangle != u32::MAX).then_some(best)
     }
 }
 
@@ -288,6 +409,65 @@ mod tests {
             assert_eq!(c.triangle, i, "{p:?}");
             let w = c.barycentric;
             assert!((w[0] + w[1] + w[2] - 1.0).abs() < 1e-12 && w.iter().all(|&x| x >= 0.0));
+        }
+    }
+
+    #[test]
+    fn cut_into_pieces_the_tree_gives_the_same_distances_within_any_limit_slivers_included() {
+        let mut s = 0x9E37_79B9u64;
+        let mut r = || {
+            s ^= s << 13;
+            s ^= s >> 7;
+            s ^= s << 17;
+            (s >> 11) as f64 / (1u64 << 53) as f64 * 2.0 - 1.0
+        };
+        let mut tris: Vec<[[f64; 3]; 3]> = (0..200)
+            .map(|_| std::array::from_fn(|_| std::array::from_fn(|_| r())))
+            .collect();
+        // A fan of slivers, a segment, a point and one huge triangle.
+        for k in 0..300 {
+            let (a0, a1) = (k as f64 * 0.021, (k + 1) as f64 * 0.021);
+            tris.push([
+                [0.0, 0.0, 0.2],
+                [a0.cos(), a0.sin(), 0.2],
+                [a1.cos(), a1.sin(), 0.2],
+            ]);
+        }
+        tris.push([[0.0; 3], [0.5, 0.0, 0.0], [0.25, 0.0, 0.0]]);
+        tris.push([[0.3, 0.3, 0.3]; 3]);
+        tris.push([[-5.0, -5.0, -1.0], [6.0, -4.0, -1.2], [0.0, 7.0, -0.8]]);
+        for (max_edge, max_pieces) in [(0.05, 1 << 20), (0.2, 1 << 20), (0.05, 5_000)] {
+            let split = DistanceTree::new_split(&tris, max_edge, max_pieces);
+            assert!(split.triangles.len() <= 2 * max_pieces.max(tris.len()) + 8 * tris.len());
+            let mut stack = Vec::new();
+            for _ in 0..1500 {
+                let p = [1.5 * r(), 1.5 * r(), 1.5 * r()];
+                let (i, d2) = brute(&tris, p);
+                let c = split.closest(p, &mut stack).unwrap();
+                assert!(
+                    (c.distance2 - d2).abs() <= 1e-12 * (1.0 + d2),
+                    "{p:?}: {} vs {d2}",
+                    c.distance2
+                );
+                // The piece found belongs to a nearest triangle (ties aside).
+                let t = &tris[c.triangle as usize];
+                let own = dot(
+                    sub(p, at(t, closest_on_triangle(p, t[0], t[1], t[2]))),
+                    sub(p, at(t, closest_on_triangle(p, t[0], t[1], t[2]))),
+                );
+                assert!(
+                    (own - d2).abs() <= 1e-12 * (1.0 + d2),
+                    "triangle {} not {i}",
+                    c.triangle
+                );
+                // Within a limit: found when closer, None when farther.
+                let within = split.closest_within(p, 0.04, &mut stack);
+                if d2 < 0.04 * (1.0 - 1e-9) {
+                    assert!(within.is_some(), "{p:?}");
+                } else if d2 > 0.04 * (1.0 + 1e-9) {
+                    assert!(within.is_none(), "{p:?}");
+                }
+            }
         }
     }
 

@@ -323,8 +323,9 @@ fn row_quad_count(cols: &Columns, j: i64) -> u64 {
 /// g.set(1, 1, 1, true);
 /// let cube = boundary_mesh(&g).unwrap();
 /// assert_eq!((cube.positions.len(), cube.n_faces()), (8, 6));
-/// g.set(2, 2, 1, true); // touches the first along an edge only: two separate cubes
-/// assert_eq!(boundary_mesh(&g).unwrap().positions.len(), 16);
+/// g.set(2, 2, 1, true); // touches the first along an edge only: two separate cubes, the shared edge's
+/// // ends split (8 corners each) and a midpoint on it for each cube
+/// assert_eq!(boundary_mesh(&g).unwrap().positions.len(), 18);
 /// ```
 pub fn boundary_mesh(grid: &VoxelGrid) -> Result<Mesh> {
     let cols = Columns {

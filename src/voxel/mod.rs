@@ -7,6 +7,7 @@ pub mod cpu;
 pub mod export;
 pub mod grid;
 pub mod gwn;
+pub mod levelset;
 pub mod mesh;
 pub mod raycast;
 pub mod stress;

@@ -129,25 +129,6 @@ pub fn vdb_bytes(grid: &VoxelGrid) -> Vec<u8> {
     let solid = g.count();
     let full_node = |n: &Node4| n.tiles.iter().all(|&w| w == !0);
 
-    let mut out = Vec::new();
-    // Header.
-    out.extend_from_slice(&0x5644_4220i64.to_le_bytes());
-    out.extend_from_slice(&224u32.to_le_bytes());
-    out.extend_from_slice(&10u32.to_le_bytes());
-    out.extend_from_slice(&0u32.to_le_bytes());
-    out.push(1); // grid offsets follow each descriptor
-    out.extend_from_slice(uuid(&g, solid).as_bytes());
-    out.extend_from_slice(&0u32.to_le_bytes()); // no file metadata
-    out.extend_from_slice(&1i32.to_le_bytes()); // one grid
-                                                // Grid descriptor: unique name, type, instance parent, then grid / buffers / end offsets (patched).
-    string(&mut out, GRID_NAME);
-    string(&mut out, "Tree_bool_5_4_3");
-    string(&mut out, "");
-    let offsets_at = out.len();
-    out.extend_from_slice(&[0; 24]);
-    let grid_pos = out.len();
-    out.extend_from_slice(&0u32.to_le_bytes()); // no compression
-                                                // Grid metadata.
     let mut m = Vec::new();
     meta(&mut m, "class", "string", b"unknown");
     meta(&mut m, "name", "string", GRID_NAME.as_bytes());
@@ -159,43 +140,21 @@ pub fn vdb_bytes(grid: &VoxelGrid) -> Vec<u8> {
         "int64",
         &(solid as i64).to_le_bytes(),
     );
+    let mut entries = 5;
     if solid > 0 {
         let [lo, hi] = active_box(&g);
-        let vec3i = |v: [u32; 3]| {
-            v.iter()
-                .flat_map(|c| (*c as i32).to_le_bytes())
-                .collect::<Vec<u8>>()
-        };
         meta(&mut m, "file_bbox_min", "vec3i", &vec3i(lo));
         meta(&mut m, "file_bbox_max", "vec3i", &vec3i(hi));
+        entries += 2;
     }
-    let entries = 5 + 2 * (solid > 0) as u32;
-    out.extend_from_slice(&entries.to_le_bytes());
-    out.extend_from_slice(&m);
-    // Transform: world = scale · ijk + translation, ijk at voxel centres.
-    let h = g.frame.voxel_size;
-    let uniform = h[0] == h[1] && h[1] == h[2];
-    string(
-        &mut out,
-        if uniform {
-            "UniformScaleTranslateMap"
-        } else {
-            "ScaleTranslateMap"
-        },
+    let (mut out, offsets_at, grid_pos) = head(
+        GRID_NAME,
+        "Tree_bool_5_4_3",
+        &uuid(&g.frame, solid),
+        entries,
+        &m,
+        &g.frame,
     );
-    let t: [f64; 3] = std::array::from_fn(|a| g.frame.origin[a] + 0.5 * h[a]);
-    for v in [
-        t,
-        h,
-        h.map(f64::abs),
-        h.map(|x| 1.0 / x),
-        h.map(|x| 1.0 / (x * x)),
-        h.map(|x| 0.5 / x),
-    ] {
-        for c in v {
-            out.extend_from_slice(&c.to_le_bytes());
-        }
-    }
     // Topology.
     out.extend_from_slice(&1i32.to_le_bytes()); // one buffer per leaf
     out.push(0); // background false
@@ -245,10 +204,218 @@ pub fn vdb_bytes(grid: &VoxelGrid) -> Vec<u8> {
             out.extend_from_slice(mask);
         }
     }
+    patch_offsets(&mut out, offsets_at, grid_pos, block_pos);
+    out
+}
+
+fn vec3i(v: [u32; 3]) -> Vec<u8> {
+    v.iter().flat_map(|c| (*c as i32).to_le_bytes()).collect()
+}
+
+/// The file up to the tree: header, the grid's descriptor (offsets zero, to patch), compression, the
+/// metadata (`entries` entries already encoded in `meta`) and the transform. Returns the bytes, where the
+/// offsets go and where the grid starts.
+fn head(
+    name: &str,
+    tree_type: &str,
+    uuid: &str,
+    entries: u32,
+    meta: &[u8],
+    frame: &super::grid::GridFrame,
+) -> (Vec<u8>, usize, usize) {
+    let mut out = Vec::new();
+    out.extend_from_slice(&0x5644_4220i64.to_le_bytes());
+    out.extend_from_slice(&224u32.to_le_bytes());
+    out.extend_from_slice(&10u32.to_le_bytes());
+    out.extend_from_slice(&0u32.to_le_bytes());
+    out.push(1); // grid offsets follow each descriptor
+    out.extend_from_slice(uuid.as_bytes());
+    out.extend_from_slice(&0u32.to_le_bytes()); // no file metadata
+    out.extend_from_slice(&1i32.to_le_bytes()); // one grid
+                                                // Grid descriptor: unique name, type, instance parent, then grid / buffers / end offsets (patched).
+    string(&mut out, name);
+    string(&mut out, tree_type);
+    string(&mut out, "");
+    let offsets_at = out.len();
+    out.extend_from_slice(&[0; 24]);
+    let grid_pos = out.len();
+    out.extend_from_slice(&0u32.to_le_bytes()); // no compression
+    out.extend_from_slice(&entries.to_le_bytes());
+    out.extend_from_slice(meta);
+    // Transform: world = scale · ijk + translation, ijk at voxel centres.
+    let h = frame.voxel_size;
+    let uniform = h[0] == h[1] && h[1] == h[2];
+    string(
+        &mut out,
+        if uniform {
+            "UniformScaleTranslateMap"
+        } else {
+            "ScaleTranslateMap"
+        },
+    );
+    let t: [f64; 3] = std::array::from_fn(|a| frame.origin[a] + 0.5 * h[a]);
+    for v in [
+        t,
+        h,
+        h.map(f64::abs),
+        h.map(|x| 1.0 / x),
+        h.map(|x| 1.0 / (x * x)),
+        h.map(|x| 0.5 / x),
+    ] {
+        for c in v {
+            out.extend_from_slice(&c.to_le_bytes());
+        }
+    }
+    (out, offsets_at, grid_pos)
+}
+
+/// Writes the grid, buffer and end offsets into the descriptor.
+fn patch_offsets(out: &mut [u8], offsets_at: usize, grid_pos: usize, block_pos: usize) {
     let end_pos = out.len();
     for (x, v) in [grid_pos, block_pos, end_pos].into_iter().enumerate() {
         out[offsets_at + 8 * x..][..8].copy_from_slice(&(v as i64).to_le_bytes());
     }
+}
+
+/// The name of the level set's grid in the file.
+pub const LEVEL_SET_NAME: &str = "sdf";
+
+/// The `.vdb` bytes of a narrow-band level set: a `FloatGrid` (`Tree_float_5_4_3`) of class `level set`
+/// named `sdf`, background = the half-width in world units, active voxels the band's, inactive values
+/// ±background by the occupancy (tiles where a region is uniform), laid out as [`vdb_bytes`] lays out
+/// the bool grid, leaves with a byte 6 and 512 f32 after their mask.
+pub fn level_set_bytes(ls: &super::levelset::LevelSet) -> Vec<u8> {
+    let frame = &ls.frame;
+    let [nx, ny, nz] = frame.dims;
+    let bg = ls.background;
+    let active = ls.active_count();
+    let mut m = Vec::new();
+    meta(&mut m, "class", "string", b"level set");
+    meta(&mut m, "name", "string", LEVEL_SET_NAME.as_bytes());
+    meta(&mut m, "is_local_space", "bool", &[0]);
+    meta(&mut m, "is_saved_as_half_float", "bool", &[0]);
+    meta(
+        &mut m,
+        "file_voxel_count",
+        "int64",
+        &(active as i64).to_le_bytes(),
+    );
+    let (mut out, offsets_at, grid_pos) = head(
+        LEVEL_SET_NAME,
+        "Tree_float_5_4_3",
+        &uuid(frame, active ^ bg.to_bits() as u64),
+        5,
+        &m,
+        frame,
+    );
+    // The value of a uniform region from its first voxel (+background outside the grid).
+    let tile = |o: [u32; 3]| {
+        if ls.solid_at(o[0], o[1], o[2]) {
+            -bg
+        } else {
+            bg
+        }
+    };
+    let per = |d: u32| d.div_ceil(128) as usize;
+    // Leaves by 128³ node.
+    let mut by_node: std::collections::BTreeMap<usize, Vec<usize>> = Default::default();
+    for (x, l) in ls.leaves.iter().enumerate() {
+        let n =
+            ((l.origin[0] / 128) << 10 | (l.origin[1] / 128) << 5 | (l.origin[2] / 128)) as usize;
+        by_node.entry(n).or_default().push(x);
+    }
+    let leaf_index =
+        |o: [u32; 3]| ((o[0] % 128 / 8) << 8 | (o[1] % 128 / 8) << 4 | (o[2] % 128 / 8)) as usize;
+    // A 128³ node is needed where it has leaves or its 8³ regions differ in sign.
+    struct Node {
+        index: usize,
+        children: Vec<u64>,
+        values: Vec<f32>,
+        leaves: Vec<usize>,
+    }
+    let mut nodes = Vec::new();
+    let mut values5 = vec![bg; 32768];
+    for a in 0..per(nx) {
+        for b in 0..per(ny) {
+            for c in 0..per(nz) {
+                let index = a << 10 | b << 5 | c;
+                let base = [a, b, c].map(|x| x as u32 * 128);
+                let leaves = by_node.remove(&index).unwrap_or_default();
+                let mut children = vec![0u64; 64];
+                for &l in &leaves {
+                    set_bit(&mut children, leaf_index(ls.leaves[l].origin));
+                }
+                let mut values = vec![bg; 4096];
+                for (n, v) in values.iter_mut().enumerate() {
+                    if children[n >> 6] >> (n & 63) & 1 == 0 {
+                        let o = [
+                            base[0] + 8 * (n as u32 >> 8),
+                            base[1] + 8 * (n as u32 >> 4 & 15),
+                            base[2] + 8 * (n as u32 & 15),
+                        ];
+                        if o[0] < nx && o[1] < ny && o[2] < nz {
+                            *v = tile(o);
+                        }
+                    } else {
+                        *v = 0.0;
+                    }
+                }
+                if leaves.is_empty() && values.iter().all(|&v| v == values[0]) {
+                    values5[index] = values[0];
+                } else {
+                    values5[index] = 0.0;
+                    nodes.push(Node {
+                        index,
+                        children,
+                        values,
+                        leaves,
+                    });
+                }
+            }
+        }
+    }
+    let floats = |out: &mut Vec<u8>, v: &[f32]| {
+        for x in v {
+            out.extend_from_slice(&x.to_le_bytes());
+        }
+    };
+    out.extend_from_slice(&1i32.to_le_bytes()); // one buffer per leaf
+    out.extend_from_slice(&bg.to_le_bytes());
+    out.extend_from_slice(&0u32.to_le_bytes()); // no root tiles
+    let any = values5.iter().any(|&v| v != bg) || !nodes.is_empty();
+    out.extend_from_slice(&(any as u32).to_le_bytes());
+    if any {
+        out.extend_from_slice(&[0; 12]);
+        let mut children = vec![0u64; 512];
+        for n in &nodes {
+            set_bit(&mut children, n.index);
+        }
+        mask_bytes(&mut out, &children);
+        mask_bytes(&mut out, &[0u64; 512]); // no active tiles
+        out.push(6);
+        floats(&mut out, &values5);
+        for n in &nodes {
+            mask_bytes(&mut out, &n.children);
+            mask_bytes(&mut out, &[0u64; 64]);
+            out.push(6);
+            floats(&mut out, &n.values);
+            for &l in &n.leaves {
+                mask_bytes(&mut out, &ls.leaves[l].active);
+            }
+        }
+    }
+    let block_pos = out.len();
+    if any {
+        for n in &nodes {
+            for &l in &n.leaves {
+                let leaf = &ls.leaves[l];
+                mask_bytes(&mut out, &leaf.active);
+                out.push(6);
+                floats(&mut out, &leaf.values);
+            }
+        }
+    }
+    patch_offsets(&mut out, offsets_at, grid_pos, block_pos);
     out
 }
 
@@ -278,17 +445,17 @@ fn active_box(g: &VoxelGrid) -> [[u32; 3]; 2] {
 }
 
 /// A UUID-shaped identifier derived from the grid (deterministic: the same grid gives the same file).
-fn uuid(g: &VoxelGrid, solid: u64) -> String {
+fn uuid(frame: &super::grid::GridFrame, solid: u64) -> String {
     fn eat(h: u64, x: u64) -> u64 {
         x.to_le_bytes()
             .iter()
             .fold(h, |h, &b| (h ^ b as u64).wrapping_mul(0x100_0000_01b3))
     }
     let mut h = 0xcbf2_9ce4_8422_2325u64;
-    for d in g.frame.dims {
+    for d in frame.dims {
         h = eat(h, d as u64);
     }
-    for c in g.frame.origin.iter().chain(&g.frame.voxel_size) {
+    for c in frame.origin.iter().chain(&frame.voxel_size) {
         h = eat(h, c.to_bits());
     }
     let a = eat(h, solid);
