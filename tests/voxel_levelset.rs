@@ -181,6 +181,10 @@ fn the_cli_writes_a_level_set_vdb_and_refuses_other_outputs_and_bad_widths() {
             vec!["--what", "sdf", "--half-width", "0", "--out", "y.vdb"],
             "--half-width 0",
         ),
+        (
+            vec!["--what", "sdf", "--fill", "surface", "--out", "y.vdb"],
+            "--fill surface",
+        ),
     ] {
         let o = run(&extra);
         let err = String::from_utf8_lossy(&o.stderr);

@@ -5,7 +5,7 @@
 //! voxelization's own occupancy (so the level set is negative exactly on the
 //! solid voxels, the generalized winding number deciding on open meshes).
 //!
-//! Cost: seeds on the surface (O(surface area in voxels), see [`seeds`]), the dilation (word operations),
+//! Cost: seeds sampled on the surface (O(surface area in voxels), see `seeds`), the dilation (word operations),
 //! then one distance query per band voxel, about (2·half-width + 1) × the surface voxels, pruned beyond the
 //! half-width from the start; a band over [`MAX_BAND_VOXELS`] is refused before any distance is computed.
 //! The worst case is many triangles genuinely within the half-width of a voxel (the centre of a fan of
@@ -63,11 +63,15 @@ pub fn level_set(mesh: &Mesh, solid: &VoxelGrid, half_width: u32) -> Result<Leve
     build(solid, &band, half_width, |points| {
         Ok(points
             .par_iter()
-            .map_init(Vec::new, |stack, p| {
-                let local = std::array::from_fn(|a| p[a] - shift[a]);
-                tree.closest_within(local, limit * limit, stack)
-                    .map_or(f32::INFINITY, |c| c.distance2.sqrt() as f32)
-            })
+            .map_init(
+                || (Vec::new(), None),
+                |(stack, hint), p| {
+                    // Points come leaf by leaf: the last answer bounds the next one at once.
+                    let local = std::array::from_fn(|a| p[a] - shift[a]);
+                    tree.closest_within_from(local, limit * limit, hint, stack)
+                        .map_or(f32::INFINITY, |c| c.distance2.sqrt() as f32)
+                },
+            )
             .collect())
     })
 }

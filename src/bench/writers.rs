@@ -281,7 +281,7 @@ fn level_set(
         &format!("Narrow-band level sets (--what sdf, half-width {half_width}) vs OpenVDB, {res}³"),
         &format!(
             "gregvox: voxelize = voxelize_on_cpu (the exact generalized winding number: the sign); \
-             level set = api::levelset::level_set (surface voxels, dilation, exact distances of the band \
+             level set = api::levelset::level_set (seeds sampled on the triangles, dilation, exact distances of the band \
              within the half-width) + the .vdb bytes; total = both. OpenVDB = \
              FloatGrid.createLevelSetFromPolygons at the same voxel centres (exact band distances, sign \
              by flood fill: meant for closed meshes), its own threading, through Debian's python3-openvdb \

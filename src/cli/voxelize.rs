@@ -225,6 +225,13 @@ pub fn run(args: &VoxelizeArgs) -> anyhow::Result<()> {
                 args.half_width
             );
         }
+        if args.grid.fill != Fill::Solid {
+            anyhow::bail!(
+                "--what sdf signs the distance by the solid (negative inside): it does not combine with \
+                 --fill {}",
+                args.grid.fill.name()
+            );
+        }
     }
     if let Some(out) = &args.out {
         // Unknown formats and unwritable paths before the mesh is even read (nothing is thrown away at the

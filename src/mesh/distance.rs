@@ -312,6 +312,19 @@ impl DistanceTree {
         limit2: f64,
         stack: &mut Vec<u32>,
     ) -> Option<Closest> {
+        self.closest_within_from(p, limit2, &mut None, stack)
+    }
+
+    /// [`Self::closest_within`] starting from the triangle in slot `hint` (the previous answer, for a
+    /// neighbouring point), whose distance is an upper bound that prunes the descent at once; the slot of
+    /// the answer is left in `hint`. The answer is the same as without the hint.
+    pub fn closest_within_from(
+        &self,
+        p: [f64; 3],
+        limit2: f64,
+        hint: &mut Option<usize>,
+        stack: &mut Vec<u32>,
+    ) -> Option<Closest> {
         if self.triangles.is_empty() {
             return None;
         }
@@ -321,6 +334,23 @@ impl DistanceTree {
             barycentric: [0.0; 3],
             distance2: limit2,
         };
+        let mut best_slot = None;
+        if let Some(slot) = hint.filter(|&s| s < self.triangles.len()) {
+            let t = &self.triangles[slot];
+            let w = closest_on_triangle(p, t[0], t[1], t[2]);
+            let q = at(t, w);
+            let d = sub(p, q);
+            let d2 = dot(d, d);
+            if d2 <= best.distance2 {
+                best = Closest {
+                    triangle: self.index[slot],
+                    point: q,
+                    barycentric: w,
+                    distance2: d2,
+                };
+                best_slot = Some(slot);
+            }
+        }
         stack.clear();
         stack.push(0);
         while let Some(n) = stack.pop() {
@@ -344,6 +374,7 @@ impl DistanceTree {
                             barycentric: w,
                             distance2: d2,
                         };
+                        best_slot = Some(slot);
                     }
                 }
                 continue;
@@ -360,6 +391,7 @@ impl DistanceTree {
                 stack.push(b);
             }
         }
+        *hint = best_slot.or(*hint);
         (best.triangle != u32::MAX).then_some(best)
     }
 }
