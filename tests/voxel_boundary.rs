@@ -195,38 +195,23 @@ fn voxelize_writes_the_boundary_mesh_for_mesh_extensions_and_ply_with_the_flag()
     let dir = std::env::temp_dir().join(format!("gregvox-boundary-{}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
     let bin = env!("CARGO_BIN_EXE_gregvox");
-    let run = |out: &std::path::Path, extra: &[&str]| {
+    let voxelize = |extra: &[&std::ffi::OsStr]| {
         let o = std::process::Command::new(bin)
-            .args([
-                "voxelize",
-                "assets/models/stanford-bunny.obj",
-                "--res",
-                "24",
-                "--method",
-                "cpu",
-            ])
-            .arg("--out")
-            .arg(out)
+            .args(["voxelize", "assets/models/stanford-bunny.obj"])
+            .args(["--res", "24", "--method", "cpu"])
             .args(extra)
             .output()
             .unwrap();
         assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        o
     };
-    let npz = dir.join("b.npz");
-    run(&npz, &[]);
+    let run = |out: &std::path::Path, extra: &[&str]| {
+        let mut args = vec!["--out".as_ref(), out.as_os_str()];
+        args.extend(extra.iter().map(std::ffi::OsStr::new));
+        voxelize(&args);
+    };
     let solid = {
-        let o = std::process::Command::new(bin)
-            .args([
-                "voxelize",
-                "assets/models/stanford-bunny.obj",
-                "--res",
-                "24",
-                "--method",
-                "cpu",
-                "--json",
-            ])
-            .output()
-            .unwrap();
+        let o = voxelize(&["--json".as_ref()]);
         let j: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
         j["solid_voxels"].as_u64().unwrap()
     };

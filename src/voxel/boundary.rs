@@ -418,14 +418,7 @@ pub fn boundary_mesh(grid: &VoxelGrid) -> Result<Mesh> {
     // The vertex of lattice point (i, j, k) on the sheet that block face `face` belongs to.
     let vertex = |i: i64, j: i64, k: u32, face: usize| -> u32 {
         let row = &rows[j as usize];
-        let (lo, hi) = (
-            row.starts[i as usize] as usize,
-            row.starts[i as usize + 1] as usize,
-        );
-        let e = lo
-            + row.heights[lo..hi]
-                .binary_search(&k)
-                .expect("every corner of a boundary face is a boundary lattice point");
+        let e = row.entry(i as u32, k);
         row_base[j as usize]
             + row.first_vertex[e]
             + sheets[row.configs[e] as usize].of_face[face] as u32
@@ -445,7 +438,7 @@ pub fn boundary_mesh(grid: &VoxelGrid) -> Result<Mesh> {
         .into_par_iter()
         .map(|j| {
             let (mut sizes, mut out) = (Vec::new(), Vec::new());
-            row_quads(&cols, j, |corners, faces, solid| {
+            let visited = row_quads(&cols, j, |corners, faces, solid| {
                 let start = out.len();
                 let mut first_mid = None;
                 for c in 0..4 {
@@ -477,6 +470,10 @@ pub fn boundary_mesh(grid: &VoxelGrid) -> Result<Mesh> {
                 }
                 sizes.push((out.len() - start) as u32);
             });
+            debug_assert_eq!(
+                visited, quads_per_row[j as usize],
+                "the popcounts count the faces"
+            );
             (sizes, out)
         })
         .collect();
@@ -499,15 +496,21 @@ pub fn boundary_mesh(grid: &VoxelGrid) -> Result<Mesh> {
 
 /// The configuration of boundary lattice point (i, ·, k) of `row`.
 fn config_at(row: &Row, i: u32, k: u32) -> u8 {
-    let (lo, hi) = (
-        row.starts[i as usize] as usize,
-        row.starts[i as usize + 1] as usize,
-    );
-    let e = lo
-        + row.heights[lo..hi]
+    row.configs[row.entry(i, k)]
+}
+
+impl Row {
+    /// The entry of boundary lattice point (i, ·, k): a binary search in its lattice column. Every corner
+    /// of a boundary face, and every end of a boundary edge, is such a point.
+    fn entry(&self, i: u32, k: u32) -> usize {
+        let (lo, hi) = (
+            self.starts[i as usize] as usize,
+            self.starts[i as usize + 1] as usize,
+        );
+        lo + self.heights[lo..hi]
             .binary_search(&k)
-            .expect("an end of a boundary edge is a boundary lattice point");
-    row.configs[e]
+            .expect("a corner of a boundary face is a boundary lattice point")
+    }
 }
 
 /// Visits the boundary quads owned by lattice row j (z-faces and x-faces of voxel row j, y-faces at

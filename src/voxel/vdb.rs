@@ -59,6 +59,23 @@ fn meta(out: &mut Vec<u8>, name: &str, kind: &str, payload: &[u8]) {
     out.extend_from_slice(payload);
 }
 
+/// The five metadata entries every grid here carries: its class, its name, world space, full floats and
+/// its active voxel count.
+fn grid_meta(class: &str, name: &str, active: u64) -> Vec<u8> {
+    let mut m = Vec::new();
+    meta(&mut m, "class", "string", class.as_bytes());
+    meta(&mut m, "name", "string", name.as_bytes());
+    meta(&mut m, "is_local_space", "bool", &[0]);
+    meta(&mut m, "is_saved_as_half_float", "bool", &[0]);
+    meta(
+        &mut m,
+        "file_voxel_count",
+        "int64",
+        &(active as i64).to_le_bytes(),
+    );
+    m
+}
+
 /// The `.vdb` bytes of `grid` (see the module docs).
 ///
 /// ```
@@ -129,17 +146,7 @@ pub fn vdb_bytes(grid: &VoxelGrid) -> Vec<u8> {
     let solid = g.count();
     let full_node = |n: &Node4| n.tiles.iter().all(|&w| w == !0);
 
-    let mut m = Vec::new();
-    meta(&mut m, "class", "string", b"unknown");
-    meta(&mut m, "name", "string", GRID_NAME.as_bytes());
-    meta(&mut m, "is_local_space", "bool", &[0]);
-    meta(&mut m, "is_saved_as_half_float", "bool", &[0]);
-    meta(
-        &mut m,
-        "file_voxel_count",
-        "int64",
-        &(solid as i64).to_le_bytes(),
-    );
+    let mut m = grid_meta("unknown", GRID_NAME, solid);
     let mut entries = 5;
     if solid > 0 {
         let [lo, hi] = active_box(&g);
@@ -289,17 +296,7 @@ pub fn level_set_bytes(ls: &super::levelset::LevelSet) -> Vec<u8> {
     let [nx, ny, nz] = frame.dims;
     let bg = ls.background;
     let active = ls.active_count();
-    let mut m = Vec::new();
-    meta(&mut m, "class", "string", b"level set");
-    meta(&mut m, "name", "string", LEVEL_SET_NAME.as_bytes());
-    meta(&mut m, "is_local_space", "bool", &[0]);
-    meta(&mut m, "is_saved_as_half_float", "bool", &[0]);
-    meta(
-        &mut m,
-        "file_voxel_count",
-        "int64",
-        &(active as i64).to_le_bytes(),
-    );
+    let m = grid_meta("level set", LEVEL_SET_NAME, active);
     let (mut out, offsets_at, grid_pos) = head(
         LEVEL_SET_NAME,
         "Tree_float_5_4_3",
