@@ -196,3 +196,43 @@ fn the_cli_writes_a_level_set_vdb_and_refuses_other_outputs_and_bad_widths() {
     assert!(!std::path::Path::new("y.vdb").exists());
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+#[test]
+fn one_huge_polygon_fanned_into_slivers_gets_the_distances_of_the_uncut_triangles() {
+    // The attack on the distance tree: 3,000 slivers meeting at one corner, each crossing the grid.
+    let n = 3000;
+    let ring: Vec<DVec3> = (0..n)
+        .map(|k| {
+            let a = std::f64::consts::TAU * k as f64 / n as f64;
+            DVec3::new(a.cos(), a.sin(), 0.05 * (3.0 * a).sin())
+        })
+        .collect();
+    let mesh = Mesh::from_polygons(ring, &[(0..n as u32).collect()]).unwrap();
+    let v = voxelize_on_cpu(&mesh, &VoxelizeOptions::default().res(40).pad(4)).unwrap();
+    let ls = level_set(&mesh, &v.grid, 3).unwrap();
+    // Every active value against the plain query (a tree over the uncut fan).
+    let mut points = Vec::new();
+    let mut values = Vec::new();
+    for leaf in &ls.leaves {
+        for k in 0..512u32 {
+            if leaf.active[(k >> 6) as usize] >> (k & 63) & 1 == 1 {
+                let (i, j, z) = (
+                    leaf.origin[0] + (k >> 6),
+                    leaf.origin[1] + (k >> 3 & 7),
+                    leaf.origin[2] + (k & 7),
+                );
+                points.push(v.grid.frame.centre(i, j, z));
+                values.push(leaf.values[k as usize]);
+            }
+        }
+    }
+    assert!(points.len() > 1000, "{} active voxels", points.len());
+    let plain = gregvox::api::query::unsigned_distance(&mesh, &points).unwrap();
+    for (x, (&got, &want)) in values.iter().zip(&plain.distance).enumerate() {
+        assert!(
+            (got.abs() - want).abs() <= 1e-6 * (1.0 + want),
+            "{:?}: {got} vs {want}",
+            points[x]
+        );
+    }
+}

@@ -50,7 +50,7 @@ pub fn level_set(mesh: &Mesh, solid: &VoxelGrid, half_width: u32) -> Result<Leve
     }
     let limit = (half_width as f64 * widest) as f32 as f64 * (1.0 + 1e-6);
     // The distance tree over the triangles cut to pieces of at most twice the band's width (slivers get
-    // tight boxes), at most 4 pieces per band voxel or 2^24.
+    // tight boxes), at most 16 pieces per band voxel or 2^24.
     let triangles: Vec<[[f64; 3]; 3]> = tri
         .triangles
         .iter()

@@ -463,22 +463,6 @@ impl MeshQuery {
         self.distances(points, false)
     }
 
-    /// Distances below `limit` (world units), `f32::INFINITY` where the surface is farther: the narrow
-    /// band's query, pruning every box beyond the limit from the start.
-    pub fn unsigned_distance_within(&self, points: &[[f64; 3]], limit: f64) -> Result<Vec<f32>> {
-        Self::check(points)?;
-        let tree = self
-            .distance
-            .get_or_init(|| DistanceTree::new(&self.triangles));
-        Ok(points
-            .par_iter()
-            .map_init(Vec::new, |stack, &p| {
-                tree.closest_within(self.local(p), limit * limit, stack)
-                    .map_or(f32::INFINITY, |c| c.distance2.sqrt() as f32)
-            })
-            .collect())
-    }
-
     /// Distances signed by the exact winding number (see the module docs).
     pub fn signed_distance(&self, points: &[[f64; 3]]) -> Result<Distances> {
         self.distances(points, true)

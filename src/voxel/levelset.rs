@@ -16,6 +16,7 @@
 //! band voxels only (a parallel query: O(band · log T)), leaves by 64 column bytes each; memory: the band's
 //! points and 2 KiB per leaf.
 use super::grid::{Axis, GridFrame, VoxelGrid};
+use super::vdb::leaf_mask;
 use rayon::prelude::*;
 
 /// The default half-width in voxels (OpenVDB's `LEVEL_SET_HALF_WIDTH`).
@@ -104,8 +105,9 @@ pub fn dilate(surface: &VoxelGrid, r: [u32; 3]) -> VoxelGrid {
     }
 }
 
-/// A leaf region: its origin, its band voxels' and its solid voxels' bits (64 column bytes each).
-type LeafBits = ([u32; 3], [u8; 64], [u8; 64]);
+/// A leaf region: its origin, its band voxels' and its solid voxels' bits (64 column bytes each), and
+/// whether its voxels are all solid or all empty.
+type LeafBits = ([u32; 3], [u8; 64], [u8; 64], bool);
 
 /// Builds the level set of `solid` (the occupancy) given its `band` and a function giving the unsigned
 /// distance at world points (called once, with every band voxel's centre).
@@ -121,14 +123,6 @@ pub fn build(
     let [nx, ny, nz] = frame.dims;
     let h = frame.voxel_size.iter().copied().fold(0.0, f64::max);
     let background = (half_width as f64 * h) as f32;
-    let words = frame.words_per_column(Axis::Z) as usize;
-    let byte = |g: &VoxelGrid, i: u32, j: u32, z0: u32| -> u8 {
-        if i >= nx || j >= ny || z0 >= nz {
-            return 0;
-        }
-        (g.words[(j as usize * nx as usize + i as usize) * words + z0 as usize / 32] >> (z0 % 32))
-            as u8
-    };
     // Leaf regions that need a leaf: any band voxel, or solid and empty voxels side by side.
     let per = |d: u32| d.div_ceil(128);
     let regions: Vec<[u32; 3]> = (0..per(nx))
@@ -149,20 +143,12 @@ pub fn build(
                         if o[0] >= nx || o[1] >= ny || o[2] >= nz {
                             continue;
                         }
-                        let mut b = [0u8; 64];
-                        let mut s = [0u8; 64];
-                        for x in 0..8u32 {
-                            for y in 0..8u32 {
-                                let n = (x << 3 | y) as usize;
-                                b[n] = byte(&band, o[0] + x, o[1] + y, o[2]);
-                                s[n] = byte(&solid, o[0] + x, o[1] + y, o[2]);
-                            }
-                        }
+                        let (b, s) = (leaf_mask(&band, o), leaf_mask(&solid, o));
                         let in_grid = o[0] + 8 <= nx && o[1] + 8 <= ny && o[2] + 8 <= nz;
                         let uniform =
                             s.iter().all(|&v| v == 0) || (in_grid && s.iter().all(|&v| v == 0xFF));
                         if b.iter().any(|&v| v != 0) || !uniform {
-                            out.push((o, b, s));
+                            out.push((o, b, s, uniform));
                         }
                     }
                 }
@@ -173,7 +159,7 @@ pub fn build(
     let leaf_list: Vec<_> = leaf_list.into_iter().flatten().collect();
     // The band's centres, leaf by leaf.
     let mut points = Vec::new();
-    for (o, b, _) in &leaf_list {
+    for (o, b, _, _) in &leaf_list {
         for n in 0..512u32 {
             if b[(n >> 3) as usize] >> (n & 7) & 1 == 1 {
                 let (x, y, z) = (o[0] + (n >> 6), o[1] + (n >> 3 & 7), o[2] + (n & 7));
@@ -184,9 +170,7 @@ pub fn build(
     let d = distances(&points)?;
     let mut next = 0;
     let mut leaves = Vec::with_capacity(leaf_list.len());
-    for (o, b, s) in leaf_list {
-        let in_grid = o[0] + 8 <= nx && o[1] + 8 <= ny && o[2] + 8 <= nz;
-        let uniform = s.iter().all(|&v| v == 0) || (in_grid && s.iter().all(|&v| v == 0xFF));
+    for (o, b, s, uniform) in leaf_list {
         let mut leaf = Leaf {
             origin: o,
             active: [0; 8],

@@ -59,6 +59,30 @@ fn meta(out: &mut Vec<u8>, name: &str, kind: &str, payload: &[u8]) {
     out.extend_from_slice(payload);
 }
 
+/// The 512-bit mask of the 8³ leaf at `origin` of `g` (bits along z), in OpenVDB's order: byte `x·8 + y`
+/// holds z as bits, so it is one byte of a column word, never voxel by voxel. Zero outside the grid.
+pub(crate) fn leaf_mask(g: &VoxelGrid, origin: [u32; 3]) -> [u8; 64] {
+    debug_assert_eq!(g.bit_axis, Axis::Z);
+    let [nx, ny, nz] = g.frame.dims;
+    let words = g.frame.words_per_column(Axis::Z) as usize;
+    let z0 = origin[2];
+    let mut mask = [0u8; 64];
+    if z0 >= nz {
+        return mask;
+    }
+    for x in 0..8u32 {
+        for y in 0..8u32 {
+            let (i, j) = (origin[0] + x, origin[1] + y);
+            if i < nx && j < ny {
+                let start = (j as usize * nx as usize + i as usize) * words;
+                mask[(x << 3 | y) as usize] =
+                    (g.words[start + z0 as usize / 32] >> (z0 % 32)) as u8;
+            }
+        }
+    }
+    mask
+}
+
 /// The five metadata entries every grid here carries: its class, its name, world space, full floats and
 /// its active voxel count.
 fn grid_meta(class: &str, name: &str, active: u64) -> Vec<u8> {
@@ -93,15 +117,6 @@ pub fn vdb_bytes(grid: &VoxelGrid) -> Vec<u8> {
         std::borrow::Cow::Owned(grid.to_axis(Axis::Z))
     };
     let [nx, ny, nz] = g.frame.dims;
-    let words = g.frame.words_per_column(Axis::Z) as usize;
-    // The byte of column (i, j) holding voxels z0..z0 + 8 (zero outside the grid).
-    let column_byte = |i: u32, j: u32, z0: u32| -> u8 {
-        if i >= nx || j >= ny || z0 >= nz {
-            return 0;
-        }
-        let start = (j as usize * nx as usize + i as usize) * words;
-        (g.words[start + z0 as usize / 32] >> (z0 % 32)) as u8
-    };
     // A leaf is full only when all its voxels lie in the grid and are solid.
     let leaf_in_grid = |x0: u32, y0: u32, z0: u32| x0 + 8 <= nx && y0 + 8 <= ny && z0 + 8 <= nz;
     let per = |d: u32| d.div_ceil(128) as usize;
@@ -124,12 +139,7 @@ pub fn vdb_bytes(grid: &VoxelGrid) -> Vec<u8> {
                         if x0 >= nx || y0 >= ny || z0 >= nz {
                             continue;
                         }
-                        let mut mask = [0u8; 64];
-                        for x in 0..8 {
-                            for y in 0..8 {
-                                mask[(x << 3) | y] = column_byte(x0 + x as u32, y0 + y as u32, z0);
-                            }
-                        }
+                        let mask = leaf_mask(&g, [x0, y0, z0]);
                         let n = ((lx << 8) | (ly << 4) | lz) as usize;
                         if mask.iter().all(|&m| m == 0xFF) && leaf_in_grid(x0, y0, z0) {
                             set_bit(&mut node.tiles, n);
