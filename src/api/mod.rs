@@ -8,8 +8,6 @@
 //! - Nothing here needs cleanup by the caller: [`Gpu`], [`Surface`] and everything they create release their
 //!   GPU objects when dropped (`gpu::lifetime`).
 //! - Errors are [`crate::Error`] values that name the input and the problem; nothing panics on bad input.
-use crate::engine::cage::cage_topology;
-use crate::engine::gregory::GregorySurface;
 use crate::engine::voxelize::checkpoint;
 use crate::engine::voxelize::{
     memory_estimate, voxelize_gregory_surface, voxelize_surface_gpu, AbufferVoxelizer,
@@ -17,19 +15,20 @@ use crate::engine::voxelize::{
 };
 use crate::error::{Error, Result};
 use crate::gpu::Context;
-pub use crate::gpu::{ContextDesc, DeviceInfo, Profiler, Validation};
-use crate::passes::cage_deform::DeformParams;
-use crate::passes::gregory_eval::{grid_indices, SurfaceVertex, MAX_LEVEL};
+pub use crate::gpu::{
+    ContextDesc, DeviceInfo, DeviceRequirements, ExternalDevice, ExternalRecording, Profiler,
+    Validation,
+};
 use crate::voxel::cpu::voxelize_cpu;
 use crate::voxel::gwn::{self, GwnParams, Inside, Proxy};
 use crate::voxel::mesh::{CleanReport, TriMesh};
-use glam::DVec3;
 use std::path::Path;
 
 pub mod batch;
 pub mod levelset;
 pub mod query;
 pub mod simplify;
+pub mod surface;
 pub mod tessellate;
 
 pub use crate::engine::voxelize::{Deadline, ProgressFn, DEFAULT_MAX_LAYERS};
@@ -45,6 +44,9 @@ pub use crate::voxel::surface::Fill;
 pub use query::{MeshQuery, QueryOptions, SdfSign};
 pub use simplify::{
     simplify, simplify_lod, Placement, SimplifiedMesh, SimplifyOptions, SimplifyReport,
+};
+pub use surface::{
+    AdaptiveParams, IndirectDraws, Surface, SurfaceBuffers, SurfaceUpdate, VertexTarget,
 };
 
 /// Largest number of voxels along any axis (2048³ bits = 1 GiB).
@@ -761,6 +763,40 @@ impl Gpu {
         })
     }
 
+    /// gregvox on a device the caller created and keeps (a renderer's): what [`Gpu::new`] does, on the
+    /// caller's instance, device and queue. Ask [`Gpu::requirements`] before creating the device. gregvox
+    /// never destroys what it did not create; dropping the `Gpu` (and everything made from it) waits for
+    /// the device to be idle and frees gregvox's memory. See docs/embedding.md.
+    ///
+    /// # Safety
+    /// The promises of [`Context::from_external`]: valid handles created with the requirements enabled,
+    /// the device outliving the `Gpu` and everything made from it, and no other thread on the queue while
+    /// a gregvox call submits or waits.
+    pub unsafe fn from_external(device: &ExternalDevice) -> Result<Gpu> {
+        Ok(Gpu {
+            voxelizers: Default::default(),
+            // SAFETY: the caller's promise, passed on.
+            ctx: unsafe { Context::from_external(device)? },
+        })
+    }
+
+    /// What gregvox needs of `physical_device` (of an instance created for `api_version`): extensions,
+    /// features and the queue family to create a device with; an error naming what the device lacks.
+    pub fn requirements(
+        instance: &ash::Instance,
+        physical_device: ash::vk::PhysicalDevice,
+        api_version: u32,
+    ) -> Result<DeviceRequirements> {
+        DeviceRequirements::query(instance, physical_device, api_version)
+    }
+
+    /// Starts recording gregvox work into a command buffer of the caller's ([`Surface::record`] and the
+    /// like); end it with `submitted(semaphore, value)` after submitting that command buffer, so that
+    /// what gregvox releases meanwhile waits for it. See [`ExternalRecording`].
+    pub fn begin_recording(&self) -> Result<ExternalRecording<'_>> {
+        self.ctx.begin_external()
+    }
+
     /// The device report (`gregvox info`).
     pub fn info(&self) -> &DeviceInfo {
         &self.ctx.info
@@ -1016,36 +1052,6 @@ impl Gpu {
         result
     }
 
-    /// Builds the ACC-2 Gregory surface of a quad cage (non-quad cages are refined once, with a note) at
-    /// `level` (1–64), evaluated on the GPU.
-    pub fn gregory_surface(&self, cage: &Mesh, level: u32) -> Result<Surface<'_>> {
-        self.gregory_surface_with(cage, level, Tangents::OpenSubdiv)
-    }
-
-    /// [`Gpu::gregory_surface`] with a choice of edge-point masks.
-    pub fn gregory_surface_with(
-        &self,
-        cage: &Mesh,
-        level: u32,
-        tangents: Tangents,
-    ) -> Result<Surface<'_>> {
-        if !(1..=MAX_LEVEL).contains(&level) {
-            return Err(Error::Invalid(format!(
-                "--level {level} is out of range: the tessellation level must be between 1 and {MAX_LEVEL}"
-            )));
-        }
-        let (topo, rest, note) = cage_topology(cage, tangents).map_err(to_mesh_error)?;
-        let inner = GregorySurface::new(&self.ctx, &topo, &rest, level)?;
-        let mut surface = Surface {
-            gpu: self,
-            inner,
-            rest,
-            note,
-        };
-        surface.evaluate(None)?;
-        Ok(surface)
-    }
-
     /// Voxelizes the Gregory surface of `cage` at `level` straight from the device-local vertex buffer (no
     /// CPU round trip of the surface), by depth peeling.
     pub fn voxelize_gregory(
@@ -1112,7 +1118,7 @@ impl Gpu {
         };
         let (grid, stats) = voxelize_gregory_surface(
             &self.ctx,
-            &surface.inner,
+            surface.engine(),
             &local_grid(opts, shift),
             &axes,
             rule,
@@ -1137,94 +1143,5 @@ impl Gpu {
             gwn: None,
         };
         Ok(Voxelization::new(grid, report).in_world(shift))
-    }
-}
-
-/// A Gregory surface on the GPU: one bicubic Gregory patch per cage quad, evaluated into a device-local
-/// vertex buffer on a (level+1)² grid per patch (vertex `j·(L+1)+i` at (i/L, j/L), u along the face's
-/// first edge).
-pub struct Surface<'g> {
-    gpu: &'g Gpu,
-    inner: GregorySurface,
-    rest: Vec<DVec3>,
-    note: Option<String>,
-}
-
-impl Surface<'_> {
-    /// Re-evaluates the surface of the rest cage, or of the cage moved by `deform` on the GPU.
-    fn evaluate(&mut self, deform: Option<&DeformParams>) -> Result<()> {
-        self.inner.evaluate(&self.gpu.ctx, deform, None)
-    }
-
-    /// Moves the cage on the GPU by a built-in deformation at time `t` (seconds) with `amplitude` (a fraction
-    /// of the cage's size) and re-evaluates the surface; [`Deformation::None`] restores the rest cage.
-    pub fn deform(&mut self, mode: Deformation, t: f32, amplitude: f32) -> Result<()> {
-        if !t.is_finite() || !amplitude.is_finite() {
-            return Err(Error::Invalid(format!(
-                "deformation time {t} and amplitude {amplitude} must be finite"
-            )));
-        }
-        let params = DeformParams {
-            mode,
-            t,
-            amplitude,
-            box_min: self.inner.box_min(),
-            box_size: self.inner.box_size(),
-        };
-        self.evaluate(Some(&params))
-    }
-
-    /// Uploads new cage positions (one per cage vertex, in the cage's order) and re-evaluates the surface.
-    pub fn set_cage(&mut self, positions: &[DVec3]) -> Result<()> {
-        if let Some(i) = positions.iter().position(|p| !p.is_finite()) {
-            return Err(Error::Invalid(format!(
-                "cage vertex {} is not finite: {:?}",
-                i + 1,
-                positions[i]
-            )));
-        }
-        let ctx = &self.gpu.ctx;
-        ctx.one_shot(|cmd| self.inner.record_cage_update(ctx, cmd, positions))
-    }
-
-    /// Switches the tessellation level (1–64) and re-evaluates the rest cage.
-    pub fn set_level(&mut self, level: u32) -> Result<()> {
-        self.inner.set_level(&self.gpu.ctx, level)?;
-        self.evaluate(None)
-    }
-
-    /// Reads the evaluated positions and unit normals back, patch after patch.
-    pub fn read_vertices(&self) -> Result<Vec<SurfaceVertex>> {
-        self.inner.read_vertices(&self.gpu.ctx)
-    }
-
-    /// Triangles of the uniform grids (two per grid cell, counter-clockwise seen from the normal side).
-    pub fn indices(&self) -> Vec<u32> {
-        grid_indices(self.inner.patch_count(), self.inner.level())
-    }
-
-    /// The tessellation level.
-    pub fn level(&self) -> u32 {
-        self.inner.level()
-    }
-
-    /// Patches (one per cage quad).
-    pub fn patch_count(&self) -> u32 {
-        self.inner.patch_count()
-    }
-
-    /// The rest cage's positions (after the Catmull–Clark step for non-quad cages).
-    pub fn rest_cage(&self) -> &[DVec3] {
-        &self.rest
-    }
-
-    /// What was done to the cage before building patches (a refinement step), if anything.
-    pub fn note(&self) -> Option<&str> {
-        self.note.as_deref()
-    }
-
-    /// The engine-level surface, for recording its passes into your own command buffers.
-    pub fn engine(&self) -> &GregorySurface {
-        &self.inner
     }
 }

@@ -23,7 +23,7 @@
 //!   curvature pass elsewhere, both from the points the device wrote last.
 use crate::error::{Error, Result};
 use crate::gpu::profiler::scoped;
-use crate::gpu::resources::{compute_writes_to_host, memory_barrier};
+use crate::gpu::resources::{compute_writes_to_host, memory_barrier, BufferRange};
 use crate::gpu::{Buffer, Context, MemoryLocation, Profiler};
 use crate::mesh::SparseMatrix;
 use crate::passes::adaptive_levels::{
@@ -696,8 +696,23 @@ impl GregorySurface {
         ctx: &Context,
         cmd: vk::CommandBuffer,
         deform: Option<&DeformParams>,
-        mut profiler: Option<(&mut Profiler, usize)>,
+        profiler: Option<(&mut Profiler, usize)>,
     ) -> Result<()> {
+        self.record_into(ctx, cmd, deform, profiler, None)
+    }
+
+    /// [`Self::record`], writing the vertices into `target` (the same layout as [`Self::vertices`]: a
+    /// (level+1)² grid per patch, or an (l_max+1)² slot per patch in adaptive mode) instead of the
+    /// surface's own buffer when given.
+    pub fn record_into(
+        &self,
+        ctx: &Context,
+        cmd: vk::CommandBuffer,
+        deform: Option<&DeformParams>,
+        mut profiler: Option<(&mut Profiler, usize)>,
+        target: Option<BufferRange>,
+    ) -> Result<()> {
+        let out = target.unwrap_or_else(|| (&self.vertices).into());
         self.record_points(ctx, cmd, deform, &mut profiler)?;
         let mut scope = |name: &str, f: &mut dyn FnMut() -> Result<()>| {
             scoped(ctx, cmd, &mut profiler, name, f)
@@ -736,7 +751,7 @@ impl GregorySurface {
                             edge_ids: &a.edge_ids,
                             edge_levels: &a.edge_levels,
                         },
-                        &self.vertices,
+                        out,
                     )
                 });
             }
@@ -751,7 +766,7 @@ impl GregorySurface {
                 self.patch_count,
                 self.level,
                 self.canonical_edges,
-                &self.vertices,
+                out,
             )
         })
     }

@@ -7,10 +7,14 @@
 //!   the order spelled out once in `DeviceShared::drop`. Objects release themselves when dropped.
 //! - Dropping the context waits for the device, destroys what the release queue holds and counts every GPU
 //!   allocation still alive as a leak (named in the log): tests and the CLI fail on a leak.
+//! - The device is created by gregvox (`with_desc`) or lent by the caller (`from_external`); both go through
+//!   one `assemble`, and the owned path creates its device from the same [`DeviceRequirements`] a caller
+//!   asks for. A lent instance and device are never destroyed (see `gpu::external`).
 //! - The engine uses synchronization2 and dynamic rendering through [`Context::cmd_pipeline_barrier2`],
 //!   [`Context::cmd_begin_rendering`] and [`Context::cmd_end_rendering`], which call the core (1.3) entry
 //!   points or the KHR extension ones (1.2 devices) as the device requires.
 use super::debug::{messenger_callback, ValidationSink};
+use super::external::{DeviceRequirements, ExternalDevice, ExternalRecording};
 use super::lifetime::{DeviceParts, DeviceShared, Owned, OwnedHandle};
 use crate::error::{Error, Result, VkContext};
 use ash::vk;
@@ -357,18 +361,8 @@ impl Context {
         if debug_utils_available {
             extensions.push(ash::ext::debug_utils::NAME.as_ptr());
         }
-        let severity = vk::DebugUtilsMessageSeverityFlagsEXT::ERROR
-            | vk::DebugUtilsMessageSeverityFlagsEXT::WARNING
-            | vk::DebugUtilsMessageSeverityFlagsEXT::INFO;
-        let kinds = vk::DebugUtilsMessageTypeFlagsEXT::GENERAL
-            | vk::DebugUtilsMessageTypeFlagsEXT::VALIDATION
-            | vk::DebugUtilsMessageTypeFlagsEXT::PERFORMANCE;
         let sink_ptr = Arc::as_ptr(&validation) as *mut std::ffi::c_void;
-        let mut messenger_info = vk::DebugUtilsMessengerCreateInfoEXT::default()
-            .message_severity(severity)
-            .message_type(kinds)
-            .pfn_user_callback(Some(messenger_callback))
-            .user_data(sink_ptr);
+        let mut chained_messenger = messenger_info(sink_ptr);
         let enabled_features = [vk::ValidationFeatureEnableEXT::SYNCHRONIZATION_VALIDATION];
         let mut validation_features =
             vk::ValidationFeaturesEXT::default().enabled_validation_features(&enabled_features);
@@ -378,7 +372,7 @@ impl Context {
             .enabled_extension_names(&extensions);
         if debug_utils_available {
             // Chained so that messages of instance creation and destruction reach the sink too.
-            create_info = create_info.push_next(&mut messenger_info);
+            create_info = create_info.push_next(&mut chained_messenger);
         }
         if want_validation && desc.sync_validation {
             create_info = create_info.push_next(&mut validation_features);
@@ -407,11 +401,7 @@ impl Context {
         };
         let debug_utils = if debug_utils_available {
             let loader = ash::ext::debug_utils::Instance::new(&entry, &instance);
-            let messenger_info = vk::DebugUtilsMessengerCreateInfoEXT::default()
-                .message_severity(severity)
-                .message_type(kinds)
-                .pfn_user_callback(Some(messenger_callback))
-                .user_data(sink_ptr);
+            let messenger_info = messenger_info(sink_ptr);
             // SAFETY: valid instance and create info.
             let messenger = unsafe { loader.create_debug_utils_messenger(&messenger_info, None) }
                 .vk("vkCreateDebugUtilsMessengerEXT")?;
@@ -429,57 +419,16 @@ impl Context {
         let surface_wanted = !desc.surface_extensions.is_empty();
         let chosen = pick_device(&instance, filter.as_deref(), surface_wanted)?;
         let pd = chosen.pd;
-        let props = chosen.props;
-        let device_api = props.api_version;
-        let core13 = device_api >= vk::API_VERSION_1_3;
 
-        // Optional core features.
-        // SAFETY: valid physical device.
-        let supported = unsafe { instance.get_physical_device_features(pd) };
-        let opt = OptionalFeatures {
-            fill_mode_non_solid: supported.fill_mode_non_solid == vk::TRUE,
-            tessellation_shader: supported.tessellation_shader == vk::TRUE,
-            geometry_shader: supported.geometry_shader == vk::TRUE,
-            fragment_stores_and_atomics: supported.fragment_stores_and_atomics == vk::TRUE,
-            vertex_pipeline_stores_and_atomics: supported.vertex_pipeline_stores_and_atomics
-                == vk::TRUE,
-            shader_int64: supported.shader_int64 == vk::TRUE,
-            shader_float64: supported.shader_float64 == vk::TRUE,
-            pipeline_statistics_query: supported.pipeline_statistics_query == vk::TRUE,
-            wide_lines: supported.wide_lines == vk::TRUE,
-        };
-        let b = |x: bool| if x { vk::TRUE } else { vk::FALSE };
-        let core_features = vk::PhysicalDeviceFeatures {
-            fill_mode_non_solid: b(opt.fill_mode_non_solid),
-            tessellation_shader: b(opt.tessellation_shader),
-            geometry_shader: b(opt.geometry_shader),
-            fragment_stores_and_atomics: b(opt.fragment_stores_and_atomics),
-            vertex_pipeline_stores_and_atomics: b(opt.vertex_pipeline_stores_and_atomics),
-            shader_int64: b(opt.shader_int64),
-            shader_float64: b(opt.shader_float64),
-            pipeline_statistics_query: b(opt.pipeline_statistics_query),
-            wide_lines: b(opt.wide_lines),
-            ..Default::default()
-        };
-        let mut f12 = vk::PhysicalDeviceVulkan12Features::default()
-            .timeline_semaphore(true)
-            .host_query_reset(true)
-            .scalar_block_layout(true);
-        let mut f13 = vk::PhysicalDeviceVulkan13Features::default()
-            .synchronization2(true)
-            .dynamic_rendering(true);
-        let mut sync2_khr =
-            vk::PhysicalDeviceSynchronization2Features::default().synchronization2(true);
-        let mut dynr_khr =
-            vk::PhysicalDeviceDynamicRenderingFeatures::default().dynamic_rendering(true);
-        // Push descriptors keep passes free of descriptor pools and of sets rewritten while in flight.
-        let mut device_ext: Vec<*const c_char> = vec![ash::khr::push_descriptor::NAME.as_ptr()];
+        let req = DeviceRequirements::query(&instance, pd, api)?;
+        let core_features = req.core_features();
+        let mut f12 = req.vulkan12_features();
+        let mut f13 = req.vulkan13_features();
+        let (mut sync2_khr, mut dynr_khr) = req.khr_features();
+        let mut device_ext: Vec<*const c_char> =
+            req.device_extensions.iter().map(|e| e.as_ptr()).collect();
         if surface_wanted {
             device_ext.push(ash::khr::swapchain::NAME.as_ptr());
-        }
-        if !core13 {
-            device_ext.push(ash::khr::synchronization2::NAME.as_ptr());
-            device_ext.push(ash::khr::dynamic_rendering::NAME.as_ptr());
         }
         let priorities = [1.0f32];
         let queue_info = [vk::DeviceQueueCreateInfo::default()
@@ -490,7 +439,7 @@ impl Context {
             .enabled_extension_names(&device_ext)
             .enabled_features(&core_features)
             .push_next(&mut f12);
-        device_info = if core13 {
+        device_info = if req.core13 {
             device_info.push_next(&mut f13)
         } else {
             device_info
@@ -502,7 +451,146 @@ impl Context {
             unsafe { instance.create_device(pd, &device_info, None) }.vk("vkCreateDevice")?;
         // SAFETY: family and index 0 were requested above.
         let queue = unsafe { device.get_device_queue(chosen.family, 0) };
+        // From here on `assemble` destroys the device, the messenger and the instance on failure.
+        std::mem::forget(partial);
+        Context::assemble(Assembly {
+            entry,
+            instance,
+            physical_device: pd,
+            device,
+            queue,
+            queue_family: chosen.family,
+            name: chosen.name,
+            core13: req.core13,
+            features: req.supported,
+            debug_utils,
+            names: debug_utils_available,
+            validation,
+            layer_present,
+            validation_enabled: want_validation,
+            surface: surface_wanted,
+            memory_budget,
+            owns_device: true,
+        })
+    }
 
+    /// A context on a device the caller created and keeps: gregvox makes its allocator, command pool and
+    /// pipelines on it, destroys only those, and submits to `device.queue` only from the calls that say
+    /// they submit (`one_shot` and the uploads and read-backs built on it). Work recorded into the
+    /// caller's own command buffers goes through [`Context::begin_external`].
+    ///
+    /// # Safety
+    /// - Every handle in `device` is valid; `device.device` was created from `device.physical_device` of
+    ///   `device.instance` with at least what [`DeviceRequirements::query`] lists enabled, at
+    ///   `device.api_version`; `device.queue` is queue 0 or another queue of family `device.queue_family`
+    ///   of that device, and `device.enabled_features` are the core features it was created with.
+    /// - The instance and the device outlive this context and every object made from it (drop them all
+    ///   before `vkDestroyDevice`).
+    /// - While a gregvox call that submits or waits runs (and while the context is dropped, which waits
+    ///   for the device), no other thread uses the queue.
+    pub unsafe fn from_external(device: &ExternalDevice) -> Result<Context> {
+        let memory_budget = match device.memory_budget {
+            Some(b) => Some(b),
+            None => memory_budget_from_env()?,
+        };
+        let instance = &device.instance;
+        let pd = device.physical_device;
+        let api = device.api_version;
+        if api < vk::API_VERSION_1_2 {
+            return Err(Error::NoDevice(format!(
+                "the caller's instance was created for Vulkan {}; gregvox needs 1.2",
+                vk_version_string(api)
+            )));
+        }
+        let req = DeviceRequirements::query(instance, pd, api)?;
+        // SAFETY: the caller's promise: a valid physical device of the instance.
+        let families = unsafe { instance.get_physical_device_queue_family_properties(pd) };
+        let family_ok = families.get(device.queue_family as usize).is_some_and(|f| {
+            f.queue_flags
+                .contains(vk::QueueFlags::GRAPHICS | vk::QueueFlags::COMPUTE)
+        });
+        if !family_ok {
+            return Err(Error::NoDevice(format!(
+                "queue family {} of the caller's device does not do graphics and compute",
+                device.queue_family
+            )));
+        }
+        let on = |enabled: vk::Bool32, supported: bool| enabled == vk::TRUE && supported;
+        let f = &device.enabled_features;
+        let s = req.supported;
+        let features = OptionalFeatures {
+            fill_mode_non_solid: on(f.fill_mode_non_solid, s.fill_mode_non_solid),
+            tessellation_shader: on(f.tessellation_shader, s.tessellation_shader),
+            geometry_shader: on(f.geometry_shader, s.geometry_shader),
+            fragment_stores_and_atomics: on(
+                f.fragment_stores_and_atomics,
+                s.fragment_stores_and_atomics,
+            ),
+            vertex_pipeline_stores_and_atomics: on(
+                f.vertex_pipeline_stores_and_atomics,
+                s.vertex_pipeline_stores_and_atomics,
+            ),
+            shader_int64: on(f.shader_int64, s.shader_int64),
+            shader_float64: on(f.shader_float64, s.shader_float64),
+            pipeline_statistics_query: on(f.pipeline_statistics_query, s.pipeline_statistics_query),
+            wide_lines: on(f.wide_lines, s.wide_lines),
+        };
+        let validation = Arc::new(ValidationSink::default());
+        let debug_utils = if device.debug_utils {
+            let loader = ash::ext::debug_utils::Instance::new(&device.entry, instance);
+            let info = messenger_info(Arc::as_ptr(&validation) as *mut std::ffi::c_void);
+            // SAFETY: the caller's promise: the instance has VK_EXT_debug_utils enabled.
+            let messenger = unsafe { loader.create_debug_utils_messenger(&info, None) }
+                .vk("vkCreateDebugUtilsMessengerEXT")?;
+            Some((loader, messenger))
+        } else {
+            None
+        };
+        // SAFETY: valid physical device.
+        let props = unsafe { instance.get_physical_device_properties(pd) };
+        Context::assemble(Assembly {
+            entry: device.entry.clone(),
+            instance: instance.clone(),
+            physical_device: pd,
+            device: device.device.clone(),
+            queue: device.queue,
+            queue_family: device.queue_family,
+            name: cstr_array(&props.device_name),
+            core13: req.core13,
+            features,
+            debug_utils,
+            names: device.debug_utils,
+            validation,
+            layer_present: validation_layer_present(&device.entry),
+            validation_enabled: false,
+            surface: false,
+            memory_budget,
+            owns_device: false,
+        })
+    }
+
+    /// The part of context creation shared by the owned and the borrowed device: the allocator, the
+    /// release queue, the one-shot pool, the report and the extension loaders.
+    fn assemble(a: Assembly) -> Result<Context> {
+        let Assembly {
+            entry,
+            instance,
+            physical_device: pd,
+            device,
+            queue,
+            queue_family,
+            name,
+            core13,
+            features: opt,
+            debug_utils,
+            names,
+            validation,
+            layer_present,
+            validation_enabled,
+            surface: surface_wanted,
+            memory_budget,
+            owns_device,
+        } = a;
         let allocator = Allocator::new(&AllocatorCreateDesc {
             instance: instance.clone(),
             device: device.clone(),
@@ -514,8 +602,16 @@ impl Context {
         let allocator = match allocator {
             Ok(a) => a,
             Err(e) => {
-                // SAFETY: nothing has been created from the device yet.
-                unsafe { device.destroy_device(None) };
+                // SAFETY: nothing has been created from the device yet; only what gregvox made is destroyed.
+                unsafe {
+                    if let Some((loader, m)) = &debug_utils {
+                        loader.destroy_debug_utils_messenger(*m, None);
+                    }
+                    if owns_device {
+                        device.destroy_device(None);
+                        instance.destroy_instance(None);
+                    }
+                }
                 return Err(Error::Alloc {
                     name: "allocator".into(),
                     bytes: 0,
@@ -527,9 +623,8 @@ impl Context {
             surface_wanted.then(|| ash::khr::surface::Instance::new(&entry, &instance));
         let swapchain_device =
             surface_wanted.then(|| ash::khr::swapchain::Device::new(&instance, &device));
-        // From here on the shared device owns the instance, the device and the allocator and destroys them
-        // when the last owner goes, on any error below too.
-        std::mem::forget(partial);
+        // From here on the shared device owns the allocator (and, when `owns_device`, the instance and the
+        // device) and destroys them when the last owner goes, on any error below too.
         let shared = DeviceShared::new(DeviceParts {
             entry: entry.clone(),
             instance: instance.clone(),
@@ -540,9 +635,10 @@ impl Context {
             allocator,
             memory_budget,
             validation: validation.clone(),
+            owns_device,
         });
         let pool_info = vk::CommandPoolCreateInfo::default()
-            .queue_family_index(chosen.family)
+            .queue_family_index(queue_family)
             .flags(
                 vk::CommandPoolCreateFlags::TRANSIENT
                     | vk::CommandPoolCreateFlags::RESET_COMMAND_BUFFER,
@@ -552,6 +648,8 @@ impl Context {
             unsafe { device.create_command_pool(&pool_info, None) }.vk("vkCreateCommandPool")?;
 
         // Gather the report.
+        // SAFETY: valid physical device.
+        let props = unsafe { instance.get_physical_device_properties(pd) };
         let mut driver_props = vk::PhysicalDeviceDriverProperties::default();
         let mut subgroup = vk::PhysicalDeviceSubgroupProperties::default();
         let mut maintenance3 = vk::PhysicalDeviceMaintenance3Properties::default();
@@ -572,15 +670,15 @@ impl Context {
             .max()
             .unwrap_or(0);
         let l = props.limits;
-        let ts_bits = families[chosen.family as usize].timestamp_valid_bits;
+        let ts_bits = families[queue_family as usize].timestamp_valid_bits;
         let info = DeviceInfo {
-            name: chosen.name.clone(),
+            name,
             device_type: type_name(props.device_type).into(),
             vendor_id: props.vendor_id,
             device_id: props.device_id,
             driver_name: cstr_array(&driver_props.driver_name),
             driver_info: cstr_array(&driver_props.driver_info),
-            api_version: vk_version_string(device_api),
+            api_version: vk_version_string(props.api_version),
             driver_version: props.driver_version,
             max_storage_buffer_range: l.max_storage_buffer_range,
             max_compute_work_group_count: l.max_compute_work_group_count,
@@ -600,11 +698,11 @@ impl Context {
             device_local_heap_bytes,
             memory_types: mem.memory_type_count as usize,
             validation_layer_present: layer_present,
-            validation_enabled: want_validation,
+            validation_enabled,
             features: opt,
         };
         let debug_utils_device =
-            debug_utils_available.then(|| ash::ext::debug_utils::Device::new(&instance, &device));
+            names.then(|| ash::ext::debug_utils::Device::new(&instance, &device));
         let (sync2_ext, dynamic_rendering_ext) = if core13 {
             (None, None)
         } else {
@@ -621,7 +719,7 @@ impl Context {
             physical_device: pd,
             device,
             queue,
-            queue_family: chosen.family,
+            queue_family,
             limits: l,
             info,
             validation,
@@ -633,7 +731,9 @@ impl Context {
             surface_instance,
             swapchain_device,
         };
-        ctx.set_name(ctx.queue, "main queue");
+        if owns_device {
+            ctx.set_name(ctx.queue, "main queue");
+        }
         Ok(ctx)
     }
 
@@ -866,6 +966,29 @@ impl Context {
         };
     }
 
+    /// Starts recording gregvox work into a command buffer of the caller's: what gregvox drops until the
+    /// returned bracket ends waits for that command buffer's submission (see `gpu::external`). Polls the
+    /// caller's earlier submissions first, so the release queue drains frame by frame.
+    pub fn begin_external(&self) -> Result<ExternalRecording<'_>> {
+        self.poll_external()?;
+        self.shared.begin_recording();
+        Ok(ExternalRecording {
+            ctx: self,
+            open: true,
+        })
+    }
+
+    /// Destroys what waited for submissions of the caller's that have completed (their timeline
+    /// semaphores reached the values given to [`ExternalRecording::submitted`]).
+    pub fn poll_external(&self) -> Result<()> {
+        self.shared.poll_external()
+    }
+
+    /// Whether the instance and the device are gregvox's own (false: lent by the caller).
+    pub fn owns_device(&self) -> bool {
+        self.shared.owns_device()
+    }
+
     /// Waits until the device is idle; then everything dropped so far is destroyed.
     pub fn wait_idle(&self) -> Result<()> {
         // SAFETY: valid device.
@@ -873,6 +996,48 @@ impl Context {
         self.shared.idle();
         Ok(())
     }
+}
+
+/// The messenger gregvox creates: validation, performance and general messages of warning severity and
+/// up (and info, for the log) into the sink at `sink`.
+fn messenger_info(sink: *mut std::ffi::c_void) -> vk::DebugUtilsMessengerCreateInfoEXT<'static> {
+    vk::DebugUtilsMessengerCreateInfoEXT::default()
+        .message_severity(
+            vk::DebugUtilsMessageSeverityFlagsEXT::ERROR
+                | vk::DebugUtilsMessageSeverityFlagsEXT::WARNING
+                | vk::DebugUtilsMessageSeverityFlagsEXT::INFO,
+        )
+        .message_type(
+            vk::DebugUtilsMessageTypeFlagsEXT::GENERAL
+                | vk::DebugUtilsMessageTypeFlagsEXT::VALIDATION
+                | vk::DebugUtilsMessageTypeFlagsEXT::PERFORMANCE,
+        )
+        .pfn_user_callback(Some(messenger_callback))
+        .user_data(sink)
+}
+
+/// What [`Context::assemble`] takes over: a device (created by gregvox or borrowed) and its report.
+struct Assembly {
+    entry: ash::Entry,
+    instance: ash::Instance,
+    physical_device: vk::PhysicalDevice,
+    device: ash::Device,
+    queue: vk::Queue,
+    queue_family: u32,
+    name: String,
+    core13: bool,
+    /// The optional features enabled on the device.
+    features: OptionalFeatures,
+    /// gregvox's messenger (destroyed with the device shared state).
+    debug_utils: Option<(ash::ext::debug_utils::Instance, vk::DebugUtilsMessengerEXT)>,
+    /// Whether objects get debug-utils names.
+    names: bool,
+    validation: Arc<ValidationSink>,
+    layer_present: bool,
+    validation_enabled: bool,
+    surface: bool,
+    memory_budget: Option<u64>,
+    owns_device: bool,
 }
 
 /// Destroys what a half-built context created, if `Context::with_desc` fails part-way.

@@ -4,11 +4,13 @@
 //! - The instance, the device and the memory allocator live in one [`DeviceShared`], reference-counted.
 //!   Every owning value ([`crate::gpu::Buffer`], [`crate::gpu::Image`], the pipelines, [`Owned`] handles,
 //!   [`crate::gpu::Frames`], …) holds an `Arc` of it, so the device is destroyed only after the last object
-//!   made from it: a drop can never reach a destroyed device, whatever the order of drops.
+//!   made from it: a drop can never reach a destroyed device, whatever the order of drops. A device lent by
+//!   the caller (`Context::from_external`) is not destroyed at all: only gregvox's own objects are.
 //! - Dropping an owner never destroys a handle the GPU may still use. It hands the handle to the release
 //!   queue, stamped with the serial of the last queue submission that could reference it; the queue destroys
 //!   it once that submission is known to be complete (a fence waited on by `Context::one_shot`,
-//!   `Frames::begin`, `Context::wait_idle`). Queue submissions complete in order (a fence signal covers all
+//!   `Frames::begin`, `Context::wait_idle`, or, for work recorded into a caller's command buffers, the
+//!   caller's timeline semaphore: `gpu::external`). Queue submissions complete in order (a fence signal covers all
 //!   earlier submissions on the queue), so one "completed" serial is enough.
 //! - A handle dropped while a command buffer is being recorded may be referenced by that recording, which has
 //!   no serial yet: it is *pinned* until the submission that closes the last open recording, and stamped with
@@ -128,6 +130,9 @@ struct ReleaseQueue {
     pinned: Vec<Retired>,
     /// Stamped with the serial that must complete first.
     pending: Vec<(u64, Retired)>,
+    /// Submissions of the caller's (a borrowed device): serial, and the timeline semaphore value that
+    /// says it completed.
+    external: Vec<(u64, vk::Semaphore, u64)>,
 }
 
 impl ReleaseQueue {
@@ -156,6 +161,8 @@ pub struct DeviceShared {
     memory_budget: Option<u64>,
     queue: Mutex<ReleaseQueue>,
     validation: Arc<ValidationSink>,
+    /// Whether the instance and the device are gregvox's to destroy (false: lent by the caller).
+    owns_device: bool,
     // Keeps the loader library mapped until the instance is gone.
     _entry: ash::Entry,
 }
@@ -180,6 +187,7 @@ pub(crate) struct DeviceParts {
     pub allocator: Allocator,
     pub memory_budget: Option<u64>,
     pub validation: Arc<ValidationSink>,
+    pub owns_device: bool,
 }
 
 /// Validation messages received by devices of this process that have been destroyed (including the layer's
@@ -199,6 +207,7 @@ impl DeviceShared {
             memory_budget: parts.memory_budget,
             queue: Mutex::new(ReleaseQueue::default()),
             validation: parts.validation,
+            owns_device: parts.owns_device,
             _entry: parts.entry,
         })
     }
@@ -298,6 +307,8 @@ impl DeviceShared {
         let done = {
             let mut q = self.queue();
             q.completed = q.completed.max(serial);
+            let c = q.completed;
+            q.external.retain(|&(s, _, _)| s > c);
             q.take_complete()
         };
         for item in done {
@@ -306,10 +317,47 @@ impl DeviceShared {
         }
     }
 
+    /// A recording into a caller's command buffer ends with its submission, which signals `semaphore` to
+    /// `value` when complete (see `gpu::external`).
+    pub(crate) fn external_submitted(&self, semaphore: vk::Semaphore, value: u64) {
+        let serial = self.next_serial();
+        self.queue().external.push((serial, semaphore, value));
+        self.end_recording();
+    }
+
+    /// Reads the timeline semaphores of the caller's submissions and destroys what waited for those
+    /// that completed.
+    pub(crate) fn poll_external(&self) -> Result<()> {
+        let waiting: Vec<(u64, vk::Semaphore, u64)> = self.queue().external.clone();
+        let mut done = 0;
+        for &(serial, semaphore, value) in &waiting {
+            // SAFETY: the caller promised the semaphore is a live timeline semaphore of this device.
+            let now = unsafe { self.device.get_semaphore_counter_value(semaphore) }.map_err(
+                |result| Error::Vulkan {
+                    call: "vkGetSemaphoreCounterValue",
+                    result,
+                },
+            )?;
+            if now >= value {
+                done = done.max(serial);
+            }
+        }
+        if done > 0 {
+            self.queue().external.retain(|&(s, _, _)| s > done);
+            self.completed(done);
+        }
+        Ok(())
+    }
+
     /// The device is idle: every submission so far is complete.
     pub(crate) fn idle(&self) {
         let serial = self.queue().submitted;
         self.completed(serial);
+    }
+
+    /// Whether the instance and the device are gregvox's to destroy.
+    pub(crate) fn owns_device(&self) -> bool {
+        self.owns_device
     }
 
     /// Objects waiting in the release queue (pending and pinned).
@@ -326,6 +374,7 @@ impl DeviceShared {
             let mut items: Vec<Retired> = q.pending.drain(..).map(|(_, i)| i).collect();
             items.append(&mut q.pinned);
             q.completed = q.submitted;
+            q.external.clear();
             items
         };
         for item in items {
@@ -404,18 +453,23 @@ impl DeviceShared {
 impl Drop for DeviceShared {
     fn drop(&mut self) {
         // Every owner is gone: whatever is still queued can go, then the allocator (it frees its memory
-        // blocks through the device), the device, the messenger and the instance, in that order.
+        // blocks through the device), the device, the messenger and the instance, in that order; a lent
+        // device and its instance stay, as the caller's.
         self.shut_down_queue();
         // SAFETY: nothing made from this device exists any more (every owner held an Arc of `self`).
         unsafe {
             ManuallyDrop::drop(&mut self.allocator);
-            self.device.destroy_device(None);
+            if self.owns_device {
+                self.device.destroy_device(None);
+            }
             // The layer reports undestroyed objects during vkDestroyDevice: count after it.
             VALIDATION_MESSAGES.fetch_add(self.validation.count() as u64, Ordering::SeqCst);
             if let Some((loader, messenger)) = self.debug_utils.take() {
                 loader.destroy_debug_utils_messenger(messenger, None);
             }
-            self.instance.destroy_instance(None);
+            if self.owns_device {
+                self.instance.destroy_instance(None);
+            }
         }
     }
 }

@@ -2,6 +2,7 @@
 //! pipeline builders, generated shader statics, profiler, present targets. Knows no geometry.
 pub mod context;
 pub mod debug;
+pub mod external;
 pub mod frames;
 pub mod lifetime;
 pub mod pipeline;
@@ -11,7 +12,8 @@ pub mod resources;
 #[cfg(feature = "window")]
 pub mod swapchain;
 
-pub use context::{Context, ContextDesc, DeviceInfo, Validation};
+pub use context::{Context, ContextDesc, DeviceInfo, OptionalFeatures, Validation};
+pub use external::{DeviceRequirements, ExternalDevice, ExternalRecording};
 pub use frames::Frames;
 pub use lifetime::{Owned, OwnedHandle};
 pub use present::{OffscreenTarget, PresentTarget, TargetImage};

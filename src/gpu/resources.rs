@@ -638,6 +638,29 @@ pub fn image_barrier(
     );
 }
 
+/// A byte range of a buffer a pass writes into: all of one of gregvox's own ([`From<&Buffer>`]) or a
+/// range of a caller's buffer (whose usage flags and alignment the caller vouches for; see
+/// `api::VertexTarget`).
+#[derive(Clone, Copy, Debug)]
+pub struct BufferRange<'a> {
+    pub buffer: vk::Buffer,
+    pub offset: u64,
+    pub size: u64,
+    /// What to call it in messages.
+    pub name: &'a str,
+}
+
+impl<'a> From<&'a Buffer> for BufferRange<'a> {
+    fn from(b: &'a Buffer) -> Self {
+        BufferRange {
+            buffer: b.raw(),
+            offset: 0,
+            size: b.size(),
+            name: b.name(),
+        }
+    }
+}
+
 /// Records a global memory barrier.
 pub fn memory_barrier(
     ctx: &Context,

@@ -10,7 +10,7 @@
 //! patch's own grid at the start of its fixed slot; vertices past a patch's grid in its slot are not written.
 use crate::error::{Error, Result};
 use crate::gpu::pipeline::{Binding, ComputePipeline, DescriptorSetLayoutBuilder};
-use crate::gpu::resources::{compute_writes_to_readers, storage_chunks};
+use crate::gpu::resources::{compute_writes_to_readers, storage_chunks, BufferRange};
 use crate::gpu::{shaders, Buffer, Context};
 use ash::vk;
 
@@ -132,12 +132,31 @@ pub fn patch_batches(ctx: &Context, patch_count: u32, slot_bytes: u64) -> Result
 }
 
 /// The output range of patches `first..first + count` with `slot_bytes` each.
-pub fn output_range(out: &Buffer, first: u32, count: u32, slot_bytes: u64) -> Binding {
+pub fn output_range(out: BufferRange, first: u32, count: u32, slot_bytes: u64) -> Binding {
     Binding::StorageRange {
-        buffer: out.raw(),
-        offset: first as u64 * slot_bytes,
+        buffer: out.buffer,
+        offset: out.offset + first as u64 * slot_bytes,
         range: count as u64 * slot_bytes,
     }
+}
+
+/// Checks that `out` holds `n` surface vertices and starts where a storage binding may.
+fn check_output(ctx: &Context, out: BufferRange, n: u64) -> Result<()> {
+    if n * std::mem::size_of::<SurfaceVertex>() as u64 > out.size {
+        return Err(Error::Invalid(format!(
+            "{n} vertices do not fit buffer '{}' ({} bytes)",
+            out.name, out.size
+        )));
+    }
+    let align = ctx.limits.min_storage_buffer_offset_alignment.max(1);
+    if out.offset % align != 0 {
+        return Err(Error::Invalid(format!(
+            "buffer '{}' is written from byte {}, which is not a multiple of the device's \
+             minStorageBufferOffsetAlignment ({align})",
+            out.name, out.offset
+        )));
+    }
+    Ok(())
 }
 
 /// Patches each workgroup of the uniform pass evaluates in turn at `level`: on a CPU device up to 8, so that
@@ -225,7 +244,7 @@ impl GregoryEvalPass {
 
     /// Records the evaluation of `patch_count` patches at `level` (1…64) into `out`.
     #[allow(clippy::too_many_arguments)]
-    pub fn record(
+    pub fn record<'o>(
         &self,
         ctx: &Context,
         cmd: vk::CommandBuffer,
@@ -235,8 +254,9 @@ impl GregoryEvalPass {
         patch_count: u32,
         level: u32,
         canonical_edges: bool,
-        out: &Buffer,
+        out: impl Into<BufferRange<'o>>,
     ) -> Result<()> {
+        let out = out.into();
         if self.adaptive {
             return Err(Error::Invalid(
                 "the adaptive evaluation pass records with record_adaptive".into(),
@@ -247,13 +267,7 @@ impl GregoryEvalPass {
                 "tessellation level {level} is outside 1…{MAX_LEVEL}"
             )));
         }
-        let n = vertex_count(patch_count, level);
-        if n * 32 > out.size() {
-            return Err(Error::Invalid(format!(
-                "{n} vertices do not fit buffer '{}'",
-                out.name()
-            )));
-        }
+        check_output(ctx, out, vertex_count(patch_count, level))?;
         let slot = (level as u64 + 1).pow(2) * std::mem::size_of::<SurfaceVertex>() as u64;
         for (first, count) in patch_batches(ctx, patch_count, slot)? {
             let ppw = self
@@ -290,7 +304,7 @@ impl GregoryEvalPass {
     /// slot of (`l_max`+1)² (slot p starts at vertex p·(`l_max`+1)²), with its boundary rows snapped to the
     /// edge levels. `l_max` must be the maximum the levels were computed with.
     #[allow(clippy::too_many_arguments)]
-    pub fn record_adaptive(
+    pub fn record_adaptive<'o>(
         &self,
         ctx: &Context,
         cmd: vk::CommandBuffer,
@@ -300,8 +314,9 @@ impl GregoryEvalPass {
         patch_count: u32,
         l_max: u32,
         adaptive: &AdaptiveInputs,
-        out: &Buffer,
+        out: impl Into<BufferRange<'o>>,
     ) -> Result<()> {
+        let out = out.into();
         if !self.adaptive {
             return Err(Error::Invalid(
                 "the uniform evaluation pass cannot record adaptive levels (use new_adaptive)"
@@ -313,13 +328,7 @@ impl GregoryEvalPass {
                 "adaptive maximum level {l_max} is outside 1…{MAX_LEVEL}"
             )));
         }
-        let n = vertex_count(patch_count, l_max);
-        if n * 32 > out.size() {
-            return Err(Error::Invalid(format!(
-                "{n} vertices do not fit buffer '{}'",
-                out.name()
-            )));
-        }
+        check_output(ctx, out, vertex_count(patch_count, l_max))?;
         let slot = (l_max as u64 + 1).pow(2) * std::mem::size_of::<SurfaceVertex>() as u64;
         for (first, count) in patch_batches(ctx, patch_count, slot)? {
             let push = Push {

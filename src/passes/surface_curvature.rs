@@ -90,7 +90,7 @@ impl SurfaceCurvaturePass {
             let bindings = [
                 (0, Binding::Storage(points.raw())),
                 (1, Binding::Storage(patch_points.raw())),
-                (2, output_range(out, first, count, slot)),
+                (2, output_range(out.into(), first, count, slot)),
             ];
             self.pipeline
                 .bind(ctx, cmd, &bindings, bytemuck::bytes_of(&push));

@@ -1,0 +1,459 @@
+//! gregvox inside someone else's renderer: a device the caller creates and keeps, gregvox's work recorded
+//! into the caller's command buffers, and what is left when gregvox is gone.
+//!
+//! The host is `examples/ash_host.rs` (a plain ash program with its own instance, device, pipelines and
+//! shaders), run under the validation layer with synchronization validation; its frames are compared
+//! with gregvox's own surface renderer (`passes::surface_draw`, normals mode) at the same camera.
+mod common;
+
+#[allow(dead_code)]
+#[path = "../examples/ash_host.rs"]
+mod ash_host;
+
+use ash::vk;
+use common::validated_gpu;
+use gregvox::api::{Deformation, SurfaceBuffers, SurfaceUpdate, VertexTarget};
+use gregvox::gpu::resources::image_barrier;
+use gregvox::gpu::{ImageDesc, MemoryLocation};
+use gregvox::passes::surface_draw::{DrawTarget, SurfaceDrawPass, SurfacePush};
+
+/// Fraction of pixels whose channels differ by more than `slack`.
+fn differing(a: &[u8], b: &[u8], slack: u8) -> f64 {
+    let n = a.len() / 4;
+    let count = a
+        .chunks_exact(4)
+        .zip(b.chunks_exact(4))
+        .filter(|(p, q)| p.iter().zip(q.iter()).any(|(x, y)| x.abs_diff(*y) > slack))
+        .count();
+    count as f64 / n as f64
+}
+
+/// The host's clear colour as the 8-bit pixel it becomes.
+fn clear_pixel() -> [u8; 4] {
+    ash_host::CLEAR.map(|c| (c * 255.0).round() as u8)
+}
+
+/// Pixels that are not the clear colour.
+fn drawn(px: &[u8]) -> usize {
+    let bg = clear_pixel();
+    px.chunks_exact(4)
+        .filter(|p| p.iter().zip(bg).any(|(a, b)| a.abs_diff(b) > 1))
+        .count()
+}
+
+fn pixel(px: &[u8], w: u32, x: u32, y: u32) -> [u8; 4] {
+    let i = ((y * w + x) * 4) as usize;
+    [px[i], px[i + 1], px[i + 2], px[i + 3]]
+}
+
+#[test]
+fn a_caller_device_drives_100_deforming_frames_and_is_left_with_nothing_of_gregvox() {
+    let opts = ash_host::HostOptions {
+        frames: 100,
+        keep: vec![0, 50, 99],
+        validation: true,
+        level_change_at: Some(60),
+        second_surface_until: Some(30),
+        ..Default::default()
+    };
+    let run = ash_host::run(&opts).expect("the ash host runs");
+    assert!(
+        run.validation_messages.is_empty(),
+        "{} validation message(s):\n{}",
+        run.validation_messages.len(),
+        run.validation_messages.join("\n")
+    );
+    assert!(
+        run.gregvox_allocations_left.is_empty(),
+        "gregvox allocations left after its surface was dropped: {:?}",
+        run.gregvox_allocations_left
+    );
+    assert_eq!(run.frames.len(), 3);
+    let (w, h) = (opts.width, opts.height);
+    for (f, px) in &run.frames {
+        // The surface covers a good part of the frame; the host's own triangle is in its corner.
+        let n = drawn(px);
+        assert!(n > (w * h / 20) as usize, "frame {f}: {n} pixels drawn");
+        let corner = pixel(px, w, 12, h - 12);
+        assert!(
+            corner[0] > 150 && corner[2] < 120,
+            "frame {f}: corner {corner:?}"
+        );
+    }
+    // The surface deforms from frame to frame.
+    let d = differing(&run.frames[0].1, &run.frames[2].1, 8);
+    assert!(d > 0.01, "frames 0 and 99 differ in {d} of the pixels");
+    // After gregvox was destroyed the host still draws with its own objects: its triangle, no surface.
+    let after = &run.after_gregvox;
+    assert!(pixel(after, w, 12, h - 12)[0] > 150);
+    assert_eq!(pixel(after, w, w / 2, h / 2), clear_pixel());
+    let own = drawn(after);
+    assert!(own > 100 && own < (w * h / 10) as usize, "{own} pixels");
+}
+
+#[test]
+fn the_host_frame_equals_gregvox_own_renderer_at_the_same_camera() {
+    let frame = 37;
+    let opts = ash_host::HostOptions {
+        frames: frame + 1,
+        keep: vec![frame],
+        scene: false,
+        validation: true,
+        ..Default::default()
+    };
+    let run = ash_host::run(&opts).expect("the ash host runs");
+    assert!(
+        run.validation_messages.is_empty(),
+        "{:?}",
+        run.validation_messages
+    );
+    let host_px = &run.frames[0].1;
+    let (w, h) = (opts.width, opts.height);
+
+    // gregvox's own device and renderer: the same cage and deformation, drawn by the surface pass.
+    let gpu = validated_gpu();
+    let own = {
+        let ctx = gpu.context();
+        let cage = gregvox::engine::cage::builtin_cage(4, 2, 2);
+        let mut surface = gpu.gregory_surface(&cage, opts.level).unwrap();
+        surface
+            .deform(
+                opts.deformation,
+                frame as f32 * opts.time_step,
+                opts.amplitude,
+            )
+            .unwrap();
+        let color_format = vk::Format::R8G8B8A8_UNORM;
+        let depth_format = vk::Format::D32_SFLOAT;
+        let pass = SurfaceDrawPass::new(ctx, color_format, depth_format).unwrap();
+        let color = ctx
+            .create_image(
+                "own color",
+                &ImageDesc::d2(
+                    w,
+                    h,
+                    color_format,
+                    vk::ImageUsageFlags::COLOR_ATTACHMENT | vk::ImageUsageFlags::TRANSFER_SRC,
+                ),
+            )
+            .unwrap();
+        let depth = ctx
+            .create_image(
+                "own depth",
+                &ImageDesc::d2(
+                    w,
+                    h,
+                    depth_format,
+                    vk::ImageUsageFlags::DEPTH_STENCIL_ATTACHMENT,
+                ),
+            )
+            .unwrap();
+        let readback = ctx
+            .create_buffer(
+                "own readback",
+                w as u64 * h as u64 * 4,
+                vk::BufferUsageFlags::TRANSFER_DST,
+                MemoryLocation::GpuToCpu,
+            )
+            .unwrap();
+        let push = SurfacePush {
+            view_proj: run.view_proj.to_cols_array_2d(),
+            eye: [run.eye.x, run.eye.y, run.eye.z, 1.0],
+            light: [0.0, 0.0, 1.0, 0.2],
+            color: [1.0; 4],
+            mode: [1, opts.level, 0, 0],
+        };
+        ctx.one_shot(|cmd| {
+            image_barrier(
+                ctx,
+                cmd,
+                color.raw(),
+                color.range(),
+                vk::ImageLayout::UNDEFINED,
+                vk::ImageLayout::COLOR_ATTACHMENT_OPTIMAL,
+                (
+                    vk::PipelineStageFlags2::COLOR_ATTACHMENT_OUTPUT,
+                    vk::AccessFlags2::NONE,
+                ),
+                (
+                    vk::PipelineStageFlags2::COLOR_ATTACHMENT_OUTPUT,
+                    vk::AccessFlags2::COLOR_ATTACHMENT_WRITE,
+                ),
+            );
+            image_barrier(
+                ctx,
+                cmd,
+                depth.raw(),
+                depth.range(),
+                vk::ImageLayout::UNDEFINED,
+                vk::ImageLayout::DEPTH_ATTACHMENT_OPTIMAL,
+                (
+                    vk::PipelineStageFlags2::EARLY_FRAGMENT_TESTS,
+                    vk::AccessFlags2::NONE,
+                ),
+                (
+                    vk::PipelineStageFlags2::EARLY_FRAGMENT_TESTS
+                        | vk::PipelineStageFlags2::LATE_FRAGMENT_TESTS,
+                    vk::AccessFlags2::DEPTH_STENCIL_ATTACHMENT_WRITE
+                        | vk::AccessFlags2::DEPTH_STENCIL_ATTACHMENT_READ,
+                ),
+            );
+            let e = surface.engine();
+            pass.record(
+                ctx,
+                cmd,
+                &DrawTarget {
+                    color: color.view(),
+                    depth: depth.view(),
+                    extent: vk::Extent2D {
+                        width: w,
+                        height: h,
+                    },
+                },
+                Some(ash_host::CLEAR),
+                e.vertices(),
+                e.indices(),
+                e.index_count(),
+                &push,
+            );
+            image_barrier(
+                ctx,
+                cmd,
+                color.raw(),
+                color.range(),
+                vk::ImageLayout::COLOR_ATTACHMENT_OPTIMAL,
+                vk::ImageLayout::TRANSFER_SRC_OPTIMAL,
+                (
+                    vk::PipelineStageFlags2::COLOR_ATTACHMENT_OUTPUT,
+                    vk::AccessFlags2::COLOR_ATTACHMENT_WRITE,
+                ),
+                (
+                    vk::PipelineStageFlags2::COPY,
+                    vk::AccessFlags2::TRANSFER_READ,
+                ),
+            );
+            let copy = vk::BufferImageCopy::default()
+                .image_subresource(vk::ImageSubresourceLayers {
+                    aspect_mask: vk::ImageAspectFlags::COLOR,
+                    mip_level: 0,
+                    base_array_layer: 0,
+                    layer_count: 1,
+                })
+                .image_extent(vk::Extent3D {
+                    width: w,
+                    height: h,
+                    depth: 1,
+                });
+            // SAFETY: recording; the image is in TRANSFER_SRC_OPTIMAL and the buffer large enough.
+            unsafe {
+                ctx.device.cmd_copy_image_to_buffer(
+                    cmd,
+                    color.raw(),
+                    vk::ImageLayout::TRANSFER_SRC_OPTIMAL,
+                    readback.raw(),
+                    &[copy],
+                )
+            };
+            gregvox::gpu::resources::memory_barrier(
+                ctx,
+                cmd,
+                (
+                    vk::PipelineStageFlags2::COPY,
+                    vk::AccessFlags2::TRANSFER_WRITE,
+                ),
+                (vk::PipelineStageFlags2::HOST, vk::AccessFlags2::HOST_READ),
+            );
+            Ok(())
+        })
+        .unwrap();
+        readback.mapped().unwrap().to_vec()
+    };
+    gpu.finish().unwrap();
+    assert!(drawn(&own) > (w * h / 20) as usize);
+    let d = differing(host_px, &own, 2);
+    assert!(
+        d <= 0.002,
+        "{:.3} % of the pixels differ between the host's frame and gregvox's own render",
+        d * 100.0
+    );
+}
+
+#[test]
+fn the_requirements_list_what_the_owned_path_enables_and_refuse_vulkan_1_1() {
+    let gpu = validated_gpu();
+    let ctx = gpu.context();
+    let req =
+        gregvox::api::Gpu::requirements(&ctx.instance, ctx.physical_device, vk::API_VERSION_1_3)
+            .unwrap();
+    assert!(req
+        .device_extensions
+        .contains(&ash::khr::push_descriptor::NAME));
+    assert_eq!(req.queue_family, ctx.queue_family);
+    if !req.core13 {
+        assert!(req
+            .device_extensions
+            .contains(&ash::khr::synchronization2::NAME));
+    }
+    // The optional features name what gregvox does without each.
+    let optional = req.optional();
+    assert_eq!(optional.len(), 9);
+    assert!(optional
+        .iter()
+        .any(|(name, _, without)| *name == "shaderFloat64" && without.contains("CPU")));
+    let err =
+        gregvox::api::Gpu::requirements(&ctx.instance, ctx.physical_device, vk::API_VERSION_1_1)
+            .unwrap_err()
+            .to_string();
+    assert!(err.contains("Vulkan 1.2"), "{err}");
+    assert!(ctx.owns_device());
+    drop(req);
+    gpu.finish().unwrap();
+}
+
+#[test]
+fn a_surface_evaluates_into_a_range_of_the_callers_buffer_as_into_its_own() {
+    let gpu = validated_gpu();
+    {
+        let ctx = gpu.context();
+        let cage = gregvox::engine::cage::builtin_cage(2, 2, 1);
+        let mut surface = gpu.gregory_surface(&cage, 3).unwrap();
+        let bytes = surface.vertex_bytes();
+        let align = ctx.limits.min_storage_buffer_offset_alignment.max(16);
+        let offset = 3 * align;
+        let theirs = ctx
+            .create_buffer(
+                "the caller's vertex buffer",
+                offset + bytes + 256,
+                vk::BufferUsageFlags::STORAGE_BUFFER
+                    | vk::BufferUsageFlags::VERTEX_BUFFER
+                    | vk::BufferUsageFlags::TRANSFER_SRC,
+                MemoryLocation::GpuOnly,
+            )
+            .unwrap();
+        let update = SurfaceUpdate {
+            deformation: Deformation::Bend,
+            t: 0.7,
+            amplitude: 0.3,
+            target: Some(VertexTarget {
+                buffer: theirs.raw(),
+                offset,
+                size: bytes,
+            }),
+        };
+        let recording = gpu.begin_recording().unwrap();
+        ctx.one_shot(|cmd| surface.record(cmd, &update)).unwrap();
+        drop(recording);
+        let got = ctx.read_buffer_range(&theirs, offset, bytes).unwrap();
+        // The same update into the surface's own buffer.
+        surface.deform(Deformation::Bend, 0.7, 0.3).unwrap();
+        let own: Vec<u8> = bytemuck::cast_slice(&surface.read_vertices().unwrap()).to_vec();
+        assert_eq!(got.len(), own.len());
+        let a: &[f32] = bytemuck::cast_slice(&got);
+        let b: &[f32] = bytemuck::cast_slice(&own);
+        let worst = a
+            .iter()
+            .zip(b)
+            .map(|(x, y)| (x - y).abs())
+            .fold(0.0f32, f32::max);
+        assert!(worst < 1e-5, "worst difference {worst}");
+        assert_eq!(
+            surface.buffers().vertex_bytes,
+            bytes,
+            "the buffers report the bytes a target needs"
+        );
+        assert_eq!(SurfaceBuffers::VERTEX_STRIDE, 32);
+
+        // A target that starts off the storage alignment, or is too short, is refused by name.
+        for (offset, size, what) in [
+            (align + 4, bytes, "minStorageBufferOffsetAlignment"),
+            (0, bytes - 32, "do not fit"),
+        ] {
+            let bad = SurfaceUpdate {
+                target: Some(VertexTarget {
+                    buffer: theirs.raw(),
+                    offset,
+                    size,
+                }),
+                ..SurfaceUpdate::default()
+            };
+            let err = ctx
+                .one_shot(|cmd| surface.record(cmd, &bad))
+                .unwrap_err()
+                .to_string();
+            assert!(err.contains(what), "{err}");
+        }
+        surface.set_level(4).unwrap();
+    }
+    gpu.finish().unwrap();
+}
+
+#[test]
+fn the_recorded_curvature_stream_equals_the_surface_curvature() {
+    let gpu = validated_gpu();
+    {
+        let ctx = gpu.context();
+        let cage = gregvox::engine::cage::builtin_cage(3, 2, 2);
+        let mut surface = gpu.gregory_surface(&cage, 5).unwrap();
+        surface.enable_curvature().unwrap();
+        surface.set_level(4).unwrap();
+        let update = SurfaceUpdate {
+            deformation: Deformation::Twist,
+            t: 0.4,
+            amplitude: 0.3,
+            target: None,
+        };
+        let bytes = surface.vertex_bytes() / 4; // (H, K): 8 bytes a vertex against 32
+        let out = ctx
+            .create_buffer(
+                "curvature read back",
+                bytes,
+                vk::BufferUsageFlags::TRANSFER_DST,
+                MemoryLocation::GpuToCpu,
+            )
+            .unwrap();
+        let curvature = surface.buffers().curvature.expect("curvature enabled");
+        ctx.one_shot(|cmd| {
+            surface.record(cmd, &update)?;
+            // SAFETY: recording; record's end barrier made the stream visible to transfers.
+            unsafe {
+                ctx.device.cmd_copy_buffer(
+                    cmd,
+                    curvature,
+                    out.raw(),
+                    &[vk::BufferCopy {
+                        src_offset: 0,
+                        dst_offset: 0,
+                        size: bytes,
+                    }],
+                )
+            };
+            gregvox::gpu::resources::memory_barrier(
+                ctx,
+                cmd,
+                (
+                    vk::PipelineStageFlags2::COPY,
+                    vk::AccessFlags2::TRANSFER_WRITE,
+                ),
+                (vk::PipelineStageFlags2::HOST, vk::AccessFlags2::HOST_READ),
+            );
+            Ok(())
+        })
+        .unwrap();
+        let got: Vec<[f32; 2]> = bytemuck::cast_slice(out.mapped().unwrap()).to_vec();
+        // The reference: the engine's curvature of the same control points (the ones just recorded).
+        let want = surface.engine().curvature(ctx).unwrap();
+        assert_eq!(got.len(), want.len());
+        let scale = want
+            .iter()
+            .flat_map(|c| [c[0].abs(), c[1].abs().sqrt()])
+            .fold(0.0f32, f32::max);
+        assert!(scale > 0.1, "a twisted box is curved: {scale}");
+        for (i, (g, w)) in got.iter().zip(&want).enumerate() {
+            assert!(
+                (g[0] - w[0]).abs() <= 1e-3 * scale && (g[1] - w[1]).abs() <= 1e-3 * scale * scale,
+                "vertex {i}: recorded {g:?}, engine {w:?}"
+            );
+        }
+    }
+    gpu.finish().unwrap();
+}
