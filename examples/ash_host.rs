@@ -8,15 +8,18 @@
 //!
 //! ```text
 //! cargo run --example ash_host -- --offscreen --frames 100 --out target/ash_host [--validation]
-//!     [--size 640x480] [--cage CAGE.obj] [--level 8]
+//!     [--size 640x480] [--cage CAGE.obj] [--level 8] [--adaptive 6]
 //! ```
+//!
+//! `--adaptive PIXELS`: screen-space adaptive tessellation (`--level` the maximum), per-patch levels and
+//! indirect draw commands recorded by gregvox into the host's command buffer every frame.
 //!
 //! Offscreen only: PNG frames into `--out` (the window path is gregvox's own demo). `tests/embedding.rs`
 //! runs [`run`] under the validation layer (synchronization validation included) and compares its
 //! frames with gregvox's own surface renderer.
 use anyhow::{anyhow, bail, Context as _, Result};
 use ash::vk;
-use gregvox::api::{Deformation, ExternalDevice, Gpu, Mesh, SurfaceUpdate};
+use gregvox::api::{AdaptiveParams, Deformation, ExternalDevice, Gpu, Mesh, SurfaceUpdate};
 use std::ffi::{c_void, CStr};
 use std::path::PathBuf;
 use std::sync::Mutex;
@@ -26,10 +29,12 @@ mod host_shaders {
     include!(concat!(env!("OUT_DIR"), "/example_shaders.rs"));
 }
 
+#[path = "support/host_camera.rs"]
+mod host_camera;
+pub use host_camera::{frame_cage, CLEAR};
+
 /// Frames the host keeps in flight.
 const FRAMES_IN_FLIGHT: usize = 2;
-/// The host's clear colour (linear RGBA).
-pub const CLEAR: [f32; 4] = [0.08, 0.09, 0.11, 1.0];
 const COLOR_FORMAT: vk::Format = vk::Format::R8G8B8A8_UNORM;
 const DEPTH_FORMAT: vk::Format = vk::Format::D32_SFLOAT;
 
@@ -60,6 +65,9 @@ pub struct HostOptions {
     /// Also draw a second, still surface up to this frame, and drop it right after submitting that frame
     /// (its buffers must wait in gregvox's release queue until the host's timeline says the frame is done).
     pub second_surface_until: Option<u32>,
+    /// Screen-space adaptive tessellation (`level` the maximum) at this many pixels per segment: gregvox
+    /// records per-patch levels and indirect commands each frame and `record_draw` draws them.
+    pub adaptive: Option<f32>,
 }
 
 impl Default for HostOptions {
@@ -79,6 +87,7 @@ impl Default for HostOptions {
             validation: false,
             level_change_at: None,
             second_surface_until: None,
+            adaptive: None,
         }
     }
 }
@@ -97,6 +106,8 @@ pub struct HostRun {
     /// gregvox allocations alive just before gregvox was dropped, after its last frame completed
     /// (the surface dropped first): must be none.
     pub gregvox_allocations_left: Vec<String>,
+    /// With `adaptive`: the per-patch levels of the last frame.
+    pub adaptive_levels: Vec<u32>,
 }
 
 unsafe extern "system" fn host_messenger(
@@ -129,19 +140,6 @@ unsafe extern "system" fn host_messenger(
         }
     }
     vk::FALSE
-}
-
-/// A camera that frames the box `lo`–`hi` (z up), as gregvox's demo places its own.
-pub fn camera(lo: glam::Vec3, hi: glam::Vec3, aspect: f32) -> (glam::Mat4, glam::Vec3) {
-    let centre = 0.5 * (lo + hi);
-    let radius = 0.5 * (hi - lo).length();
-    let eye = centre + radius * glam::Vec3::new(1.6, -2.2, 1.3);
-    let view = glam::Mat4::look_at_rh(eye, centre, glam::Vec3::Z);
-    let distance = (eye - centre).length();
-    let mut proj =
-        glam::Mat4::perspective_rh(0.8, aspect.max(1e-3), distance * 0.02, distance * 10.0);
-    proj.y_axis.y = -proj.y_axis.y;
-    (proj * view, eye)
 }
 
 /// An image with its memory and view (the host's own, made with plain Vulkan calls).
@@ -544,8 +542,15 @@ struct Frame<'h> {
 /// Records draws inside the host's render pass.
 type DrawFn<'a> = &'a dyn Fn(vk::CommandBuffer) -> Result<()>;
 
-/// What the frames with gregvox gave: the kept frames, the camera, gregvox's allocations left.
-type GregvoxFrames = (Vec<(u32, Vec<u8>)>, glam::Mat4, glam::Vec3, Vec<String>);
+/// What the frames with gregvox gave: the kept frames, the camera, gregvox's allocations left, the last
+/// adaptive levels.
+type GregvoxFrames = (
+    Vec<(u32, Vec<u8>)>,
+    glam::Mat4,
+    glam::Vec3,
+    Vec<String>,
+    Vec<u32>,
+);
 
 /// The host's push constants for gregvox's vertices.
 #[repr(C)]
@@ -943,16 +948,14 @@ fn run_on(host: &Host, opts: &HostOptions) -> Result<HostRun> {
             None => gregvox::engine::cage::builtin_cage(4, 2, 2),
         };
         let mut surface = gpu.gregory_surface(&cage, opts.level)?;
-        let rest = surface.rest_cage();
-        let lo = rest
-            .iter()
-            .fold(glam::DVec3::splat(f64::INFINITY), |a, p| a.min(*p))
-            .as_vec3();
-        let hi = rest
-            .iter()
-            .fold(glam::DVec3::splat(f64::NEG_INFINITY), |a, p| a.max(*p))
-            .as_vec3();
-        let (view_proj, eye) = camera(lo, hi, w as f32 / h as f32);
+        let (view_proj, eye) = frame_cage(surface.rest_cage(), w, h);
+        if let Some(pixels_per_segment) = opts.adaptive {
+            surface.set_adaptive(Some(AdaptiveParams {
+                view_proj,
+                viewport: [w as f32, h as f32],
+                pixels_per_segment,
+            }))?;
+        }
         let mut second = match opts.second_surface_until {
             Some(_) => Some(gpu.gregory_surface(&gregvox::engine::cage::builtin_cage(1, 1, 1), 2)?),
             None => None,
@@ -1044,11 +1047,16 @@ fn run_on(host: &Host, opts: &HostOptions) -> Result<HostRun> {
             finish_slot(f.take(), slot, &mut kept)?;
         }
         kept.sort_by_key(|(f, _)| *f);
+        // The last frame's per-patch levels (a one-shot read: the frames are done).
+        let levels = match opts.adaptive {
+            Some(_) => surface.engine().read_levels(gpu.context())?,
+            None => Vec::new(),
+        };
         drop(surface);
         gpu.context().poll_external()?;
         let left = gpu.context().live_allocations();
         gpu.finish()?;
-        Ok((kept, view_proj, eye, left))
+        Ok((kept, view_proj, eye, left, levels))
     })();
 
     // gregvox is gone (or failed); the host's own objects draw one more frame of its own.
@@ -1081,7 +1089,7 @@ fn run_on(host: &Host, opts: &HostOptions) -> Result<HostRun> {
         host.destroy_buffer(b);
     }
     frame.destroy();
-    let (frames, view_proj, eye, left) = gregvox_part?;
+    let (frames, view_proj, eye, left, adaptive_levels) = gregvox_part?;
     Ok(HostRun {
         frames,
         after_gregvox: after?,
@@ -1089,6 +1097,7 @@ fn run_on(host: &Host, opts: &HostOptions) -> Result<HostRun> {
         view_proj,
         eye,
         gregvox_allocations_left: left,
+        adaptive_levels,
     })
 }
 
@@ -1122,6 +1131,10 @@ fn main() -> Result<()> {
                 opts.level = value(i)?.parse().context("--level")?;
                 i += 1;
             }
+            "--adaptive" => {
+                opts.adaptive = Some(value(i)?.parse().context("--adaptive")?);
+                i += 1;
+            }
             "--size" => {
                 let v = value(i)?;
                 let (a, b) = v
@@ -1133,7 +1146,8 @@ fn main() -> Result<()> {
             }
             other => bail!(
                 "unknown argument {other} (usage: ash_host --offscreen [--frames N] [--out DIR] \
-                 [--size WxH] [--cage FILE] [--level L] [--no-scene] [--validation])"
+                 [--size WxH] [--cage FILE] [--level L] [--adaptive PIXELS] [--no-scene] \
+                 [--validation])"
             ),
         }
         i += 1;

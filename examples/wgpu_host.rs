@@ -17,8 +17,9 @@ use gregvox::api::{Deformation, ExternalDevice, Gpu, SurfaceUpdate, VertexTarget
 use std::path::PathBuf;
 use wgpu::hal::api::Vulkan;
 
-/// The host's clear colour (the same as `ash_host`'s, so the frames compare).
-pub const CLEAR: [f64; 4] = [0.08, 0.09, 0.11, 1.0];
+#[path = "support/host_camera.rs"]
+mod host_camera;
+pub use host_camera::{frame_cage, CLEAR};
 
 /// How the host runs.
 #[derive(Clone, Debug)]
@@ -61,19 +62,6 @@ pub struct HostRun {
     pub eye: glam::Vec3,
     /// Whether the validation layer was on (wgpu falls back silently when it is missing).
     pub validated: bool,
-}
-
-/// The camera of `ash_host` (z up, framing the box `lo`–`hi`).
-pub fn camera(lo: glam::Vec3, hi: glam::Vec3, aspect: f32) -> (glam::Mat4, glam::Vec3) {
-    let centre = 0.5 * (lo + hi);
-    let radius = 0.5 * (hi - lo).length();
-    let eye = centre + radius * glam::Vec3::new(1.6, -2.2, 1.3);
-    let view = glam::Mat4::look_at_rh(eye, centre, glam::Vec3::Z);
-    let distance = (eye - centre).length();
-    let mut proj =
-        glam::Mat4::perspective_rh(0.8, aspect.max(1e-3), distance * 0.02, distance * 10.0);
-    proj.y_axis.y = -proj.y_axis.y;
-    (proj * view, eye)
 }
 
 const SHADER: &str = r#"
@@ -217,17 +205,16 @@ pub fn run(opts: &HostOptions) -> Result<HostRun> {
         flags,
         ..Default::default()
     });
-    let adapter = pollster::block_on(instance.request_adapter(&wgpu::RequestAdapterOptions::default()))
-        .context("no Vulkan adapter for wgpu")?;
+    let adapter =
+        pollster::block_on(instance.request_adapter(&wgpu::RequestAdapterOptions::default()))
+            .context("no Vulkan adapter for wgpu")?;
     let features = wgpu::Features::empty();
     // SAFETY: the adapter is a Vulkan one (only that backend was asked for).
-    let hal_instance = unsafe { instance.as_hal::<Vulkan>() }.ok_or_else(|| anyhow!("not Vulkan"))?;
+    let hal_instance =
+        unsafe { instance.as_hal::<Vulkan>() }.ok_or_else(|| anyhow!("not Vulkan"))?;
     let shared = hal_instance.shared_instance();
     let api_version = shared.instance_api_version();
-    let validated = shared
-        .extensions()
-        .contains(&ash::ext::debug_utils::NAME)
-        && opts.validation;
+    let validated = shared.extensions().contains(&ash::ext::debug_utils::NAME) && opts.validation;
     let (open, requirements) = {
         // SAFETY: as above.
         let hal_adapter =
@@ -241,7 +228,8 @@ pub fn run(opts: &HostOptions) -> Result<HostRun> {
         // so gregvox's others are added the same way, never as PhysicalDeviceVulkan12/13Features.
         let mut host_query_reset =
             vk::PhysicalDeviceHostQueryResetFeatures::default().host_query_reset(true);
-        let mut scalar = vk::PhysicalDeviceScalarBlockLayoutFeatures::default().scalar_block_layout(true);
+        let mut scalar =
+            vk::PhysicalDeviceScalarBlockLayoutFeatures::default().scalar_block_layout(true);
         let (mut sync2, mut dynamic_rendering) = req.khr_features();
         let extensions = req.device_extensions.clone();
         let callback: Box<wgpu::hal::vulkan::CreateDeviceCallback<'_>> = Box::new(|args| {
@@ -340,20 +328,12 @@ fn frames(opts: &HostOptions, c: &FramesCtx) -> Result<HostRun> {
     }?;
     let cage = gregvox::engine::cage::builtin_cage(4, 2, 2);
     let surface = gpu.gregory_surface(&cage, opts.level)?;
-    let rest = surface.rest_cage();
-    let lo = rest
-        .iter()
-        .fold(glam::DVec3::splat(f64::INFINITY), |a, p| a.min(*p))
-        .as_vec3();
-    let hi = rest
-        .iter()
-        .fold(glam::DVec3::splat(f64::NEG_INFINITY), |a, p| a.max(*p))
-        .as_vec3();
-    let (view_proj, eye) = camera(lo, hi, w as f32 / h as f32);
+    let (view_proj, eye) = frame_cage(surface.rest_cage(), w, h);
 
     // The vertex buffer: the host's raw buffer, owned by wgpu from here on; gregvox evaluates into it.
     let bytes = surface.vertex_bytes();
-    let (raw_buffer, memory) = raw_vertex_buffer(&c.instance, c.physical_device, &c.raw.device, bytes)?;
+    let (raw_buffer, memory) =
+        raw_vertex_buffer(&c.instance, c.physical_device, &c.raw.device, bytes)?;
     // SAFETY: created on this device with VERTEX | STORAGE usage and bound memory of `bytes`.
     let vertices = unsafe {
         let hal = wgpu::hal::vulkan::Buffer::from_raw_managed(raw_buffer, memory, 0, bytes);
@@ -376,8 +356,11 @@ fn frames(opts: &HostOptions, c: &FramesCtx) -> Result<HostRun> {
             usage: wgpu::BufferUsages::INDEX,
         },
     );
+    // wgpu's clip space has y up (its Vulkan backend flips the viewport); the shared camera is Vulkan's
+    // (y down), so the host flips it back.
+    let wgpu_view_proj = glam::Mat4::from_scale(glam::Vec3::new(1.0, -1.0, 1.0)) * view_proj;
     let mut push = Vec::with_capacity(80);
-    push.extend_from_slice(bytemuck::cast_slice(&view_proj.to_cols_array()));
+    push.extend_from_slice(bytemuck::cast_slice(&wgpu_view_proj.to_cols_array()));
     push.extend_from_slice(bytemuck::cast_slice(&[eye.x, eye.y, eye.z, 1.0f32]));
     let uniform = wgpu::util::DeviceExt::create_buffer_init(
         c.device,
@@ -387,9 +370,13 @@ fn frames(opts: &HostOptions, c: &FramesCtx) -> Result<HostRun> {
             usage: wgpu::BufferUsages::UNIFORM,
         },
     );
+    // Parsed here and handed over as naga IR: given WGSL text, wgpu (with `InstanceFlags::DEBUG`, which
+    // its debug-utils messenger needs) embeds the text as `OpSource WGSL`, a source language older
+    // SPIR-V validators reject ("Invalid source language operand"), and this host runs validated.
+    let module = wgpu::naga::front::wgsl::parse_str(SHADER).expect("the host's WGSL parses");
     let shader = c.device.create_shader_module(wgpu::ShaderModuleDescriptor {
         label: Some("normals"),
-        source: wgpu::ShaderSource::Wgsl(SHADER.into()),
+        source: wgpu::ShaderSource::Naga(std::borrow::Cow::Owned(module)),
     });
     let layout = c
         .device
@@ -526,7 +513,8 @@ fn frames(opts: &HostOptions, c: &FramesCtx) -> Result<HostRun> {
             let cmds = [cmd];
             let signal = [c.raw.timeline];
             let values = [value];
-            let mut timeline = vk::TimelineSemaphoreSubmitInfo::default().signal_semaphore_values(&values);
+            let mut timeline =
+                vk::TimelineSemaphoreSubmitInfo::default().signal_semaphore_values(&values);
             let submit = vk::SubmitInfo::default()
                 .command_buffers(&cmds)
                 .signal_semaphores(&signal)
@@ -547,10 +535,10 @@ fn frames(opts: &HostOptions, c: &FramesCtx) -> Result<HostRun> {
                     depth_slice: None,
                     ops: wgpu::Operations {
                         load: wgpu::LoadOp::Clear(wgpu::Color {
-                            r: CLEAR[0],
-                            g: CLEAR[1],
-                            b: CLEAR[2],
-                            a: CLEAR[3],
+                            r: CLEAR[0].into(),
+                            g: CLEAR[1].into(),
+                            b: CLEAR[2].into(),
+                            a: CLEAR[3].into(),
                         }),
                         store: wgpu::StoreOp::Store,
                     },
@@ -601,7 +589,12 @@ fn frames(opts: &HostOptions, c: &FramesCtx) -> Result<HostRun> {
             readback.unmap();
             if let Some(dir) = &opts.out {
                 std::fs::create_dir_all(dir)?;
-                gregvox::gpu::present::write_png_rgba(&dir.join(format!("frame_{f:04}.png")), w, h, &px)?;
+                gregvox::gpu::present::write_png_rgba(
+                    &dir.join(format!("frame_{f:04}.png")),
+                    w,
+                    h,
+                    &px,
+                )?;
             }
             if keep {
                 kept.push((f, px));

@@ -4,11 +4,18 @@
 //! The host is `examples/ash_host.rs` (a plain ash program with its own instance, device, pipelines and
 //! shaders), run under the validation layer with synchronization validation; its frames are compared
 //! with gregvox's own surface renderer (`passes::surface_draw`, normals mode) at the same camera.
+// Both hosts are standalone programs that include `examples/support/host_camera.rs` themselves.
+#![allow(clippy::duplicate_mod)]
+
 mod common;
 
 #[allow(dead_code)]
 #[path = "../examples/ash_host.rs"]
 mod ash_host;
+
+#[allow(dead_code)]
+#[path = "../examples/wgpu_host.rs"]
+mod wgpu_host;
 
 use ash::vk;
 use common::validated_gpu;
@@ -46,83 +53,29 @@ fn pixel(px: &[u8], w: u32, x: u32, y: u32) -> [u8; 4] {
     [px[i], px[i + 1], px[i + 2], px[i + 3]]
 }
 
-#[test]
-fn a_caller_device_drives_100_deforming_frames_and_is_left_with_nothing_of_gregvox() {
-    let opts = ash_host::HostOptions {
-        frames: 100,
-        keep: vec![0, 50, 99],
-        validation: true,
-        level_change_at: Some(60),
-        second_surface_until: Some(30),
-        ..Default::default()
-    };
-    let run = ash_host::run(&opts).expect("the ash host runs");
-    assert!(
-        run.validation_messages.is_empty(),
-        "{} validation message(s):\n{}",
-        run.validation_messages.len(),
-        run.validation_messages.join("\n")
-    );
-    assert!(
-        run.gregvox_allocations_left.is_empty(),
-        "gregvox allocations left after its surface was dropped: {:?}",
-        run.gregvox_allocations_left
-    );
-    assert_eq!(run.frames.len(), 3);
-    let (w, h) = (opts.width, opts.height);
-    for (f, px) in &run.frames {
-        // The surface covers a good part of the frame; the host's own triangle is in its corner.
-        let n = drawn(px);
-        assert!(n > (w * h / 20) as usize, "frame {f}: {n} pixels drawn");
-        let corner = pixel(px, w, 12, h - 12);
-        assert!(
-            corner[0] > 150 && corner[2] < 120,
-            "frame {f}: corner {corner:?}"
-        );
-    }
-    // The surface deforms from frame to frame.
-    let d = differing(&run.frames[0].1, &run.frames[2].1, 8);
-    assert!(d > 0.01, "frames 0 and 99 differ in {d} of the pixels");
-    // After gregvox was destroyed the host still draws with its own objects: its triangle, no surface.
-    let after = &run.after_gregvox;
-    assert!(pixel(after, w, 12, h - 12)[0] > 150);
-    assert_eq!(pixel(after, w, w / 2, h / 2), clear_pixel());
-    let own = drawn(after);
-    assert!(own > 100 && own < (w * h / 10) as usize, "{own} pixels");
+/// A frame of gregvox's own renderer to compare a host's with.
+struct OwnFrame {
+    level: u32,
+    deformation: Deformation,
+    t: f32,
+    amplitude: f32,
+    view_proj: glam::Mat4,
+    eye: glam::Vec3,
+    width: u32,
+    height: u32,
 }
 
-#[test]
-fn the_host_frame_equals_gregvox_own_renderer_at_the_same_camera() {
-    let frame = 37;
-    let opts = ash_host::HostOptions {
-        frames: frame + 1,
-        keep: vec![frame],
-        scene: false,
-        validation: true,
-        ..Default::default()
-    };
-    let run = ash_host::run(&opts).expect("the ash host runs");
-    assert!(
-        run.validation_messages.is_empty(),
-        "{:?}",
-        run.validation_messages
-    );
-    let host_px = &run.frames[0].1;
-    let (w, h) = (opts.width, opts.height);
-
+/// gregvox's own device and renderer: the built-in cage with the deformation, drawn by the surface pass
+/// (normals mode) on the hosts' clear colour; RGBA8 pixels.
+fn own_render(f: &OwnFrame) -> Vec<u8> {
     // gregvox's own device and renderer: the same cage and deformation, drawn by the surface pass.
     let gpu = validated_gpu();
+    let (w, h) = (f.width, f.height);
     let own = {
         let ctx = gpu.context();
         let cage = gregvox::engine::cage::builtin_cage(4, 2, 2);
-        let mut surface = gpu.gregory_surface(&cage, opts.level).unwrap();
-        surface
-            .deform(
-                opts.deformation,
-                frame as f32 * opts.time_step,
-                opts.amplitude,
-            )
-            .unwrap();
+        let mut surface = gpu.gregory_surface(&cage, f.level).unwrap();
+        surface.deform(f.deformation, f.t, f.amplitude).unwrap();
         let color_format = vk::Format::R8G8B8A8_UNORM;
         let depth_format = vk::Format::D32_SFLOAT;
         let pass = SurfaceDrawPass::new(ctx, color_format, depth_format).unwrap();
@@ -157,11 +110,11 @@ fn the_host_frame_equals_gregvox_own_renderer_at_the_same_camera() {
             )
             .unwrap();
         let push = SurfacePush {
-            view_proj: run.view_proj.to_cols_array_2d(),
-            eye: [run.eye.x, run.eye.y, run.eye.z, 1.0],
+            view_proj: f.view_proj.to_cols_array_2d(),
+            eye: [f.eye.x, f.eye.y, f.eye.z, 1.0],
             light: [0.0, 0.0, 1.0, 0.2],
             color: [1.0; 4],
-            mode: [1, opts.level, 0, 0],
+            mode: [1, f.level, 0, 0],
         };
         ctx.one_shot(|cmd| {
             image_barrier(
@@ -269,11 +222,169 @@ fn the_host_frame_equals_gregvox_own_renderer_at_the_same_camera() {
         readback.mapped().unwrap().to_vec()
     };
     gpu.finish().unwrap();
+    own
+}
+
+#[test]
+fn a_caller_device_drives_100_deforming_frames_and_is_left_with_nothing_of_gregvox() {
+    let opts = ash_host::HostOptions {
+        frames: 100,
+        keep: vec![0, 50, 99],
+        validation: true,
+        level_change_at: Some(60),
+        second_surface_until: Some(30),
+        ..Default::default()
+    };
+    let run = ash_host::run(&opts).expect("the ash host runs");
+    assert!(
+        run.validation_messages.is_empty(),
+        "{} validation message(s):\n{}",
+        run.validation_messages.len(),
+        run.validation_messages.join("\n")
+    );
+    assert!(
+        run.gregvox_allocations_left.is_empty(),
+        "gregvox allocations left after its surface was dropped: {:?}",
+        run.gregvox_allocations_left
+    );
+    assert_eq!(run.frames.len(), 3);
+    let (w, h) = (opts.width, opts.height);
+    for (f, px) in &run.frames {
+        // The surface covers a good part of the frame; the host's own triangle is in its corner.
+        let n = drawn(px);
+        assert!(n > (w * h / 20) as usize, "frame {f}: {n} pixels drawn");
+        let corner = pixel(px, w, 12, h - 12);
+        assert!(
+            corner[0] > 150 && corner[2] < 120,
+            "frame {f}: corner {corner:?}"
+        );
+    }
+    // The surface deforms from frame to frame.
+    let d = differing(&run.frames[0].1, &run.frames[2].1, 8);
+    assert!(d > 0.01, "frames 0 and 99 differ in {d} of the pixels");
+    // After gregvox was destroyed the host still draws with its own objects: its triangle, no surface.
+    let after = &run.after_gregvox;
+    assert!(pixel(after, w, 12, h - 12)[0] > 150);
+    assert_eq!(pixel(after, w, w / 2, h / 2), clear_pixel());
+    let own = drawn(after);
+    assert!(own > 100 && own < (w * h / 10) as usize, "{own} pixels");
+}
+
+#[test]
+fn the_host_frame_equals_gregvox_own_renderer_at_the_same_camera() {
+    let frame = 37;
+    let opts = ash_host::HostOptions {
+        frames: frame + 1,
+        keep: vec![frame],
+        scene: false,
+        validation: true,
+        ..Default::default()
+    };
+    let run = ash_host::run(&opts).expect("the ash host runs");
+    assert!(
+        run.validation_messages.is_empty(),
+        "{:?}",
+        run.validation_messages
+    );
+    let host_px = &run.frames[0].1;
+    let (w, h) = (opts.width, opts.height);
+
+    let own = own_render(&OwnFrame {
+        level: opts.level,
+        deformation: opts.deformation,
+        t: frame as f32 * opts.time_step,
+        amplitude: opts.amplitude,
+        view_proj: run.view_proj,
+        eye: run.eye,
+        width: w,
+        height: h,
+    });
     assert!(drawn(&own) > (w * h / 20) as usize);
     let d = differing(host_px, &own, 2);
     assert!(
         d <= 0.002,
         "{:.3} % of the pixels differ between the host's frame and gregvox's own render",
+        d * 100.0
+    );
+}
+
+#[test]
+fn adaptive_levels_and_indirect_draws_recorded_in_the_host_frame_draw_the_uniform_surface() {
+    let frame = 12;
+    let base = ash_host::HostOptions {
+        frames: frame + 1,
+        keep: vec![frame],
+        scene: false,
+        validation: true,
+        level: 8,
+        ..Default::default()
+    };
+    let uniform = ash_host::run(&base).expect("the ash host runs");
+    let adaptive = ash_host::run(&ash_host::HostOptions {
+        adaptive: Some(4.0),
+        ..base.clone()
+    })
+    .expect("the ash host runs adaptively");
+    for run in [&uniform, &adaptive] {
+        assert!(
+            run.validation_messages.is_empty(),
+            "{:?}",
+            run.validation_messages
+        );
+        assert!(run.gregvox_allocations_left.is_empty());
+    }
+    // The levels follow the view: the near patches finer than the far ones, none past the maximum.
+    let levels = &adaptive.adaptive_levels;
+    let (lo, hi) = (levels.iter().min().unwrap(), levels.iter().max().unwrap());
+    assert!(
+        *lo >= 1 && *hi <= base.level && lo < hi,
+        "levels {levels:?}"
+    );
+    let (a, u) = (&adaptive.frames[0].1, &uniform.frames[0].1);
+    let (w, h) = (base.width, base.height);
+    assert!(drawn(a) > (w * h / 20) as usize);
+    // Coarser patches far from the camera move the silhouette and the normals a little, no more.
+    let coverage = drawn(a) as f64 / drawn(u) as f64;
+    assert!((coverage - 1.0).abs() < 0.02, "coverage ratio {coverage}");
+    let d = differing(a, u, 24);
+    assert!(d < 0.03, "{:.2} % of the pixels differ", d * 100.0);
+}
+
+#[test]
+fn a_wgpu_host_draws_gregvox_vertices_from_its_own_buffer_as_gregvox_renders_them() {
+    let frame = 23;
+    let opts = wgpu_host::HostOptions {
+        frames: frame + 1,
+        keep: vec![0, frame],
+        validation: true,
+        ..Default::default()
+    };
+    // wgpu falls back silently without the layer; gregvox's messenger on wgpu's instance turns every
+    // validation message into an error of `Gpu::finish`, which `run` returns.
+    let run = wgpu_host::run(&opts).expect("the wgpu host runs with no validation message");
+    assert!(run.validated, "the validation layer was not on");
+    let (w, h) = (opts.width, opts.height);
+    let first = &run.frames[0].1;
+    let host_px = &run.frames[1].1;
+    assert!(drawn(host_px) > (w * h / 20) as usize);
+    assert!(
+        differing(first, host_px, 8) > 0.01,
+        "the surface did not move"
+    );
+    let own = own_render(&OwnFrame {
+        level: opts.level,
+        deformation: opts.deformation,
+        t: frame as f32 * opts.time_step,
+        amplitude: opts.amplitude,
+        view_proj: run.view_proj,
+        eye: run.eye,
+        width: w,
+        height: h,
+    });
+    let d = differing(host_px, &own, 2);
+    assert!(
+        d <= 0.002,
+        "{:.3} % of the pixels differ between wgpu's frame and gregvox's own render",
         d * 100.0
     );
 }
