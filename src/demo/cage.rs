@@ -1,7 +1,8 @@
-//! The cage scene's input: an OBJ quad cage (or the built-in one) turned into a GPU Gregory surface.
+//! The cage scene's input: an OBJ quad cage (or the built-in one) turned into a GPU Gregory surface, with
+//! the cage itself kept for drawing and dragging its vertices.
 use super::scene::{CageScene, Scene};
 use super::DemoArgs;
-use crate::engine::cage::{builtin_cage, cage_topology, load_cage_topology};
+use crate::engine::cage::{builtin_cage, cage_topology, load_cage};
 use crate::engine::gregory::GregorySurface;
 use crate::gpu::Context;
 use crate::surface::Tangents;
@@ -9,10 +10,11 @@ use ash::vk;
 
 /// Builds the cage scene.
 pub fn build(ctx: &Context, args: &DemoArgs, format: vk::Format) -> anyhow::Result<Box<dyn Scene>> {
-    let (topo, cage, note, name) = match &args.model {
+    let (mesh, topo, cage, note, name) = match &args.model {
         Some(path) => {
-            let (t, c, n) = load_cage_topology(path)?;
+            let (m, t, c, n) = load_cage(path)?;
             (
+                m,
                 t,
                 c,
                 n,
@@ -22,15 +24,16 @@ pub fn build(ctx: &Context, args: &DemoArgs, format: vk::Format) -> anyhow::Resu
             )
         }
         None => {
-            let (t, c, n) = cage_topology(&builtin_cage(4, 2, 2), Tangents::OpenSubdiv)?;
-            (t, c, n, "built-in box cage".to_string())
+            let mesh = builtin_cage(4, 2, 2);
+            let (t, c, n) = cage_topology(&mesh, Tangents::OpenSubdiv)?;
+            (mesh, t, c, n, "built-in box cage".to_string())
         }
     };
     if let Some(n) = note {
         eprintln!("gregvox demo: {n}");
     }
     let surface = GregorySurface::new(ctx, &topo, &cage, args.level.unwrap_or(8))?;
-    let mut scene = CageScene::new(ctx, format, surface, args.deform, name)?;
+    let mut scene = CageScene::new(ctx, format, surface, mesh, args.deform, name)?;
     scene.adaptive = args.adaptive;
     Ok(Box::new(scene))
 }

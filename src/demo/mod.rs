@@ -80,7 +80,8 @@ pub struct DemoArgs {
     pub vertex_pull: bool,
     /// Windowed: press these keys (comma-separated names as in the key list: `s,+,v,Space,2,p,t`), one every
     /// 5 frames, as if typed: lets CI exercise every control under Xvfb. Window operations go in the same list:
-    /// `resize:WxH`, `minimize`, `restore`.
+    /// `resize:WxH`, `minimize`, `restore`; so does the left button: `press:X:Y`, `move:X:Y`, `release`
+    /// (window pixels; a press on a vertex of the paused cage scene drags it, elsewhere it orbits).
     #[arg(long, value_name = "KEYS", value_delimiter = ',')]
     pub keys: Vec<String>,
     /// Number of triangles in the spinner scene.

@@ -152,6 +152,20 @@ pub trait Scene {
     fn set_level(&mut self, _ctx: &Context, _level: u32) -> anyhow::Result<bool> {
         Ok(false)
     }
+    /// The points the mouse can drag now (world positions, in a fixed order: cage vertices, control
+    /// points); empty when the scene has none or does not show them in `view` (a cage while it animates).
+    fn handles(&self, _view: &ViewState) -> Vec<Vec3> {
+        Vec::new()
+    }
+    /// Moves the handles to `positions` (as many as [`Scene::handles`] gave, same order) and marks
+    /// `held` as the one under the cursor; the shape follows from the next recorded frame.
+    fn set_handles(&mut self, _positions: &[Vec3], _held: Option<usize>) -> anyhow::Result<()> {
+        Ok(())
+    }
+    /// The edited shape as a mesh (key W writes it), for scenes whose handles are a cage.
+    fn edited_cage(&self) -> Option<crate::mesh::Mesh> {
+        None
+    }
 }
 
 /// The light direction (towards the light) of every surface scene.
@@ -656,7 +670,8 @@ impl Scene for FlagScene {
     }
 }
 
-/// A quad cage as Gregory patches, deformed every frame on the GPU.
+/// A quad cage as Gregory patches, deformed every frame on the GPU; paused, the cage is drawn and its
+/// vertices can be dragged (the edited cage goes to the GPU in the next frame's command buffer).
 pub struct CageScene {
     surface: GregorySurface,
     look: SurfaceLook,
@@ -664,10 +679,25 @@ pub struct CageScene {
     name: String,
     /// Screen-space adaptive tessellation (key A): target pixels per segment, the current level as L_max.
     pub adaptive: Option<f32>,
+    /// The cage as edited: rest positions in the surface's frame, the faces as loaded.
+    cage: crate::mesh::Mesh,
+    /// Each cage edge once.
+    edges: Vec<[u32; 2]>,
+    /// The cage changed since it was last recorded.
+    cage_dirty: bool,
+    /// The vertex being dragged.
+    held: Option<usize>,
+    lines: crate::passes::lines::LinesPass,
+    ring: crate::passes::lines::LineRing,
 }
 
 /// Pixels per tessellation segment when key A turns adaptive tessellation on.
 pub const ADAPTIVE_PIXELS: f32 = 8.0;
+
+/// The cage's lines and vertex crosses.
+const CAGE_COLOR: [f32; 3] = [0.1, 0.12, 0.16];
+/// The dragged vertex's cross.
+const HELD_COLOR: [f32; 3] = [1.0, 0.45, 0.05];
 
 impl CageScene {
     /// Wraps a built surface.
@@ -675,9 +705,27 @@ impl CageScene {
         ctx: &Context,
         format: vk::Format,
         surface: GregorySurface,
+        cage: crate::mesh::Mesh,
         deformation: Deformation,
         name: String,
     ) -> anyhow::Result<Self> {
+        anyhow::ensure!(
+            cage.positions.len() == surface.cage_count() as usize,
+            "the cage has {} vertices, its surface {}",
+            cage.positions.len(),
+            surface.cage_count()
+        );
+        let mut edges: Vec<[u32; 2]> = (0..cage.n_faces())
+            .flat_map(|f| {
+                let face = cage.face(f);
+                (0..face.len()).map(move |i| {
+                    let (a, b) = (face[i], face[(i + 1) % face.len()]);
+                    [a.min(b), a.max(b)]
+                })
+            })
+            .collect();
+        edges.sort_unstable();
+        edges.dedup();
         let lo = Vec3::from(surface.box_min());
         let size = Vec3::from(surface.box_size());
         // Twist, bend and wave move points by up to the amplitude (0.6) times the box: a generous sphere.
@@ -694,7 +742,39 @@ impl CageScene {
             deformation,
             name,
             adaptive: None,
+            cage,
+            edges,
+            cage_dirty: false,
+            held: None,
+            lines: crate::passes::lines::LinesPass::new(ctx, format, DEPTH_FORMAT)?,
+            ring: crate::passes::lines::LineRing::new(super::FRAMES_IN_FLIGHT),
         })
+    }
+
+    /// The cage's edges and a cross at each vertex (the held one larger, in orange), as line segments.
+    fn cage_lines(&self) -> Vec<crate::passes::lines::LineVertex> {
+        use crate::passes::lines::LineVertex;
+        let p = |i: u32| self.cage.positions[i as usize].as_vec3().to_array();
+        let size = Vec3::from(self.surface.box_size()).length().max(1e-6);
+        let mut out = Vec::with_capacity(2 * self.edges.len() + 6 * self.cage.positions.len());
+        for &[a, b] in &self.edges {
+            out.push(LineVertex::new(p(a), CAGE_COLOR));
+            out.push(LineVertex::new(p(b), CAGE_COLOR));
+        }
+        for (i, q) in self.cage.positions.iter().enumerate() {
+            let held = self.held == Some(i);
+            let (r, c) = if held {
+                (0.03 * size, HELD_COLOR)
+            } else {
+                (0.012 * size, CAGE_COLOR)
+            };
+            let q = q.as_vec3();
+            for axis in [Vec3::X, Vec3::Y, Vec3::Z] {
+                out.push(LineVertex::new((q - r * axis).to_array(), c));
+                out.push(LineVertex::new((q + r * axis).to_array(), c));
+            }
+        }
+        out
     }
 }
 
@@ -744,6 +824,12 @@ impl Scene for CageScene {
                 }),
             )?;
         }
+        if self.cage_dirty {
+            // Recorded into this frame: frames in flight keep the cage they were recorded with.
+            self.surface
+                .record_cage_update(ctx, cmd, &self.cage.positions)?;
+            self.cage_dirty = false;
+        }
         self.surface
             .record(ctx, cmd, Some(&deform), Some((profiler, targets.slot)))?;
         let (indices, indirect) = match self.surface.adaptive_draw() {
@@ -770,7 +856,58 @@ impl Scene for CageScene {
             indirect,
         };
         self.look
-            .record(ctx, cmd, targets, view, profiler, &surface)
+            .record(ctx, cmd, targets, view, profiler, &surface)?;
+        if view.animate {
+            return Ok(());
+        }
+        // Paused: the rest cage as edited is what the surface shows, so it is drawn for dragging.
+        let vertices = self.cage_lines();
+        let buf = self.ring.upload(ctx, targets.slot, &vertices)?;
+        let aspect = targets.extent.width as f32 / targets.extent.height.max(1) as f32;
+        let target = DrawTarget {
+            color: targets.color,
+            depth: targets.depth,
+            extent: targets.extent,
+        };
+        let lines = &self.lines;
+        profiler.scope(ctx, cmd, targets.slot, "cage lines", || {
+            lines.record(
+                ctx,
+                cmd,
+                &target,
+                None,
+                buf,
+                vertices.len() as u32,
+                &view.orbit.view_proj(aspect),
+            )
+        })?;
+        Ok(())
+    }
+
+    fn handles(&self, view: &ViewState) -> Vec<Vec3> {
+        if view.animate {
+            return Vec::new();
+        }
+        self.cage.positions.iter().map(|p| p.as_vec3()).collect()
+    }
+
+    fn set_handles(&mut self, positions: &[Vec3], held: Option<usize>) -> anyhow::Result<()> {
+        anyhow::ensure!(
+            positions.len() == self.cage.positions.len(),
+            "{} handles given, the cage has {} vertices",
+            positions.len(),
+            self.cage.positions.len()
+        );
+        for (p, q) in self.cage.positions.iter_mut().zip(positions) {
+            *p = q.as_dvec3();
+        }
+        self.held = held;
+        self.cage_dirty = true;
+        Ok(())
+    }
+
+    fn edited_cage(&self) -> Option<crate::mesh::Mesh> {
+        Some(self.cage.clone())
     }
 
     fn key(&mut self, ctx: &Context, key: &str) -> anyhow::Result<bool> {

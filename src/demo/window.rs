@@ -7,6 +7,12 @@
 //! Keys are handled in two steps so the mapping is testable without a window: [`key_action`] is a pure
 //! function of (key name, [`Controls`]) → [`Action`], and `App::apply` carries the action out. Adding a key
 //! (e.g. the adaptive level, A) is one arm in `key_action` plus, for a new kind of action, one arm in `apply`.
+//! The mouse the same way: [`pick`] and [`unproject`] are pure functions of the camera and the cursor, and
+//! the press/move/release handlers serve real events and scripted ones (`press:X:Y` in `--keys`) alike. A
+//! press within [`PICK_RADIUS`] of a handle the scene shows (`Scene::handles`: the paused cage's vertices)
+//! holds it; moves keep it at its picked NDC depth (the plane parallel to the view); the release is one
+//! undo step. The scene records the edited cage into the next frame's command buffer, so frames in flight
+//! keep theirs.
 use super::scene::DrawPath;
 use super::{DemoArgs, Renderer, SceneKind};
 use crate::gpu::{Context, ContextDesc, PresentTarget, SwapchainTarget};
@@ -53,6 +59,12 @@ pub enum Action {
     Screenshot,
     /// Print the per-pass GPU time table (T).
     PrintProfile,
+    /// Undo the last drag (Z).
+    Undo,
+    /// Put every dragged handle back where the scene started (R).
+    Reset,
+    /// Write the edited cage as `gregvox-cage-NNN.obj` (W).
+    WriteCage,
     /// A key the scene itself may use (C: flag correction, D: cage deformation, …), lower case.
     SceneKey(String),
 }
@@ -86,6 +98,9 @@ pub fn key_action(key: &str, c: &Controls) -> Option<Action> {
         "s" => Some(Action::SetShading(c.shading.next())),
         "p" => Some(Action::Screenshot),
         "t" => Some(Action::PrintProfile),
+        "z" => Some(Action::Undo),
+        "r" => Some(Action::Reset),
+        "w" => Some(Action::WriteCage),
         k if k.len() == 1 && k.as_bytes()[0].is_ascii_digit() => {
             let n = (k.as_bytes()[0] - b'0') as usize;
             let kind = *SceneKind::all().get(n.checked_sub(1)?)?;
@@ -131,6 +146,127 @@ pub fn window_action(entry: &str) -> Option<WindowAction> {
     }
 }
 
+/// A scripted mouse operation (`--keys` entries `press:X:Y`, `move:X:Y`, `release`: the left button, at
+/// window pixels), carried out by the same handlers as the real events.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum MouseAction {
+    Press(f64, f64),
+    Move(f64, f64),
+    Release,
+}
+
+/// The mouse operation a scripted entry names, if it names one.
+///
+/// ```
+/// use gregvox::demo::window::{mouse_action, MouseAction};
+/// assert_eq!(mouse_action("press:120:80"), Some(MouseAction::Press(120.0, 80.0)));
+/// assert_eq!(mouse_action("move:130.5:60"), Some(MouseAction::Move(130.5, 60.0)));
+/// assert_eq!(mouse_action("release"), Some(MouseAction::Release));
+/// assert_eq!(mouse_action("press:1"), None);
+/// assert_eq!(mouse_action("p"), None);
+/// ```
+pub fn mouse_action(entry: &str) -> Option<MouseAction> {
+    let entry = entry.to_ascii_lowercase();
+    if entry == "release" {
+        return Some(MouseAction::Release);
+    }
+    let (kind, rest) = entry.split_once(':')?;
+    let (x, y) = rest.split_once(':')?;
+    let (x, y): (f64, f64) = (x.parse().ok()?, y.parse().ok()?);
+    if !(x.is_finite() && y.is_finite()) {
+        return None;
+    }
+    match kind {
+        "press" => Some(MouseAction::Press(x, y)),
+        "move" => Some(MouseAction::Move(x, y)),
+        _ => None,
+    }
+}
+
+/// How close (window pixels) a press must come to a handle's projection to pick it.
+pub const PICK_RADIUS: f64 = 12.0;
+
+/// The handle a press at `cursor` (window pixels) picks: the nearest projection within [`PICK_RADIUS`]
+/// of the handles in front of the camera, the one nearer the eye among projections equally close (to a
+/// tenth of a pixel). Returns its index and its depth (NDC z), which the drag keeps.
+///
+/// ```
+/// use gregvox::demo::window::pick;
+/// use glam::{Mat4, Vec3};
+/// let vp = Mat4::IDENTITY; // NDC = world: x, y in −1…1 map to a 200×100 window
+/// let handles = [Vec3::new(0.0, 0.0, 0.5), Vec3::new(0.5, 0.5, 0.5)];
+/// assert_eq!(pick(&handles, &vp, [200.0, 100.0], (151.0, 74.0)).map(|h| h.0), Some(1));
+/// assert_eq!(pick(&handles, &vp, [200.0, 100.0], (40.0, 10.0)), None);
+/// ```
+pub fn pick(
+    handles: &[glam::Vec3],
+    view_proj: &glam::Mat4,
+    viewport: [f64; 2],
+    cursor: (f64, f64),
+) -> Option<(usize, f32)> {
+    let mut best: Option<(f64, f32, usize)> = None;
+    for (i, p) in handles.iter().enumerate() {
+        let c = *view_proj * p.extend(1.0);
+        if c.w <= 0.0 {
+            continue;
+        }
+        let ndc = c.truncate() / c.w;
+        if !(0.0..=1.0).contains(&ndc.z) {
+            continue;
+        }
+        let x = (ndc.x as f64 + 1.0) * 0.5 * viewport[0];
+        let y = (ndc.y as f64 + 1.0) * 0.5 * viewport[1];
+        let d = (x - cursor.0).hypot(y - cursor.1);
+        if d > PICK_RADIUS {
+            continue;
+        }
+        let better = match best {
+            None => true,
+            Some((bd, bz, _)) => d < bd - 0.1 || (d <= bd + 0.1 && ndc.z < bz),
+        };
+        if better {
+            best = Some((d, ndc.z, i));
+        }
+    }
+    best.map(|(_, z, i)| (i, z))
+}
+
+/// The world point under `cursor` (window pixels) at NDC depth `z`: a dragged handle stays in the plane
+/// parallel to the view through where it was picked.
+///
+/// ```
+/// use gregvox::demo::window::unproject;
+/// use glam::{Mat4, Vec3};
+/// let vp = Mat4::perspective_rh(0.8, 2.0, 0.1, 10.0) * Mat4::look_at_rh(Vec3::Z * 3.0, Vec3::ZERO, Vec3::Y);
+/// let p = Vec3::new(0.3, -0.2, 0.4);
+/// let c = vp * p.extend(1.0);
+/// let ndc = c.truncate() / c.w;
+/// let cursor = ((ndc.x as f64 + 1.0) * 100.0, (ndc.y as f64 + 1.0) * 50.0);
+/// assert!((unproject(&vp, [200.0, 100.0], cursor, ndc.z) - p).length() < 1e-4);
+/// ```
+pub fn unproject(
+    view_proj: &glam::Mat4,
+    viewport: [f64; 2],
+    cursor: (f64, f64),
+    z: f32,
+) -> glam::Vec3 {
+    let ndc = glam::Vec3::new(
+        (2.0 * cursor.0 / viewport[0] - 1.0) as f32,
+        (2.0 * cursor.1 / viewport[1] - 1.0) as f32,
+        z,
+    );
+    view_proj.inverse().project_point3(ndc)
+}
+
+/// A handle being dragged.
+struct Held {
+    index: usize,
+    /// NDC depth where it was picked.
+    depth: f32,
+    /// Every handle before the drag (the undo entry).
+    before: Vec<glam::Vec3>,
+}
+
 /// The name [`key_action`] expects for a winit logical key.
 fn key_name(key: &Key) -> Option<String> {
     match key {
@@ -155,6 +291,15 @@ struct App<'a> {
     /// Left button held: the last cursor position.
     drag: Option<(f64, f64)>,
     left_down: bool,
+    /// The last cursor position (window pixels).
+    cursor: (f64, f64),
+    /// The handle the left button holds (instead of orbiting).
+    held: Option<Held>,
+    /// Handles before each finished drag, the latest last (Z).
+    undo: Vec<Vec<glam::Vec3>>,
+    /// The scene's handles before its first drag (R).
+    original: Option<Vec<glam::Vec3>>,
+    cages_written: u32,
     /// Where the next screenshot goes, once its frame has been captured.
     screenshot: Option<PathBuf>,
     screenshots_taken: u32,
@@ -289,6 +434,9 @@ impl App<'_> {
                     Ok(scene) => {
                         renderer.replace_scene(ctx, scene)?;
                         self.args.scene = kind;
+                        self.held = None;
+                        self.undo.clear();
+                        self.original = None;
                         eprintln!("gregvox demo: scene {}", renderer.scene.name());
                     }
                     Err(e) => eprintln!("gregvox demo: cannot switch to {}: {e:#}", kind.name()),
@@ -321,11 +469,144 @@ impl App<'_> {
                 )));
             }
             Action::PrintProfile => eprint!("{}", renderer.profiler.table()),
+            Action::Undo => match self.undo.pop() {
+                Some(before) => {
+                    renderer.scene.set_handles(&before, None)?;
+                    eprintln!("gregvox demo: undo ({} left)", self.undo.len());
+                }
+                None => eprintln!("gregvox demo: nothing to undo"),
+            },
+            Action::Reset => {
+                if let Some(original) = self.original.clone() {
+                    let now = renderer.scene.handles(&renderer.view);
+                    if now.len() == original.len() {
+                        self.undo.push(now);
+                    }
+                    renderer.scene.set_handles(&original, None)?;
+                    eprintln!("gregvox demo: reset");
+                }
+            }
+            Action::WriteCage => match renderer.scene.edited_cage() {
+                Some(cage) => {
+                    let dir = self.args.out.clone().unwrap_or_else(|| PathBuf::from("."));
+                    std::fs::create_dir_all(&dir).with_context(|| {
+                        format!("cannot create the output folder {}", dir.display())
+                    })?;
+                    self.cages_written += 1;
+                    let path = dir.join(format!("gregvox-cage-{:03}.obj", self.cages_written));
+                    crate::mesh::write_obj(&path, &cage)?;
+                    eprintln!("gregvox demo: cage written to {}", path.display());
+                }
+                None => eprintln!("gregvox demo: this scene has no cage to write"),
+            },
             Action::SceneKey(k) => {
                 renderer.scene.key(ctx, &k)?;
             }
         }
         Ok(())
+    }
+
+    /// The camera and viewport the cursor is read against (the current frame's).
+    fn camera(&self) -> Option<(glam::Mat4, [f64; 2])> {
+        let (r, t) = (self.renderer.as_ref()?, self.target.as_ref()?);
+        let e = t.extent();
+        if e.width == 0 || e.height == 0 {
+            return None;
+        }
+        let aspect = e.width as f32 / e.height as f32;
+        Some((
+            r.view.orbit.view_proj(aspect),
+            [e.width as f64, e.height as f64],
+        ))
+    }
+
+    /// Left button down at `cursor`: picks a handle of the scene if one is near, else starts an orbit.
+    fn mouse_press(&mut self, cursor: (f64, f64)) -> anyhow::Result<()> {
+        self.left_down = true;
+        self.cursor = cursor;
+        self.drag = Some(cursor);
+        let (Some((view_proj, viewport)), Some(r)) = (self.camera(), self.renderer.as_mut()) else {
+            return Ok(());
+        };
+        let handles = r.scene.handles(&r.view);
+        if let Some((index, depth)) = pick(&handles, &view_proj, viewport, cursor) {
+            if self.original.is_none() {
+                self.original = Some(handles.clone());
+            }
+            r.scene.set_handles(&handles, Some(index))?;
+            eprintln!(
+                "gregvox demo: picked handle {index} at {:.1} {:.1}",
+                cursor.0, cursor.1
+            );
+            self.held = Some(Held {
+                index,
+                depth,
+                before: handles,
+            });
+        }
+        Ok(())
+    }
+
+    /// The cursor moved to `cursor`: drags the held handle in its view plane, or orbits.
+    fn mouse_move(&mut self, cursor: (f64, f64)) -> anyhow::Result<()> {
+        let last = self.cursor;
+        self.cursor = cursor;
+        if !self.left_down {
+            return Ok(());
+        }
+        let camera = self.camera();
+        let Some(r) = self.renderer.as_mut() else {
+            return Ok(());
+        };
+        match (&self.held, camera) {
+            (Some(h), Some((view_proj, viewport))) => {
+                let mut handles = r.scene.handles(&r.view);
+                if handles.len() == h.before.len() {
+                    handles[h.index] = unproject(&view_proj, viewport, cursor, h.depth);
+                    r.scene.set_handles(&handles, Some(h.index))?;
+                }
+            }
+            (Some(_), None) => {}
+            (None, _) => {
+                r.view.orbit = r
+                    .view
+                    .orbit
+                    .dragged((cursor.0 - last.0) as f32, (cursor.1 - last.1) as f32);
+            }
+        }
+        self.drag = Some(cursor);
+        Ok(())
+    }
+
+    /// Left button up: ends a drag (one undo step) or an orbit.
+    fn mouse_release(&mut self) -> anyhow::Result<()> {
+        self.left_down = false;
+        self.drag = None;
+        let Some(h) = self.held.take() else {
+            return Ok(());
+        };
+        let Some(r) = self.renderer.as_mut() else {
+            return Ok(());
+        };
+        let handles = r.scene.handles(&r.view);
+        if handles.len() == h.before.len() {
+            r.scene.set_handles(&handles, None)?;
+            let p = handles[h.index];
+            eprintln!(
+                "gregvox demo: moved handle {} to {:.6} {:.6} {:.6} (cursor {:.1} {:.1})",
+                h.index, p.x, p.y, p.z, self.cursor.0, self.cursor.1
+            );
+            self.undo.push(h.before);
+        }
+        Ok(())
+    }
+
+    fn mouse(&mut self, action: MouseAction) -> anyhow::Result<()> {
+        match action {
+            MouseAction::Press(x, y) => self.mouse_press((x, y)),
+            MouseAction::Move(x, y) => self.mouse_move((x, y)),
+            MouseAction::Release => self.mouse_release(),
+        }
     }
 
     fn redraw(&mut self, event_loop: &ActiveEventLoop) -> anyhow::Result<()> {
@@ -382,9 +663,10 @@ impl App<'_> {
         if self.frames_drawn % 5 == 0 && self.frames_drawn > 0 {
             if let Some(k) = self.scripted.pop_front() {
                 eprintln!("gregvox demo: key {k}");
-                match window_action(&k) {
-                    Some(a) => self.window_action(a),
-                    None => self.key_named(event_loop, &k)?,
+                match (window_action(&k), mouse_action(&k)) {
+                    (Some(a), _) => self.window_action(a),
+                    (None, Some(m)) => self.mouse(m)?,
+                    (None, None) => self.key_named(event_loop, &k)?,
                 }
             }
         }
@@ -423,25 +705,11 @@ impl ApplicationHandler for App<'_> {
                 state,
                 button: MouseButton::Left,
                 ..
-            } => {
-                self.left_down = state == ElementState::Pressed;
-                if !self.left_down {
-                    self.drag = None;
-                }
-                Ok(())
-            }
-            WindowEvent::CursorMoved { position, .. } => {
-                if self.left_down {
-                    if let (Some((x, y)), Some(r)) = (self.drag, self.renderer.as_mut()) {
-                        r.view.orbit = r
-                            .view
-                            .orbit
-                            .dragged((position.x - x) as f32, (position.y - y) as f32);
-                    }
-                    self.drag = Some((position.x, position.y));
-                }
-                Ok(())
-            }
+            } => match state {
+                ElementState::Pressed => self.mouse_press(self.cursor),
+                ElementState::Released => self.mouse_release(),
+            },
+            WindowEvent::CursorMoved { position, .. } => self.mouse_move((position.x, position.y)),
             WindowEvent::MouseWheel { delta, .. } => {
                 let lines = match delta {
                     MouseScrollDelta::LineDelta(_, y) => y,
@@ -515,6 +783,11 @@ pub fn run_windowed(args: &DemoArgs) -> anyhow::Result<()> {
         frame_ms: 0.0,
         drag: None,
         left_down: false,
+        cursor: (0.0, 0.0),
+        held: None,
+        undo: Vec::new(),
+        original: None,
+        cages_written: 0,
         screenshot: None,
         screenshots_taken: 0,
         scripted: args.keys.iter().map(|k| k.trim().to_string()).collect(),

@@ -15,7 +15,16 @@ use std::path::Path;
 pub fn load_cage_topology(
     path: &Path,
 ) -> crate::Result<(GregoryTopology, Vec<DVec3>, Option<String>)> {
-    let mesh = load_mesh_file(path)?;
+    let (_, topo, rest, note) = load_cage(path)?;
+    Ok((topo, rest, note))
+}
+
+/// [`load_cage_topology`] that also returns the cage as loaded, its positions moved as the rest positions
+/// are (the demo draws and edits it).
+pub fn load_cage(
+    path: &Path,
+) -> crate::Result<(Mesh, GregoryTopology, Vec<DVec3>, Option<String>)> {
+    let mut mesh = load_mesh_file(path)?;
     let (topo, mut rest, note) =
         cage_topology(&mesh, Tangents::OpenSubdiv).map_err(|e| match e {
             crate::Error::Invalid(msg) => crate::Error::parse(path, msg),
@@ -32,7 +41,8 @@ pub fn load_cage_topology(
             *p -= lo;
         }
     }
-    Ok((topo, rest, note))
+    mesh.positions.clone_from(&rest);
+    Ok((mesh, topo, rest, note))
 }
 
 /// Largest vertex valence (and polygon size: an n-gon refined once makes a valence-n vertex) accepted for

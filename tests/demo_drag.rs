@@ -1,0 +1,191 @@
+//! Shaping the surface with the mouse: the demo's window under Xvfb, driven by scripted mouse events that go
+//! through the same handlers as real ones (`press:X:Y`, `move:X:Y`, `release` in `--keys`). A cage vertex
+//! is picked where the test projects it, dragged, and the edited cage written (key W) is checked against
+//! the cursor (through the camera the demo frames the cage with), against undo (Z) and reset (R), and
+//! for G1 across the patch edges of the surface it makes.
+mod common;
+
+use glam::{DVec3, Vec3};
+use gregvox::api::tessellate::{Patches, TessellateOptions};
+use gregvox::demo::scene::Orbit;
+use gregvox::engine::cage::builtin_cage;
+use gregvox::surface::Tangents;
+use std::path::Path;
+
+fn read_png(path: &Path) -> (u32, u32, Vec<u8>) {
+    let file = std::fs::File::open(path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+    let mut reader = png::Decoder::new(file).read_info().unwrap();
+    let mut buf = vec![0; reader.output_buffer_size()];
+    let info = reader.next_frame(&mut buf).unwrap();
+    buf.truncate(info.buffer_size());
+    (info.width, info.height, buf)
+}
+
+/// Window pixels of `p` through `view_proj` in a `w`×`h` window.
+fn to_screen(view_proj: &glam::Mat4, p: Vec3, w: u32, h: u32) -> (f64, f64) {
+    let ndc = view_proj.project_point3(p);
+    (
+        (ndc.x as f64 + 1.0) * 0.5 * w as f64,
+        (ndc.y as f64 + 1.0) * 0.5 * h as f64,
+    )
+}
+
+/// The worst normal jump (rad) across the shared patch edges of `cage`'s surface at level 8.
+fn g1_jump(cage: &gregvox::api::Mesh) -> f64 {
+    let gpu = gregvox::Gpu::new().unwrap();
+    let patches = Patches::from_cage(cage, Tangents::OpenSubdiv).unwrap();
+    let mut profiler = gpu.profiler().unwrap();
+    let t = gpu
+        .tessellate(&patches, &TessellateOptions::default(), &mut profiler)
+        .unwrap();
+    let jumps = t.cage_jumps(&patches).expect("a uniform cage tessellation");
+    drop(gpu);
+    jumps.worst
+}
+
+#[test]
+fn a_dragged_cage_vertex_lands_under_the_cursor_and_the_surface_stays_g1() {
+    let (w, h) = (320u32, 240u32);
+    let cage = builtin_cage(4, 2, 2);
+    // The camera the demo frames the cage scene with (the rest cage's box).
+    let lo = cage
+        .positions
+        .iter()
+        .fold(DVec3::splat(f64::INFINITY), |a, p| a.min(*p))
+        .as_vec3();
+    let hi = cage
+        .positions
+        .iter()
+        .fold(DVec3::splat(f64::NEG_INFINITY), |a, p| a.max(*p))
+        .as_vec3();
+    let orbit = Orbit::framing(0.5 * (lo + hi), (hi - lo).max_element());
+    let view_proj = orbit.view_proj(w as f32 / h as f32);
+    // The vertex nearest the eye: a corner in front, nothing else projected near it.
+    let eye = orbit.eye();
+    let k = (0..cage.positions.len())
+        .min_by(|&a, &b| {
+            let d = |i: usize| (cage.positions[i].as_vec3() - eye).length();
+            d(a).total_cmp(&d(b))
+        })
+        .unwrap();
+    let start = to_screen(&view_proj, cage.positions[k].as_vec3(), w, h);
+    let target = (start.0 + 28.0, start.1 - 21.0);
+    let mid = (start.0 + 10.0, start.1 - 5.0);
+
+    let dir = std::env::temp_dir().join(format!("gregvox-drag-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    let f = |(x, y): (f64, f64)| format!("{x:.2}:{y:.2}");
+    let keys = [
+        "Space".to_string(), // pause: the cage shows and its vertices can be picked
+        "p".into(),
+        format!("press:{}", f(start)),
+        format!("move:{}", f(mid)),
+        format!("move:{}", f(target)),
+        "release".into(),
+        "p".into(),
+        "w".into(), // cage 001: dragged
+        "z".into(),
+        "w".into(), // cage 002: undone
+        format!("press:{}", f(start)),
+        format!("move:{}", f(mid)),
+        "release".into(),
+        "r".into(),
+        "w".into(), // cage 003: reset
+        // A press away from every vertex orbits the camera instead.
+        "press:5:5".into(),
+        "move:40:5".into(),
+        "release".into(),
+    ]
+    .join(",");
+    let out = std::process::Command::new("xvfb-run")
+        .args([
+            "-a",
+            env!("CARGO_BIN_EXE_gregvox"),
+            "demo",
+            "--frames",
+            "110",
+        ])
+        .args([
+            "--size",
+            &format!("{w}x{h}"),
+            "--scene",
+            "cage",
+            "--time-step",
+            "0.02",
+        ])
+        // The adaptive path on: the edited cage goes through the same chain as with uniform grids.
+        .args(["--adaptive", "8"])
+        .args(["--keys", &keys])
+        .arg("--out")
+        .arg(&dir)
+        .env("GREGVOX_VALIDATION", "1")
+        .output()
+        .expect("xvfb-run (apt-get install xvfb xauth; scripts/setup.sh installs it)");
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{err}");
+    assert!(
+        !err.contains("vulkan validation"),
+        "validation messages:\n{err}"
+    );
+    assert!(!err.contains("panicked"), "{err}");
+    assert_eq!(
+        err.matches(&format!("picked handle {k} ")).count(),
+        2,
+        "vertex {k} picked twice:\n{err}"
+    );
+    for said in ["undo (0 left)", "reset", "gregvox-cage-003.obj"] {
+        assert!(err.contains(said), "no '{said}' in:\n{err}");
+    }
+
+    // The dragged cage: vertex k alone moved, onto the cursor (in the view plane it was picked in).
+    let dragged = gregvox::api::load_mesh(dir.join("gregvox-cage-001.obj")).unwrap();
+    assert_eq!(dragged.indices, cage.indices);
+    for (i, (a, b)) in dragged.positions.iter().zip(&cage.positions).enumerate() {
+        if i != k {
+            assert!((*a - *b).length() < 1e-6, "vertex {i} moved: {a} from {b}");
+        }
+    }
+    let moved = dragged.positions[k].as_vec3();
+    let on_screen = to_screen(&view_proj, moved, w, h);
+    let miss = (on_screen.0 - target.0).hypot(on_screen.1 - target.1);
+    assert!(
+        miss < 2.0,
+        "vertex {k} at {on_screen:?} on screen, the cursor at {target:?}"
+    );
+    let depth = |p: Vec3| view_proj.project_point3(p).z;
+    assert!(
+        (depth(moved) - depth(cage.positions[k].as_vec3())).abs() < 1e-4,
+        "the drag stays in the view plane"
+    );
+    assert!((moved - cage.positions[k].as_vec3()).length() > 0.1);
+
+    // Undo and reset give the cage back.
+    for n in [2, 3] {
+        let back = gregvox::api::load_mesh(dir.join(format!("gregvox-cage-{n:03}.obj"))).unwrap();
+        for (a, b) in back.positions.iter().zip(&cage.positions) {
+            assert!((*a - *b).length() < 1e-6, "cage {n}: {a} against {b}");
+        }
+    }
+
+    // The surface moved where the cursor went: the frames before and after the drag differ around it.
+    let (sw, sh, before) = read_png(&dir.join("gregvox-screenshot-001.png"));
+    let (_, _, after) = read_png(&dir.join("gregvox-screenshot-002.png"));
+    assert_eq!((sw, sh), (w, h));
+    let (tx, ty) = (target.0 as i64, target.1 as i64);
+    let mut changed = 0;
+    for y in (ty - 20).max(0)..(ty + 20).min(h as i64) {
+        for x in (tx - 20).max(0)..(tx + 20).min(w as i64) {
+            let i = ((y as u32 * w + x as u32) * 4) as usize;
+            if (0..3).any(|c| before[i + c].abs_diff(after[i + c]) > 16) {
+                changed += 1;
+            }
+        }
+    }
+    assert!(changed > 100, "{changed} pixels changed around the cursor");
+
+    // G1 holds on the edited surface as on the original.
+    let (g_rest, g_dragged) = (g1_jump(&cage), g1_jump(&dragged));
+    assert!(g_rest < 1e-3, "{g_rest}");
+    assert!(g_dragged < 1e-3, "G1 after the drag: {g_dragged} rad");
+    let _ = std::fs::remove_dir_all(&dir);
+}
