@@ -189,3 +189,84 @@ fn a_dragged_cage_vertex_lands_under_the_cursor_and_the_surface_stays_g1() {
     assert!(g_dragged < 1e-3, "G1 after the drag: {g_dragged} rad");
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+#[test]
+fn a_dragged_curve_point_follows_the_cursor_and_the_wheel_sets_its_nurbs_weight() {
+    use gregvox::demo::curves::{framing, CurveControls, BEZIER_POINTS, BSPLINE_POINTS};
+    let (w, h) = (320u32, 240u32);
+    let view_proj = framing().view_proj(w as f32 / h as f32);
+    // The middle NURBS control point, as the paused scene shows it.
+    let k = (BEZIER_POINTS + BSPLINE_POINTS + 2) as usize;
+    let shown = CurveControls::default().at(0.0).points()[k];
+    let p = Vec3::new(shown.x as f32, 0.0, shown.y as f32);
+    let start = to_screen(&view_proj, p, w, h);
+    let target = (start.0 - 15.0, start.1 + 24.0);
+    let dir = std::env::temp_dir().join(format!("gregvox-drag-curve-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    let f = |(x, y): (f64, f64)| format!("{x:.2}:{y:.2}");
+    let keys = [
+        "Space".to_string(),
+        "p".into(),
+        format!("press:{}", f(start)),
+        format!("move:{}", f(target)),
+        "wheel:2".into(),
+        "release".into(),
+        "p".into(),
+    ]
+    .join(",");
+    let out = std::process::Command::new("xvfb-run")
+        .args([
+            "-a",
+            env!("CARGO_BIN_EXE_gregvox"),
+            "demo",
+            "--frames",
+            "50",
+        ])
+        .args(["--size", &format!("{w}x{h}"), "--scene", "curves"])
+        .args(["--keys", &keys])
+        .arg("--out")
+        .arg(&dir)
+        .env("GREGVOX_VALIDATION", "1")
+        .output()
+        .expect("xvfb-run (apt-get install xvfb xauth; scripts/setup.sh installs it)");
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{err}");
+    assert!(
+        !err.contains("vulkan validation"),
+        "validation messages:\n{err}"
+    );
+    assert!(err.contains(&format!("picked handle {k} ")), "{err}");
+    // Two notches heavier: 2 × 1.25².
+    assert!(err.contains("NURBS weight 2: 3.1250"), "{err}");
+    let moved: Vec<f32> = err
+        .lines()
+        .find_map(|l| l.split_once(&format!("moved handle {k} to ")))
+        .map(|(_, rest)| {
+            rest.split_whitespace()
+                .take(3)
+                .map(|v| v.parse().unwrap())
+                .collect()
+        })
+        .unwrap_or_else(|| panic!("no move reported:\n{err}"));
+    let moved = Vec3::new(moved[0], moved[1], moved[2]);
+    assert!(
+        moved.y.abs() < 1e-4,
+        "the point stays in the curves' plane: {moved}"
+    );
+    let on_screen = to_screen(&view_proj, moved, w, h);
+    let miss = (on_screen.0 - target.0).hypot(on_screen.1 - target.1);
+    assert!(
+        miss < 2.0,
+        "{on_screen:?} on screen, the cursor at {target:?}"
+    );
+    // The curve moved: the frames before and after differ around the NURBS panel.
+    let (_, _, before) = read_png(&dir.join("gregvox-screenshot-001.png"));
+    let (_, _, after) = read_png(&dir.join("gregvox-screenshot-002.png"));
+    let changed = before
+        .chunks_exact(4)
+        .zip(after.chunks_exact(4))
+        .filter(|(a, b)| (0..3).any(|c| a[c].abs_diff(b[c]) > 16))
+        .count();
+    assert!(changed > 200, "{changed} pixels changed");
+    let _ = std::fs::remove_dir_all(&dir);
+}

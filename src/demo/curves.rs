@@ -116,24 +116,111 @@ fn sampled(a: f64, b: f64, f: impl Fn(f64) -> DVec2) -> Vec<DVec2> {
         .collect()
 }
 
+/// The curves' control points and the NURBS weights: what the mouse edits while the scene is paused, and
+/// what the animation moves while it plays (a Bézier point bobs, a B-spline point circles, the middle NURBS
+/// weight breathes), on top of the edits.
+#[derive(Clone, Debug, PartialEq)]
+pub struct CurveControls {
+    /// Degree 4, in x ∈ [0, 3].
+    pub bezier: Vec<DVec2>,
+    /// Cubic, clamped uniform knots, in x ∈ [3.6, 6.6].
+    pub bspline: Vec<DVec2>,
+    /// Quadratic over a convex polygon (its curvature never vanishes), in x ∈ [7.2, 10.2].
+    pub nurbs: Vec<DVec2>,
+    /// The NURBS weights (positive).
+    pub weights: Vec<f64>,
+}
+
+impl Default for CurveControls {
+    fn default() -> Self {
+        let pts = |v: &[(f64, f64)]| v.iter().map(|&(x, y)| DVec2::new(x, y)).collect();
+        CurveControls {
+            bezier: pts(&[(0.0, 0.0), (0.4, 1.8), (1.5, 2.2), (2.4, 0.2), (3.0, 1.4)]),
+            bspline: pts(&[
+                (3.6, 0.2),
+                (3.9, 1.6),
+                (4.5, 2.3),
+                (5.0, 0.6),
+                (5.5, 0.9),
+                (5.9, 2.2),
+                (6.3, 1.9),
+                (6.6, 0.4),
+            ]),
+            nurbs: pts(&[(7.2, 0.2), (7.4, 2.0), (8.7, 2.6), (10.0, 2.0), (10.2, 0.2)]),
+            weights: vec![1.0, 1.0, 2.0, 1.0, 1.0],
+        }
+    }
+}
+
+/// Lightest and heaviest NURBS weight the wheel sets.
+pub const WEIGHT_RANGE: (f64, f64) = (0.05, 20.0);
+
+impl CurveControls {
+    /// The animation's offset of every control point at time `t`, in [`CurveControls::points`] order.
+    fn offsets(t: f32) -> Vec<DVec2> {
+        let time = t as f64;
+        let mut o = vec![DVec2::ZERO; (BEZIER_POINTS + BSPLINE_POINTS + NURBS_POINTS) as usize];
+        o[2] = DVec2::new(0.0, 0.3 * (0.7 * time).sin());
+        o[BEZIER_POINTS as usize + 3] = DVec2::new((1.1 * time).cos(), (1.1 * time).sin()) * 0.35;
+        o
+    }
+
+    /// The controls shown at time `t`: these with the animation's offsets, the middle NURBS weight
+    /// breathing by ±80 %.
+    pub fn at(&self, t: f32) -> CurveControls {
+        let mut c = self.clone();
+        let moved: Vec<DVec2> = self
+            .points()
+            .iter()
+            .zip(Self::offsets(t))
+            .map(|(p, o)| *p + o)
+            .collect();
+        c.set_points(&moved);
+        c.weights[2] *= 1.0 + 0.8 * (0.6 * t as f64).sin();
+        c
+    }
+
+    /// Every control point: the Bézier's, the B-spline's, then the NURBS's.
+    pub fn points(&self) -> Vec<DVec2> {
+        [&self.bezier[..], &self.bspline, &self.nurbs].concat()
+    }
+
+    /// Sets the points [`CurveControls::points`] lists (as many, same order).
+    pub fn set_points(&mut self, pts: &[DVec2]) {
+        let (b, s) = (self.bezier.len(), self.bspline.len());
+        self.bezier.copy_from_slice(&pts[..b]);
+        self.bspline.copy_from_slice(&pts[b..b + s]);
+        self.nurbs.copy_from_slice(&pts[b + s..]);
+    }
+
+    /// Sets the points as shown at time `t` (the offsets of [`CurveControls::at`] taken off).
+    pub fn set_points_at(&mut self, t: f32, pts: &[DVec2]) {
+        let base: Vec<DVec2> = pts
+            .iter()
+            .zip(Self::offsets(t))
+            .map(|(p, o)| *p - o)
+            .collect();
+        self.set_points(&base);
+    }
+}
+
 /// The de Casteljau parameter at time `t`.
 pub fn casteljau_t(t: f32) -> f64 {
     0.5 + 0.45 * (0.8 * t as f64).sin()
 }
 
-/// Builds every segment of the frame at time `t`.
+/// Builds every segment of the frame at time `t` (the built-in controls).
 pub fn curve_lines(t: f32) -> crate::Result<CurveLines> {
+    curve_lines_with(&CurveControls::default().at(t), t)
+}
+
+/// Builds every segment of the curves `c` (as shown: [`CurveControls::at`]), with the de Casteljau
+/// construction and the circle of curvature at time `t`'s parameters.
+pub fn curve_lines_with(c: &CurveControls, t: f32) -> crate::Result<CurveLines> {
     let time = t as f64;
     let mut out = CurveLines::default();
 
-    // Bézier, degree 4, in x ∈ [0, 3].
-    let ctrl = vec![
-        DVec2::new(0.0, 0.0),
-        DVec2::new(0.4, 1.8),
-        DVec2::new(1.5, 2.2 + 0.3 * (0.7 * time).sin()),
-        DVec2::new(2.4, 0.2),
-        DVec2::new(3.0, 1.4),
-    ];
+    let ctrl = c.bezier.clone();
     let bez = Bezier::new(ctrl.clone())?;
     out.part("bezier curve", |o| {
         polyline(o, &sampled(0.0, 1.0, |u| bez.eval(u)), CURVE)
@@ -164,23 +251,9 @@ pub fn curve_lines(t: f32) -> crate::Result<CurveLines> {
         })
     });
 
-    // Cubic B-spline with a clamped uniform knot vector, in x ∈ [3.6, 6.6]; one control point circles, which
-    // moves only the spans it supports.
-    let wobble = DVec2::new((1.1 * time).cos(), (1.1 * time).sin()) * 0.35;
-    let bctrl: Vec<DVec2> = [
-        (3.6, 0.2),
-        (3.9, 1.6),
-        (4.5, 2.3),
-        (5.0, 0.6),
-        (5.5, 0.9),
-        (5.9, 2.2),
-        (6.3, 1.9),
-        (6.6, 0.4),
-    ]
-    .iter()
-    .enumerate()
-    .map(|(i, &(x, y))| DVec2::new(x, y) + if i == 3 { wobble } else { DVec2::ZERO })
-    .collect();
+    // Cubic B-spline with a clamped uniform knot vector; one control point circles (animated), which moves
+    // only the spans it supports.
+    let bctrl = c.bspline.clone();
     let bs = BSplineCurve::clamped_uniform(3, bctrl.clone())?;
     let (a, b) = bs.domain();
     out.part("bspline curve", |o| {
@@ -194,21 +267,14 @@ pub fn curve_lines(t: f32) -> crate::Result<CurveLines> {
         })
     });
 
-    // Quadratic NURBS over a convex polygon (so its curvature never vanishes) in x ∈ [7.2, 10.2]; the middle
-    // weight breathes between 0.4 and 3.6.
-    let nctrl = vec![
-        DVec2::new(7.2, 0.2),
-        DVec2::new(7.4, 2.0),
-        DVec2::new(8.7, 2.6),
-        DVec2::new(10.0, 2.0),
-        DVec2::new(10.2, 0.2),
-    ];
-    let w = 2.0 + 1.6 * (0.6 * time).sin();
+    // Quadratic NURBS over a convex polygon (so its curvature never vanishes); the middle weight breathes
+    // (animated: between 0.4 and 3.6 for the built-in 2).
+    let nctrl = c.nurbs.clone();
     let nurbs = NurbsCurve::new(
         2,
         vec![0.0, 0.0, 0.0, 1.0 / 3.0, 2.0 / 3.0, 1.0, 1.0, 1.0],
         nctrl.clone(),
-        vec![1.0, 1.0, w, 1.0, 1.0],
+        c.weights.clone(),
     )?;
     out.part("nurbs curve", |o| {
         polyline(o, &sampled(0.0, 1.0, |u| nurbs.eval(u)), CURVE)
@@ -243,12 +309,47 @@ pub fn expected_vertices() -> u32 {
     2 * segments
 }
 
+/// A square around each control point (the handles of a paused scene), the held one larger, in orange.
+fn handle_marks(out: &mut Vec<LineVertex>, points: &[DVec2], held: Option<usize>) {
+    for (i, &p) in points.iter().enumerate() {
+        let (r, c) = if held == Some(i) {
+            (2.0 * MARK, HELD)
+        } else {
+            (MARK, POLYGON)
+        };
+        let corners = [
+            p + DVec2::new(-r, -r),
+            p + DVec2::new(r, -r),
+            p + DVec2::new(r, r),
+            p + DVec2::new(-r, r),
+            p + DVec2::new(-r, -r),
+        ];
+        polyline(out, &corners, c);
+    }
+}
+
+/// The handle being dragged.
+const HELD: [f32; 3] = [1.0, 0.45, 0.05];
+
+/// The camera of the curves scene: the x–z plane head on (eye on −y, z up), the three panels in view.
+pub fn framing() -> Orbit {
+    Orbit {
+        target: Vec3::new(5.1, 0.0, 1.3),
+        yaw: -std::f32::consts::FRAC_PI_2,
+        pitch: 0.0,
+        distance: 9.5,
+    }
+}
+
 /// The curves scene.
 pub struct CurvesScene {
     lines: LinesPass,
     ring: LineRing,
     /// Vertices drawn in the last recorded frame.
     pub drawn: u32,
+    /// The controls as edited (the animation plays on top of them).
+    pub controls: CurveControls,
+    held: Option<usize>,
 }
 
 impl CurvesScene {
@@ -258,6 +359,8 @@ impl CurvesScene {
             lines: LinesPass::new(ctx, format, DEPTH_FORMAT)?,
             ring: LineRing::new(super::FRAMES_IN_FLIGHT),
             drawn: 0,
+            controls: CurveControls::default(),
+            held: None,
         })
     }
 }
@@ -277,7 +380,11 @@ impl Scene for CurvesScene {
         profiler: &mut Profiler,
     ) -> anyhow::Result<()> {
         let time = if view.animate { t } else { 0.0 };
-        let frame = curve_lines(time)?;
+        let shown = self.controls.at(time);
+        let mut frame = curve_lines_with(&shown, time)?;
+        if !view.animate {
+            frame.part("handles", |o| handle_marks(o, &shown.points(), self.held));
+        }
         let count = frame.vertices.len() as u32;
         let buf = self.ring.upload(ctx, targets.slot, &frame.vertices)?;
         let aspect = targets.extent.width as f32 / targets.extent.height.max(1) as f32;
@@ -303,13 +410,49 @@ impl Scene for CurvesScene {
     }
 
     fn framing(&self) -> Orbit {
-        // Face the x–z plane head on (eye on −y, z up) with the three panels in view.
-        Orbit {
-            target: Vec3::new(5.1, 0.0, 1.3),
-            yaw: -std::f32::consts::FRAC_PI_2,
-            pitch: 0.0,
-            distance: 9.5,
+        framing()
+    }
+
+    fn handles(&self, view: &ViewState) -> Vec<Vec3> {
+        if view.animate {
+            return Vec::new();
         }
+        let shown = self.controls.at(0.0);
+        shown
+            .points()
+            .iter()
+            .map(|p| Vec3::new(p.x as f32, 0.0, p.y as f32))
+            .collect()
+    }
+
+    fn set_handles(&mut self, positions: &[Vec3], held: Option<usize>) -> anyhow::Result<()> {
+        let n = self.controls.points().len();
+        anyhow::ensure!(
+            positions.len() == n,
+            "{} handles given, the curves have {n} control points",
+            positions.len()
+        );
+        // Dragged in the view plane, which is the curves' plane y = 0 head on; off it (after an orbit)
+        // the point is projected back onto the plane.
+        let pts: Vec<DVec2> = positions
+            .iter()
+            .map(|p| DVec2::new(p.x as f64, p.z as f64))
+            .collect();
+        self.controls.set_points_at(0.0, &pts);
+        self.held = held;
+        Ok(())
+    }
+
+    fn wheel_held(&mut self, index: usize, steps: f32) -> anyhow::Result<Option<String>> {
+        let first = (BEZIER_POINTS + BSPLINE_POINTS) as usize;
+        let Some(j) = index.checked_sub(first) else {
+            return Ok(None);
+        };
+        let Some(w) = self.controls.weights.get_mut(j) else {
+            return Ok(None);
+        };
+        *w = (*w * 1.25f64.powf(steps as f64)).clamp(WEIGHT_RANGE.0, WEIGHT_RANGE.1);
+        Ok(Some(format!("NURBS weight {j}: {w:.4}")))
     }
 }
 

@@ -162,6 +162,11 @@ pub trait Scene {
     fn set_handles(&mut self, _positions: &[Vec3], _held: Option<usize>) -> anyhow::Result<()> {
         Ok(())
     }
+    /// The wheel turned `steps` notches while handle `index` is held (a NURBS weight); returns what
+    /// changed, or `None` when the handle has nothing the wheel sets (the wheel then zooms).
+    fn wheel_held(&mut self, _index: usize, _steps: f32) -> anyhow::Result<Option<String>> {
+        Ok(None)
+    }
     /// The edited shape as a mesh (key W writes it), for scenes whose handles are a cage.
     fn edited_cage(&self) -> Option<crate::mesh::Mesh> {
         None

@@ -147,12 +147,14 @@ pub fn window_action(entry: &str) -> Option<WindowAction> {
 }
 
 /// A scripted mouse operation (`--keys` entries `press:X:Y`, `move:X:Y`, `release`: the left button, at
-/// window pixels), carried out by the same handlers as the real events.
+/// window pixels; `wheel:N`), carried out by the same handlers as the real events.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum MouseAction {
     Press(f64, f64),
     Move(f64, f64),
     Release,
+    /// `wheel:N`: N notches (positive: away from the user, closer / heavier).
+    Wheel(f32),
 }
 
 /// The mouse operation a scripted entry names, if it names one.
@@ -162,6 +164,7 @@ pub enum MouseAction {
 /// assert_eq!(mouse_action("press:120:80"), Some(MouseAction::Press(120.0, 80.0)));
 /// assert_eq!(mouse_action("move:130.5:60"), Some(MouseAction::Move(130.5, 60.0)));
 /// assert_eq!(mouse_action("release"), Some(MouseAction::Release));
+/// assert_eq!(mouse_action("wheel:-2"), Some(MouseAction::Wheel(-2.0)));
 /// assert_eq!(mouse_action("press:1"), None);
 /// assert_eq!(mouse_action("p"), None);
 /// ```
@@ -169,6 +172,10 @@ pub fn mouse_action(entry: &str) -> Option<MouseAction> {
     let entry = entry.to_ascii_lowercase();
     if entry == "release" {
         return Some(MouseAction::Release);
+    }
+    if let Some(n) = entry.strip_prefix("wheel:") {
+        let n: f32 = n.parse().ok()?;
+        return n.is_finite().then_some(MouseAction::Wheel(n));
     }
     let (kind, rest) = entry.split_once(':')?;
     let (x, y) = rest.split_once(':')?;
@@ -601,11 +608,27 @@ impl App<'_> {
         Ok(())
     }
 
+    /// The wheel turned `lines` notches: sets what the held handle has (a NURBS weight), else zooms.
+    fn mouse_wheel(&mut self, lines: f32) -> anyhow::Result<()> {
+        let Some(r) = self.renderer.as_mut() else {
+            return Ok(());
+        };
+        if let Some(h) = &self.held {
+            if let Some(what) = r.scene.wheel_held(h.index, lines)? {
+                eprintln!("gregvox demo: {what}");
+                return Ok(());
+            }
+        }
+        r.view.orbit = r.view.orbit.zoomed(lines);
+        Ok(())
+    }
+
     fn mouse(&mut self, action: MouseAction) -> anyhow::Result<()> {
         match action {
             MouseAction::Press(x, y) => self.mouse_press((x, y)),
             MouseAction::Move(x, y) => self.mouse_move((x, y)),
             MouseAction::Release => self.mouse_release(),
+            MouseAction::Wheel(lines) => self.mouse_wheel(lines),
         }
     }
 
@@ -716,10 +739,7 @@ impl ApplicationHandler for App<'_> {
                     // About 40 pixels per wheel notch.
                     MouseScrollDelta::PixelDelta(p) => (p.y / 40.0) as f32,
                 };
-                if let Some(r) = self.renderer.as_mut() {
-                    r.view.orbit = r.view.orbit.zoomed(lines);
-                }
-                Ok(())
+                self.mouse_wheel(lines)
             }
             WindowEvent::Resized(size) => {
                 if let Some(t) = self.target.as_mut() {
