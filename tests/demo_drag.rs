@@ -76,7 +76,8 @@ fn a_dragged_cage_vertex_lands_under_the_cursor_and_the_surface_stays_g1() {
     let _ = std::fs::remove_dir_all(&dir);
     let f = |(x, y): (f64, f64)| format!("{x:.2}:{y:.2}");
     let keys = [
-        "Space".to_string(), // pause: the cage shows and its vertices can be picked
+        "h".to_string(), // the overlay off: the frames compared below show the surface alone
+        "Space".into(),  // pause: the cage shows and its vertices can be picked
         "p".into(),
         format!("press:{}", f(start)),
         format!("move:{}", f(mid)),
@@ -205,7 +206,8 @@ fn a_dragged_curve_point_follows_the_cursor_and_the_wheel_sets_its_nurbs_weight(
     let _ = std::fs::remove_dir_all(&dir);
     let f = |(x, y): (f64, f64)| format!("{x:.2}:{y:.2}");
     let keys = [
-        "Space".to_string(),
+        "h".to_string(),
+        "Space".into(),
         "p".into(),
         format!("press:{}", f(start)),
         format!("move:{}", f(target)),

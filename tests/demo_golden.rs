@@ -370,14 +370,14 @@ fn every_key_works_in_a_window_under_xvfb() {
     // minimise (frames are skipped) and restore.
     let dir = std::env::temp_dir().join(format!("gregvox-window-keys-{}", std::process::id()));
     let _ = std::fs::remove_dir_all(&dir);
-    let keys = "s,s,s,s,s,+,-,v,Space,p,t,d,v,Space,1,c,3,2,resize:200x150,minimize,restore,p";
+    let keys = "s,s,s,s,s,+,-,v,Space,p,t,d,v,Space,1,c,3,2,h,h,resize:200x150,minimize,restore,p";
     let out = std::process::Command::new("xvfb-run")
         .args([
             "-a",
             env!("CARGO_BIN_EXE_gregvox"),
             "demo",
             "--frames",
-            "130",
+            "140",
         ])
         .args(["--size", "160x120", "--scene", "cage", "--keys", keys])
         .arg("--out")
@@ -404,7 +404,9 @@ fn every_key_works_in_a_window_under_xvfb() {
         "scene spinner",
         "scene built-in box cage",
         "presenting at 200x150",
-        "130 frames presented, 1 skipped",
+        "overlay off",
+        "overlay on",
+        "140 frames presented, 1 skipped",
     ] {
         assert!(err.contains(said), "no '{said}' in:\n{err}");
     }

@@ -25,6 +25,7 @@ use std::path::PathBuf;
 pub mod beziex;
 pub mod cage;
 pub mod curves;
+pub mod hud;
 pub mod scene;
 pub mod voxels;
 pub mod window;
@@ -50,6 +51,10 @@ pub struct DemoArgs {
     /// Write every K-th frame as PNG (0: only the last; the last is always written).
     #[arg(long, default_value_t = 0)]
     pub every: u64,
+    /// Draw the overlay (scene, level, shading, frame and pass times) into offscreen frames too; the
+    /// window shows it from the start (key H hides it).
+    #[arg(long)]
+    pub hud: bool,
     /// The scene.
     #[arg(long, value_enum, default_value = "flag")]
     pub scene: SceneKind,
@@ -276,6 +281,13 @@ pub struct Renderer {
     depth: Vec<Option<Image>>,
     pub scene: Box<dyn Scene>,
     pub view: ViewState,
+    /// Draw the overlay ([`hud`]); with the keys listed when `hud_keys`.
+    pub hud: bool,
+    pub hud_keys: bool,
+    overlay: Option<hud::Hud>,
+    /// Smoothed wall time between frames (ms), for the overlay.
+    pub frame_ms: f64,
+    last_draw: Option<std::time::Instant>,
 }
 
 impl Renderer {
@@ -300,6 +312,11 @@ impl Renderer {
             depth: (0..FRAMES_IN_FLIGHT).map(|_| None).collect(),
             scene,
             view,
+            hud: false,
+            hud_keys: false,
+            overlay: None,
+            frame_ms: 0.0,
+            last_draw: None,
         })
     }
 
@@ -381,6 +398,47 @@ impl Renderer {
         let view = self.view;
         self.scene
             .record(ctx, cmd, &targets, t, &view, &mut self.profiler)?;
+        let now = std::time::Instant::now();
+        if let Some(last) = self.last_draw.replace(now) {
+            let ms = now.duration_since(last).as_secs_f64() * 1e3;
+            self.frame_ms = if self.frame_ms == 0.0 {
+                ms
+            } else {
+                0.9 * self.frame_ms + 0.1 * ms
+            };
+        }
+        if self.hud {
+            if self.overlay.is_none() {
+                self.overlay = Some(hud::Hud::new(ctx, target.format())?);
+            }
+            let info = hud::HudInfo {
+                scene: self.scene.name(),
+                level: self.scene.level(),
+                shading: format!("{:?}", view.shading),
+                path: match view.path {
+                    DrawPath::Compute => "compute".into(),
+                    DrawPath::VertexPull => "vertex pull".into(),
+                },
+                animate: view.animate,
+                frame_ms: self.frame_ms,
+                passes: self
+                    .profiler
+                    .stats()
+                    .into_iter()
+                    .map(|p| (p.name, p.median_ms))
+                    .collect(),
+                keys: self.hud_keys,
+            };
+            if let Some(overlay) = self.overlay.as_mut() {
+                overlay.record(
+                    ctx,
+                    cmd,
+                    &targets,
+                    &hud::hud_lines(&info),
+                    &mut self.profiler,
+                )?;
+            }
+        }
         target.record_finish(ctx, cmd, &img);
         let waits: Vec<(vk::Semaphore, vk::PipelineStageFlags)> = img
             .acquired
@@ -526,6 +584,7 @@ fn run_offscreen(args: &DemoArgs) -> anyhow::Result<()> {
     let mut target = OffscreenTarget::new(&ctx, w, h, FRAMES_IN_FLIGHT)?;
     let scene = build_scene(&ctx, args, target.format())?;
     let mut renderer = Renderer::new(&ctx, scene, args.shading, draw_path(args))?;
+    renderer.hud = args.hud;
     // Only once the scene stands: a refused model or option leaves no empty output folder behind.
     std::fs::create_dir_all(&out)
         .with_context(|| format!("cannot create the output folder {}", out.display()))?;

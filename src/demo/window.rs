@@ -65,6 +65,8 @@ pub enum Action {
     Reset,
     /// Write the edited cage as `gregvox-cage-NNN.obj` (W).
     WriteCage,
+    /// Show or hide the overlay (H).
+    ToggleHud,
     /// A key the scene itself may use (C: flag correction, D: cage deformation, …), lower case.
     SceneKey(String),
 }
@@ -101,6 +103,7 @@ pub fn key_action(key: &str, c: &Controls) -> Option<Action> {
         "z" => Some(Action::Undo),
         "r" => Some(Action::Reset),
         "w" => Some(Action::WriteCage),
+        "h" => Some(Action::ToggleHud),
         k if k.len() == 1 && k.as_bytes()[0].is_ascii_digit() => {
             let n = (k.as_bytes()[0] - b'0') as usize;
             let kind = *SceneKind::all().get(n.checked_sub(1)?)?;
@@ -351,12 +354,15 @@ impl App<'_> {
             true,
         )?;
         let scene = super::build_scene(self.ctx, &self.args, target.format())?;
-        let renderer = Renderer::new(
+        let mut renderer = Renderer::new(
             self.ctx,
             scene,
             self.args.shading,
             super::draw_path(&self.args),
         )?;
+        // The window shows the overlay with the keys from the start (H hides it).
+        renderer.hud = true;
+        renderer.hud_keys = true;
         self.window = Some(window);
         self.target = Some(target);
         self.renderer = Some(renderer);
@@ -492,6 +498,13 @@ impl App<'_> {
                     renderer.scene.set_handles(&original, None)?;
                     eprintln!("gregvox demo: reset");
                 }
+            }
+            Action::ToggleHud => {
+                renderer.hud = !renderer.hud;
+                eprintln!(
+                    "gregvox demo: overlay {}",
+                    if renderer.hud { "on" } else { "off" }
+                );
             }
             Action::WriteCage => match renderer.scene.edited_cage() {
                 Some(cage) => {

@@ -11,6 +11,7 @@ pub mod gregory_eval;
 pub mod iota;
 pub mod lines;
 pub mod mesh_normals;
+pub mod overlay;
 pub mod patch_pull;
 pub mod peel;
 pub mod peel_check;
