@@ -96,39 +96,25 @@ fn a_dragged_cage_vertex_lands_under_the_cursor_and_the_surface_stays_g1() {
         "press:5:5".into(),
         "move:40:5".into(),
         "release".into(),
-    ]
-    .join(",");
-    let out = std::process::Command::new("xvfb-run")
-        .args([
-            "-a",
-            env!("CARGO_BIN_EXE_gregvox"),
-            "demo",
+    ];
+    let size = format!("{w}x{h}");
+    // The adaptive path on: the edited cage goes through the same chain as with uniform grids.
+    let err = common::run_demo_window(
+        &[
             "--frames",
             "110",
-        ])
-        .args([
             "--size",
-            &format!("{w}x{h}"),
+            &size,
             "--scene",
             "cage",
             "--time-step",
             "0.02",
-        ])
-        // The adaptive path on: the edited cage goes through the same chain as with uniform grids.
-        .args(["--adaptive", "8"])
-        .args(["--keys", &keys])
-        .arg("--out")
-        .arg(&dir)
-        .env("GREGVOX_VALIDATION", "1")
-        .output()
-        .expect("xvfb-run (apt-get install xvfb xauth; scripts/setup.sh installs it)");
-    let err = String::from_utf8_lossy(&out.stderr);
-    assert!(out.status.success(), "{err}");
-    assert!(
-        !err.contains("vulkan validation"),
-        "validation messages:\n{err}"
+            "--adaptive",
+            "8",
+        ],
+        &keys,
+        &dir,
     );
-    assert!(!err.contains("panicked"), "{err}");
     assert_eq!(
         err.matches(&format!("picked handle {k} ")).count(),
         2,
@@ -214,28 +200,12 @@ fn a_dragged_curve_point_follows_the_cursor_and_the_wheel_sets_its_nurbs_weight(
         "wheel:2".into(),
         "release".into(),
         "p".into(),
-    ]
-    .join(",");
-    let out = std::process::Command::new("xvfb-run")
-        .args([
-            "-a",
-            env!("CARGO_BIN_EXE_gregvox"),
-            "demo",
-            "--frames",
-            "50",
-        ])
-        .args(["--size", &format!("{w}x{h}"), "--scene", "curves"])
-        .args(["--keys", &keys])
-        .arg("--out")
-        .arg(&dir)
-        .env("GREGVOX_VALIDATION", "1")
-        .output()
-        .expect("xvfb-run (apt-get install xvfb xauth; scripts/setup.sh installs it)");
-    let err = String::from_utf8_lossy(&out.stderr);
-    assert!(out.status.success(), "{err}");
-    assert!(
-        !err.contains("vulkan validation"),
-        "validation messages:\n{err}"
+    ];
+    let size = format!("{w}x{h}");
+    let err = common::run_demo_window(
+        &["--frames", "50", "--size", &size, "--scene", "curves"],
+        &keys,
+        &dir,
     );
     assert!(err.contains(&format!("picked handle {k} ")), "{err}");
     // Two notches heavier: 2 × 1.25².

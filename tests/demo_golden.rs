@@ -17,13 +17,11 @@ use gregvox::demo::{build_scene, draw_path, DemoArgs, Renderer, FRAMES_IN_FLIGHT
 use gregvox::engine::cage::{builtin_cage, cage_topology};
 use gregvox::engine::gregory::GregorySurface;
 use gregvox::geom::shading::in_shadow_by;
-use gregvox::gpu::present::begin_color_target;
-use gregvox::gpu::resources::image_barrier;
-use gregvox::gpu::{Context, ImageDesc, MemoryLocation, OffscreenTarget, PresentTarget};
+use gregvox::gpu::{Context, MemoryLocation, OffscreenTarget, PresentTarget};
 use gregvox::passes::shadow_map::{light_view_proj, ShadowMap};
 use gregvox::passes::surface_curvature::SurfaceCurvaturePass;
 use gregvox::passes::surface_draw::{
-    DrawTarget, LitDraw, ShadingMode, SurfaceDrawPass, SurfacePush, FLAG_GROUND, FLAG_SHADOWS,
+    LitDraw, ShadingMode, SurfaceDrawPass, SurfacePush, FLAG_GROUND, FLAG_SHADOWS,
 };
 use gregvox::surface::Tangents;
 use std::path::PathBuf;
@@ -370,28 +368,16 @@ fn every_key_works_in_a_window_under_xvfb() {
     // minimise (frames are skipped) and restore.
     let dir = std::env::temp_dir().join(format!("gregvox-window-keys-{}", std::process::id()));
     let _ = std::fs::remove_dir_all(&dir);
-    let keys = "s,s,s,s,s,+,-,v,Space,p,t,d,v,Space,1,c,3,2,h,h,resize:200x150,minimize,restore,p";
-    let out = std::process::Command::new("xvfb-run")
-        .args([
-            "-a",
-            env!("CARGO_BIN_EXE_gregvox"),
-            "demo",
-            "--frames",
-            "140",
-        ])
-        .args(["--size", "160x120", "--scene", "cage", "--keys", keys])
-        .arg("--out")
-        .arg(&dir)
-        .env("GREGVOX_VALIDATION", "1")
-        .output()
-        .expect("xvfb-run (apt-get install xvfb xauth; scripts/setup.sh installs it)");
-    let err = String::from_utf8_lossy(&out.stderr);
-    assert!(out.status.success(), "{err}");
-    assert!(
-        !err.contains("vulkan validation"),
-        "validation messages:\n{err}"
+    let keys: Vec<String> =
+        "s,s,s,s,s,+,-,v,Space,p,t,d,v,Space,1,c,3,2,h,h,resize:200x150,minimize,restore,p"
+            .split(',')
+            .map(String::from)
+            .collect();
+    let err = common::run_demo_window(
+        &["--frames", "140", "--size", "160x120", "--scene", "cage"],
+        &keys,
+        &dir,
     );
-    assert!(!err.contains("panicked"), "{err}");
     for said in [
         "shading Normals",
         "shading Gaussian",
@@ -494,8 +480,7 @@ fn shadow_map_darkens_exactly_the_ground_the_cpu_ray_cast_puts_in_shadow() {
     proj.y_axis.y = -proj.y_axis.y;
     let view_proj = proj * Mat4::look_at_rh(Vec3::new(0.0, 0.0, 5.0), Vec3::ZERO, Vec3::Y);
     let pixels = common::with_gpu(|ctx| {
-        let mut target = OffscreenTarget::new(ctx, W, H, 1).unwrap();
-        let draw = SurfaceDrawPass::new(ctx, target.format(), vk::Format::D32_SFLOAT).unwrap();
+        let draw = SurfaceDrawPass::new(ctx, common::FRAME_FORMAT, vk::Format::D32_SFLOAT).unwrap();
         let shadow = ShadowMap::new(ctx, 1024).unwrap();
         let up = |name: &str, bytes: &[u8], usage| ctx.upload_buffer(name, bytes, usage).unwrap();
         let idx: [u32; 6] = [0, 1, 2, 0, 2, 3];
@@ -514,18 +499,6 @@ fn shadow_map_darkens_exactly_the_ground_the_cpu_ray_cast_puts_in_shadow() {
             bytemuck::cast_slice(&idx),
             vk::BufferUsageFlags::INDEX_BUFFER,
         );
-        let depth = ctx
-            .create_image(
-                "depth",
-                &ImageDesc::d2(
-                    W,
-                    H,
-                    vk::Format::D32_SFLOAT,
-                    vk::ImageUsageFlags::DEPTH_STENCIL_ATTACHMENT,
-                ),
-            )
-            .unwrap();
-        let img = target.acquire(ctx, 0).unwrap().unwrap();
         let push = |flags: u32| SurfacePush {
             view_proj: view_proj.to_cols_array_2d(),
             eye: [0.0, 0.0, 5.0, 1.0],
@@ -533,26 +506,7 @@ fn shadow_map_darkens_exactly_the_ground_the_cpu_ray_cast_puts_in_shadow() {
             color: [0.8, 0.8, 0.8, 1.0],
             mode: [ShadingMode::Phong as u32, 1, 0, flags],
         };
-        ctx.one_shot(|cmd| {
-            begin_color_target(ctx, cmd, img.image);
-            image_barrier(
-                ctx,
-                cmd,
-                depth.raw(),
-                depth.range(),
-                vk::ImageLayout::UNDEFINED,
-                vk::ImageLayout::DEPTH_ATTACHMENT_OPTIMAL,
-                (
-                    vk::PipelineStageFlags2::EARLY_FRAGMENT_TESTS,
-                    vk::AccessFlags2::NONE,
-                ),
-                (
-                    vk::PipelineStageFlags2::EARLY_FRAGMENT_TESTS
-                        | vk::PipelineStageFlags2::LATE_FRAGMENT_TESTS,
-                    vk::AccessFlags2::DEPTH_STENCIL_ATTACHMENT_READ
-                        | vk::AccessFlags2::DEPTH_STENCIL_ATTACHMENT_WRITE,
-                ),
-            );
+        common::render_frame(ctx, W, H, |cmd, target| {
             shadow.record(
                 ctx,
                 cmd,
@@ -575,11 +529,7 @@ fn shadow_map_darkens_exactly_the_ground_the_cpu_ray_cast_puts_in_shadow() {
             draw.record_lit(
                 ctx,
                 cmd,
-                &DrawTarget {
-                    color: img.view,
-                    depth: depth.view(),
-                    extent: img.extent,
-                },
+                target,
                 Some([0.0, 0.0, 0.0, 1.0]),
                 &shadow,
                 &[
@@ -587,12 +537,8 @@ fn shadow_map_darkens_exactly_the_ground_the_cpu_ray_cast_puts_in_shadow() {
                     (lit(&occ_v), push(FLAG_SHADOWS)),
                 ],
             );
-            target.record_finish(ctx, cmd, &img);
             Ok(())
         })
-        .unwrap();
-        target.present(ctx, &img).unwrap();
-        target.read_rgba(0).unwrap()
     });
     let inv = view_proj.inverse();
     let occluder_hit = |o: DVec3, d: DVec3| -> Vec<f64> {

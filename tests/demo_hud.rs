@@ -5,15 +5,14 @@ mod common;
 
 use ash::vk;
 use clap::Parser;
-use common::with_gpu;
+use common::{render_frame, with_gpu, FRAME_FORMAT};
 use gregvox::demo::hud::{
     fold, glyph, hud_lines, hud_triangles, panel_rect, text_rects, HudInfo, FONT, GLYPH_H, GLYPH_W,
     PANEL_COLOR, TEXT_COLOR,
 };
 use gregvox::demo::{build_scene, DemoArgs, SceneKind};
-use gregvox::gpu::resources::{image_barrier, memory_barrier};
-use gregvox::gpu::{ImageDesc, MemoryLocation};
-use gregvox::passes::draw::{begin_color_depth, DrawTarget};
+use gregvox::gpu::resources::memory_barrier;
+use gregvox::passes::draw::begin_color_depth;
 use gregvox::passes::overlay::OverlayPass;
 use std::collections::HashSet;
 
@@ -133,22 +132,7 @@ fn the_overlay_frame_holds_the_text_over_the_blended_panel_pixel_for_pixel() {
     .to_vec();
     let bg = [0.8f32, 0.3, 0.2, 1.0];
     let px = with_gpu(|ctx| {
-        let pass = OverlayPass::new(ctx, FORMAT, vk::Format::D32_SFLOAT).unwrap();
-        let usage = vk::ImageUsageFlags::COLOR_ATTACHMENT | vk::ImageUsageFlags::TRANSFER_SRC;
-        let color = ctx
-            .create_image("hud color", &ImageDesc::d2(w, h, FORMAT, usage))
-            .unwrap();
-        let depth = ctx
-            .create_image(
-                "hud depth",
-                &ImageDesc::d2(
-                    w,
-                    h,
-                    vk::Format::D32_SFLOAT,
-                    vk::ImageUsageFlags::DEPTH_STENCIL_ATTACHMENT,
-                ),
-            )
-            .unwrap();
+        let pass = OverlayPass::new(ctx, FRAME_FORMAT, vk::Format::D32_SFLOAT).unwrap();
         let vertices = hud_triangles(&lines, 1, w, h);
         let buffer = ctx
             .upload_buffer(
@@ -157,60 +141,9 @@ fn the_overlay_frame_holds_the_text_over_the_blended_panel_pixel_for_pixel() {
                 vk::BufferUsageFlags::VERTEX_BUFFER,
             )
             .unwrap();
-        let readback = ctx
-            .create_buffer(
-                "hud readback",
-                (w * h * 4) as u64,
-                vk::BufferUsageFlags::TRANSFER_DST,
-                MemoryLocation::GpuToCpu,
-            )
-            .unwrap();
-        let target = DrawTarget {
-            color: color.view(),
-            depth: depth.view(),
-            extent: vk::Extent2D {
-                width: w,
-                height: h,
-            },
-        };
-        ctx.one_shot(|cmd| {
-            image_barrier(
-                ctx,
-                cmd,
-                color.raw(),
-                color.range(),
-                vk::ImageLayout::UNDEFINED,
-                vk::ImageLayout::COLOR_ATTACHMENT_OPTIMAL,
-                (
-                    vk::PipelineStageFlags2::COLOR_ATTACHMENT_OUTPUT,
-                    vk::AccessFlags2::NONE,
-                ),
-                (
-                    vk::PipelineStageFlags2::COLOR_ATTACHMENT_OUTPUT,
-                    vk::AccessFlags2::COLOR_ATTACHMENT_WRITE
-                        | vk::AccessFlags2::COLOR_ATTACHMENT_READ,
-                ),
-            );
-            image_barrier(
-                ctx,
-                cmd,
-                depth.raw(),
-                depth.range(),
-                vk::ImageLayout::UNDEFINED,
-                vk::ImageLayout::DEPTH_ATTACHMENT_OPTIMAL,
-                (
-                    vk::PipelineStageFlags2::EARLY_FRAGMENT_TESTS,
-                    vk::AccessFlags2::NONE,
-                ),
-                (
-                    vk::PipelineStageFlags2::EARLY_FRAGMENT_TESTS
-                        | vk::PipelineStageFlags2::LATE_FRAGMENT_TESTS,
-                    vk::AccessFlags2::DEPTH_STENCIL_ATTACHMENT_WRITE
-                        | vk::AccessFlags2::DEPTH_STENCIL_ATTACHMENT_READ,
-                ),
-            );
+        render_frame(ctx, w, h, |cmd, target| {
             // The "scene": a clear.
-            begin_color_depth(ctx, cmd, &target, Some(bg));
+            begin_color_depth(ctx, cmd, target, Some(bg));
             ctx.cmd_end_rendering(cmd);
             memory_barrier(
                 ctx,
@@ -229,58 +162,8 @@ fn the_overlay_frame_holds_the_text_over_the_blended_panel_pixel_for_pixel() {
                         | vk::AccessFlags2::DEPTH_STENCIL_ATTACHMENT_READ,
                 ),
             );
-            pass.record(ctx, cmd, &target, &buffer, vertices.len() as u32)?;
-            image_barrier(
-                ctx,
-                cmd,
-                color.raw(),
-                color.range(),
-                vk::ImageLayout::COLOR_ATTACHMENT_OPTIMAL,
-                vk::ImageLayout::TRANSFER_SRC_OPTIMAL,
-                (
-                    vk::PipelineStageFlags2::COLOR_ATTACHMENT_OUTPUT,
-                    vk::AccessFlags2::COLOR_ATTACHMENT_WRITE,
-                ),
-                (
-                    vk::PipelineStageFlags2::COPY,
-                    vk::AccessFlags2::TRANSFER_READ,
-                ),
-            );
-            let copy = vk::BufferImageCopy::default()
-                .image_subresource(vk::ImageSubresourceLayers {
-                    aspect_mask: vk::ImageAspectFlags::COLOR,
-                    mip_level: 0,
-                    base_array_layer: 0,
-                    layer_count: 1,
-                })
-                .image_extent(vk::Extent3D {
-                    width: w,
-                    height: h,
-                    depth: 1,
-                });
-            // SAFETY: recording; the image is in TRANSFER_SRC_OPTIMAL and the buffer holds it.
-            unsafe {
-                ctx.device.cmd_copy_image_to_buffer(
-                    cmd,
-                    color.raw(),
-                    vk::ImageLayout::TRANSFER_SRC_OPTIMAL,
-                    readback.raw(),
-                    &[copy],
-                )
-            };
-            memory_barrier(
-                ctx,
-                cmd,
-                (
-                    vk::PipelineStageFlags2::COPY,
-                    vk::AccessFlags2::TRANSFER_WRITE,
-                ),
-                (vk::PipelineStageFlags2::HOST, vk::AccessFlags2::HOST_READ),
-            );
-            Ok(())
+            pass.record(ctx, cmd, target, &buffer, vertices.len() as u32)
         })
-        .unwrap();
-        readback.mapped().unwrap().to_vec()
     });
 
     // The CPU composite: the clear, the panel blended over it (src·a + dst·(1 − a)), the text on top.

@@ -18,11 +18,10 @@ mod ash_host;
 mod wgpu_host;
 
 use ash::vk;
-use common::validated_gpu;
+use common::{render_frame, validated_gpu, FRAME_FORMAT};
 use gregvox::api::{Deformation, SurfaceBuffers, SurfaceUpdate, VertexTarget};
-use gregvox::gpu::resources::image_barrier;
-use gregvox::gpu::{ImageDesc, MemoryLocation};
-use gregvox::passes::surface_draw::{DrawTarget, SurfaceDrawPass, SurfacePush};
+use gregvox::gpu::MemoryLocation;
+use gregvox::passes::surface_draw::{SurfaceDrawPass, SurfacePush};
 
 /// Fraction of pixels whose channels differ by more than `slack`.
 fn differing(a: &[u8], b: &[u8], slack: u8) -> f64 {
@@ -68,47 +67,13 @@ struct OwnFrame {
 /// gregvox's own device and renderer: the built-in cage with the deformation, drawn by the surface pass
 /// (normals mode) on the hosts' clear colour; RGBA8 pixels.
 fn own_render(f: &OwnFrame) -> Vec<u8> {
-    // gregvox's own device and renderer: the same cage and deformation, drawn by the surface pass.
     let gpu = validated_gpu();
-    let (w, h) = (f.width, f.height);
     let own = {
         let ctx = gpu.context();
         let cage = gregvox::engine::cage::builtin_cage(4, 2, 2);
         let mut surface = gpu.gregory_surface(&cage, f.level).unwrap();
         surface.deform(f.deformation, f.t, f.amplitude).unwrap();
-        let color_format = vk::Format::R8G8B8A8_UNORM;
-        let depth_format = vk::Format::D32_SFLOAT;
-        let pass = SurfaceDrawPass::new(ctx, color_format, depth_format).unwrap();
-        let color = ctx
-            .create_image(
-                "own color",
-                &ImageDesc::d2(
-                    w,
-                    h,
-                    color_format,
-                    vk::ImageUsageFlags::COLOR_ATTACHMENT | vk::ImageUsageFlags::TRANSFER_SRC,
-                ),
-            )
-            .unwrap();
-        let depth = ctx
-            .create_image(
-                "own depth",
-                &ImageDesc::d2(
-                    w,
-                    h,
-                    depth_format,
-                    vk::ImageUsageFlags::DEPTH_STENCIL_ATTACHMENT,
-                ),
-            )
-            .unwrap();
-        let readback = ctx
-            .create_buffer(
-                "own readback",
-                w as u64 * h as u64 * 4,
-                vk::BufferUsageFlags::TRANSFER_DST,
-                MemoryLocation::GpuToCpu,
-            )
-            .unwrap();
+        let pass = SurfaceDrawPass::new(ctx, FRAME_FORMAT, vk::Format::D32_SFLOAT).unwrap();
         let push = SurfacePush {
             view_proj: f.view_proj.to_cols_array_2d(),
             eye: [f.eye.x, f.eye.y, f.eye.z, 1.0],
@@ -116,110 +81,20 @@ fn own_render(f: &OwnFrame) -> Vec<u8> {
             color: [1.0; 4],
             mode: [1, f.level, 0, 0],
         };
-        ctx.one_shot(|cmd| {
-            image_barrier(
-                ctx,
-                cmd,
-                color.raw(),
-                color.range(),
-                vk::ImageLayout::UNDEFINED,
-                vk::ImageLayout::COLOR_ATTACHMENT_OPTIMAL,
-                (
-                    vk::PipelineStageFlags2::COLOR_ATTACHMENT_OUTPUT,
-                    vk::AccessFlags2::NONE,
-                ),
-                (
-                    vk::PipelineStageFlags2::COLOR_ATTACHMENT_OUTPUT,
-                    vk::AccessFlags2::COLOR_ATTACHMENT_WRITE,
-                ),
-            );
-            image_barrier(
-                ctx,
-                cmd,
-                depth.raw(),
-                depth.range(),
-                vk::ImageLayout::UNDEFINED,
-                vk::ImageLayout::DEPTH_ATTACHMENT_OPTIMAL,
-                (
-                    vk::PipelineStageFlags2::EARLY_FRAGMENT_TESTS,
-                    vk::AccessFlags2::NONE,
-                ),
-                (
-                    vk::PipelineStageFlags2::EARLY_FRAGMENT_TESTS
-                        | vk::PipelineStageFlags2::LATE_FRAGMENT_TESTS,
-                    vk::AccessFlags2::DEPTH_STENCIL_ATTACHMENT_WRITE
-                        | vk::AccessFlags2::DEPTH_STENCIL_ATTACHMENT_READ,
-                ),
-            );
+        render_frame(ctx, f.width, f.height, |cmd, target| {
             let e = surface.engine();
             pass.record(
                 ctx,
                 cmd,
-                &DrawTarget {
-                    color: color.view(),
-                    depth: depth.view(),
-                    extent: vk::Extent2D {
-                        width: w,
-                        height: h,
-                    },
-                },
+                target,
                 Some(ash_host::CLEAR),
                 e.vertices(),
                 e.indices(),
                 e.index_count(),
                 &push,
             );
-            image_barrier(
-                ctx,
-                cmd,
-                color.raw(),
-                color.range(),
-                vk::ImageLayout::COLOR_ATTACHMENT_OPTIMAL,
-                vk::ImageLayout::TRANSFER_SRC_OPTIMAL,
-                (
-                    vk::PipelineStageFlags2::COLOR_ATTACHMENT_OUTPUT,
-                    vk::AccessFlags2::COLOR_ATTACHMENT_WRITE,
-                ),
-                (
-                    vk::PipelineStageFlags2::COPY,
-                    vk::AccessFlags2::TRANSFER_READ,
-                ),
-            );
-            let copy = vk::BufferImageCopy::default()
-                .image_subresource(vk::ImageSubresourceLayers {
-                    aspect_mask: vk::ImageAspectFlags::COLOR,
-                    mip_level: 0,
-                    base_array_layer: 0,
-                    layer_count: 1,
-                })
-                .image_extent(vk::Extent3D {
-                    width: w,
-                    height: h,
-                    depth: 1,
-                });
-            // SAFETY: recording; the image is in TRANSFER_SRC_OPTIMAL and the buffer large enough.
-            unsafe {
-                ctx.device.cmd_copy_image_to_buffer(
-                    cmd,
-                    color.raw(),
-                    vk::ImageLayout::TRANSFER_SRC_OPTIMAL,
-                    readback.raw(),
-                    &[copy],
-                )
-            };
-            gregvox::gpu::resources::memory_barrier(
-                ctx,
-                cmd,
-                (
-                    vk::PipelineStageFlags2::COPY,
-                    vk::AccessFlags2::TRANSFER_WRITE,
-                ),
-                (vk::PipelineStageFlags2::HOST, vk::AccessFlags2::HOST_READ),
-            );
             Ok(())
         })
-        .unwrap();
-        readback.mapped().unwrap().to_vec()
     };
     gpu.finish().unwrap();
     own

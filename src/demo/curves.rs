@@ -8,14 +8,13 @@
 //! Invariants: [`curve_lines`] is a pure function of the time, so a frame's vertex list is reproducible and
 //! its segment count is known in advance ([`expected_vertices`]); the vertices go to the frame slot's own
 //! host-visible buffer (`LineRing`), never to one a frame in flight reads.
-use super::scene::{FrameTargets, Orbit, Scene, ViewState, DEPTH_FORMAT};
+use super::scene::{FrameTargets, Orbit, Scene, SceneLines, ViewState};
 use crate::geom::bezier::Bezier;
 use crate::geom::bspline::BSplineCurve;
 use crate::geom::curvature::{circle_of_curvature, plane_curvature};
 use crate::geom::nurbs::NurbsCurve;
 use crate::gpu::{Context, Profiler};
-use crate::passes::lines::{LineRing, LineVertex, LinesPass};
-use crate::passes::surface_draw::DrawTarget;
+use crate::passes::lines::LineVertex;
 use ash::vk;
 use glam::{DVec2, Vec3};
 
@@ -343,8 +342,7 @@ pub fn framing() -> Orbit {
 
 /// The curves scene.
 pub struct CurvesScene {
-    lines: LinesPass,
-    ring: LineRing,
+    lines: SceneLines,
     /// Vertices drawn in the last recorded frame.
     pub drawn: u32,
     /// The controls as edited (the animation plays on top of them).
@@ -356,8 +354,7 @@ impl CurvesScene {
     /// Builds the line pipeline for `format` targets.
     pub fn new(ctx: &Context, format: vk::Format) -> anyhow::Result<Self> {
         Ok(CurvesScene {
-            lines: LinesPass::new(ctx, format, DEPTH_FORMAT)?,
-            ring: LineRing::new(super::FRAMES_IN_FLIGHT),
+            lines: SceneLines::new(ctx, format)?,
             drawn: 0,
             controls: CurveControls::default(),
             held: None,
@@ -386,25 +383,16 @@ impl Scene for CurvesScene {
             frame.part("handles", |o| handle_marks(o, &shown.points(), self.held));
         }
         let count = frame.vertices.len() as u32;
-        let buf = self.ring.upload(ctx, targets.slot, &frame.vertices)?;
-        let aspect = targets.extent.width as f32 / targets.extent.height.max(1) as f32;
-        let target = DrawTarget {
-            color: targets.color,
-            depth: targets.depth,
-            extent: targets.extent,
-        };
-        let lines = &self.lines;
-        profiler.scope(ctx, cmd, targets.slot, "lines", || {
-            lines.record(
-                ctx,
-                cmd,
-                &target,
-                Some([0.97, 0.97, 0.98, 1.0]),
-                buf,
-                count,
-                &view.orbit.view_proj(aspect),
-            )
-        })?;
+        self.lines.record(
+            ctx,
+            cmd,
+            targets,
+            view,
+            profiler,
+            "lines",
+            Some([0.97, 0.97, 0.98, 1.0]),
+            &frame.vertices,
+        )?;
         self.drawn = count;
         Ok(())
     }

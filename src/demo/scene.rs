@@ -30,6 +30,59 @@ use glam::{Mat4, Vec3};
 /// The depth format of every scene.
 pub const DEPTH_FORMAT: vk::Format = vk::Format::D32_SFLOAT;
 
+/// Line segments drawn in a scene's frame with the scene's camera: the pass and the per-slot buffers the
+/// segments are written to.
+pub struct SceneLines {
+    pass: crate::passes::lines::LinesPass,
+    ring: crate::passes::lines::LineRing,
+}
+
+impl SceneLines {
+    /// Builds the line pipeline for `format` targets.
+    pub fn new(ctx: &Context, format: vk::Format) -> anyhow::Result<Self> {
+        Ok(SceneLines {
+            pass: crate::passes::lines::LinesPass::new(ctx, format, DEPTH_FORMAT)?,
+            ring: crate::passes::lines::LineRing::new(super::FRAMES_IN_FLIGHT),
+        })
+    }
+
+    /// Draws `vertices` (pairs) through `view`'s camera into `targets`, clearing first when `clear` is
+    /// given, in the profiler scope `scope`.
+    #[allow(clippy::too_many_arguments)]
+    pub fn record(
+        &mut self,
+        ctx: &Context,
+        cmd: vk::CommandBuffer,
+        targets: &FrameTargets,
+        view: &ViewState,
+        profiler: &mut Profiler,
+        scope: &str,
+        clear: Option<[f32; 4]>,
+        vertices: &[crate::passes::lines::LineVertex],
+    ) -> anyhow::Result<()> {
+        let buf = self.ring.upload(ctx, targets.slot, vertices)?;
+        let aspect = targets.extent.width as f32 / targets.extent.height.max(1) as f32;
+        let target = DrawTarget {
+            color: targets.color,
+            depth: targets.depth,
+            extent: targets.extent,
+        };
+        let pass = &self.pass;
+        profiler.scope(ctx, cmd, targets.slot, scope, || {
+            pass.record(
+                ctx,
+                cmd,
+                &target,
+                clear,
+                buf,
+                vertices.len() as u32,
+                &view.orbit.view_proj(aspect),
+            )
+        })?;
+        Ok(())
+    }
+}
+
 /// One frame's render targets.
 #[derive(Clone, Copy)]
 pub struct FrameTargets {
@@ -692,8 +745,7 @@ pub struct CageScene {
     cage_dirty: bool,
     /// The vertex being dragged.
     held: Option<usize>,
-    lines: crate::passes::lines::LinesPass,
-    ring: crate::passes::lines::LineRing,
+    lines: SceneLines,
 }
 
 /// Pixels per tessellation segment when key A turns adaptive tessellation on.
@@ -751,8 +803,7 @@ impl CageScene {
             edges,
             cage_dirty: false,
             held: None,
-            lines: crate::passes::lines::LinesPass::new(ctx, format, DEPTH_FORMAT)?,
-            ring: crate::passes::lines::LineRing::new(super::FRAMES_IN_FLIGHT),
+            lines: SceneLines::new(ctx, format)?,
         })
     }
 
@@ -867,26 +918,16 @@ impl Scene for CageScene {
         }
         // Paused: the rest cage as edited is what the surface shows, so it is drawn for dragging.
         let vertices = self.cage_lines();
-        let buf = self.ring.upload(ctx, targets.slot, &vertices)?;
-        let aspect = targets.extent.width as f32 / targets.extent.height.max(1) as f32;
-        let target = DrawTarget {
-            color: targets.color,
-            depth: targets.depth,
-            extent: targets.extent,
-        };
-        let lines = &self.lines;
-        profiler.scope(ctx, cmd, targets.slot, "cage lines", || {
-            lines.record(
-                ctx,
-                cmd,
-                &target,
-                None,
-                buf,
-                vertices.len() as u32,
-                &view.orbit.view_proj(aspect),
-            )
-        })?;
-        Ok(())
+        self.lines.record(
+            ctx,
+            cmd,
+            targets,
+            view,
+            profiler,
+            "cage lines",
+            None,
+            &vertices,
+        )
     }
 
     fn handles(&self, view: &ViewState) -> Vec<Vec3> {

@@ -23,6 +23,27 @@ pub struct LineVertex {
 }
 
 impl LineVertex {
+    /// The vertex input of glsl/lines.vert: binding 0, position at location 0, colour at location 1.
+    pub fn vertex_input() -> (
+        Vec<vk::VertexInputBindingDescription>,
+        Vec<vk::VertexInputAttributeDescription>,
+    ) {
+        let attribute = |location, offset| vk::VertexInputAttributeDescription {
+            location,
+            binding: 0,
+            format: vk::Format::R32G32B32A32_SFLOAT,
+            offset,
+        };
+        (
+            vec![vk::VertexInputBindingDescription {
+                binding: 0,
+                stride: std::mem::size_of::<LineVertex>() as u32,
+                input_rate: vk::VertexInputRate::VERTEX,
+            }],
+            vec![attribute(0, 0), attribute(1, 16)],
+        )
+    }
+
     /// A vertex at `p` of colour `c` (opaque).
     pub fn new(p: [f32; 3], c: [f32; 3]) -> Self {
         LineVertex {
@@ -52,25 +73,7 @@ impl LinesPass {
         desc.topology = vk::PrimitiveTopology::LINE_LIST;
         // Lines drawn later over earlier ones at equal depth (a construction over its curve) stay visible.
         desc.depth_compare = vk::CompareOp::LESS_OR_EQUAL;
-        desc.vertex_bindings = vec![vk::VertexInputBindingDescription {
-            binding: 0,
-            stride: std::mem::size_of::<LineVertex>() as u32,
-            input_rate: vk::VertexInputRate::VERTEX,
-        }];
-        desc.vertex_attributes = vec![
-            vk::VertexInputAttributeDescription {
-                location: 0,
-                binding: 0,
-                format: vk::Format::R32G32B32A32_SFLOAT,
-                offset: 0,
-            },
-            vk::VertexInputAttributeDescription {
-                location: 1,
-                binding: 0,
-                format: vk::Format::R32G32B32A32_SFLOAT,
-                offset: 16,
-            },
-        ];
+        (desc.vertex_bindings, desc.vertex_attributes) = LineVertex::vertex_input();
         desc.push_constant_bytes = std::mem::size_of::<Push>() as u32;
         desc.push_constant_stages = vk::ShaderStageFlags::VERTEX;
         Ok(LinesPass {

@@ -40,25 +40,7 @@ impl OverlayPass {
         desc.depth_test = false;
         desc.depth_write = false;
         desc.blend = true;
-        desc.vertex_bindings = vec![vk::VertexInputBindingDescription {
-            binding: 0,
-            stride: std::mem::size_of::<LineVertex>() as u32,
-            input_rate: vk::VertexInputRate::VERTEX,
-        }];
-        desc.vertex_attributes = vec![
-            vk::VertexInputAttributeDescription {
-                location: 0,
-                binding: 0,
-                format: vk::Format::R32G32B32A32_SFLOAT,
-                offset: 0,
-            },
-            vk::VertexInputAttributeDescription {
-                location: 1,
-                binding: 0,
-                format: vk::Format::R32G32B32A32_SFLOAT,
-                offset: 16,
-            },
-        ];
+        (desc.vertex_bindings, desc.vertex_attributes) = LineVertex::vertex_input();
         desc.push_constant_bytes = std::mem::size_of::<Push>() as u32;
         desc.push_constant_stages = vk::ShaderStageFlags::VERTEX;
         Ok(OverlayPass {

@@ -353,3 +353,89 @@ pub fn assert_same_up_to_snapping(
     );
     diff
 }
+
+/// The colour format [`render_frame`]'s target has (the demo's offscreen format).
+pub const FRAME_FORMAT: ash::vk::Format = ash::vk::Format::B8G8R8A8_UNORM;
+
+/// Renders one frame through an offscreen target of `w`×`h` ([`FRAME_FORMAT`]) and a D32 depth image, both
+/// in attachment layouts when `draw` records into them (contents undefined: `draw` clears), and returns the
+/// frame as RGBA8 rows, top to bottom.
+pub fn render_frame(
+    ctx: &Context,
+    w: u32,
+    h: u32,
+    draw: impl FnOnce(ash::vk::CommandBuffer, &gregvox::passes::draw::DrawTarget) -> gregvox::Result<()>,
+) -> Vec<u8> {
+    use ash::vk;
+    use gregvox::gpu::PresentTarget;
+    let mut target = gregvox::gpu::OffscreenTarget::new(ctx, w, h, 1).unwrap();
+    let depth = ctx
+        .create_image(
+            "test frame depth",
+            &gregvox::gpu::ImageDesc::d2(
+                w,
+                h,
+                vk::Format::D32_SFLOAT,
+                vk::ImageUsageFlags::DEPTH_STENCIL_ATTACHMENT,
+            ),
+        )
+        .unwrap();
+    let img = target.acquire(ctx, 0).unwrap().expect("an offscreen image");
+    ctx.one_shot(|cmd| {
+        gregvox::gpu::present::begin_color_target(ctx, cmd, img.image);
+        gregvox::gpu::resources::image_barrier(
+            ctx,
+            cmd,
+            depth.raw(),
+            depth.range(),
+            vk::ImageLayout::UNDEFINED,
+            vk::ImageLayout::DEPTH_ATTACHMENT_OPTIMAL,
+            (
+                vk::PipelineStageFlags2::EARLY_FRAGMENT_TESTS,
+                vk::AccessFlags2::NONE,
+            ),
+            (
+                vk::PipelineStageFlags2::EARLY_FRAGMENT_TESTS
+                    | vk::PipelineStageFlags2::LATE_FRAGMENT_TESTS,
+                vk::AccessFlags2::DEPTH_STENCIL_ATTACHMENT_READ
+                    | vk::AccessFlags2::DEPTH_STENCIL_ATTACHMENT_WRITE,
+            ),
+        );
+        draw(
+            cmd,
+            &gregvox::passes::draw::DrawTarget {
+                color: img.view,
+                depth: depth.view(),
+                extent: img.extent,
+            },
+        )?;
+        target.record_finish(ctx, cmd, &img);
+        Ok(())
+    })
+    .unwrap();
+    target.present(ctx, &img).unwrap();
+    target.read_rgba(0).unwrap()
+}
+
+/// Runs `gregvox demo` in a window under Xvfb (`xvfb-run`, from `scripts/setup.sh`) with the validation
+/// layer on, `args` and the scripted `--keys` entries, writing into `out`; asserts it succeeded with no
+/// validation message and no panic, and returns its standard error (the demo's log).
+pub fn run_demo_window(args: &[&str], keys: &[String], out: &std::path::Path) -> String {
+    let output = std::process::Command::new("xvfb-run")
+        .args(["-a", env!("CARGO_BIN_EXE_gregvox"), "demo"])
+        .args(args)
+        .args(["--keys", &keys.join(",")])
+        .arg("--out")
+        .arg(out)
+        .env("GREGVOX_VALIDATION", "1")
+        .output()
+        .expect("xvfb-run (apt-get install xvfb xauth; scripts/setup.sh installs it)");
+    let err = String::from_utf8_lossy(&output.stderr).into_owned();
+    assert!(output.status.success(), "{err}");
+    assert!(
+        !err.contains("vulkan validation"),
+        "validation messages:\n{err}"
+    );
+    assert!(!err.contains("panicked"), "{err}");
+    err
+}
