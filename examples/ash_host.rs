@@ -29,9 +29,10 @@ mod host_shaders {
     include!(concat!(env!("OUT_DIR"), "/example_shaders.rs"));
 }
 
-#[path = "support/host_camera.rs"]
-mod host_camera;
-pub use host_camera::{frame_cage, CLEAR};
+#[path = "support/host_common.rs"]
+mod host_common;
+pub use host_common::{frame_cage, CLEAR};
+use host_common::{parse_args, CommonArgs};
 
 /// Frames the host keeps in flight.
 const FRAMES_IN_FLIGHT: usize = 2;
@@ -1105,53 +1106,39 @@ fn run_on(host: &Host, opts: &HostOptions) -> Result<HostRun> {
 fn main() -> Result<()> {
     let args: Vec<String> = std::env::args().skip(1).collect();
     let mut opts = HostOptions::default();
-    let mut i = 0;
-    let value = |i: usize| -> Result<&String> {
-        args.get(i + 1)
-            .ok_or_else(|| anyhow!("{} needs a value", args[i]))
-    };
-    while i < args.len() {
-        match args[i].as_str() {
-            "--offscreen" => {}
-            "--validation" => opts.validation = true,
-            "--no-scene" => opts.scene = false,
-            "--frames" => {
-                opts.frames = value(i)?.parse().context("--frames")?;
-                i += 1;
-            }
-            "--out" => {
-                opts.out = Some(PathBuf::from(value(i)?));
-                i += 1;
-            }
-            "--cage" => {
-                opts.cage = Some(PathBuf::from(value(i)?));
-                i += 1;
-            }
-            "--level" => {
-                opts.level = value(i)?.parse().context("--level")?;
-                i += 1;
-            }
-            "--adaptive" => {
-                opts.adaptive = Some(value(i)?.parse().context("--adaptive")?);
-                i += 1;
-            }
-            "--size" => {
-                let v = value(i)?;
-                let (a, b) = v
-                    .split_once('x')
-                    .ok_or_else(|| anyhow!("--size {v}: expected WxH"))?;
-                opts.width = a.parse().context("--size")?;
-                opts.height = b.parse().context("--size")?;
-                i += 1;
-            }
-            other => bail!(
-                "unknown argument {other} (usage: ash_host --offscreen [--frames N] [--out DIR] \
-                 [--size WxH] [--cage FILE] [--level L] [--adaptive PIXELS] [--no-scene] \
-                 [--validation])"
-            ),
-        }
-        i += 1;
-    }
+    let (mut scene, mut cage, mut adaptive) = (opts.scene, None, None);
+    parse_args(
+        &args,
+        "ash_host --offscreen [--frames N] [--out DIR] [--size WxH] [--cage FILE] [--level L] \
+         [--adaptive PIXELS] [--no-scene] [--validation]",
+        CommonArgs {
+            width: &mut opts.width,
+            height: &mut opts.height,
+            frames: &mut opts.frames,
+            level: &mut opts.level,
+            out: &mut opts.out,
+            validation: &mut opts.validation,
+        },
+        |name, next| {
+            let value = || next.ok_or_else(|| anyhow!("{name} needs a value"));
+            Ok(match name {
+                "--no-scene" => {
+                    scene = false;
+                    Some(false)
+                }
+                "--cage" => {
+                    cage = Some(PathBuf::from(value()?));
+                    Some(true)
+                }
+                "--adaptive" => {
+                    adaptive = Some(value()?.parse().context("--adaptive")?);
+                    Some(true)
+                }
+                _ => None,
+            })
+        },
+    )?;
+    (opts.scene, opts.cage, opts.adaptive) = (scene, cage, adaptive);
     let run = run(&opts)?;
     if !run.validation_messages.is_empty() {
         bail!(

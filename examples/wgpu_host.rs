@@ -17,9 +17,10 @@ use gregvox::api::{Deformation, ExternalDevice, Gpu, SurfaceUpdate, VertexTarget
 use std::path::PathBuf;
 use wgpu::hal::api::Vulkan;
 
-#[path = "support/host_camera.rs"]
-mod host_camera;
-pub use host_camera::{frame_cage, CLEAR};
+#[path = "support/host_common.rs"]
+mod host_common;
+pub use host_common::{frame_cage, CLEAR};
+use host_common::{parse_args, CommonArgs};
 
 /// How the host runs.
 #[derive(Clone, Debug)]
@@ -619,43 +620,19 @@ fn frames(opts: &HostOptions, c: &FramesCtx) -> Result<HostRun> {
 fn main() -> Result<()> {
     let args: Vec<String> = std::env::args().skip(1).collect();
     let mut opts = HostOptions::default();
-    let mut i = 0;
-    let value = |i: usize| -> Result<&String> {
-        args.get(i + 1)
-            .ok_or_else(|| anyhow!("{} needs a value", args[i]))
-    };
-    while i < args.len() {
-        match args[i].as_str() {
-            "--offscreen" => {}
-            "--validation" => opts.validation = true,
-            "--frames" => {
-                opts.frames = value(i)?.parse().context("--frames")?;
-                i += 1;
-            }
-            "--out" => {
-                opts.out = Some(PathBuf::from(value(i)?));
-                i += 1;
-            }
-            "--level" => {
-                opts.level = value(i)?.parse().context("--level")?;
-                i += 1;
-            }
-            "--size" => {
-                let v = value(i)?;
-                let (a, b) = v
-                    .split_once('x')
-                    .ok_or_else(|| anyhow!("--size {v}: expected WxH"))?;
-                opts.width = a.parse().context("--size")?;
-                opts.height = b.parse().context("--size")?;
-                i += 1;
-            }
-            other => bail!(
-                "unknown argument {other} (usage: wgpu_host --offscreen [--frames N] [--out DIR] \
-                 [--size WxH] [--level L] [--validation])"
-            ),
-        }
-        i += 1;
-    }
+    parse_args(
+        &args,
+        "wgpu_host --offscreen [--frames N] [--out DIR] [--size WxH] [--level L] [--validation]",
+        CommonArgs {
+            width: &mut opts.width,
+            height: &mut opts.height,
+            frames: &mut opts.frames,
+            level: &mut opts.level,
+            out: &mut opts.out,
+            validation: &mut opts.validation,
+        },
+        |_, _| Ok(None),
+    )?;
     let run = run(&opts)?;
     if opts.validation && !run.validated {
         bail!("--validation: wgpu found no validation layer");

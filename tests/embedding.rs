@@ -4,7 +4,7 @@
 //! The host is `examples/ash_host.rs` (a plain ash program with its own instance, device, pipelines and
 //! shaders), run under the validation layer with synchronization validation; its frames are compared
 //! with gregvox's own surface renderer (`passes::surface_draw`, normals mode) at the same camera.
-// Both hosts are standalone programs that include `examples/support/host_camera.rs` themselves.
+// Both hosts are standalone programs that include `examples/support/host_common.rs` themselves.
 #![allow(clippy::duplicate_mod)]
 
 mod common;
