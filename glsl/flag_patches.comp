@@ -11,6 +11,9 @@
 // (A = the patch with the lower index). Mirrors gregvox::engine::flag::flag_patches (f64).
 layout(local_size_x = 64) in;
 layout(std430, set = 0, binding = 0) writeonly buffer Points { vec4 points[]; };
+// Per corner of the network ((columns + 1) × (rows + 1), row-major): a user's move of the corner (the demo
+// drags them), xy added to its grid position, z to its height; all zero for the thesis's flag.
+layout(std430, set = 0, binding = 1) readonly buffer Offsets { vec4 offsets[]; };
 layout(push_constant) uniform Push {
     uint columns;
     uint rows;
@@ -20,14 +23,19 @@ layout(push_constant) uniform Push {
     float amplitude;
 } pc;
 
+vec4 offset(ivec2 g) {
+    bool inside = g.x >= 0 && g.y >= 0 && g.x <= int(pc.columns) && g.y <= int(pc.rows);
+    return inside ? offsets[g.y * int(pc.columns + 1u) + g.x] : vec4(0.0);
+}
 vec2 grid_xy(ivec2 g) {
     float c = float(g.x), r = float(g.y);
-    return vec2(c + 0.15 * sin(1.3 * c + 2.1 * r + 0.4), r + 0.15 * sin(0.7 * c + 1.9 * r + 1.1));
+    return vec2(c + 0.15 * sin(1.3 * c + 2.1 * r + 0.4), r + 0.15 * sin(0.7 * c + 1.9 * r + 1.1))
+        + offset(g).xy;
 }
 float phase(vec2 p) { return 2.0 * p.x - 3.0 * pc.t + 0.6 * p.y; }
 vec3 corner(ivec2 g) {
     vec2 p = grid_xy(g);
-    return vec3(p, pc.amplitude * (p.x / float(pc.columns)) * sin(phase(p)));
+    return vec3(p, pc.amplitude * (p.x / float(pc.columns)) * sin(phase(p)) + offset(g).z);
 }
 // Inner point near corner a of the cubic from a to b.
 vec3 near_point(ivec2 a, ivec2 b) {

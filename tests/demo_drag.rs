@@ -242,3 +242,78 @@ fn a_dragged_curve_point_follows_the_cursor_and_the_wheel_sets_its_nurbs_weight(
     assert!(changed > 200, "{changed} pixels changed");
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+#[test]
+fn a_dragged_flag_corner_follows_the_cursor_and_the_corrected_flag_stays_g1() {
+    use gregvox::engine::flag::{corner_offsets, flag_corners, flag_patches_with, FlagParams};
+    let (w, h) = (320u32, 240u32);
+    // The demo's flag: 3×2 patches, paused at t = 0, framed over its 3×2 box.
+    let params = FlagParams::default();
+    let orbit = Orbit::framing(Vec3::new(1.5, 1.0, 0.0), 3.0);
+    let view_proj = orbit.view_proj(w as f32 / h as f32);
+    let corners = flag_corners(&params, &[]);
+    let eye = orbit.eye();
+    let k = (0..corners.len())
+        .min_by(|&a, &b| {
+            let d = |i: usize| (corners[i].as_vec3() - eye).length();
+            d(a).total_cmp(&d(b))
+        })
+        .unwrap();
+    let start = to_screen(&view_proj, corners[k].as_vec3(), w, h);
+    let target = (start.0 + 20.0, start.1 - 16.0);
+    let dir = std::env::temp_dir().join(format!("gregvox-drag-flag-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    let f = |(x, y): (f64, f64)| format!("{x:.2}:{y:.2}");
+    let keys = [
+        "h".to_string(),
+        "Space".into(),
+        "p".into(),
+        format!("press:{}", f(start)),
+        format!("move:{}", f(target)),
+        "release".into(),
+        "p".into(),
+    ];
+    let size = format!("{w}x{h}");
+    let err = common::run_demo_window(
+        &["--frames", "45", "--size", &size, "--scene", "flag"],
+        &keys,
+        &dir,
+    );
+    assert!(err.contains(&format!("picked handle {k} ")), "{err}");
+    let moved: Vec<f64> = err
+        .lines()
+        .find_map(|l| l.split_once(&format!("moved handle {k} to ")))
+        .map(|(_, rest)| {
+            rest.split_whitespace()
+                .take(3)
+                .map(|v| v.parse().unwrap())
+                .collect()
+        })
+        .unwrap_or_else(|| panic!("no move reported:\n{err}"));
+    let moved = DVec3::new(moved[0], moved[1], moved[2]);
+    let on_screen = to_screen(&view_proj, moved.as_vec3(), w, h);
+    let miss = (on_screen.0 - target.0).hypot(on_screen.1 - target.1);
+    assert!(
+        miss < 2.0,
+        "{on_screen:?} on screen, the cursor at {target:?}"
+    );
+    // The network with that corner moved keeps the corrected flag G1 (the f64 reference the GPU equals).
+    let mut positions = corners.clone();
+    positions[k] = moved;
+    let offsets = corner_offsets(&params, &positions);
+    let patches = flag_patches_with(&params, &offsets).unwrap();
+    let jump = common::flag_max_jump(&patches, 3, 2);
+    assert!(
+        jump <= 1e-9,
+        "normal jump {jump} rad across the corrected flag's edges"
+    );
+    let (_, _, before) = read_png(&dir.join("gregvox-screenshot-001.png"));
+    let (_, _, after) = read_png(&dir.join("gregvox-screenshot-002.png"));
+    let changed = before
+        .chunks_exact(4)
+        .zip(after.chunks_exact(4))
+        .filter(|(a, b)| (0..3).any(|c| a[c].abs_diff(b[c]) > 16))
+        .count();
+    assert!(changed > 200, "{changed} pixels changed");
+    let _ = std::fs::remove_dir_all(&dir);
+}

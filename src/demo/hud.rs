@@ -539,7 +539,7 @@ pub fn hud_lines(info: &HudInfo) -> Vec<String> {
                 "V PATH  A ADAPTIVE  D DEFORM  C CORRECTION",
                 "P SCREENSHOT  T TIMES  H OVERLAY  Q QUIT",
                 "DRAG ORBIT  WHEEL ZOOM",
-                "PAUSED: DRAG A POINT (WHEEL: NURBS WEIGHT)",
+                "PAUSED: DRAG A VERTEX, CORNER OR POINT (WHEEL: NURBS WEIGHT)",
                 "Z UNDO  R RESET  W WRITE CAGE",
             ]
             .map(String::from),

@@ -624,11 +624,21 @@ impl Scene for SpinnerScene {
 /// The thesis's flag: 2×3 Gregory patches from animated boundary curves, Chiyokura–Kimura on/off (key C).
 /// Its control points feed the curvature modes and the vertex-pull path like a cage's; +/− rebuild the flag at
 /// the new level.
+/// The thesis flag; paused, the corners of its boundary network are drawn and can be dragged (their
+/// offsets go to the GPU in the next frame's command buffer).
 pub struct FlagScene {
     flag: FlagSurface,
     look: SurfaceLook,
     pub correct: bool,
+    /// Per network corner, the user's move ((columns + 1) × (rows + 1), row-major).
+    offsets: Vec<glam::DVec3>,
+    offsets_dirty: bool,
+    held: Option<usize>,
+    lines: SceneLines,
 }
+
+/// The flag's wave amplitude.
+const FLAG_AMPLITUDE: f32 = 0.35;
 
 impl FlagScene {
     /// A `columns × rows` flag at tessellation `level`.
@@ -653,7 +663,22 @@ impl FlagScene {
             flag,
             look,
             correct: true,
+            offsets: vec![glam::DVec3::ZERO; (columns as usize + 1) * (rows as usize + 1)],
+            offsets_dirty: false,
+            held: None,
+            lines: SceneLines::new(ctx, format)?,
         })
+    }
+
+    /// The flag's shape at time `t` (the paused flag is shown at 0).
+    fn params(&self, t: f32) -> crate::engine::flag::FlagParams {
+        crate::engine::flag::FlagParams {
+            columns: self.flag.columns,
+            rows: self.flag.rows,
+            t: t as f64,
+            amplitude: FLAG_AMPLITUDE as f64,
+            correct: self.correct,
+        }
     }
 }
 
@@ -677,11 +702,15 @@ impl Scene for FlagScene {
         profiler: &mut Profiler,
     ) -> anyhow::Result<()> {
         let time = if view.animate { t } else { 0.0 };
+        if self.offsets_dirty {
+            self.flag.record_offsets(ctx, cmd, &self.offsets)?;
+            self.offsets_dirty = false;
+        }
         self.flag.record(
             ctx,
             cmd,
             time,
-            0.35,
+            FLAG_AMPLITUDE,
             self.correct,
             Some((profiler, targets.slot)),
         )?;
@@ -699,7 +728,65 @@ impl Scene for FlagScene {
             indirect: None,
         };
         self.look
-            .record(ctx, cmd, targets, view, profiler, &surface)
+            .record(ctx, cmd, targets, view, profiler, &surface)?;
+        if view.animate {
+            return Ok(());
+        }
+        // Paused: a cross at each corner of the network, the handles.
+        let corners = crate::engine::flag::flag_corners(&self.params(0.0), &self.offsets);
+        let mut vertices = Vec::with_capacity(6 * corners.len());
+        for (i, q) in corners.iter().enumerate() {
+            let (r, c) = if self.held == Some(i) {
+                (0.12, HELD_COLOR)
+            } else {
+                (0.05, CAGE_COLOR)
+            };
+            let q = q.as_vec3();
+            for axis in [Vec3::X, Vec3::Y, Vec3::Z] {
+                vertices.push(crate::passes::lines::LineVertex::new(
+                    (q - r * axis).to_array(),
+                    c,
+                ));
+                vertices.push(crate::passes::lines::LineVertex::new(
+                    (q + r * axis).to_array(),
+                    c,
+                ));
+            }
+        }
+        self.lines.record(
+            ctx,
+            cmd,
+            targets,
+            view,
+            profiler,
+            "corner marks",
+            None,
+            &vertices,
+        )
+    }
+
+    fn handles(&self, view: &ViewState) -> Vec<Vec3> {
+        if view.animate {
+            return Vec::new();
+        }
+        crate::engine::flag::flag_corners(&self.params(0.0), &self.offsets)
+            .iter()
+            .map(|p| p.as_vec3())
+            .collect()
+    }
+
+    fn set_handles(&mut self, positions: &[Vec3], held: Option<usize>) -> anyhow::Result<()> {
+        anyhow::ensure!(
+            positions.len() == self.offsets.len(),
+            "{} handles given, the flag's network has {} corners",
+            positions.len(),
+            self.offsets.len()
+        );
+        let positions: Vec<glam::DVec3> = positions.iter().map(|p| p.as_dvec3()).collect();
+        self.offsets = crate::engine::flag::corner_offsets(&self.params(0.0), &positions);
+        self.offsets_dirty = true;
+        self.held = held;
+        Ok(())
     }
 
     fn key(&mut self, _ctx: &Context, key: &str) -> anyhow::Result<bool> {
@@ -724,6 +811,8 @@ impl Scene for FlagScene {
         let flag = FlagSurface::new(ctx, self.flag.columns, self.flag.rows, level)?;
         self.look.resize(ctx, flag.patch_count(), level)?;
         self.flag = flag;
+        // The new surface starts from the thesis's network: give it the corners as moved.
+        self.offsets_dirty = true;
         Ok(true)
     }
 }

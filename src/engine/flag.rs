@@ -3,7 +3,9 @@
 //! correction switchable on and off, evaluated straight into a vertex buffer.
 //!
 //! [`flag_patches`] is the f64 CPU reference of glsl/flag_patches.comp (same formulas); [`FlagSurface`] owns the
-//! GPU chain: build patches → evaluate (the same `GregoryEvalPass` as cage surfaces).
+//! GPU chain: build patches → evaluate (the same `GregoryEvalPass` as cage surfaces). The network's corners
+//! can be moved ([`flag_patches_with`], [`FlagSurface::record_offsets`]: the demo drags them); every curve
+//! at a corner keeps sharing its tangent plane, so the corrected flag stays G1.
 //!
 //! Invariants: `FlagSurface` owns its passes and buffers; `record` begins with a barrier from every earlier
 //! reader of its buffers (frames in flight) to its compute writes.
@@ -54,30 +56,85 @@ impl Default for FlagParams {
     }
 }
 
-fn grid_xy(c: i64, r: i64) -> (f64, f64) {
-    let (c, r) = (c as f64, r as f64);
-    (
-        c + 0.15 * (1.3 * c + 2.1 * r + 0.4).sin(),
-        r + 0.15 * (0.7 * c + 1.9 * r + 1.1).sin(),
-    )
+/// The boundary network: the shape parameters and the corners' offsets.
+struct Network<'a> {
+    p: &'a FlagParams,
+    /// Per corner ((columns + 1) × (rows + 1), row-major), or empty for none.
+    offsets: &'a [DVec3],
 }
 
-fn corner(p: &FlagParams, g: (i64, i64)) -> DVec3 {
-    let (x, y) = grid_xy(g.0, g.1);
-    let phi = 2.0 * x - 3.0 * p.t + 0.6 * y;
-    DVec3::new(x, y, p.amplitude * (x / p.columns as f64) * phi.sin())
+impl Network<'_> {
+    fn offset(&self, (c, r): (i64, i64)) -> DVec3 {
+        let (w, h) = (self.p.columns as i64, self.p.rows as i64);
+        if self.offsets.is_empty() || c < 0 || r < 0 || c > w || r > h {
+            return DVec3::ZERO;
+        }
+        self.offsets[(r * (w + 1) + c) as usize]
+    }
+
+    fn grid_xy(&self, g: (i64, i64)) -> (f64, f64) {
+        let (c, r) = (g.0 as f64, g.1 as f64);
+        let o = self.offset(g);
+        (
+            c + 0.15 * (1.3 * c + 2.1 * r + 0.4).sin() + o.x,
+            r + 0.15 * (0.7 * c + 1.9 * r + 1.1).sin() + o.y,
+        )
+    }
+
+    fn corner(&self, g: (i64, i64)) -> DVec3 {
+        self.corner_with(g, self.offset(g))
+    }
+
+    /// Corner `g` moved by `o` (whatever the offsets say).
+    fn corner_with(&self, g: (i64, i64), o: DVec3) -> DVec3 {
+        let p = self.p;
+        let (c, r) = (g.0 as f64, g.1 as f64);
+        let x = c + 0.15 * (1.3 * c + 2.1 * r + 0.4).sin() + o.x;
+        let y = r + 0.15 * (0.7 * c + 1.9 * r + 1.1).sin() + o.y;
+        let phi = 2.0 * x - 3.0 * p.t + 0.6 * y;
+        DVec3::new(x, y, p.amplitude * (x / p.columns as f64) * phi.sin() + o.z)
+    }
+
+    /// The inner point near corner `a` of the network cubic from `a` to `b`.
+    fn near_point(&self, a: (i64, i64), b: (i64, i64)) -> DVec3 {
+        let p = self.p;
+        let (x, y) = self.grid_xy(a);
+        let (bx, by) = self.grid_xy(b);
+        let (dx, dy) = (bx - x, by - y);
+        let w = p.columns as f64;
+        let phi = 2.0 * x - 3.0 * p.t + 0.6 * y;
+        let fx = p.amplitude * (phi.sin() / w + (x / w) * 2.0 * phi.cos());
+        let fy = p.amplitude * (x / w) * 0.6 * phi.cos();
+        self.corner(a) + DVec3::new(dx, dy, fx * dx + fy * dy) / 3.0
+    }
 }
 
-/// The inner point near corner `a` of the network cubic from `a` to `b`.
-fn near_point(p: &FlagParams, a: (i64, i64), b: (i64, i64)) -> DVec3 {
-    let (x, y) = grid_xy(a.0, a.1);
-    let (bx, by) = grid_xy(b.0, b.1);
-    let (dx, dy) = (bx - x, by - y);
-    let w = p.columns as f64;
-    let phi = 2.0 * x - 3.0 * p.t + 0.6 * y;
-    let fx = p.amplitude * (phi.sin() / w + (x / w) * 2.0 * phi.cos());
-    let fy = p.amplitude * (x / w) * 0.6 * phi.cos();
-    corner(p, a) + DVec3::new(dx, dy, fx * dx + fy * dy) / 3.0
+/// The offsets that put the network's corners at `positions` (one per corner, as [`flag_corners`] lists
+/// them): the inverse of [`flag_corners`], the height measured from the wave at the moved grid position.
+pub fn corner_offsets(p: &FlagParams, positions: &[DVec3]) -> Vec<DVec3> {
+    let net = Network { p, offsets: &[] };
+    let corners: Vec<(i64, i64)> = (0..=p.rows as i64)
+        .flat_map(|r| (0..=p.columns as i64).map(move |c| (c, r)))
+        .collect();
+    corners
+        .iter()
+        .zip(positions)
+        .map(|(&g, q)| {
+            let (x, y) = net.grid_xy(g);
+            let at = net.corner_with(g, DVec3::new(q.x - x, q.y - y, 0.0));
+            DVec3::new(q.x - x, q.y - y, q.z - at.z)
+        })
+        .collect()
+}
+
+/// The network's corners ((columns + 1) × (rows + 1), row-major) with `offsets` (as
+/// [`flag_patches_with`]): where the demo draws the handles it drags.
+pub fn flag_corners(p: &FlagParams, offsets: &[DVec3]) -> Vec<DVec3> {
+    let net = Network { p, offsets };
+    (0..=p.rows as i64)
+        .flat_map(|r| (0..=p.columns as i64).map(move |c| (c, r)))
+        .map(|g| net.corner(g))
+        .collect()
 }
 
 const OFFSET: [(i64, i64); 4] = [(0, 0), (1, 0), (1, 1), (0, 1)];
@@ -96,12 +153,29 @@ const INWARD: [(i64, i64); 4] = [(0, 1), (-1, 0), (0, -1), (1, 0)];
 /// assert_eq!(p[0].cv[5], p[1].cv[0]);
 /// ```
 pub fn flag_patches(p: &FlagParams) -> Result<Vec<PatchF64>> {
+    flag_patches_with(p, &[])
+}
+
+/// [`flag_patches`] with the network's corners moved by `offsets` (one per corner, (columns + 1) ×
+/// (rows + 1) row-major: xy added to the grid position, z to the height; empty for none). Every curve at a
+/// corner still shares its tangent plane, so the correction keeps the shared edges G1.
+pub fn flag_patches_with(p: &FlagParams, offsets: &[DVec3]) -> Result<Vec<PatchF64>> {
     if p.columns == 0 || p.rows == 0 || p.columns > 4096 || p.rows > 4096 {
         return Err(Error::Invalid(format!(
             "a flag of {}×{} patches is out of range",
             p.columns, p.rows
         )));
     }
+    let corners = (p.columns as usize + 1) * (p.rows as usize + 1);
+    if !offsets.is_empty() && offsets.len() != corners {
+        return Err(Error::Invalid(format!(
+            "{} corner offsets given, the {}×{} flag has {corners} corners",
+            offsets.len(),
+            p.columns,
+            p.rows
+        )));
+    }
+    let net = Network { p, offsets };
     let edges = [Edge::V0, Edge::U1, Edge::V1, Edge::U0];
     let mut out = Vec::new();
     for r in 0..p.rows as i64 {
@@ -110,9 +184,9 @@ pub fn flag_patches(p: &FlagParams) -> Result<Vec<PatchF64>> {
             let cs = OFFSET.map(|(dx, dy)| (c + dx, r + dy));
             let mut cv = [DVec3::ZERO; 20];
             for i in 0..4 {
-                let pt = corner(p, cs[i]);
-                let ep = near_point(p, cs[i], cs[(i + 1) % 4]);
-                let em = near_point(p, cs[i], cs[(i + 3) % 4]);
+                let pt = net.corner(cs[i]);
+                let ep = net.near_point(cs[i], cs[(i + 1) % 4]);
+                let em = net.near_point(cs[i], cs[(i + 3) % 4]);
                 let f = ep + em - pt;
                 cv[5 * i..5 * i + 5].copy_from_slice(&[pt, ep, em, f, f]);
             }
@@ -124,10 +198,10 @@ pub fn flag_patches(p: &FlagParams) -> Result<Vec<PatchF64>> {
                     }
                     let (s, f) = (cs[EDGE_CORNERS[e].0], cs[EDGE_CORNERS[e].1]);
                     let pts = [
-                        corner(p, s),
-                        near_point(p, s, f),
-                        near_point(p, f, s),
-                        corner(p, f),
+                        net.corner(s),
+                        net.near_point(s, f),
+                        net.near_point(f, s),
+                        net.corner(f),
                     ];
                     let me_a = id < nb.1 * p.columns as i64 + nb.0;
                     let ia = if me_a {
@@ -139,10 +213,10 @@ pub fn flag_patches(p: &FlagParams) -> Result<Vec<PatchF64>> {
                     let neg = (-ia.0, -ia.1);
                     let sol = chiyokura_kimura(
                         &pts,
-                        near_point(p, s, step(s, ia)) - pts[0],
-                        near_point(p, f, step(f, ia)) - pts[3],
-                        near_point(p, s, step(s, neg)) - pts[0],
-                        near_point(p, f, step(f, neg)) - pts[3],
+                        net.near_point(s, step(s, ia)) - pts[0],
+                        net.near_point(f, step(f, ia)) - pts[3],
+                        net.near_point(s, step(s, neg)) - pts[0],
+                        net.near_point(f, step(f, neg)) - pts[3],
                     )?;
                     let face = if me_a { sol.a_face } else { sol.b_face };
                     let inner = edges[e].inner();
@@ -160,6 +234,8 @@ pub fn flag_patches(p: &FlagParams) -> Result<Vec<PatchF64>> {
 pub struct FlagSurface {
     build: ComputePipeline,
     eval: GregoryEvalPass,
+    /// The corners' offsets (vec4, (columns + 1) × (rows + 1)), zero until [`FlagSurface::record_offsets`].
+    offsets: Buffer,
     points: Buffer,
     patch_points: Buffer,
     patch_flags: Buffer,
@@ -186,6 +262,7 @@ impl FlagSurface {
         let n = columns * rows;
         let layout = DescriptorSetLayoutBuilder::new()
             .storage_buffer(0, vk::ShaderStageFlags::COMPUTE)
+            .storage_buffer(1, vk::ShaderStageFlags::COMPUTE)
             .build(ctx, "flag set")?;
         let build = ComputePipeline::new(
             ctx,
@@ -198,9 +275,15 @@ impl FlagSurface {
         let eval = GregoryEvalPass::new(ctx)?;
         let rw = vk::BufferUsageFlags::STORAGE_BUFFER | vk::BufferUsageFlags::TRANSFER_SRC;
         let idx: Vec<u32> = (0..n * 20).collect();
+        let corners = (columns as usize + 1) * (rows as usize + 1);
         Ok(FlagSurface {
             build,
             eval,
+            offsets: ctx.upload_buffer(
+                "flag corner offsets",
+                bytemuck::cast_slice(&vec![[0.0f32; 4]; corners]),
+                vk::BufferUsageFlags::STORAGE_BUFFER | vk::BufferUsageFlags::TRANSFER_DST,
+            )?,
             points: ctx.create_buffer(
                 "flag points",
                 n as u64 * 20 * 16,
@@ -310,7 +393,10 @@ impl FlagSurface {
         self.build.bind(
             ctx,
             cmd,
-            &[(0, Binding::Storage(self.points.raw()))],
+            &[
+                (0, Binding::Storage(self.points.raw())),
+                (1, Binding::Storage(self.offsets.raw())),
+            ],
             bytemuck::bytes_of(&push),
         );
         self.build
@@ -347,6 +433,60 @@ impl FlagSurface {
         if let (Some((p, _)), Some(s)) = (profiler.as_mut(), s) {
             p.end(ctx, cmd, s);
         }
+        Ok(())
+    }
+
+    /// Records new corner offsets (one per corner, (columns + 1) × (rows + 1) row-major, as
+    /// [`flag_patches_with`]) into `cmd`: later builds use them, frames in flight keep theirs.
+    pub fn record_offsets(
+        &self,
+        ctx: &Context,
+        cmd: vk::CommandBuffer,
+        offsets: &[DVec3],
+    ) -> Result<()> {
+        let corners = (self.columns as usize + 1) * (self.rows as usize + 1);
+        if offsets.len() != corners {
+            return Err(Error::Invalid(format!(
+                "{} corner offsets given, the flag has {corners} corners",
+                offsets.len()
+            )));
+        }
+        let data: Vec<[f32; 4]> = offsets
+            .iter()
+            .map(|o| [o.x as f32, o.y as f32, o.z as f32, 0.0])
+            .collect();
+        memory_barrier(
+            ctx,
+            cmd,
+            (
+                vk::PipelineStageFlags2::COMPUTE_SHADER,
+                vk::AccessFlags2::NONE,
+            ),
+            (
+                vk::PipelineStageFlags2::ALL_TRANSFER,
+                vk::AccessFlags2::TRANSFER_WRITE,
+            ),
+        );
+        let bytes: &[u8] = bytemuck::cast_slice(&data);
+        for (k, chunk) in bytes.chunks(65536).enumerate() {
+            // SAFETY: recording outside a render pass; the range lies inside the offsets buffer (same count).
+            unsafe {
+                ctx.device
+                    .cmd_update_buffer(cmd, self.offsets.raw(), k as u64 * 65536, chunk)
+            };
+        }
+        memory_barrier(
+            ctx,
+            cmd,
+            (
+                vk::PipelineStageFlags2::ALL_TRANSFER,
+                vk::AccessFlags2::TRANSFER_WRITE,
+            ),
+            (
+                vk::PipelineStageFlags2::COMPUTE_SHADER,
+                vk::AccessFlags2::SHADER_STORAGE_READ,
+            ),
+        );
         Ok(())
     }
 

@@ -439,3 +439,36 @@ pub fn run_demo_window(args: &[&str], keys: &[String], out: &std::path::Path) ->
     assert!(!err.contains("panicked"), "{err}");
     err
 }
+
+/// Largest normal jump (rad) across the shared edges of a `columns × rows` flag, 33 samples per edge.
+pub fn flag_max_jump(p: &[gregvox::geom::gregory::PatchF64], columns: usize, rows: usize) -> f64 {
+    let mut worst = 0.0f64;
+    for r in 0..rows {
+        for c in 0..columns {
+            let a = &p[r * columns + c];
+            for k in 0..=32 {
+                let t = k as f64 / 32.0;
+                if c + 1 < columns {
+                    let b = &p[r * columns + c + 1];
+                    let (ua, va) = gregvox::geom::compat::Edge::U1.uv(t);
+                    let (ub, vb) = gregvox::geom::compat::Edge::U0.uv(t);
+                    assert!((a.eval(ua, va).0 - b.eval(ub, vb).0).length() < 1e-12);
+                    worst = worst.max({
+                        let (m, n) = (a.normal(ua, va), b.normal(ub, vb));
+                        m.cross(n).length().atan2(m.dot(n))
+                    });
+                }
+                if r + 1 < rows {
+                    let b = &p[(r + 1) * columns + c];
+                    let (ua, va) = gregvox::geom::compat::Edge::V1.uv(t);
+                    let (ub, vb) = gregvox::geom::compat::Edge::V0.uv(t);
+                    worst = worst.max({
+                        let (m, n) = (a.normal(ua, va), b.normal(ub, vb));
+                        m.cross(n).length().atan2(m.dot(n))
+                    });
+                }
+            }
+        }
+    }
+    worst
+}
