@@ -326,6 +326,7 @@ fn vertex_pull(
                     width: w,
                     height: h,
                 },
+                resolve: None,
             };
             pass.record(
                 ctx,

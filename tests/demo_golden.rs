@@ -4,8 +4,10 @@
 //! - The curvature pass against the CPU's fundamental forms (`geom::curvature` via `PatchF64::curvature`).
 //! - The shadow map against a CPU ray cast (`geom::shading::in_shadow_by`).
 //! - Golden frames: a few fixed-time offscreen frames of every entry of [`FRAMES`] against PNGs in
-//!   tests/fixtures/demo/ (regenerate with `BLESS=1 cargo test --test demo_golden`), plus: frames are not
-//!   blank, and animated scenes change between the sampled frames.
+//!   tests/fixtures/demo/ (regenerate with `BLESS=1 cargo test --test demo_golden`), rendered as the demo
+//!   renders them (4× MSAA; `cage_msaa1` single-sampled), plus: frames are not blank, and animated scenes
+//!   change between the sampled frames; MSAA changes only edge pixels, each to a value its single-sample
+//!   neighbourhood spans.
 //! - 1,000 frames with flat GPU memory; resize / minimise / restore; level changes and scene switches.
 //! - The window under Xvfb with every key typed (`--keys`), no validation message, a screenshot written.
 mod common;
@@ -45,6 +47,7 @@ const FRAMES: &[(&str, &[&str], bool)] = &[
         true,
     ),
     ("cage", &["--scene", "cage"], true),
+    ("cage_msaa1", &["--scene", "cage", "--msaa", "1"], true),
     ("cage_mean", &["--scene", "cage", "--shading", "mean"], true),
     (
         "cage_gaussian",
@@ -107,8 +110,15 @@ fn demo_args(extra: &[&str]) -> DemoArgs {
 fn render(ctx: &Context, args: &DemoArgs, wanted: &[u64]) -> Vec<Vec<u8>> {
     let (w, h) = args.size;
     let mut target = OffscreenTarget::new(ctx, w, h, FRAMES_IN_FLIGHT).unwrap();
-    let scene = build_scene(ctx, args, target.format()).unwrap();
+    // As `gregvox demo` renders: multisampled as `--msaa` asks (4 by default) where the device has it.
+    let samples = gregvox::demo::frame_samples(ctx, args);
+    let format = gregvox::passes::draw::ColorTarget {
+        format: target.format(),
+        samples,
+    };
+    let scene = build_scene(ctx, args, format).unwrap();
     let mut r = Renderer::new(ctx, scene, args.shading, draw_path(args)).unwrap();
+    r.samples = samples;
     let dt = args.time_step.unwrap_or(TIME_STEP);
     let mut out = Vec::new();
     for f in 0..=*wanted.iter().max().unwrap() {
@@ -228,6 +238,61 @@ fn golden_frames_of_every_scene_match_within_tolerance() {
         }
     });
     assert!(failures.is_empty(), "{}", failures.join("\n"));
+}
+
+#[test]
+fn msaa_averages_the_edges_and_changes_nothing_else() {
+    // Lavapipe has 4× for colour and depth; the resolve averages each pixel's samples, so a pixel that
+    // changes from the single-sample frame lies on an edge: its colour is within the range of the
+    // single-sample pixels around it, which are what the samples saw.
+    common::with_gpu(|ctx| {
+        let l = &ctx.limits;
+        let has = l.framebuffer_color_sample_counts & l.framebuffer_depth_sample_counts;
+        assert!(has.contains(vk::SampleCountFlags::TYPE_4), "{has:?}");
+        // Lines rasterize differently multisampled (rectangles of the line's width instead of one pixel a
+        // step), so the neighbourhood bound holds for surfaces; for the curves only the counts.
+        for (scene, surfaces) in [("cage", true), ("curves", false)] {
+            let one = &render(ctx, &demo_args(&["--scene", scene, "--msaa", "1"]), &[3])[0];
+            let four = &render(ctx, &demo_args(&["--scene", scene, "--msaa", "4"]), &[3])[0];
+            let (w, h) = (SIZE.0 as i64, SIZE.1 as i64);
+            let px = |img: &[u8], x: i64, y: i64, c: usize| img[((y * w + x) * 4) as usize + c];
+            let (mut changed, mut outside) = (0, 0);
+            for y in 0..h {
+                for x in 0..w {
+                    if (0..3).all(|c| px(one, x, y, c) == px(four, x, y, c)) {
+                        continue;
+                    }
+                    changed += 1;
+                    let within = (0..3).all(|c| {
+                        let near = (-1..=1)
+                            .flat_map(|dy| (-1..=1).map(move |dx| (x + dx, y + dy)))
+                            .filter(|&(u, v)| u >= 0 && v >= 0 && u < w && v < h)
+                            .map(|(u, v)| px(one, u, v, c));
+                        let (lo, hi) = near.fold((255u8, 0u8), |(a, b), p| (a.min(p), b.max(p)));
+                        let got = px(four, x, y, c);
+                        got + 3 >= lo && got <= hi.saturating_add(3)
+                    });
+                    if !within {
+                        outside += 1;
+                    }
+                }
+            }
+            let n = (w * h) as f64;
+            assert!(
+                changed as f64 > 0.002 * n,
+                "{scene}: only {changed} pixels smoothed"
+            );
+            assert!(
+                (changed as f64) < 0.15 * n,
+                "{scene}: {changed} pixels changed"
+            );
+            // Shading varies inside a pixel too (the lit surface, the zebra): allow a few.
+            assert!(
+                !surfaces || (outside as f64) < 0.01 * changed as f64 + 4.0,
+                "{scene}: {outside} of {changed} changed pixels outside their neighbourhood's range"
+            );
+        }
+    });
 }
 
 #[test]

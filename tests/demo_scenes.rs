@@ -368,6 +368,7 @@ fn one_frame(ctx: &Context, scene: &mut dyn Scene, t: f32) {
                 width: w,
                 height: h,
             },
+            resolve: None,
         };
         scene
             .record(ctx, cmd, &targets, t, &view, &mut profiler)

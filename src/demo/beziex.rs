@@ -11,9 +11,9 @@
 use super::scene::{surface_push, FrameTargets, Orbit, Scene, ViewState, DEPTH_FORMAT};
 use super::DemoArgs;
 use crate::gpu::{Buffer, Context, Profiler};
+use crate::passes::draw::ColorTarget;
 use crate::passes::gregory_eval::grid_indices;
 use crate::passes::patch_pull::{PatchKind, PatchPullPass};
-use crate::passes::surface_draw::DrawTarget;
 use crate::surface::beziex::{load_beziex, parse_beziex, BeziexPatch};
 use anyhow::Context as _;
 use ash::vk;
@@ -53,11 +53,12 @@ impl BeziexScene {
     /// Uploads `patches` and builds the vertex-pull pipeline for `format` targets at tessellation `level`.
     pub fn new(
         ctx: &Context,
-        format: vk::Format,
+        format: impl Into<ColorTarget>,
         patches: &[BeziexPatch],
         level: u32,
         name: String,
     ) -> anyhow::Result<Self> {
+        let format: ColorTarget = format.into();
         if patches.is_empty() {
             anyhow::bail!("{name}: the model has no patches");
         }
@@ -123,11 +124,7 @@ impl Scene for BeziexScene {
             v.orbit.yaw += SPIN * t;
         }
         let push = surface_push(&v, targets, [0.8, 0.6, 0.3], self.level);
-        let target = DrawTarget {
-            color: targets.color,
-            depth: targets.depth,
-            extent: targets.extent,
-        };
+        let target = targets.draw_target();
         profiler.scope(ctx, cmd, targets.slot, "beziex vertex pull", || {
             self.pass.record(
                 ctx,
@@ -154,7 +151,12 @@ impl Scene for BeziexScene {
 }
 
 /// Builds the scene from `--model FILE.gzjson` or the built-in cup.
-pub fn build(ctx: &Context, args: &DemoArgs, format: vk::Format) -> anyhow::Result<Box<dyn Scene>> {
+pub fn build(
+    ctx: &Context,
+    args: &DemoArgs,
+    format: impl Into<ColorTarget>,
+) -> anyhow::Result<Box<dyn Scene>> {
+    let format: ColorTarget = format.into();
     let (patches, name) = match &args.model {
         Some(path) => (
             load_beziex(path).with_context(|| format!("--model {}", path.display()))?,

@@ -5,11 +5,16 @@ use super::DemoArgs;
 use crate::engine::cage::{builtin_cage, cage_topology, load_cage};
 use crate::engine::gregory::GregorySurface;
 use crate::gpu::Context;
+use crate::passes::draw::ColorTarget;
 use crate::surface::Tangents;
-use ash::vk;
 
 /// Builds the cage scene.
-pub fn build(ctx: &Context, args: &DemoArgs, format: vk::Format) -> anyhow::Result<Box<dyn Scene>> {
+pub fn build(
+    ctx: &Context,
+    args: &DemoArgs,
+    format: impl Into<ColorTarget>,
+) -> anyhow::Result<Box<dyn Scene>> {
+    let format: ColorTarget = format.into();
     let (mesh, topo, cage, note, name) = match &args.model {
         Some(path) => {
             let (m, t, c, n) = load_cage(path)?;

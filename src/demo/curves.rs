@@ -14,6 +14,7 @@ use crate::geom::bspline::BSplineCurve;
 use crate::geom::curvature::{circle_of_curvature, plane_curvature};
 use crate::geom::nurbs::NurbsCurve;
 use crate::gpu::{Context, Profiler};
+use crate::passes::draw::ColorTarget;
 use crate::passes::lines::LineVertex;
 use ash::vk;
 use glam::{DVec2, Vec3};
@@ -352,7 +353,8 @@ pub struct CurvesScene {
 
 impl CurvesScene {
     /// Builds the line pipeline for `format` targets.
-    pub fn new(ctx: &Context, format: vk::Format) -> anyhow::Result<Self> {
+    pub fn new(ctx: &Context, format: impl Into<ColorTarget>) -> anyhow::Result<Self> {
+        let format: ColorTarget = format.into();
         Ok(CurvesScene {
             lines: SceneLines::new(ctx, format)?,
             drawn: 0,
@@ -445,6 +447,10 @@ impl Scene for CurvesScene {
 }
 
 /// Builds the curves scene.
-pub fn build(ctx: &Context, format: vk::Format) -> anyhow::Result<Box<dyn super::scene::Scene>> {
+pub fn build(
+    ctx: &Context,
+    format: impl Into<ColorTarget>,
+) -> anyhow::Result<Box<dyn super::scene::Scene>> {
+    let format: ColorTarget = format.into();
     Ok(Box::new(CurvesScene::new(ctx, format)?))
 }

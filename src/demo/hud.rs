@@ -14,7 +14,7 @@
 //! cut, and no more lines are drawn than fit, so a tiny window or a huge pass table costs nothing more.
 use super::scene::{FrameTargets, DEPTH_FORMAT};
 use crate::gpu::{Context, Profiler};
-use crate::passes::draw::DrawTarget;
+use crate::passes::draw::ColorTarget;
 use crate::passes::lines::{LineRing, LineVertex};
 use crate::passes::overlay::OverlayPass;
 use ash::vk;
@@ -558,7 +558,7 @@ pub struct Hud {
 
 impl Hud {
     /// Builds the pipeline for `color` targets (and the demo's depth format).
-    pub fn new(ctx: &Context, color: vk::Format) -> anyhow::Result<Self> {
+    pub fn new(ctx: &Context, color: impl Into<ColorTarget>) -> anyhow::Result<Self> {
         Ok(Hud {
             pass: OverlayPass::new(ctx, color, DEPTH_FORMAT)?,
             ring: LineRing::new(super::FRAMES_IN_FLIGHT),
@@ -578,11 +578,7 @@ impl Hud {
         let e = targets.extent;
         let vertices = hud_triangles(lines, hud_scale(e.height), e.width, e.height);
         let buf = self.ring.upload(ctx, targets.slot, &vertices)?;
-        let target = DrawTarget {
-            color: targets.color,
-            depth: targets.depth,
-            extent: e,
-        };
+        let target = targets.draw_target();
         let pass = &self.pass;
         profiler.scope(ctx, cmd, targets.slot, "overlay", || {
             pass.record(ctx, cmd, &target, buf, vertices.len() as u32)

@@ -15,6 +15,7 @@ use crate::gpu::{
     Context, ContextDesc, Frames, Image, ImageDesc, OffscreenTarget, PresentTarget, Profiler,
 };
 use crate::passes::cage_deform::Deformation;
+use crate::passes::draw::ColorTarget;
 use crate::passes::surface_draw::ShadingMode;
 use anyhow::{bail, Context as _};
 use ash::vk;
@@ -51,6 +52,10 @@ pub struct DemoArgs {
     /// Write every K-th frame as PNG (0: only the last; the last is always written).
     #[arg(long, default_value_t = 0)]
     pub every: u64,
+    /// Multisample anti-aliasing: samples per pixel of surfaces and lines (1, 2, 4 or 8; the largest the
+    /// device has for colour and depth together when it lacks the one asked for).
+    #[arg(long, default_value_t = 4, value_parser = clap::value_parser!(u32).range(1..=8))]
+    pub msaa: u32,
     /// Draw the overlay (scene, level, shading, frame and pass times) into offscreen frames too; the
     /// window shows it from the start (key H hides it).
     #[arg(long)]
@@ -237,6 +242,37 @@ fn soak_report(ctx: &Context, frame: &str) {
     }
 }
 
+/// The sample count `asked` (1, 2, 4 or 8; others round down to a power of two) or the largest below it
+/// that the device has for colour and depth attachments together.
+///
+/// ```
+/// use ash::vk;
+/// let has = vk::SampleCountFlags::TYPE_1 | vk::SampleCountFlags::TYPE_2 | vk::SampleCountFlags::TYPE_4;
+/// assert_eq!(gregvox::demo::sample_count(4, has), vk::SampleCountFlags::TYPE_4);
+/// assert_eq!(gregvox::demo::sample_count(8, has), vk::SampleCountFlags::TYPE_4);
+/// assert_eq!(gregvox::demo::sample_count(3, has), vk::SampleCountFlags::TYPE_2);
+/// assert_eq!(gregvox::demo::sample_count(1, has), vk::SampleCountFlags::TYPE_1);
+/// ```
+pub fn sample_count(asked: u32, device: vk::SampleCountFlags) -> vk::SampleCountFlags {
+    let mut n = asked.clamp(1, 8).next_power_of_two();
+    if n > asked.max(1) {
+        n /= 2;
+    }
+    while n > 1 && !device.contains(vk::SampleCountFlags::from_raw(n)) {
+        n /= 2;
+    }
+    vk::SampleCountFlags::from_raw(n)
+}
+
+/// The sample count the demo renders with on `ctx` for `args`.
+pub fn frame_samples(ctx: &Context, args: &DemoArgs) -> vk::SampleCountFlags {
+    let l = &ctx.limits;
+    sample_count(
+        args.msaa,
+        l.framebuffer_color_sample_counts & l.framebuffer_depth_sample_counts,
+    )
+}
+
 /// Parses a positive, finite pixel count.
 fn parse_pixels(s: &str) -> Result<f32, String> {
     match s.trim().parse::<f32>() {
@@ -279,6 +315,10 @@ pub struct Renderer {
     pub frames: Frames,
     pub profiler: Profiler,
     depth: Vec<Option<Image>>,
+    /// Per slot, the multisampled colour image the scene draws into (resolved into the frame's image).
+    msaa: Vec<Option<Image>>,
+    /// Samples per pixel of the colour and depth targets; the scene's pipelines were built for it.
+    pub samples: vk::SampleCountFlags,
     pub scene: Box<dyn Scene>,
     pub view: ViewState,
     /// Draw the overlay ([`hud`]); with the keys listed when `hud_keys`.
@@ -310,6 +350,8 @@ impl Renderer {
             frames,
             profiler,
             depth: (0..FRAMES_IN_FLIGHT).map(|_| None).collect(),
+            msaa: (0..FRAMES_IN_FLIGHT).map(|_| None).collect(),
+            samples: vk::SampleCountFlags::TYPE_1,
             scene,
             view,
             hud: false,
@@ -336,21 +378,54 @@ impl Renderer {
     ) -> anyhow::Result<&Image> {
         let stale = self.depth[slot]
             .as_ref()
-            .is_some_and(|d| d.extent2d() != extent);
+            .is_some_and(|d| d.extent2d() != extent || d.samples() != self.samples);
         if stale {
             // Released through the queue; the slot's previous frame has completed (begin_frame waited).
             self.depth[slot] = None;
         }
         if self.depth[slot].is_none() {
-            let desc = ImageDesc::d2(
+            let mut desc = ImageDesc::d2(
                 extent.width,
                 extent.height,
                 DEPTH_FORMAT,
                 vk::ImageUsageFlags::DEPTH_STENCIL_ATTACHMENT,
             );
+            desc.samples = self.samples;
             self.depth[slot] = Some(ctx.create_image(&format!("demo depth {slot}"), &desc)?);
         }
         Ok(self.depth[slot].as_ref().unwrap())
+    }
+
+    /// The slot's multisampled colour image for `extent` and `format` (rebuilt when either changes), or
+    /// `None` with one sample.
+    fn msaa_view(
+        &mut self,
+        ctx: &Context,
+        slot: usize,
+        extent: vk::Extent2D,
+        format: vk::Format,
+    ) -> anyhow::Result<Option<&Image>> {
+        if self.samples == vk::SampleCountFlags::TYPE_1 {
+            return Ok(None);
+        }
+        let stale = self.msaa[slot].as_ref().is_some_and(|m| {
+            m.extent2d() != extent || m.format() != format || m.samples() != self.samples
+        });
+        if stale {
+            // Released through the queue; the slot's previous frame has completed (begin_frame waited).
+            self.msaa[slot] = None;
+        }
+        if self.msaa[slot].is_none() {
+            let mut desc = ImageDesc::d2(
+                extent.width,
+                extent.height,
+                format,
+                vk::ImageUsageFlags::COLOR_ATTACHMENT | vk::ImageUsageFlags::TRANSIENT_ATTACHMENT,
+            );
+            desc.samples = self.samples;
+            self.msaa[slot] = Some(ctx.create_image(&format!("demo msaa colour {slot}"), &desc)?);
+        }
+        Ok(self.msaa[slot].as_ref())
     }
 
     /// Records and submits the frame begun by [`Renderer::begin_frame`] at time `t` into `target`.
@@ -389,11 +464,37 @@ impl Renderer {
                     | vk::AccessFlags2::DEPTH_STENCIL_ATTACHMENT_WRITE,
             ),
         );
+        let (color, resolve) = match self.msaa_view(ctx, slot, img.extent, target.format())? {
+            Some(msaa) => {
+                let (image, view, range) = (msaa.raw(), msaa.view(), msaa.range());
+                // Its contents are undefined each frame: the scene clears it.
+                image_barrier(
+                    ctx,
+                    cmd,
+                    image,
+                    range,
+                    vk::ImageLayout::UNDEFINED,
+                    vk::ImageLayout::COLOR_ATTACHMENT_OPTIMAL,
+                    (
+                        vk::PipelineStageFlags2::COLOR_ATTACHMENT_OUTPUT,
+                        vk::AccessFlags2::COLOR_ATTACHMENT_WRITE,
+                    ),
+                    (
+                        vk::PipelineStageFlags2::COLOR_ATTACHMENT_OUTPUT,
+                        vk::AccessFlags2::COLOR_ATTACHMENT_READ
+                            | vk::AccessFlags2::COLOR_ATTACHMENT_WRITE,
+                    ),
+                );
+                (view, Some(img.view))
+            }
+            None => (img.view, None),
+        };
         let targets = FrameTargets {
             slot,
-            color: img.view,
+            color,
             depth: depth_view,
             extent: img.extent,
+            resolve,
         };
         let view = self.view;
         self.scene
@@ -409,7 +510,13 @@ impl Renderer {
         }
         if self.hud {
             if self.overlay.is_none() {
-                self.overlay = Some(hud::Hud::new(ctx, target.format())?);
+                self.overlay = Some(hud::Hud::new(
+                    ctx,
+                    ColorTarget {
+                        format: target.format(),
+                        samples: self.samples,
+                    },
+                )?);
             }
             let info = hud::HudInfo {
                 scene: self.scene.name(),
@@ -520,8 +627,9 @@ pub fn draw_path(args: &DemoArgs) -> DrawPath {
 pub fn build_scene(
     ctx: &Context,
     args: &DemoArgs,
-    format: vk::Format,
+    format: impl Into<ColorTarget>,
 ) -> anyhow::Result<Box<dyn Scene>> {
+    let format: ColorTarget = format.into();
     Ok(match args.scene {
         SceneKind::Spinner => Box::new(SpinnerScene::new(
             ctx,
@@ -582,8 +690,17 @@ fn run_offscreen(args: &DemoArgs) -> anyhow::Result<()> {
     let ctx = Context::with_desc(&ContextDesc::default())?;
     let (w, h) = args.size;
     let mut target = OffscreenTarget::new(&ctx, w, h, FRAMES_IN_FLIGHT)?;
-    let scene = build_scene(&ctx, args, target.format())?;
+    let samples = frame_samples(&ctx, args);
+    let scene = build_scene(
+        &ctx,
+        args,
+        ColorTarget {
+            format: target.format(),
+            samples,
+        },
+    )?;
     let mut renderer = Renderer::new(&ctx, scene, args.shading, draw_path(args))?;
+    renderer.samples = samples;
     renderer.hud = args.hud;
     // Only once the scene stands: a refused model or option leaves no empty output folder behind.
     std::fs::create_dir_all(&out)

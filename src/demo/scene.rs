@@ -3,7 +3,10 @@
 //!
 //! Invariants: on entry to `Scene::record` the color target is in `COLOR_ATTACHMENT_OPTIMAL` (contents
 //! undefined) and the depth target in `DEPTH_ATTACHMENT_OPTIMAL`; the scene clears and draws both and leaves
-//! the layouts unchanged. A scene's `set_level` runs with the device idle (the renderer waits). A scene's
+//! the layouts unchanged. With multisampling (`--msaa`, 4 by default) both targets have the sample count
+//! the scene's pipelines were built for (`ColorTarget`), and every rendering into the colour target resolves
+//! into `FrameTargets::resolve`, the frame's own image (`FrameTargets::draw_target` carries it to the passes),
+//! so whatever pass records last leaves the whole frame resolved. A scene's `set_level` runs with the device idle (the renderer waits). A scene's
 //! GPU objects release themselves when dropped, through the release queue of `gpu::lifetime`, so a buffer
 //! earlier frames used may be replaced or dropped at any point. Every GPU pass a scene records is in a
 //! profiler scope.
@@ -14,6 +17,7 @@ use crate::engine::gregory::GregorySurface;
 use crate::gpu::{Buffer, Context, MemoryLocation, Profiler};
 use crate::passes::adaptive_levels::AdaptiveParams;
 use crate::passes::cage_deform::{DeformParams, Deformation};
+use crate::passes::draw::ColorTarget;
 use crate::passes::gregory_eval::{grid_indices, vertex_count, ControlPoints};
 use crate::passes::patch_pull::{PatchKind, PatchPullPass};
 use crate::passes::shadow_map::{light_view_proj, ShadowMap};
@@ -39,7 +43,8 @@ pub struct SceneLines {
 
 impl SceneLines {
     /// Builds the line pipeline for `format` targets.
-    pub fn new(ctx: &Context, format: vk::Format) -> anyhow::Result<Self> {
+    pub fn new(ctx: &Context, format: impl Into<ColorTarget>) -> anyhow::Result<Self> {
+        let format: ColorTarget = format.into();
         Ok(SceneLines {
             pass: crate::passes::lines::LinesPass::new(ctx, format, DEPTH_FORMAT)?,
             ring: crate::passes::lines::LineRing::new(super::FRAMES_IN_FLIGHT),
@@ -62,11 +67,7 @@ impl SceneLines {
     ) -> anyhow::Result<()> {
         let buf = self.ring.upload(ctx, targets.slot, vertices)?;
         let aspect = targets.extent.width as f32 / targets.extent.height.max(1) as f32;
-        let target = DrawTarget {
-            color: targets.color,
-            depth: targets.depth,
-            extent: targets.extent,
-        };
+        let target = targets.draw_target();
         let pass = &self.pass;
         profiler.scope(ctx, cmd, targets.slot, scope, || {
             pass.record(
@@ -90,6 +91,20 @@ pub struct FrameTargets {
     pub color: vk::ImageView,
     pub depth: vk::ImageView,
     pub extent: vk::Extent2D,
+    /// With multisampling: the frame's own image, which every rendering into `color` resolves to.
+    pub resolve: Option<vk::ImageView>,
+}
+
+impl FrameTargets {
+    /// The targets as a pass draws into them.
+    pub fn draw_target(&self) -> DrawTarget {
+        DrawTarget {
+            color: self.color,
+            depth: self.depth,
+            extent: self.extent,
+            resolve: self.resolve,
+        }
+    }
 }
 
 /// An orbit camera around `target`.
@@ -271,11 +286,7 @@ pub(crate) fn draw_surface(
     (vertices, indices, index_count, level): (&Buffer, &Buffer, u32, u32),
 ) {
     let push = surface_push(view, targets, color, level);
-    let target = DrawTarget {
-        color: targets.color,
-        depth: targets.depth,
-        extent: targets.extent,
-    };
+    let target = targets.draw_target();
     scoped(profiler, ctx, cmd, targets.slot, "surface draw", || {
         draw.record(
             ctx,
@@ -343,7 +354,12 @@ const SHADOW_SIZE: u32 = 1024;
 
 impl SurfaceLook {
     /// Builds the passes for targets of `format` and the ground plane of `stage`.
-    pub fn new(ctx: &Context, format: vk::Format, stage: Stage) -> anyhow::Result<Self> {
+    pub fn new(
+        ctx: &Context,
+        format: impl Into<ColorTarget>,
+        stage: Stage,
+    ) -> anyhow::Result<Self> {
+        let format: ColorTarget = format.into();
         let draw = SurfaceDrawPass::new(ctx, format, DEPTH_FORMAT)?;
         let shadow = ShadowMap::new(ctx, SHADOW_SIZE)?;
         let curvature_pass = SurfaceCurvaturePass::new(ctx)?;
@@ -465,11 +481,7 @@ impl SurfaceLook {
         push.mode[3] = FLAG_SHADOWS;
         let mut ground_push = surface_push(&view, targets, [0.78, 0.76, 0.72], 1);
         ground_push.mode[3] = FLAG_SHADOWS | FLAG_GROUND;
-        let target = DrawTarget {
-            color: targets.color,
-            depth: targets.depth,
-            extent: targets.extent,
-        };
+        let target = targets.draw_target();
         let ground = LitDraw {
             vertices: &self.ground[0],
             curvature: None,
@@ -543,10 +555,11 @@ impl SpinnerScene {
     /// `count` triangles, drawn into targets of `format`.
     pub fn new(
         ctx: &Context,
-        format: vk::Format,
+        format: impl Into<ColorTarget>,
         count: u32,
         slots: usize,
     ) -> anyhow::Result<Self> {
+        let format: ColorTarget = format.into();
         let count = count.clamp(1, 1 << 20);
         let spinner = SpinnerPass::new(ctx)?;
         let triangles = TrianglesPass::new(ctx, format)?;
@@ -605,6 +618,7 @@ impl Scene for SpinnerScene {
                     ctx,
                     cmd,
                     targets.color,
+                    targets.resolve,
                     targets.extent,
                     [0.02, 0.02, 0.04, 1.0],
                     vb,
@@ -644,11 +658,12 @@ impl FlagScene {
     /// A `columns × rows` flag at tessellation `level`.
     pub fn new(
         ctx: &Context,
-        format: vk::Format,
+        format: impl Into<ColorTarget>,
         columns: u32,
         rows: u32,
         level: u32,
     ) -> anyhow::Result<Self> {
+        let format: ColorTarget = format.into();
         let flag = FlagSurface::new(ctx, columns, rows, level)?;
         let (w, h) = (columns as f32, rows as f32);
         // The flag waves by about ±0.35 around z = 0 (FlagScene::record's amplitude).
@@ -849,12 +864,13 @@ impl CageScene {
     /// Wraps a built surface.
     pub fn new(
         ctx: &Context,
-        format: vk::Format,
+        format: impl Into<ColorTarget>,
         surface: GregorySurface,
         cage: crate::mesh::Mesh,
         deformation: Deformation,
         name: String,
     ) -> anyhow::Result<Self> {
+        let format: ColorTarget = format.into();
         anyhow::ensure!(
             cage.positions.len() == surface.cage_count() as usize,
             "the cage has {} vertices, its surface {}",

@@ -16,6 +16,7 @@ use crate::engine::gregory::{GregorySurface, SurfaceBounds};
 use crate::engine::voxelize::{PeelVoxelizer, ResidentVoxelizer};
 use crate::gpu::{Buffer, Context, Image, MemoryLocation, Profiler};
 use crate::passes::cage_deform::{DeformParams, Deformation};
+use crate::passes::draw::ColorTarget;
 use crate::passes::peel::PeelGeometry;
 use crate::passes::surface_draw::SurfaceDrawPass;
 use crate::passes::voxel_raycast::{bricks_bytes, VoxelRaycastPass};
@@ -132,11 +133,12 @@ impl VoxelsScene {
     /// Wraps a built surface: plans the grid, builds the resident voxelizer and the passes.
     pub fn new(
         ctx: &Context,
-        format: vk::Format,
+        format: impl Into<ColorTarget>,
         surface: GregorySurface,
         options: VoxelsOptions,
         name: String,
     ) -> anyhow::Result<Self> {
+        let format: ColorTarget = format.into();
         if !(1..=8).contains(&options.scale) {
             anyhow::bail!("--voxel-scale {} is outside 1…8", options.scale);
         }
@@ -323,6 +325,7 @@ impl Scene for VoxelsScene {
                 cmd,
                 image,
                 targets.color,
+                targets.resolve,
                 vk::Offset2D {
                     x: left as i32,
                     y: 0,
@@ -368,7 +371,12 @@ impl Scene for VoxelsScene {
 }
 
 /// Builds the voxels scene from the demo arguments (cage as in the cage scene).
-pub fn build(ctx: &Context, args: &DemoArgs, format: vk::Format) -> anyhow::Result<Box<dyn Scene>> {
+pub fn build(
+    ctx: &Context,
+    args: &DemoArgs,
+    format: impl Into<ColorTarget>,
+) -> anyhow::Result<Box<dyn Scene>> {
+    let format: ColorTarget = format.into();
     let (topo, cage, note, name) = match &args.model {
         Some(path) => {
             let (t, c, n) = load_cage_topology(path)?;

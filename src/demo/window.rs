@@ -16,6 +16,7 @@
 use super::scene::DrawPath;
 use super::{DemoArgs, Renderer, SceneKind};
 use crate::gpu::{Context, ContextDesc, PresentTarget, SwapchainTarget};
+use crate::passes::draw::ColorTarget;
 use crate::passes::gregory_eval::MAX_LEVEL;
 use crate::passes::surface_draw::ShadingMode;
 use anyhow::Context as _;
@@ -353,13 +354,22 @@ impl App<'_> {
             super::FRAMES_IN_FLIGHT,
             true,
         )?;
-        let scene = super::build_scene(self.ctx, &self.args, target.format())?;
+        let samples = super::frame_samples(self.ctx, &self.args);
+        let scene = super::build_scene(
+            self.ctx,
+            &self.args,
+            ColorTarget {
+                format: target.format(),
+                samples,
+            },
+        )?;
         let mut renderer = Renderer::new(
             self.ctx,
             scene,
             self.args.shading,
             super::draw_path(&self.args),
         )?;
+        renderer.samples = samples;
         // The window shows the overlay with the keys from the start (H hides it).
         renderer.hud = true;
         renderer.hud_keys = true;
@@ -443,7 +453,11 @@ impl App<'_> {
                 args.level = None;
                 renderer.finish(ctx)?;
                 // A scene that cannot be built (e.g. one that needs --model) leaves the current one on.
-                match super::build_scene(ctx, &args, target.format()) {
+                let format = ColorTarget {
+                    format: target.format(),
+                    samples: renderer.samples,
+                };
+                match super::build_scene(ctx, &args, format) {
                     Ok(scene) => {
                         renderer.replace_scene(ctx, scene)?;
                         self.args.scene = kind;

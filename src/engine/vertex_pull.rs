@@ -78,6 +78,7 @@ pub fn vertex_pull(
                 width: w,
                 height: h,
             },
+            resolve: None,
         };
         for _ in 0..repeat {
             ctx.one_shot(|cmd| {

@@ -340,6 +340,8 @@ pub struct GraphicsDesc<'a> {
     pub color_formats: Vec<vk::Format>,
     pub depth_format: vk::Format,
     pub blend: bool,
+    /// Rasterization samples (the colour and depth targets' sample count).
+    pub samples: vk::SampleCountFlags,
     /// Set layouts the pipeline takes ownership of.
     pub set_layouts: Vec<Owned<vk::DescriptorSetLayout>>,
     pub push_constant_bytes: u32,
@@ -378,6 +380,7 @@ impl<'a> GraphicsDesc<'a> {
             },
             depth_format: depth,
             blend: false,
+            samples: vk::SampleCountFlags::TYPE_1,
             set_layouts: Vec::new(),
             push_constant_bytes: 0,
             push_constant_stages: vk::ShaderStageFlags::VERTEX | vk::ShaderStageFlags::FRAGMENT,
@@ -455,7 +458,7 @@ impl GraphicsPipeline {
                 .depth_bias_enable(desc.depth_bias)
                 .line_width(1.0);
             let multisample = vk::PipelineMultisampleStateCreateInfo::default()
-                .rasterization_samples(vk::SampleCountFlags::TYPE_1);
+                .rasterization_samples(desc.samples);
             let depth = vk::PipelineDepthStencilStateCreateInfo::default()
                 .depth_test_enable(desc.depth_test)
                 .depth_write_enable(desc.depth_write)

@@ -46,6 +46,8 @@ pub struct ImageDesc {
     pub image_type: vk::ImageType,
     pub view_type: vk::ImageViewType,
     pub aspect: vk::ImageAspectFlags,
+    /// Samples per pixel (a multisampled render target when more than one).
+    pub samples: vk::SampleCountFlags,
 }
 
 impl ImageDesc {
@@ -68,6 +70,7 @@ impl ImageDesc {
             image_type: vk::ImageType::TYPE_2D,
             view_type: vk::ImageViewType::TYPE_2D,
             aspect,
+            samples: vk::SampleCountFlags::TYPE_1,
         }
     }
 
@@ -160,6 +163,16 @@ impl Image {
             base_array_layer: 0,
             layer_count: self.desc.layers,
         }
+    }
+
+    /// The pixel format.
+    pub fn format(&self) -> vk::Format {
+        self.desc.format
+    }
+
+    /// Samples per pixel.
+    pub fn samples(&self) -> vk::SampleCountFlags {
+        self.desc.samples
     }
 
     /// Width and height.
@@ -523,7 +536,7 @@ impl Context {
             .extent(desc.extent)
             .mip_levels(1)
             .array_layers(desc.layers)
-            .samples(vk::SampleCountFlags::TYPE_1)
+            .samples(desc.samples)
             .tiling(vk::ImageTiling::OPTIMAL)
             .usage(desc.usage)
             .sharing_mode(vk::SharingMode::EXCLUSIVE)

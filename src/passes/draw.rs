@@ -10,6 +10,40 @@ pub struct DrawTarget {
     pub color: vk::ImageView,
     pub depth: vk::ImageView,
     pub extent: vk::Extent2D,
+    /// With a multisampled `color`: the single-sample image every rendering into it resolves to (in
+    /// `COLOR_ATTACHMENT_OPTIMAL`, like `color`).
+    pub resolve: Option<vk::ImageView>,
+}
+
+/// What a pass draws into: the colour format and the sample count of the colour and depth targets.
+/// A plain format converts to one sample, so `SurfaceDrawPass::new(ctx, format, depth)` keeps its meaning.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct ColorTarget {
+    pub format: vk::Format,
+    pub samples: vk::SampleCountFlags,
+}
+
+impl From<vk::Format> for ColorTarget {
+    fn from(format: vk::Format) -> Self {
+        ColorTarget {
+            format,
+            samples: vk::SampleCountFlags::TYPE_1,
+        }
+    }
+}
+
+/// Sets the colour attachment's resolve into `resolve`, if any (averaging the samples).
+pub fn with_resolve(
+    att: vk::RenderingAttachmentInfo<'_>,
+    resolve: Option<vk::ImageView>,
+) -> vk::RenderingAttachmentInfo<'_> {
+    match resolve {
+        Some(view) => att
+            .resolve_mode(vk::ResolveModeFlags::AVERAGE)
+            .resolve_image_view(view)
+            .resolve_image_layout(vk::ImageLayout::COLOR_ATTACHMENT_OPTIMAL),
+        None => att,
+    }
 }
 
 /// One indexed surface draw of the lit path.
@@ -78,16 +112,19 @@ pub fn begin_color_depth(
     } else {
         vk::AttachmentLoadOp::LOAD
     };
-    let color = [vk::RenderingAttachmentInfo::default()
-        .image_view(target.color)
-        .image_layout(vk::ImageLayout::COLOR_ATTACHMENT_OPTIMAL)
-        .load_op(load)
-        .store_op(vk::AttachmentStoreOp::STORE)
-        .clear_value(vk::ClearValue {
-            color: vk::ClearColorValue {
-                float32: clear.unwrap_or([0.0; 4]),
-            },
-        })];
+    let color = [with_resolve(
+        vk::RenderingAttachmentInfo::default()
+            .image_view(target.color)
+            .image_layout(vk::ImageLayout::COLOR_ATTACHMENT_OPTIMAL)
+            .load_op(load)
+            .store_op(vk::AttachmentStoreOp::STORE)
+            .clear_value(vk::ClearValue {
+                color: vk::ClearColorValue {
+                    float32: clear.unwrap_or([0.0; 4]),
+                },
+            }),
+        target.resolve,
+    )];
     let depth = vk::RenderingAttachmentInfo::default()
         .image_view(target.depth)
         .image_layout(vk::ImageLayout::DEPTH_ATTACHMENT_OPTIMAL)

@@ -11,6 +11,7 @@
 use crate::error::{Error, Result};
 use crate::gpu::pipeline::{GraphicsDesc, GraphicsPipeline};
 use crate::gpu::{shaders, Buffer, Context, MemoryLocation};
+use crate::passes::draw::ColorTarget;
 use crate::passes::draw::{begin_color_depth, DrawTarget};
 use ash::vk;
 
@@ -68,14 +69,21 @@ pub struct LinesPass {
 
 impl LinesPass {
     /// Builds the pipeline for `color`/`depth` targets.
-    pub fn new(ctx: &Context, color: vk::Format, depth: vk::Format) -> Result<Self> {
-        let mut desc = GraphicsDesc::new(shaders::LINES_VERT, shaders::LINES_FRAG, color, depth);
+    pub fn new(ctx: &Context, color: impl Into<ColorTarget>, depth: vk::Format) -> Result<Self> {
+        let color: ColorTarget = color.into();
+        let mut desc = GraphicsDesc::new(
+            shaders::LINES_VERT,
+            shaders::LINES_FRAG,
+            color.format,
+            depth,
+        );
         desc.topology = vk::PrimitiveTopology::LINE_LIST;
         // Lines drawn later over earlier ones at equal depth (a construction over its curve) stay visible.
         desc.depth_compare = vk::CompareOp::LESS_OR_EQUAL;
         (desc.vertex_bindings, desc.vertex_attributes) = LineVertex::vertex_input();
         desc.push_constant_bytes = std::mem::size_of::<Push>() as u32;
         desc.push_constant_stages = vk::ShaderStageFlags::VERTEX;
+        desc.samples = color.samples;
         Ok(LinesPass {
             pipeline: GraphicsPipeline::new(ctx, "lines", desc)?,
         })

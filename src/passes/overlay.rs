@@ -10,6 +10,7 @@
 use crate::error::{Error, Result};
 use crate::gpu::pipeline::{GraphicsDesc, GraphicsPipeline};
 use crate::gpu::{shaders, Buffer, Context};
+use crate::passes::draw::ColorTarget;
 use crate::passes::draw::{begin_color_depth, DrawTarget};
 use crate::passes::lines::LineVertex;
 use ash::vk;
@@ -35,14 +36,21 @@ pub struct OverlayPass {
 
 impl OverlayPass {
     /// Builds the pipeline for `color`/`depth` targets.
-    pub fn new(ctx: &Context, color: vk::Format, depth: vk::Format) -> Result<Self> {
-        let mut desc = GraphicsDesc::new(shaders::LINES_VERT, shaders::LINES_FRAG, color, depth);
+    pub fn new(ctx: &Context, color: impl Into<ColorTarget>, depth: vk::Format) -> Result<Self> {
+        let color: ColorTarget = color.into();
+        let mut desc = GraphicsDesc::new(
+            shaders::LINES_VERT,
+            shaders::LINES_FRAG,
+            color.format,
+            depth,
+        );
         desc.depth_test = false;
         desc.depth_write = false;
         desc.blend = true;
         (desc.vertex_bindings, desc.vertex_attributes) = LineVertex::vertex_input();
         desc.push_constant_bytes = std::mem::size_of::<Push>() as u32;
         desc.push_constant_stages = vk::ShaderStageFlags::VERTEX;
+        desc.samples = color.samples;
         Ok(OverlayPass {
             pipeline: GraphicsPipeline::new(ctx, "overlay", desc)?,
         })

@@ -10,6 +10,7 @@ use crate::error::{Error, Result};
 use crate::gpu::pipeline::{Binding, DescriptorSetLayoutBuilder, GraphicsDesc, GraphicsPipeline};
 use crate::gpu::resources::memory_barrier;
 use crate::gpu::{shaders, Buffer, Context};
+use crate::passes::draw::ColorTarget;
 use crate::passes::draw::{begin_color_depth, DrawTarget};
 use crate::passes::gregory_eval::ControlPoints;
 use crate::passes::surface_draw::SurfacePush;
@@ -32,7 +33,13 @@ pub struct PatchPullPass {
 
 impl PatchPullPass {
     /// Builds the pipeline; `capture` selects the variant that also stores every evaluated vertex.
-    pub fn new(ctx: &Context, color: vk::Format, depth: vk::Format, capture: bool) -> Result<Self> {
+    pub fn new(
+        ctx: &Context,
+        color: impl Into<ColorTarget>,
+        depth: vk::Format,
+        capture: bool,
+    ) -> Result<Self> {
+        let color: ColorTarget = color.into();
         if capture && !ctx.info.features.vertex_pipeline_stores_and_atomics {
             return Err(Error::Limit {
                 what: "capturing vertex-pull output".into(),
@@ -52,10 +59,11 @@ impl PatchPullPass {
         } else {
             shaders::PATCH_PULL_VERT
         };
-        let mut desc = GraphicsDesc::new(vs, shaders::SURFACE_FRAG, color, depth);
+        let mut desc = GraphicsDesc::new(vs, shaders::SURFACE_FRAG, color.format, depth);
         desc.set_layouts = vec![layout];
         desc.push_constant_bytes = std::mem::size_of::<SurfacePush>() as u32;
         desc.push_constant_stages = vk::ShaderStageFlags::VERTEX | vk::ShaderStageFlags::FRAGMENT;
+        desc.samples = color.samples;
         Ok(PatchPullPass {
             pipeline: GraphicsPipeline::new(ctx, "patch pull", desc)?,
             capture,

@@ -12,6 +12,7 @@
 use crate::error::Result;
 use crate::gpu::pipeline::{DescriptorSetLayoutBuilder, GraphicsDesc, GraphicsPipeline};
 use crate::gpu::{shaders, Buffer, Context};
+use crate::passes::draw::ColorTarget;
 pub use crate::passes::draw::{begin_color_depth, draw_indexed, DrawTarget, IndirectDraw, LitDraw};
 use crate::passes::shadow_map::ShadowMap;
 use ash::vk;
@@ -94,9 +95,14 @@ pub struct SurfaceDrawPass {
 
 impl SurfaceDrawPass {
     /// Builds the pipeline for `color` targets with a `depth` buffer.
-    pub fn new(ctx: &Context, color: vk::Format, depth: vk::Format) -> Result<Self> {
-        let mut desc =
-            GraphicsDesc::new(shaders::SURFACE_VERT, shaders::SURFACE_FRAG, color, depth);
+    pub fn new(ctx: &Context, color: impl Into<ColorTarget>, depth: vk::Format) -> Result<Self> {
+        let color: ColorTarget = color.into();
+        let mut desc = GraphicsDesc::new(
+            shaders::SURFACE_VERT,
+            shaders::SURFACE_FRAG,
+            color.format,
+            depth,
+        );
         desc.vertex_bindings = vec![vk::VertexInputBindingDescription {
             binding: 0,
             stride: 32,
@@ -121,7 +127,7 @@ impl SurfaceDrawPass {
         let mut lit_desc = GraphicsDesc::new(
             shaders::SHADOWED_SURFACE_VERT,
             shaders::SHADOWED_SURFACE_FRAG,
-            color,
+            color.format,
             depth,
         );
         lit_desc.vertex_bindings = desc.vertex_bindings.clone();
@@ -143,16 +149,18 @@ impl SurfaceDrawPass {
             });
         lit_desc.push_constant_bytes = desc.push_constant_bytes;
         lit_desc.push_constant_stages = desc.push_constant_stages;
+        desc.samples = color.samples;
         let pipeline = GraphicsPipeline::new(ctx, "surface draw", desc)?;
         lit_desc.set_layouts = vec![DescriptorSetLayoutBuilder::new()
             .uniform_buffer(0, vk::ShaderStageFlags::FRAGMENT)
             .sampled_image(1, vk::ShaderStageFlags::FRAGMENT)
             .build(ctx, "lit surface set")?];
+        lit_desc.samples = color.samples;
         let lit = GraphicsPipeline::new(ctx, "lit surface draw", lit_desc)?;
         Ok(SurfaceDrawPass {
             pipeline,
             lit,
-            color_format: color,
+            color_format: color.format,
             depth_format: depth,
         })
     }

@@ -7,6 +7,7 @@
 use crate::error::Result;
 use crate::gpu::pipeline::{Binding, DescriptorSetLayoutBuilder, GraphicsDesc, GraphicsPipeline};
 use crate::gpu::{shaders, Buffer, Context};
+use crate::passes::draw::{with_resolve, ColorTarget};
 use ash::vk;
 
 /// Push constants of the fragment shader (`Push` in glsl/flat_triangles.frag).
@@ -24,25 +25,27 @@ pub struct TrianglesPass {
 
 impl TrianglesPass {
     /// Builds the pipeline for color targets of `format`.
-    pub fn new(ctx: &Context, format: vk::Format) -> Result<Self> {
+    pub fn new(ctx: &Context, format: impl Into<ColorTarget>) -> Result<Self> {
+        let format: ColorTarget = format.into();
         let layout = DescriptorSetLayoutBuilder::new()
             .storage_buffer(0, vk::ShaderStageFlags::VERTEX)
             .build(ctx, "triangles set")?;
         let mut desc = GraphicsDesc::new(
             shaders::FLAT_TRIANGLES_VERT,
             shaders::FLAT_TRIANGLES_FRAG,
-            format,
+            format.format,
             vk::Format::UNDEFINED,
         );
         desc.set_layouts = vec![layout];
         desc.push_constant_bytes = std::mem::size_of::<Push>() as u32;
         desc.push_constant_stages = vk::ShaderStageFlags::FRAGMENT;
+        desc.samples = format.samples;
         Ok(TrianglesPass {
             pipeline: GraphicsPipeline::new(ctx, "triangles", desc)?,
         })
     }
 
-    /// Clears `target` to `clear` and draws `vertices` (a multiple of 3) from `positions` (vec4 each).
+    /// Clears `target` (resolving into `resolve` when multisampled) to `clear` and draws `vertices` (a multiple of 3) from `positions` (vec4 each).
     /// `solid` = Some(rgb) paints every triangle in that colour, else a per-vertex palette.
     #[allow(clippy::too_many_arguments)]
     pub fn record(
@@ -50,20 +53,24 @@ impl TrianglesPass {
         ctx: &Context,
         cmd: vk::CommandBuffer,
         target: vk::ImageView,
+        resolve: Option<vk::ImageView>,
         extent: vk::Extent2D,
         clear: [f32; 4],
         positions: &Buffer,
         vertices: u32,
         solid: Option<[f32; 3]>,
     ) {
-        let color = [vk::RenderingAttachmentInfo::default()
-            .image_view(target)
-            .image_layout(vk::ImageLayout::COLOR_ATTACHMENT_OPTIMAL)
-            .load_op(vk::AttachmentLoadOp::CLEAR)
-            .store_op(vk::AttachmentStoreOp::STORE)
-            .clear_value(vk::ClearValue {
-                color: vk::ClearColorValue { float32: clear },
-            })];
+        let color = [with_resolve(
+            vk::RenderingAttachmentInfo::default()
+                .image_view(target)
+                .image_layout(vk::ImageLayout::COLOR_ATTACHMENT_OPTIMAL)
+                .load_op(vk::AttachmentLoadOp::CLEAR)
+                .store_op(vk::AttachmentStoreOp::STORE)
+                .clear_value(vk::ClearValue {
+                    color: vk::ClearColorValue { float32: clear },
+                }),
+            resolve,
+        )];
         let info = vk::RenderingInfo::default()
             .render_area(vk::Rect2D {
                 offset: vk::Offset2D::default(),

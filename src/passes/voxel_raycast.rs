@@ -21,6 +21,7 @@ use crate::gpu::pipeline::{
 use crate::gpu::resources::{compute_to_compute, image_barrier, memory_barrier};
 use crate::gpu::Owned;
 use crate::gpu::{shaders, Buffer, Context, Image, ImageDesc};
+use crate::passes::draw::{with_resolve, ColorTarget};
 use crate::voxel::grid::GridFrame;
 use crate::voxel::raycast::{RayCamera, RayShading, BRICK};
 use ash::vk;
@@ -82,7 +83,8 @@ pub fn ids_bytes(width: u32, height: u32) -> u64 {
 
 impl VoxelRaycastPass {
     /// Builds the compute pipeline and the display pipeline for `color` targets.
-    pub fn new(ctx: &Context, color: vk::Format) -> Result<Self> {
+    pub fn new(ctx: &Context, color: impl Into<ColorTarget>) -> Result<Self> {
+        let color: ColorTarget = color.into();
         let blayout = DescriptorSetLayoutBuilder::new()
             .storage_buffer(0, vk::ShaderStageFlags::COMPUTE)
             .storage_buffer(1, vk::ShaderStageFlags::COMPUTE)
@@ -115,12 +117,13 @@ impl VoxelRaycastPass {
         let mut desc = GraphicsDesc::new(
             shaders::VOXEL_RAYCAST_BLIT_VERT,
             shaders::VOXEL_RAYCAST_BLIT_FRAG,
-            color,
+            color.format,
             vk::Format::UNDEFINED,
         );
         desc.set_layouts = vec![show_layout];
         desc.push_constant_bytes = std::mem::size_of::<ShowPush>() as u32;
         desc.push_constant_stages = vk::ShaderStageFlags::FRAGMENT;
+        desc.samples = color.samples;
         let show = GraphicsPipeline::new(ctx, "voxel raycast show", desc)?;
         let info = vk::SamplerCreateInfo::default()
             .mag_filter(vk::Filter::NEAREST)
@@ -310,7 +313,7 @@ impl VoxelRaycastPass {
 
     /// Draws `image` into the `region` of the colour target `color` starting at `offset`, each image texel
     /// covering `scale`×`scale` pixels (nearest; the image is at least `ceil(region / scale)`), loading the
-    /// rest of the target.
+    /// rest of the target (resolving the region into `resolve` when `color` is multisampled).
     #[allow(clippy::too_many_arguments)]
     pub fn record_show(
         &self,
@@ -318,16 +321,20 @@ impl VoxelRaycastPass {
         cmd: vk::CommandBuffer,
         image: &Image,
         color: vk::ImageView,
+        resolve: Option<vk::ImageView>,
         offset: vk::Offset2D,
         region: vk::Extent2D,
         scale: u32,
     ) {
         let extent = region;
-        let att = [vk::RenderingAttachmentInfo::default()
-            .image_view(color)
-            .image_layout(vk::ImageLayout::COLOR_ATTACHMENT_OPTIMAL)
-            .load_op(vk::AttachmentLoadOp::LOAD)
-            .store_op(vk::AttachmentStoreOp::STORE)];
+        let att = [with_resolve(
+            vk::RenderingAttachmentInfo::default()
+                .image_view(color)
+                .image_layout(vk::ImageLayout::COLOR_ATTACHMENT_OPTIMAL)
+                .load_op(vk::AttachmentLoadOp::LOAD)
+                .store_op(vk::AttachmentStoreOp::STORE),
+            resolve,
+        )];
         let area = vk::Rect2D { offset, extent };
         let info = vk::RenderingInfo::default()
             .render_area(area)

@@ -407,6 +407,7 @@ pub fn render_frame(
                 color: img.view,
                 depth: depth.view(),
                 extent: img.extent,
+                resolve: None,
             },
         )?;
         target.record_finish(ctx, cmd, &img);
