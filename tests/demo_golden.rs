@@ -48,6 +48,7 @@ const FRAMES: &[(&str, &[&str], bool)] = &[
     ),
     ("cage", &["--scene", "cage"], true),
     ("cage_msaa1", &["--scene", "cage", "--msaa", "1"], true),
+    ("cage_hud", &["--scene", "cage", "--hud"], true),
     ("cage_mean", &["--scene", "cage", "--shading", "mean"], true),
     (
         "cage_gaussian",
@@ -119,6 +120,9 @@ fn render(ctx: &Context, args: &DemoArgs, wanted: &[u64]) -> Vec<Vec<u8>> {
     let scene = build_scene(ctx, args, format).unwrap();
     let mut r = Renderer::new(ctx, scene, args.shading, draw_path(args)).unwrap();
     r.samples = samples;
+    // The overlay as `--hud` draws it, its times (which change from run to run) shown as "-".
+    r.hud = args.hud;
+    r.hud_times = false;
     let dt = args.time_step.unwrap_or(TIME_STEP);
     let mut out = Vec::new();
     for f in 0..=*wanted.iter().max().unwrap() {

@@ -64,6 +64,7 @@ fn every_scene_name_and_the_key_list_print_without_a_missing_glyph() {
                 frame_ms: 16.67,
                 passes: vec![("gregory_eval".into(), 0.125)],
                 keys: true,
+                times: true,
             };
             for line in hud_lines(&info) {
                 for c in line.chars() {

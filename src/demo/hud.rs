@@ -9,6 +9,9 @@
 //! rectangle with integer corners, which the rasterizer covers exactly: the frame holds the same pixels as
 //! [`text_rects`] says, which `tests/demo_hud.rs` checks against a CPU composite.
 //!
+//! With `Renderer::hud_times` off the times print as "-", so the overlay is the same every run: the golden
+//! frame `cage_hud` (`tests/demo_golden.rs`) holds it.
+//!
 //! Cost: two triangles per run (at most 3 runs a glyph row, 21 a glyph), rebuilt on the CPU each frame
 //! into the frame slot's own host-visible buffer ([`LineRing`]); lines longer than the target is wide are
 //! cut, and no more lines are drawn than fit, so a tiny window or a huge pass table costs nothing more.
@@ -513,6 +516,8 @@ pub struct HudInfo {
     pub passes: Vec<(String, f64)>,
     /// Show the keys (the window; offscreen frames have none).
     pub keys: bool,
+    /// Show the times; without them ("-") the overlay is the same every run (golden frames).
+    pub times: bool,
 }
 
 /// The overlay's lines for `info`.
@@ -527,9 +532,17 @@ pub fn hud_lines(info: &HudInfo) -> Vec<String> {
         info.path,
         if info.animate { "PLAYING" } else { "PAUSED" }
     ));
-    lines.push(format!("FRAME {:.2} MS", info.frame_ms));
+    if info.times {
+        lines.push(format!("FRAME {:.2} MS", info.frame_ms));
+    } else {
+        lines.push("FRAME - MS".into());
+    }
     for (name, ms) in &info.passes {
-        lines.push(format!("  {name:<18} {ms:>8.3} MS"));
+        if info.times {
+            lines.push(format!("  {name:<18} {ms:>8.3} MS"));
+        } else {
+            lines.push(format!("  {name:<18} {:>8} MS", "-"));
+        }
     }
     if info.keys {
         lines.push(String::new());

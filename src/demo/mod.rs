@@ -324,6 +324,8 @@ pub struct Renderer {
     /// Draw the overlay ([`hud`]); with the keys listed when `hud_keys`.
     pub hud: bool,
     pub hud_keys: bool,
+    /// The overlay shows the frame and pass times (off: "-", the same every run, for golden frames).
+    pub hud_times: bool,
     overlay: Option<hud::Hud>,
     /// Smoothed wall time between frames (ms), for the overlay.
     pub frame_ms: f64,
@@ -356,6 +358,7 @@ impl Renderer {
             view,
             hud: false,
             hud_keys: false,
+            hud_times: true,
             overlay: None,
             frame_ms: 0.0,
             last_draw: None,
@@ -535,6 +538,7 @@ impl Renderer {
                     .map(|p| (p.name, p.median_ms))
                     .collect(),
                 keys: self.hud_keys,
+                times: self.hud_times,
             };
             if let Some(overlay) = self.overlay.as_mut() {
                 overlay.record(
