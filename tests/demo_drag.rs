@@ -30,6 +30,32 @@ fn to_screen(view_proj: &glam::Mat4, p: Vec3, w: u32, h: u32) -> (f64, f64) {
     )
 }
 
+/// Where the demo's log says handle `k` was moved to (world coordinates).
+fn moved_to(err: &str, k: usize) -> DVec3 {
+    let v: Vec<f64> = err
+        .lines()
+        .find_map(|l| l.split_once(&format!("moved handle {k} to ")))
+        .map(|(_, rest)| {
+            rest.split_whitespace()
+                .take(3)
+                .map(|v| v.parse().unwrap())
+                .collect()
+        })
+        .unwrap_or_else(|| panic!("no move of handle {k} reported:\n{err}"));
+    DVec3::new(v[0], v[1], v[2])
+}
+
+/// Pixels that differ (by more than 16 in a channel) between the screenshots before and after a drag.
+fn pixels_changed(dir: &Path) -> usize {
+    let (_, _, before) = read_png(&dir.join("gregvox-screenshot-001.png"));
+    let (_, _, after) = read_png(&dir.join("gregvox-screenshot-002.png"));
+    before
+        .chunks_exact(4)
+        .zip(after.chunks_exact(4))
+        .filter(|(a, b)| (0..3).any(|c| a[c].abs_diff(b[c]) > 16))
+        .count()
+}
+
 /// The worst normal jump (rad) across the shared patch edges of `cage`'s surface at level 8.
 fn g1_jump(cage: &gregvox::api::Mesh) -> f64 {
     let gpu = gregvox::Gpu::new().unwrap();
@@ -210,17 +236,7 @@ fn a_dragged_curve_point_follows_the_cursor_and_the_wheel_sets_its_nurbs_weight(
     assert!(err.contains(&format!("picked handle {k} ")), "{err}");
     // Two notches heavier: 2 × 1.25².
     assert!(err.contains("NURBS weight 2: 3.1250"), "{err}");
-    let moved: Vec<f32> = err
-        .lines()
-        .find_map(|l| l.split_once(&format!("moved handle {k} to ")))
-        .map(|(_, rest)| {
-            rest.split_whitespace()
-                .take(3)
-                .map(|v| v.parse().unwrap())
-                .collect()
-        })
-        .unwrap_or_else(|| panic!("no move reported:\n{err}"));
-    let moved = Vec3::new(moved[0], moved[1], moved[2]);
+    let moved = moved_to(&err, k).as_vec3();
     assert!(
         moved.y.abs() < 1e-4,
         "the point stays in the curves' plane: {moved}"
@@ -232,13 +248,7 @@ fn a_dragged_curve_point_follows_the_cursor_and_the_wheel_sets_its_nurbs_weight(
         "{on_screen:?} on screen, the cursor at {target:?}"
     );
     // The curve moved: the frames before and after differ around the NURBS panel.
-    let (_, _, before) = read_png(&dir.join("gregvox-screenshot-001.png"));
-    let (_, _, after) = read_png(&dir.join("gregvox-screenshot-002.png"));
-    let changed = before
-        .chunks_exact(4)
-        .zip(after.chunks_exact(4))
-        .filter(|(a, b)| (0..3).any(|c| a[c].abs_diff(b[c]) > 16))
-        .count();
+    let changed = pixels_changed(&dir);
     assert!(changed > 200, "{changed} pixels changed");
     let _ = std::fs::remove_dir_all(&dir);
 }
@@ -280,17 +290,7 @@ fn a_dragged_flag_corner_follows_the_cursor_and_the_corrected_flag_stays_g1() {
         &dir,
     );
     assert!(err.contains(&format!("picked handle {k} ")), "{err}");
-    let moved: Vec<f64> = err
-        .lines()
-        .find_map(|l| l.split_once(&format!("moved handle {k} to ")))
-        .map(|(_, rest)| {
-            rest.split_whitespace()
-                .take(3)
-                .map(|v| v.parse().unwrap())
-                .collect()
-        })
-        .unwrap_or_else(|| panic!("no move reported:\n{err}"));
-    let moved = DVec3::new(moved[0], moved[1], moved[2]);
+    let moved = moved_to(&err, k);
     let on_screen = to_screen(&view_proj, moved.as_vec3(), w, h);
     let miss = (on_screen.0 - target.0).hypot(on_screen.1 - target.1);
     assert!(
@@ -307,13 +307,7 @@ fn a_dragged_flag_corner_follows_the_cursor_and_the_corrected_flag_stays_g1() {
         jump <= 1e-9,
         "normal jump {jump} rad across the corrected flag's edges"
     );
-    let (_, _, before) = read_png(&dir.join("gregvox-screenshot-001.png"));
-    let (_, _, after) = read_png(&dir.join("gregvox-screenshot-002.png"));
-    let changed = before
-        .chunks_exact(4)
-        .zip(after.chunks_exact(4))
-        .filter(|(a, b)| (0..3).any(|c| a[c].abs_diff(b[c]) > 16))
-        .count();
+    let changed = pixels_changed(&dir);
     assert!(changed > 200, "{changed} pixels changed");
     let _ = std::fs::remove_dir_all(&dir);
 }

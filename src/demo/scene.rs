@@ -750,24 +750,8 @@ impl Scene for FlagScene {
         // Paused: a cross at each corner of the network, the handles.
         let corners = crate::engine::flag::flag_corners(&self.params(0.0), &self.offsets);
         let mut vertices = Vec::with_capacity(6 * corners.len());
-        for (i, q) in corners.iter().enumerate() {
-            let (r, c) = if self.held == Some(i) {
-                (0.12, HELD_COLOR)
-            } else {
-                (0.05, CAGE_COLOR)
-            };
-            let q = q.as_vec3();
-            for axis in [Vec3::X, Vec3::Y, Vec3::Z] {
-                vertices.push(crate::passes::lines::LineVertex::new(
-                    (q - r * axis).to_array(),
-                    c,
-                ));
-                vertices.push(crate::passes::lines::LineVertex::new(
-                    (q + r * axis).to_array(),
-                    c,
-                ));
-            }
-        }
+        let points = corners.iter().map(|q| q.as_vec3());
+        cross_marks(&mut vertices, points, self.held, 0.05);
         self.lines.record(
             ctx,
             cmd,
@@ -860,6 +844,28 @@ const CAGE_COLOR: [f32; 3] = [0.1, 0.12, 0.16];
 /// The dragged vertex's cross.
 const HELD_COLOR: [f32; 3] = [1.0, 0.45, 0.05];
 
+/// A cross of half-size `r` along the axes at each of `points` (the handles of a paused scene), the `held`
+/// one 2.5 times larger in orange, appended to `out` as line segments.
+fn cross_marks(
+    out: &mut Vec<crate::passes::lines::LineVertex>,
+    points: impl Iterator<Item = Vec3>,
+    held: Option<usize>,
+    r: f32,
+) {
+    use crate::passes::lines::LineVertex;
+    for (i, q) in points.enumerate() {
+        let (r, c) = if held == Some(i) {
+            (2.5 * r, HELD_COLOR)
+        } else {
+            (r, CAGE_COLOR)
+        };
+        for axis in [Vec3::X, Vec3::Y, Vec3::Z] {
+            out.push(LineVertex::new((q - r * axis).to_array(), c));
+            out.push(LineVertex::new((q + r * axis).to_array(), c));
+        }
+    }
+}
+
 impl CageScene {
     /// Wraps a built surface.
     pub fn new(
@@ -922,19 +928,8 @@ impl CageScene {
             out.push(LineVertex::new(p(a), CAGE_COLOR));
             out.push(LineVertex::new(p(b), CAGE_COLOR));
         }
-        for (i, q) in self.cage.positions.iter().enumerate() {
-            let held = self.held == Some(i);
-            let (r, c) = if held {
-                (0.03 * size, HELD_COLOR)
-            } else {
-                (0.012 * size, CAGE_COLOR)
-            };
-            let q = q.as_vec3();
-            for axis in [Vec3::X, Vec3::Y, Vec3::Z] {
-                out.push(LineVertex::new((q - r * axis).to_array(), c));
-                out.push(LineVertex::new((q + r * axis).to_array(), c));
-            }
-        }
+        let points = self.cage.positions.iter().map(|q| q.as_vec3());
+        cross_marks(&mut out, points, self.held, 0.012 * size);
         out
     }
 }

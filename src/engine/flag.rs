@@ -13,7 +13,7 @@ use crate::error::{Error, Result};
 use crate::geom::compat::{chiyokura_kimura, Edge};
 use crate::geom::gregory::PatchF64;
 use crate::gpu::pipeline::{Binding, ComputePipeline, DescriptorSetLayoutBuilder};
-use crate::gpu::resources::memory_barrier;
+use crate::gpu::resources::{memory_barrier, record_update};
 use crate::gpu::{shaders, Buffer, Context, MemoryLocation, Profiler};
 use crate::passes::gregory_eval::{
     grid_indices, vertex_count, ControlPoints, GregoryEvalPass, MAX_LEVEL,
@@ -455,39 +455,7 @@ impl FlagSurface {
             .iter()
             .map(|o| [o.x as f32, o.y as f32, o.z as f32, 0.0])
             .collect();
-        memory_barrier(
-            ctx,
-            cmd,
-            (
-                vk::PipelineStageFlags2::COMPUTE_SHADER,
-                vk::AccessFlags2::NONE,
-            ),
-            (
-                vk::PipelineStageFlags2::ALL_TRANSFER,
-                vk::AccessFlags2::TRANSFER_WRITE,
-            ),
-        );
-        let bytes: &[u8] = bytemuck::cast_slice(&data);
-        for (k, chunk) in bytes.chunks(65536).enumerate() {
-            // SAFETY: recording outside a render pass; the range lies inside the offsets buffer (same count).
-            unsafe {
-                ctx.device
-                    .cmd_update_buffer(cmd, self.offsets.raw(), k as u64 * 65536, chunk)
-            };
-        }
-        memory_barrier(
-            ctx,
-            cmd,
-            (
-                vk::PipelineStageFlags2::ALL_TRANSFER,
-                vk::AccessFlags2::TRANSFER_WRITE,
-            ),
-            (
-                vk::PipelineStageFlags2::COMPUTE_SHADER,
-                vk::AccessFlags2::SHADER_STORAGE_READ,
-            ),
-        );
-        Ok(())
+        record_update(ctx, cmd, &self.offsets, bytemuck::cast_slice(&data))
     }
 
     /// Reads the built control points (20 per patch).

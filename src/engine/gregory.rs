@@ -23,7 +23,7 @@
 //!   curvature pass elsewhere, both from the points the device wrote last.
 use crate::error::{Error, Result};
 use crate::gpu::profiler::scoped;
-use crate::gpu::resources::{compute_writes_to_host, memory_barrier, BufferRange};
+use crate::gpu::resources::{compute_writes_to_host, memory_barrier, record_update, BufferRange};
 use crate::gpu::{Buffer, Context, MemoryLocation, Profiler};
 use crate::mesh::SparseMatrix;
 use crate::passes::adaptive_levels::{
@@ -786,40 +786,7 @@ impl GregorySurface {
                 self.cage_count
             )));
         }
-        memory_barrier(
-            ctx,
-            cmd,
-            (
-                vk::PipelineStageFlags2::COMPUTE_SHADER | vk::PipelineStageFlags2::COPY,
-                vk::AccessFlags2::NONE,
-            ),
-            (
-                vk::PipelineStageFlags2::ALL_TRANSFER,
-                vk::AccessFlags2::TRANSFER_WRITE,
-            ),
-        );
-        let data = vec4s(cage);
-        let bytes: &[u8] = bytemuck::cast_slice(&data);
-        for (k, chunk) in bytes.chunks(65536).enumerate() {
-            // SAFETY: recording; the range lies inside the rest buffer (same vertex count).
-            unsafe {
-                ctx.device
-                    .cmd_update_buffer(cmd, self.rest.raw(), k as u64 * 65536, chunk)
-            };
-        }
-        memory_barrier(
-            ctx,
-            cmd,
-            (
-                vk::PipelineStageFlags2::ALL_TRANSFER,
-                vk::AccessFlags2::TRANSFER_WRITE,
-            ),
-            (
-                vk::PipelineStageFlags2::COMPUTE_SHADER,
-                vk::AccessFlags2::SHADER_STORAGE_READ,
-            ),
-        );
-        Ok(())
+        record_update(ctx, cmd, &self.rest, bytemuck::cast_slice(&vec4s(cage)))
     }
 
     /// Reads the evaluated vertices back (tests, `gregvox tessellate`).

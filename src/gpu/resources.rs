@@ -689,6 +689,58 @@ pub fn memory_barrier(
     ctx.cmd_pipeline_barrier2(cmd, &vk::DependencyInfo::default().memory_barriers(&b));
 }
 
+/// Records `bytes` into `buffer` from offset 0 (`vkCmdUpdateBuffer` in 64 KiB pieces) between barriers: after
+/// earlier compute reads and copies, before later compute reads. How a frame changes a small input (a cage's
+/// positions, a flag's corners) without a submission: frames in flight keep what they were recorded with.
+/// The buffer needs `TRANSFER_DST` usage and at least `bytes.len()` bytes (a multiple of 4).
+pub fn record_update(
+    ctx: &Context,
+    cmd: vk::CommandBuffer,
+    buffer: &Buffer,
+    bytes: &[u8],
+) -> Result<()> {
+    if bytes.len() as u64 > buffer.size() || bytes.len() % 4 != 0 {
+        return Err(Error::Invalid(format!(
+            "{} bytes cannot update buffer '{}' of {} bytes",
+            bytes.len(),
+            buffer.name(),
+            buffer.size()
+        )));
+    }
+    memory_barrier(
+        ctx,
+        cmd,
+        (
+            vk::PipelineStageFlags2::COMPUTE_SHADER | vk::PipelineStageFlags2::COPY,
+            vk::AccessFlags2::NONE,
+        ),
+        (
+            vk::PipelineStageFlags2::ALL_TRANSFER,
+            vk::AccessFlags2::TRANSFER_WRITE,
+        ),
+    );
+    for (k, chunk) in bytes.chunks(65536).enumerate() {
+        // SAFETY: recording outside a render pass; the range lies inside the buffer (checked above).
+        unsafe {
+            ctx.device
+                .cmd_update_buffer(cmd, buffer.raw(), k as u64 * 65536, chunk)
+        };
+    }
+    memory_barrier(
+        ctx,
+        cmd,
+        (
+            vk::PipelineStageFlags2::ALL_TRANSFER,
+            vk::AccessFlags2::TRANSFER_WRITE,
+        ),
+        (
+            vk::PipelineStageFlags2::COMPUTE_SHADER,
+            vk::AccessFlags2::SHADER_STORAGE_READ,
+        ),
+    );
+    Ok(())
+}
+
 /// Splits `count` items of `item_bytes` each into chunks (first item, count) whose byte range fits one storage
 /// binding (`max_range`, i.e. `maxStorageBufferRange`: 128 MiB on lavapipe) and starts at a multiple of
 /// `align` (`minStorageBufferOffsetAlignment`): how a pass reaches a buffer larger than one binding.
