@@ -5,21 +5,14 @@
 //! for G1 across the patch edges of the surface it makes.
 mod common;
 
+use common::read_png;
+
 use glam::{DVec3, Vec3};
 use gregvox::api::tessellate::{Patches, TessellateOptions};
 use gregvox::demo::scene::Orbit;
 use gregvox::engine::cage::builtin_cage;
 use gregvox::surface::Tangents;
 use std::path::Path;
-
-fn read_png(path: &Path) -> (u32, u32, Vec<u8>) {
-    let file = std::fs::File::open(path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
-    let mut reader = png::Decoder::new(file).read_info().unwrap();
-    let mut buf = vec![0; reader.output_buffer_size()];
-    let info = reader.next_frame(&mut buf).unwrap();
-    buf.truncate(info.buffer_size());
-    (info.width, info.height, buf)
-}
 
 /// Window pixels of `p` through `view_proj` in a `w`×`h` window.
 fn to_screen(view_proj: &glam::Mat4, p: Vec3, w: u32, h: u32) -> (f64, f64) {

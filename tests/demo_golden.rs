@@ -12,6 +12,8 @@
 //! - The window under Xvfb with every key typed (`--keys`), no validation message, a screenshot written.
 mod common;
 
+use common::{differing, read_png};
+
 use ash::vk;
 use clap::Parser;
 use glam::{DVec3, Mat4, Vec3, Vec4};
@@ -141,32 +143,6 @@ fn fixture(name: &str) -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR"))
         .join("tests/fixtures/demo")
         .join(name)
-}
-
-fn read_png(path: &PathBuf) -> (u32, u32, Vec<u8>) {
-    let file = std::fs::File::open(path).unwrap_or_else(|e| {
-        panic!(
-            "{}: {e} (generate the golden frames with BLESS=1)",
-            path.display()
-        )
-    });
-    let mut reader = png::Decoder::new(file).read_info().unwrap();
-    let mut buf = vec![0; reader.output_buffer_size()];
-    let info = reader.next_frame(&mut buf).unwrap();
-    assert_eq!(info.color_type, png::ColorType::Rgba, "{}", path.display());
-    buf.truncate(info.buffer_size());
-    (info.width, info.height, buf)
-}
-
-/// Fraction of pixels whose channels differ by more than `slack`.
-fn differing(a: &[u8], b: &[u8], slack: u8) -> f64 {
-    let n = a.len() / 4;
-    let count = a
-        .chunks_exact(4)
-        .zip(b.chunks_exact(4))
-        .filter(|(p, q)| p.iter().zip(q.iter()).any(|(x, y)| x.abs_diff(*y) > slack))
-        .count();
-    count as f64 / n as f64
 }
 
 /// Fraction of pixels that are not (within 8/255) the frame's most common colour.

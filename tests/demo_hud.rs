@@ -223,12 +223,7 @@ fn the_offscreen_hud_changes_the_panel_pixels_and_no_other() {
         let err = String::from_utf8_lossy(&out.stderr);
         assert!(out.status.success(), "{err}");
         assert!(!err.contains("vulkan validation"), "{err}");
-        let file = std::fs::File::open(out_dir.join("frame_00002.png")).unwrap();
-        let mut reader = png::Decoder::new(file).read_info().unwrap();
-        let mut buf = vec![0; reader.output_buffer_size()];
-        let info = reader.next_frame(&mut buf).unwrap();
-        buf.truncate(info.buffer_size());
-        buf
+        common::read_png(&out_dir.join("frame_00002.png")).2
     };
     let (plain, hud) = (run(false), run(true));
     let (w, h) = (320u32, 240u32);

@@ -18,21 +18,10 @@ mod ash_host;
 mod wgpu_host;
 
 use ash::vk;
-use common::{render_frame, validated_gpu, FRAME_FORMAT};
+use common::{differing, render_frame, validated_gpu, FRAME_FORMAT};
 use gregvox::api::{Deformation, SurfaceBuffers, SurfaceUpdate, VertexTarget};
 use gregvox::gpu::MemoryLocation;
 use gregvox::passes::surface_draw::{SurfaceDrawPass, SurfacePush};
-
-/// Fraction of pixels whose channels differ by more than `slack`.
-fn differing(a: &[u8], b: &[u8], slack: u8) -> f64 {
-    let n = a.len() / 4;
-    let count = a
-        .chunks_exact(4)
-        .zip(b.chunks_exact(4))
-        .filter(|(p, q)| p.iter().zip(q.iter()).any(|(x, y)| x.abs_diff(*y) > slack))
-        .count();
-    count as f64 / n as f64
-}
 
 /// The host's clear colour as the 8-bit pixel it becomes.
 fn clear_pixel() -> [u8; 4] {

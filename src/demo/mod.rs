@@ -53,7 +53,9 @@ pub struct DemoArgs {
     #[arg(long, default_value_t = 0)]
     pub every: u64,
     /// Multisample anti-aliasing: samples per pixel of surfaces and lines (1, 2, 4 or 8; the largest the
-    /// device has for colour and depth together when it lacks the one asked for).
+    /// device has for colour and depth together when it lacks the one asked for). Memory: each frame in
+    /// flight holds a colour and a depth image of that many samples (4×: 32 bytes a pixel, 265 MB for each
+    /// 4K frame); a size the device cannot allocate fails with the allocator's message.
     #[arg(long, default_value_t = 4, value_parser = clap::value_parser!(u32).range(1..=8))]
     pub msaa: u32,
     /// Draw the overlay (scene, level, shading, frame and pass times) into offscreen frames too; the

@@ -473,3 +473,30 @@ pub fn flag_max_jump(p: &[gregvox::geom::gregory::PatchF64], columns: usize, row
     }
     worst
 }
+
+/// Fraction of pixels whose channels differ by more than `slack`.
+pub fn differing(a: &[u8], b: &[u8], slack: u8) -> f64 {
+    let n = a.len() / 4;
+    let count = a
+        .chunks_exact(4)
+        .zip(b.chunks_exact(4))
+        .filter(|(p, q)| p.iter().zip(q.iter()).any(|(x, y)| x.abs_diff(*y) > slack))
+        .count();
+    count as f64 / n as f64
+}
+
+/// Width, height and RGBA8 pixels of a PNG gregvox wrote.
+pub fn read_png(path: &std::path::Path) -> (u32, u32, Vec<u8>) {
+    let file = std::fs::File::open(path).unwrap_or_else(|e| {
+        panic!(
+            "{}: {e} (golden frames: generate them with BLESS=1)",
+            path.display()
+        )
+    });
+    let mut reader = png::Decoder::new(file).read_info().unwrap();
+    let mut buf = vec![0; reader.output_buffer_size()];
+    let info = reader.next_frame(&mut buf).unwrap();
+    assert_eq!(info.color_type, png::ColorType::Rgba, "{}", path.display());
+    buf.truncate(info.buffer_size());
+    (info.width, info.height, buf)
+}
