@@ -329,7 +329,7 @@ pub struct Renderer {
     /// The overlay shows the frame and pass times (off: "-", the same every run, for golden frames).
     pub hud_times: bool,
     overlay: Option<hud::Hud>,
-    /// Smoothed wall time between frames (ms), for the overlay.
+    /// Smoothed wall time between frames drawn (ms), for the overlay and the window title.
     pub frame_ms: f64,
     last_draw: Option<std::time::Instant>,
 }

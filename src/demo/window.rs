@@ -302,10 +302,6 @@ struct App<'a> {
     frames_drawn: u64,
     start: Instant,
     last_title: Instant,
-    last_frame: Instant,
-    frame_ms: f64,
-    /// Left button held: the last cursor position.
-    drag: Option<(f64, f64)>,
     left_down: bool,
     /// The last cursor position (window pixels).
     cursor: (f64, f64),
@@ -563,7 +559,6 @@ impl App<'_> {
     fn mouse_press(&mut self, cursor: (f64, f64)) -> anyhow::Result<()> {
         self.left_down = true;
         self.cursor = cursor;
-        self.drag = Some(cursor);
         let (Some((view_proj, viewport)), Some(r)) = (self.camera(), self.renderer.as_mut()) else {
             return Ok(());
         };
@@ -613,14 +608,12 @@ impl App<'_> {
                     .dragged((cursor.0 - last.0) as f32, (cursor.1 - last.1) as f32);
             }
         }
-        self.drag = Some(cursor);
         Ok(())
     }
 
     /// Left button up: ends a drag (one undo step) or an orbit.
     fn mouse_release(&mut self) -> anyhow::Result<()> {
         self.left_down = false;
-        self.drag = None;
         let Some(h) = self.held.take() else {
             return Ok(());
         };
@@ -693,19 +686,12 @@ impl App<'_> {
             }
         }
         let now = Instant::now();
-        let dt = now.duration_since(self.last_frame).as_secs_f64() * 1e3;
-        self.last_frame = now;
-        self.frame_ms = if self.frame_ms == 0.0 {
-            dt
-        } else {
-            0.9 * self.frame_ms + 0.1 * dt
-        };
         if now.duration_since(self.last_title).as_secs_f64() > 0.5 {
             self.last_title = now;
             let mut title = format!(
                 "gregvox — {} — {:.2} ms/frame",
                 renderer.scene.name(),
-                self.frame_ms
+                renderer.frame_ms
             );
             for p in renderer.profiler.stats() {
                 title.push_str(&format!(" | {} {:.3} ms", p.name, p.median_ms));
@@ -831,9 +817,6 @@ pub fn run_windowed(args: &DemoArgs) -> anyhow::Result<()> {
         frames_drawn: 0,
         start: now,
         last_title: now,
-        last_frame: now,
-        frame_ms: 0.0,
-        drag: None,
         left_down: false,
         cursor: (0.0, 0.0),
         held: None,
