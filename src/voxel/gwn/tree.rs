@@ -16,9 +16,12 @@
 //!   ‖Dⁿφ‖ = n!/Dⁿ⁺¹); the δ-gradient of that term is at most n·ρⁿ⁻¹/Dⁿ⁺¹, so with t = ρ/D the truncation
 //!   error is E ≤ A/D² · Σ_{n≥4} n tⁿ⁻¹ = A/D² · [4t³/(1−t) + t⁴/(1−t)²], and its q-gradient at most
 //!   A/D³ · Σ_{n≥4} n(n+1) tⁿ⁻¹ = A/D³ · [20t³/(1−t) + 10t⁴/(1−t)² + 2t⁵/(1−t)³]. Over the ball, the value
-//!   moves by at most r·2A/g³ (‖∇_q‖ of the kernel ≤ 2/|x−q|³), g = D − r − ρ, and departs from its
-//!   linearization at c by at most ½r²·6A/g⁴ (‖D³φ‖ = 6/d⁴): what a box passes to its children
-//!   ([`Tree::local_share`]). Rounding adds 1e-12·A/(D−ρ)².
+//!   moves by at most r·2A/g³ (‖∇_q‖ of the kernel ≤ 2/|x−q|³), g = D − r − ρ. What a box passes to its
+//!   children ([`Tree::local_share`]) is the expansion's value, q-gradient and q-Hessian at c (the Hessian's
+//!   truncation A/D⁴ · Σ_{n≥4} n(n+1)(n+2) tⁿ⁻¹), a quadratic that departs from the exact share by at most
+//!   the three truncations (times 1, r, ½r²) plus the Taylor remainder r³/6 · 24A/g⁵ (‖D⁴φ‖ = 24/d⁵): a
+//!   factor (4/3)·r/g below the linear model's ½r²·6A/g⁴, which is what a cell used to inherit from every
+//!   box above it. Rounding adds 1e-12·A/(D−ρ)².
 //! - **open**: the children, or at a leaf the triangles themselves (the caller sums them exactly, or bounds
 //!   each one at each query point).
 //!
@@ -793,12 +796,100 @@ fn expand_grad(node: &Node, c: [f64; 3], d: f64) -> (f64, [f64; 3]) {
     (t1 + t2 + t3, g.map(|x| -x))
 }
 
+/// Adds to `h` (the y-Hessian, packed as [`PACKED`]) that of P(y)·|y|⁻ⁿ, given P, ∇P and ∇²P (packed
+/// alike), with `inv2` = |y|⁻² and `rn` = |y|⁻ⁿ.
+#[inline]
+fn add_hessian_of_power(
+    h: &mut [f64; 6],
+    y: [f64; 3],
+    (p, dp, ddp): (f64, [f64; 3], [f64; 6]),
+    n: f64,
+    inv2: f64,
+    rn: f64,
+) {
+    // ∇|y|⁻ⁿ = −n|y|⁻ⁿ⁻² y, ∇²|y|⁻ⁿ = −n|y|⁻ⁿ⁻² I + n(n+2)|y|⁻ⁿ⁻⁴ y yᵀ.
+    let (a, b) = (-n * rn * inv2, n * (n + 2.0) * rn * inv2 * inv2);
+    for (k, &(i, j)) in PACKED.iter().enumerate() {
+        let delta = if i == j { 1.0 } else { 0.0 };
+        h[k] += ddp[k] * rn + a * (dp[i] * y[j] + dp[j] * y[i]) + p * (a * delta + b * y[i] * y[j]);
+    }
+}
+
+/// The (i, j) pairs of a packed symmetric 3×3 matrix: xx, xy, xz, yy, yz, zz.
+pub const PACKED: [(usize, usize); 6] = [(0, 0), (0, 1), (0, 2), (1, 1), (1, 2), (2, 2)];
+
+/// The order-2 expansion of `node` at `c` with its q-gradient and q-Hessian (packed as [`PACKED`]): the
+/// terms t1 = M0·y/r³, t2 = tr M1/r³ − 3yᵀM1y/r⁵ and t3 = ½(−3u·y/r⁵ + 15C(y)/r⁷) of [`expand`], each a
+/// polynomial P(y) times r⁻ⁿ, differentiated by [`add_hessian_of_power`] (y = x̄ − c, so ∇_q = −∇_y and
+/// ∇²_q = ∇²_y).
+fn expand_hess(node: &Node, c: [f64; 3], d: f64) -> (f64, [f64; 3], [f64; 6]) {
+    let (v, g) = expand_grad(node, c, d);
+    let y = sub(node.centre, c);
+    let inv = 1.0 / d;
+    let inv2 = inv * inv;
+    let inv3 = inv2 * inv;
+    let inv5 = inv3 * inv2;
+    let inv7 = inv5 * inv2;
+    let (m0, m1, m2) = (&node.m0, &node.m1, &node.m2);
+    let mut h = [0.0f64; 6];
+    // t1: P = M0·y.
+    add_hessian_of_power(&mut h, y, (dot(*m0, y), *m0, [0.0; 6]), 3.0, inv2, inv3);
+    // t2: tr M1 (a constant), then −3yᵀM1y: ∇ = −3(M1 + M1ᵀ)y, ∇² = −3(M1 + M1ᵀ).
+    let tr1 = m1[0] + m1[4] + m1[8];
+    add_hessian_of_power(&mut h, y, (tr1, [0.0; 3], [0.0; 6]), 3.0, inv2, inv3);
+    let sym1 = |i: usize, j: usize| m1[3 * i + j] + m1[3 * j + i];
+    let s1y: [f64; 3] = std::array::from_fn(|i| (0..3).map(|j| sym1(i, j) * y[j]).sum());
+    let t2b = (
+        -1.5 * dot(s1y, y),
+        s1y.map(|x| -3.0 * x),
+        PACKED.map(|(i, j)| -3.0 * sym1(i, j)),
+    );
+    add_hessian_of_power(&mut h, y, t2b, 5.0, inv2, inv5);
+    // t3: −(3/2)u·y, then (15/2)C(y), C = Σ_a y_a yᵀM2_a y with M2_a symmetric:
+    // ∇C_k = yᵀM2_k y + 2Σ_a y_a (M2_a y)_k, ∇²C_kl = 2(M2_k y)_l + 2(M2_l y)_k + 2Σ_a y_a (M2_a)_kl.
+    let m2a = |a: usize, b: usize, cc: usize| m2[6 * a + SYM[b][cc]];
+    let mut u = [0.0f64; 3];
+    for a in 0..3 {
+        for (cc, uc) in u.iter_mut().enumerate() {
+            *uc += 2.0 * m2a(a, a, cc);
+        }
+        u[a] += m2[6 * a] + m2[6 * a + 3] + m2[6 * a + 5];
+    }
+    let t3a = (-1.5 * dot(u, y), u.map(|x| -1.5 * x), [0.0; 6]);
+    add_hessian_of_power(&mut h, y, t3a, 5.0, inv2, inv5);
+    // (M2_a y)_b for every a, b.
+    let my: [[f64; 3]; 3] = std::array::from_fn(|a| {
+        std::array::from_fn(|b| (0..3).map(|cc| m2a(a, b, cc) * y[cc]).sum())
+    });
+    let cubic: f64 = (0..3).map(|a| y[a] * dot(y, my[a])).sum();
+    let grad_c: [f64; 3] =
+        std::array::from_fn(|k| dot(y, my[k]) + 2.0 * (0..3).map(|a| y[a] * my[a][k]).sum::<f64>());
+    let hess_c = PACKED.map(|(k, l)| {
+        2.0 * (my[k][l] + my[l][k]) + 2.0 * (0..3).map(|a| y[a] * m2a(a, k, l)).sum::<f64>()
+    });
+    let t3b = (
+        7.5 * cubic,
+        grad_c.map(|x| 7.5 * x),
+        hess_c.map(|x| 7.5 * x),
+    );
+    add_hessian_of_power(&mut h, y, t3b, 7.0, inv2, inv7);
+    (v, g, h)
+}
+
+/// A bound on the spectral norm of a packed symmetric matrix: its Frobenius norm.
+#[inline]
+pub fn packed_norm(h: &[f64; 6]) -> f64 {
+    let diagonal = h[0] * h[0] + h[3] * h[3] + h[5] * h[5];
+    (diagonal + 2.0 * (h[1] * h[1] + h[2] * h[2] + h[4] * h[4])).sqrt()
+}
+
 impl Tree {
-    /// Node `i`'s share of a box's linear model at the centre of `ball`: (value, q-gradient, error), the
-    /// error bounding, at every point q of the ball, |Ω_N(q) − value − gradient·(q − c)|: the truncation at
-    /// c, r times the truncation of the gradient, and ½r²·6A/g⁴. `None` unless the node lies outside the
-    /// ball (g > 0) with t = ρ/D < 0.9.
-    pub fn local_share(&self, i: u32, ball: &Ball) -> Option<(f64, [f64; 3], f64)> {
+    /// Node `i`'s share of a box's quadratic model at the centre c of `ball` ([`LocalShare`]): its error
+    /// bounds, at every point q of the ball, |Ω_N(q) − value − gradient·δ − ½δᵀHδ| (δ = q − c): the
+    /// truncations of the value, the gradient and the Hessian at c (times 1, r and ½r²) and the Taylor
+    /// remainder r³/6 · 24A/g⁵ (‖D⁴φ‖ = 24/d⁵). `None` unless the node lies outside the ball (g > 0) with
+    /// t = ρ/D < 0.9.
+    pub fn local_share(&self, i: u32, ball: &Ball) -> Option<LocalShare> {
         let node = &self.nodes[i as usize];
         let d = norm(sub(ball.c, node.centre));
         let gap = (d - ball.r - node.radius) * (1.0 - 1e-12);
@@ -806,7 +897,7 @@ impl Tree {
         if gap <= 0.0 || t >= 0.9 {
             return None;
         }
-        let (v, g) = expand_grad(node, ball.c, d);
+        let (value, gradient, hessian) = expand_hess(node, ball.c, d);
         let one = 1.0 - t;
         let (t3, a) = (t * t * t, node.area);
         let value_tail = a / (d * d) * (4.0 * t3 / one + t3 * t / (one * one));
@@ -814,12 +905,36 @@ impl Tree {
             * (20.0 * t3 / one
                 + 10.0 * t3 * t / (one * one)
                 + 2.0 * t3 * t * t / (one * one * one));
-        let curvature = 3.0 * ball.r * ball.r * a / (gap * gap * gap * gap);
+        // Σ_{n≥4} n(n+1)(n+2)tⁿ⁻¹, the third derivative of t⁶/(1−t), term by term (all positive).
+        let hess_tail = a / (d * d * d * d)
+            * (120.0 * t3 / one
+                + 90.0 * t3 * t / (one * one)
+                + 36.0 * t3 * t * t / (one * one * one)
+                + 6.0 * t3 * t3 / (one * one * one * one));
+        let r = ball.r;
+        let remainder = 4.0 * r * r * r * a / (gap * gap * gap * gap * gap);
         let near = d - node.radius;
-        let rounding = 1e-12 * a / (near * near) * (1.0 + ball.r / near);
-        let err = (value_tail + ball.r * grad_tail + curvature + rounding) * (1.0 + 1e-9);
-        Some((v, g, err))
+        let q = r / near;
+        let rounding = 1e-12 * a / (near * near) * (1.0 + q + q * q);
+        let err = (value_tail + r * grad_tail + 0.5 * r * r * hess_tail + remainder + rounding)
+            * (1.0 + 1e-9);
+        Some(LocalShare {
+            value,
+            gradient,
+            hessian,
+            err,
+        })
     }
+}
+
+/// A node's share of a box's quadratic model ([`Tree::local_share`]).
+#[derive(Clone, Copy, Debug)]
+pub struct LocalShare {
+    pub value: f64,
+    pub gradient: [f64; 3],
+    /// The q-Hessian, packed as [`PACKED`].
+    pub hessian: [f64; 6],
+    pub err: f64,
 }
 
 /// What the build moves while it splits: a triangle's index, its corners' box and its centroid (a fraction
@@ -1319,7 +1434,8 @@ mod tests {
     }
 
     #[test]
-    fn the_expansion_gradient_is_its_derivative_and_local_shares_hold_over_the_ball() {
+    fn the_expansion_gradient_and_hessian_are_its_derivatives_and_local_shares_hold_over_the_ball()
+    {
         let tris = soup(400, 0.05, 11);
         let tree = Tree::build_with(tris.iter().copied(), 2);
         let c = [1.7, 0.4, 0.9];
@@ -1350,13 +1466,60 @@ mod tests {
                 );
             }
         }
-        // Local shares: |Ω_N(q) − v − g·(q − c)| ≤ err at points of the ball, for every node they accept.
-        for r in [0.0, 0.02, 0.1] {
+        // The Hessian is the gradient's derivative.
+        for (i, node) in tree.nodes.iter().enumerate().take(200) {
+            let d = norm(sub(c, node.centre));
+            if node.radius >= 0.9 * d {
+                continue;
+            }
+            let (v, g, h) = expand_hess(node, c, d);
+            assert_eq!((v, g), expand_grad(node, c, d));
+            let scale = h.iter().map(|x| x.abs()).fold(1e-9, f64::max);
+            for (k, &(a, b)) in PACKED.iter().enumerate() {
+                let hstep = 1e-6;
+                let (mut p, mut m) = (c, c);
+                p[b] += hstep;
+                m[b] -= hstep;
+                let fd = (expand_grad(node, p, norm(sub(p, node.centre))).1[a]
+                    - expand_grad(node, m, norm(sub(m, node.centre))).1[a])
+                    / (2.0 * hstep);
+                assert!(
+                    (fd - h[k]).abs() <= 1e-5 * scale,
+                    "{i} ({a}, {b}): {fd} vs {}",
+                    h[k]
+                );
+            }
+        }
+        // Local shares: |Ω_N(q) − v − g·δ − ½δᵀHδ| ≤ err at points of the ball (δ = q − c), for every node
+        // they accept; and the error falls with the ball's radius faster than the linear model's ½r²·6A/g⁴.
+        let mut checked = 0;
+        for r in [0.0, 0.02, 0.1, 0.3] {
             let ball = Ball { c, r, nu: 0.0 };
             for i in 0..tree.nodes.len() as u32 {
-                let Some((v, g, err)) = tree.local_share(i, &ball) else {
+                let Some(LocalShare {
+                    value: v,
+                    gradient: g,
+                    hessian: h,
+                    err,
+                }) = tree.local_share(i, &ball)
+                else {
                     continue;
                 };
+                let node = &tree.nodes[i as usize];
+                let gap = norm(sub(c, node.centre)) - r - node.radius;
+                if r > 0.0 && r <= 0.3 * gap {
+                    // The linear model's error: the value's and the gradient's truncations and ½r²·6A/g⁴.
+                    let (d, a) = (norm(sub(c, node.centre)), node.area);
+                    let (t, one) = (node.radius / d, 1.0 - node.radius / d);
+                    let linear = a / (d * d) * (4.0 * t.powi(3) / one + t.powi(4) / (one * one))
+                        + r * a / d.powi(3)
+                            * (20.0 * t.powi(3) / one
+                                + 10.0 * t.powi(4) / (one * one)
+                                + 2.0 * t.powi(5) / one.powi(3))
+                        + 3.0 * r * r * a / gap.powi(4);
+                    assert!(err < linear, "node {i} r {r}: {err} vs {linear}");
+                    checked += 1;
+                }
                 let mut below: Vec<[[f64; 3]; 3]> = Vec::new();
                 let mut stack = vec![i];
                 while let Some(j) = stack.pop() {
@@ -1375,7 +1538,13 @@ mod tests {
                     [c[0] - 0.6 * r, c[1] + 0.6 * r, c[2] + 0.5 * r],
                 ] {
                     let exact = winding_sum(&below, q) * FOUR_PI;
-                    let model = v + (0..3).map(|k| g[k] * (q[k] - c[k])).sum::<f64>();
+                    let dq: [f64; 3] = std::array::from_fn(|k| q[k] - c[k]);
+                    let quadratic: f64 = PACKED
+                        .iter()
+                        .zip(h)
+                        .map(|(&(a, b), hk)| if a == b { 0.5 } else { 1.0 } * hk * dq[a] * dq[b])
+                        .sum();
+                    let model = v + (0..3).map(|k| g[k] * dq[k]).sum::<f64>() + quadratic;
                     assert!(
                         (exact - model).abs() <= err,
                         "node {i} r {r}: {exact} vs {model} ± {err}"
@@ -1383,6 +1552,7 @@ mod tests {
                 }
             }
         }
+        assert!(checked > 10, "{checked}");
     }
 
     #[test]
