@@ -565,14 +565,8 @@ mod tests {
 
     /// Closed, thin, nearly vertical tetrahedra (faces that project to slivers), seeded.
     fn steep_slivers(count: usize, seed: u64) -> TriMesh {
-        let mut state = seed;
-        let mut next = move || {
-            state = state.wrapping_add(0x9E37_79B9_7F4A_7C15);
-            let mut z = state;
-            z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-            z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-            ((z ^ (z >> 31)) >> 11) as f64 / (1u64 << 53) as f64
-        };
+        let mut rng = crate::geom::random::SplitMix64(seed);
+        let mut next = move || rng.unit();
         let mut mesh = TriMesh::default();
         for _ in 0..count {
             let c = [next() * 8.0, next() * 8.0, next() * 8.0];
