@@ -148,7 +148,7 @@ fn the_noisy_soup_welds_into_the_bunny_and_decides_as_it() {
     assert!(d < 10, "{d} voxels differ between the soup and the bunny");
 }
 
-/// A voxel far from the caps whose column a pair of steep triangles folds over: their snapped copies cover
+/// A voxel outside the near zone whose column a pair of steep triangles folds over: their snapped copies cover
 /// the column, and the old crossing depths, their planes extrapolated there, fell at 119.12 and 119.71 round
 /// the voxel's centre (119.5) — a count of 2 where the exact one is 1, outside the near zone. The crossing now
 /// lies on the triangle (`voxel::cpu`'s `crossing_depth`). libigl's exact winding number at that centre is

@@ -166,7 +166,7 @@ fn rasterize_row(tri: &Projected, iv: i64, width: i64, columns: &mut [Vec<(f64, 
 /// on an edge. The snapped triangle can cover a column the exact one misses by up to the snapping; the
 /// plane extrapolated there moves by that distance over the triangle's slope, without bound on a steep
 /// sliver (a pair of steep triangles folded over a column gave crossings 0.6 voxel apart round a voxel
-/// centre 10 voxels from any cap, and the count there one too many). A point of the triangle itself keeps
+/// centre outside the near zone, and the count there one too many). A point of the triangle itself keeps
 /// every miscounted centre within the snapping of a triangle: in the near zone (`voxel::gwn::zone`).
 fn crossing_depth(p: &[[f64; 3]; 3], e1: [f64; 3], e2: [f64; 3], det: f64, u: f64, v: f64) -> f64 {
     if det.abs() > 0.0 {
@@ -363,9 +363,6 @@ pub fn column_windings(
             .into_iter()
             .map(|n| {
                 let v = voxels[n];
-                if std::env::var_os("GREGVOX_DBG").is_some() {
-                    eprintln!("DBG column {:?}: {:?}", v, columns[v[ua] as usize]);
-                }
                 let starts = columns[v[ua] as usize]
                     .iter()
                     .map(|&(z, s)| (((z - 0.5).ceil().max(0.0).min(depth as f64)) as u32, s));
@@ -586,13 +583,9 @@ mod tests {
             let [a, b, c, d] = [base, base + 1, base + 2, base + 3];
             let tets = [[a, b, c], [a, c, d], [a, d, b], [b, d, c]];
             // Oriented outward (the sign of the volume).
+            use crate::voxel::surface::{cross, dot, sub};
             let v = |i: u32| mesh.positions[i as usize].map(|x| x as f64);
-            let (pa, pb, pc, pd) = (v(a), v(b), v(c), v(d));
-            let u = std::array::from_fn::<f64, 3, _>(|k| pb[k] - pa[k]);
-            let w = std::array::from_fn::<f64, 3, _>(|k| pc[k] - pa[k]);
-            let x = std::array::from_fn::<f64, 3, _>(|k| pd[k] - pa[k]);
-            let vol = u[0] * (w[1] * x[2] - w[2] * x[1]) - u[1] * (w[0] * x[2] - w[2] * x[0])
-                + u[2] * (w[0] * x[1] - w[1] * x[0]);
+            let vol = dot(sub(v(b), v(a)), cross(sub(v(c), v(a)), sub(v(d), v(a))));
             for mut t in tets {
                 if vol > 0.0 {
                     t.swap(1, 2);
