@@ -22,7 +22,8 @@ pub fn fixture_path(name: &str) -> String {
 pub struct Fixture {
     pub cage: Vec<DVec3>,
     pub faces: Vec<Vec<u32>>,
-    /// 0 = REGULAR (converted to Bézier), 1 = GREGORY_BASIS.
+    /// 0 = REGULAR (converted to Bézier), 1 = GREGORY_BASIS, 2 = a hole (no patch), 3 = GREGORY_BASIS whose
+    /// face points OpenSubdiv 3.5 computed with a non-affine row (compare P, Ep, Em only).
     pub types: Vec<u32>,
     pub points: Vec<[DVec3; 20]>,
     /// Per patch: (u, v, P, Du, Dv) as 11 doubles.

@@ -32,7 +32,9 @@ pub mod surface;
 pub mod tessellate;
 
 pub use crate::engine::voxelize::{Deadline, ProgressFn, DEFAULT_MAX_LAYERS};
-pub use crate::mesh::{Mesh, MeshMatrix, TopologyReport};
+pub use crate::mesh::{
+    BoundaryInterpolation, Cage, CornerTag, Crease, Mesh, MeshMatrix, SubdivTags, TopologyReport,
+};
 pub use crate::passes::cage_deform::Deformation;
 pub use crate::passes::gregory_eval::SurfaceVertex as Vertex;
 pub use crate::surface::Tangents;
@@ -66,6 +68,20 @@ pub fn load_mesh(path: impl AsRef<Path>) -> Result<Mesh> {
         ));
     }
     crate::mesh::load_mesh_file(path)
+}
+
+/// Loads a subdivision cage: an OBJ with its OpenSubdiv tag lines (`t crease`, `t corner`, `t hole`,
+/// `t interpolateboundary`, …), any other mesh format untagged. A tag gregvox does not know is an error
+/// naming it and its line.
+pub fn load_cage(path: impl AsRef<Path>) -> Result<Cage> {
+    let path = path.as_ref();
+    if tessellate::is_beziex(path) && path.is_file() {
+        return Err(Error::parse(
+            path,
+            "a Beziex patch model, not a cage (tessellate it directly: gregvox tessellate MODEL --out MESH.obj)",
+        ));
+    }
+    crate::mesh::load_cage_file(path)
 }
 
 /// The topology report of a mesh, computed from its mesh matrices (`gregvox mesh --json`).
@@ -1052,11 +1068,11 @@ impl Gpu {
         result
     }
 
-    /// Voxelizes the Gregory surface of `cage` at `level` straight from the device-local vertex buffer (no
-    /// CPU round trip of the surface), by depth peeling.
+    /// Voxelizes the Gregory surface of `cage` (tagged or `&Cage::from(mesh)`) at `level` straight from the
+    /// device-local vertex buffer (no CPU round trip of the surface), by depth peeling.
     pub fn voxelize_gregory(
         &self,
-        cage: &Mesh,
+        cage: &Cage,
         level: u32,
         opts: &VoxelizeOptions,
         profiler: Option<&mut Profiler>,
@@ -1074,22 +1090,24 @@ impl Gpu {
                     .into(),
             ));
         }
-        let topo_report = topology(cage);
+        let mut topo_report = topology(&cage.mesh);
+        // Hole faces leave the surface of a closed cage open.
+        topo_report.closed &= cage.tags.holes.is_empty();
         // A cage far from the world origin is evaluated and voxelized relative to its own corner (f64),
         // as meshes are: in f32 world coordinates a cube 10⁷ away came out as a 2-unit box at 9999999.
-        let shift = local_origin(cage);
+        let shift = local_origin(&cage.mesh);
         let local;
         let cage = if shift == [0.0; 3] {
             cage
         } else {
-            let mut m = cage.clone();
-            for p in &mut m.positions {
+            let mut c = cage.clone();
+            for p in &mut c.mesh.positions {
                 *p -= glam::DVec3::from(shift);
             }
-            local = m;
+            local = c;
             &local
         };
-        let surface = self.gregory_surface(cage, level)?;
+        let surface = self.tagged_gregory_surface(cage, level, Tangents::OpenSubdiv)?;
         let three = match opts.axes {
             Axes::Three => true,
             Axes::One(_) | Axes::Best => false,

@@ -18,12 +18,12 @@
 //!   constructors and the immediate updates (`deform`, `set_cage`) submit one-shot work on the queue and
 //!   wait for it.
 use super::{to_mesh_error, Gpu};
-use crate::engine::cage::cage_topology;
+use crate::engine::cage::tagged_cage_topology;
 use crate::engine::gregory::GregorySurface;
 use crate::error::{Error, Result};
 use crate::gpu::resources::{memory_barrier, BufferRange};
 use crate::gpu::{Buffer, MemoryLocation};
-use crate::mesh::Mesh;
+use crate::mesh::{Cage, Mesh};
 pub use crate::passes::adaptive_levels::AdaptiveParams;
 use crate::passes::cage_deform::{DeformParams, Deformation};
 use crate::passes::gregory_eval::{grid_indices, vertex_count, SurfaceVertex, MAX_LEVEL};
@@ -46,12 +46,24 @@ impl Gpu {
         level: u32,
         tangents: Tangents,
     ) -> Result<Surface<'_>> {
+        self.tagged_gregory_surface(&Cage::from(cage.clone()), level, tangents)
+    }
+
+    /// [`Gpu::gregory_surface_with`] for a tagged cage ([`Cage`]: infinitely sharp creases and corners,
+    /// holes, boundary interpolation, as OpenSubdiv's `t` tags give them; see
+    /// [`crate::surface::GregoryStencils::from_cage`]).
+    pub fn tagged_gregory_surface(
+        &self,
+        cage: &Cage,
+        level: u32,
+        tangents: Tangents,
+    ) -> Result<Surface<'_>> {
         if !(1..=MAX_LEVEL).contains(&level) {
             return Err(Error::Invalid(format!(
                 "--level {level} is out of range: the tessellation level must be between 1 and {MAX_LEVEL}"
             )));
         }
-        let (topo, rest, note) = cage_topology(cage, tangents).map_err(to_mesh_error)?;
+        let (topo, rest, note) = tagged_cage_topology(cage, tangents).map_err(to_mesh_error)?;
         let inner = GregorySurface::new(&self.ctx, &topo, &rest, level)?;
         let mut surface = Surface {
             gpu: self,

@@ -4,8 +4,8 @@
 //!
 //! Invariants: every check on the input happens before any GPU work; the vertices come back exactly as the
 //! GPU wrote them (the compute and vertex-pull paths agree bit for bit on the same points).
-use super::{Deformation, Gpu, Mesh, Tangents};
-use crate::engine::cage::{cage_jumps, cage_topology, max_jump_coincident, CageJumps};
+use super::{Cage, Deformation, Gpu, Mesh, Tangents};
+use crate::engine::cage::{cage_jumps, max_jump_coincident, tagged_cage_topology, CageJumps};
 use crate::engine::gregory::{GregorySurface, GregoryTopology};
 use crate::engine::vertex_pull::vertex_pull;
 use crate::error::{Error, Result};
@@ -39,7 +39,12 @@ pub enum Patches {
 impl Patches {
     /// The Gregory patches of a cage with the given edge-point masks.
     pub fn from_cage(cage: &Mesh, tangents: Tangents) -> Result<Patches> {
-        let (topology, rest, note) = cage_topology(cage, tangents).map_err(|e| match e {
+        Patches::from_tagged_cage(&Cage::from(cage.clone()), tangents)
+    }
+
+    /// The Gregory patches of a tagged cage (creases, corners, holes, boundary rule).
+    pub fn from_tagged_cage(cage: &Cage, tangents: Tangents) -> Result<Patches> {
+        let (topology, rest, note) = tagged_cage_topology(cage, tangents).map_err(|e| match e {
             Error::Invalid(msg) => Error::Mesh(msg),
             e => e,
         })?;
@@ -50,12 +55,13 @@ impl Patches {
         })
     }
 
-    /// Loads `.gzjson`/`.json` as Beziex patches, anything else as a cage mesh; errors name the file.
+    /// Loads `.gzjson`/`.json` as Beziex patches, anything else as a cage (an OBJ with its OpenSubdiv tags);
+    /// errors name the file.
     pub fn load(path: &Path, tangents: Tangents) -> Result<Patches> {
         if is_beziex(path) {
             return Ok(Patches::Beziex(load_beziex(path)?));
         }
-        Patches::from_cage(&super::load_mesh(path)?, tangents).map_err(|e| e.for_input(path))
+        Patches::from_tagged_cage(&super::load_cage(path)?, tangents).map_err(|e| e.for_input(path))
     }
 
     /// Number of patches.

@@ -275,7 +275,12 @@ pub fn run(args: &VoxelizeArgs) -> anyhow::Result<()> {
         });
     }
     let result = match (&gpu, args.gregory_level) {
-        (Some(gpu), Some(level)) => gpu.voxelize_gregory(&mesh, level, &opts, profiler.as_mut()),
+        (Some(gpu), Some(level)) => {
+            // The cage with its OpenSubdiv tags (creases, corners, holes): the mesh above was read for
+            // the grid's frame, which tags do not change.
+            let cage = crate::api::load_cage(&args.input)?;
+            gpu.voxelize_gregory(&cage, level, &opts, profiler.as_mut())
+        }
         (Some(gpu), None) => gpu.voxelize_profiled(&mesh, &opts, profiler.as_mut()),
         (None, _) if args.grid.method == Method::Cpu => voxelize_on_cpu(&mesh, &opts),
         (None, _) => voxelize(&mesh, &opts),

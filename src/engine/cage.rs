@@ -2,7 +2,7 @@
 //! Catmull–Clark step for non-quad cages), a built-in box cage, and measuring normal jumps across shared
 //! patch edges of an evaluated grid.
 use crate::engine::gregory::{canonical_edge_flags, GregoryTopology, SingularPoint};
-use crate::mesh::{load_mesh_file, Mesh};
+use crate::mesh::{load_cage_file, Cage, Mesh};
 use crate::passes::gregory_eval::SurfaceVertex;
 use crate::surface::{GregoryStencils, Tangents};
 use glam::{DVec3, Vec3};
@@ -24,9 +24,9 @@ pub fn load_cage_topology(
 pub fn load_cage(
     path: &Path,
 ) -> crate::Result<(Mesh, GregoryTopology, Vec<DVec3>, Option<String>)> {
-    let mut mesh = load_mesh_file(path)?;
+    let cage = load_cage_file(path)?;
     let (topo, mut rest, note) =
-        cage_topology(&mesh, Tangents::OpenSubdiv).map_err(|e| match e {
+        tagged_cage_topology(&cage, Tangents::OpenSubdiv).map_err(|e| match e {
             crate::Error::Invalid(msg) => crate::Error::parse(path, msg),
             e => e,
         })?;
@@ -41,6 +41,7 @@ pub fn load_cage(
             *p -= lo;
         }
     }
+    let mut mesh = cage.mesh;
     mesh.positions.clone_from(&rest);
     Ok((mesh, topo, rest, note))
 }
@@ -79,17 +80,30 @@ pub fn check_cage_valence(mesh: &Mesh) -> crate::Result<()> {
     Ok(())
 }
 
-/// The GPU topology of a cage: W (columns = the cage's vertices), patch point rows and canonical-edge flags
-/// of the all-quad patch layout.
+/// The GPU topology of an untagged cage: W (columns = the cage's vertices), patch point rows and
+/// canonical-edge flags of the all-quad patch layout.
 pub fn cage_topology(
     mesh: &Mesh,
     tangents: Tangents,
 ) -> crate::Result<(GregoryTopology, Vec<DVec3>, Option<String>)> {
+    tagged_cage_topology(&Cage::from(mesh.clone()), tangents)
+}
+
+/// [`cage_topology`] of a tagged cage (creases, corners, holes, boundary rule): one patch per quad that is
+/// not a hole.
+pub fn tagged_cage_topology(
+    cage: &Cage,
+    tangents: Tangents,
+) -> crate::Result<(GregoryTopology, Vec<DVec3>, Option<String>)> {
+    let mesh = &cage.mesh;
     check_cage_valence(mesh)?;
-    let cs = GregoryStencils::from_mesh(mesh, tangents)?;
-    let quads: Vec<[u32; 4]> = (0..cs.quad_mesh.n_faces())
-        .map(|f| {
-            let q = cs.quad_mesh.face(f);
+    let cs = GregoryStencils::from_cage(cage, tangents)?;
+    let quads: Vec<[u32; 4]> = cs
+        .stencils
+        .patch_face
+        .iter()
+        .map(|&f| {
+            let q = cs.quad_mesh.face(f as usize);
             [q[0], q[1], q[2], q[3]]
         })
         .collect();

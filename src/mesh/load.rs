@@ -25,7 +25,7 @@
 //!    non-blank byte `{`: glTF JSON; first word `solid`: ASCII STL;
 //! 3. else the extension (`.obj .stl .ply .off .gltf .glb`, any case);
 //! 4. else OBJ (today's behaviour for OBJ text under other names).
-use super::{glb, obj, off, ply, stl, weld, Mesh};
+use super::{glb, obj, off, ply, stl, weld, Cage, Mesh};
 use crate::error::{Error, Result};
 use std::path::Path;
 
@@ -134,6 +134,27 @@ pub fn load_mesh_file(path: impl AsRef<Path>) -> Result<Mesh> {
     let path = path.as_ref();
     let bytes = std::fs::read(path).map_err(|e| Error::io(path, e))?;
     parse_mesh_bytes(&bytes, path)
+}
+
+/// Reads a subdivision cage from a mesh file of any supported format: OBJ with its OpenSubdiv tag lines
+/// (`t crease`, `t corner`, `t hole`, …: [`crate::mesh::parse_obj_cage`]), every other format untagged
+/// (they have no such data).
+///
+/// ```
+/// let dir = std::env::temp_dir().join("gregvox-doc-load-cage-file");
+/// std::fs::create_dir_all(&dir).unwrap();
+/// let path = dir.join("quad.obj");
+/// std::fs::write(&path, "v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nf 1 2 3 4\nt hole 1/0/0 0\n").unwrap();
+/// let cage = gregvox::mesh::load_cage_file(&path).unwrap();
+/// assert_eq!(cage.tags.holes, [0]);
+/// ```
+pub fn load_cage_file(path: impl AsRef<Path>) -> Result<Cage> {
+    let path = path.as_ref();
+    let bytes = std::fs::read(path).map_err(|e| Error::io(path, e))?;
+    match MeshFormat::detect(&bytes, path) {
+        MeshFormat::Obj => super::tags::parse_obj_cage_bytes(&bytes, path),
+        _ => Ok(Cage::from(parse_mesh_bytes(&bytes, path)?)),
+    }
 }
 
 /// Parses a mesh file held in memory; `path` names it in errors, gives the extension for detection and,

@@ -32,10 +32,11 @@ pub mod simplify;
 mod sparse;
 mod stl;
 mod subdivision;
+mod tags;
 mod topology;
 pub mod write;
 
-pub use load::{load_mesh_file, parse_mesh_bytes, MeshFormat};
+pub use load::{load_cage_file, load_mesh_file, parse_mesh_bytes, MeshFormat};
 pub use matrix::{ActionMap, FaceLayout, HalfEdgeFace, MeshMatrix, VertexCorners, NONE};
 pub use normals::{
     face_centroids, face_normals, face_normals_unnormalized, vertex_normals, vertex_normals_f32,
@@ -44,7 +45,11 @@ pub use normals::{
 pub use obj::{load_obj, parse_obj, weld, write_obj, Mesh};
 pub use sparse::SparseMatrix;
 pub use subdivision::{
-    catmull_clark, catmull_clark_matrix, loop_matrix, loop_subdivide, rows_sum_to_one, LoopBeta,
-    Subdivision, SubdivisionStack,
+    catmull_clark, catmull_clark_matrix, catmull_clark_matrix_sharp, loop_matrix, loop_subdivide,
+    rows_sum_to_one, LoopBeta, Subdivision, SubdivisionStack,
+};
+pub use tags::{
+    load_obj_cage, parse_obj_cage, BoundaryInterpolation, Cage, CornerTag, Crease, SubdivTags,
+    SHARPNESS_INFINITE,
 };
 pub use topology::{EdgeUse, TopologyReport};

@@ -20,9 +20,12 @@
 //! - Regular faces (every corner interior valence 4, boundary with 2 faces, or a boundary corner with 1 face
 //!   — OpenSubdiv's legacy sharp-corner REGULAR patches) give the Bézier form of the bicubic B-spline patch:
 //!   f+ = f−, and one row per face-point pair.
+use super::features::{Features, VertexTags};
 use crate::error::{Error, Result};
 use crate::geom::gregory::PatchF64;
-use crate::mesh::{catmull_clark_matrix, Mesh, MeshMatrix, SparseMatrix, NONE};
+use crate::mesh::{
+    catmull_clark_matrix, catmull_clark_matrix_sharp, Cage, Mesh, MeshMatrix, SparseMatrix, NONE,
+};
 use glam::DVec3;
 use std::f64::consts::PI;
 
@@ -65,6 +68,8 @@ pub struct GregoryStencils {
     pub patch_points: Vec<[u32; 20]>,
     /// Per patch: true if it is a regular (B-spline) patch, false if a Gregory end cap in OpenSubdiv.
     pub regular: Vec<bool>,
+    /// Per patch, its cage face: every face but the holes, in order (patch k is face k without holes).
+    pub patch_face: Vec<u32>,
 }
 
 /// The stencils of an arbitrary polygon cage, with what was done to make it all-quad.
@@ -79,17 +84,21 @@ pub struct CageStencils {
     pub note: Option<String>,
 }
 
-/// Per patch corner: the CCW one-ring of its vertex (docs/notes/gregory.md §3.1) in OpenSubdiv's layout.
+/// Per patch corner: the CCW one-ring of its vertex (docs/notes/gregory.md §3.1) in OpenSubdiv's layout —
+/// or, where infinitely sharp edges cut the ring, the span of faces between them that holds the patch face
+/// (OpenSubdiv's `VSpan`, `PatchBuilder::GetIrregularPatchCornerSpans`): a span is a boundary ring.
 #[derive(Debug, Clone)]
 struct Ring {
     v: u32,
     /// e_0, d_0, e_1, d_1, …: interior 2n points; boundary 2F + 1 (ends with e_F).
     pts: Vec<u32>,
     boundary: bool,
-    /// Number of faces around the vertex.
+    /// Number of faces around the vertex (in the span).
     faces: usize,
     /// Index of the patch face in the ring (its Ep edge is ring edge `face_in_ring`).
     face_in_ring: usize,
+    /// A sharp corner (OpenSubdiv's `_sharp` span): P = v, edge points on the face's edges.
+    sharp: bool,
 }
 
 impl Ring {
@@ -102,14 +111,9 @@ impl Ring {
     fn d(&self, j: usize) -> u32 {
         self.pts[2 * j + 1]
     }
-    /// OpenSubdiv's "regular" corner: interior with 4 faces or boundary with 2.
+    /// OpenSubdiv's "regular" corner: not sharp, interior with 4 faces or boundary with 2.
     fn is_regular(&self) -> bool {
-        (self.faces << self.boundary as usize) == 4
-    }
-    /// A boundary corner with a single face: sharp (P = v) in OpenSubdiv, and it does not stop a face
-    /// from being a REGULAR patch; its cosine stays cos(π) = −1 for the neighbouring face points.
-    fn is_corner(&self) -> bool {
-        self.boundary && self.faces == 1
+        (self.faces << self.boundary as usize) == 4 && !self.sharp
     }
     /// The corner cosine c_i of the face-point formula (docs/notes/gregory.md §3.4): 0 for regular corners,
     /// cos(π/F) on a boundary with F faces, cos(2π/n) inside (n = 2 gives −1).
@@ -144,10 +148,18 @@ fn twin_corners(m: &MeshMatrix) -> Vec<u32> {
         .collect()
 }
 
-/// The ring of corner `c` (vertex v = corner_vertex[c]), walking faces around v through twins.
-fn ring_of(m: &MeshMatrix, twin: &[u32], c: u32) -> Result<Ring> {
+/// The ring of corner `c` (vertex v = corner_vertex[c]), walking faces around v through twins; where
+/// `cut`, a half-edge `h` with `sharp_he[h]` ends the walk as a boundary would (the span of the face).
+fn ring_of(m: &MeshMatrix, twin: &[u32], sharp_he: &[bool], cut: bool, c: u32) -> Result<Ring> {
     let cv = m.corner_vertex();
     let v = cv[c as usize];
+    let twin = |h: u32| -> u32 {
+        if cut && sharp_he[h as usize] {
+            NONE
+        } else {
+            twin[h as usize]
+        }
+    };
     let limit = m.n_corners() + 1;
     // Walk backward (clockwise) to the first face of a boundary fan: the previous face holds e_0 → v,
     // i.e. the twin of this corner's half-edge; the corner at v there is next(twin).
@@ -155,7 +167,7 @@ fn ring_of(m: &MeshMatrix, twin: &[u32], c: u32) -> Result<Ring> {
     let mut boundary = false;
     let mut steps = 0;
     loop {
-        let t = twin[start as usize];
+        let t = twin(start);
         if t == NONE {
             boundary = true;
             break;
@@ -187,7 +199,7 @@ fn ring_of(m: &MeshMatrix, twin: &[u32], c: u32) -> Result<Ring> {
         pts.push(cv[m.next(m.next(k)) as usize]);
         faces += 1;
         let back = m.prev(k); // half-edge e_{j+1} → v
-        let t = twin[back as usize];
+        let t = twin(back);
         if t == NONE {
             if !boundary {
                 return Err(Error::Invalid(format!("vertex {v}: inconsistent fan")));
@@ -216,17 +228,19 @@ fn ring_of(m: &MeshMatrix, twin: &[u32], c: u32) -> Result<Ring> {
         boundary,
         faces,
         face_in_ring,
+        sharp: false,
     })
 }
 
 /// Limit position P (docs/notes/gregory.md §3.2, §3.6).
 fn p_row(r: &Ring) -> Row {
+    if r.sharp {
+        // Sharp corners, and (OpenSubdiv's legacy approxSmoothCornerWithSharp) a smooth boundary corner
+        // with one face, in REGULAR and GREGORY_BASIS patches alike: P = v (checked on
+        // catmark_gregory_test0).
+        return vec![(r.v, 1.0)];
+    }
     if r.boundary {
-        if r.faces == 1 {
-            // OpenSubdiv treats a 1-face corner as sharp at isolation 0, in REGULAR (legacy sharp-corner
-            // B-spline) and GREGORY_BASIS patches alike: P = v (checked on catmark_gregory_test0).
-            return vec![(r.v, 1.0)];
-        }
         let last = r.pts[r.pts.len() - 1];
         return vec![(r.v, 4.0 / 6.0), (r.e(0), 1.0 / 6.0), (last, 1.0 / 6.0)];
     }
@@ -257,6 +271,10 @@ fn add_scaled(dst: &mut Row, src: &Row, s: f64) {
 /// The edge point at the ring's vertex toward ring edge `j` (e_j).
 fn e_row(r: &Ring, j: usize, tangents: Tangents) -> Row {
     let v = r.v;
+    if r.sharp {
+        // GregoryConverter::computeIrregularEdgePoints, the sharp case: along the face's edges.
+        return vec![(v, 2.0 / 3.0), (r.e(j), 1.0 / 3.0)];
+    }
     if r.boundary {
         let f = r.faces;
         if j == 0 || j == f {
@@ -381,6 +399,30 @@ impl GregoryStencils {
     /// assert!(s.regular[0]); // one quad, four 1-face corners: a (sharp-cornered) B-spline patch
     /// ```
     pub fn new(m: &MeshMatrix, tangents: Tangents) -> Result<Self> {
+        Self::with_features(m, &Features::none(m), tangents)
+    }
+
+    /// [`GregoryStencils::new`] with infinitely sharp creases and corners and holes ([`Features`]): as
+    /// OpenSubdiv builds them at isolation 0 with `useInfSharpPatch` — sharp edges cut each vertex's ring
+    /// into spans that follow the boundary rules, sharp corners interpolate their vertex, faces regular
+    /// between sharp edges are B-spline patches, and hole faces get no patch (their stencils still shape
+    /// the neighbours).
+    ///
+    /// ```
+    /// use gregvox::mesh::{parse_obj_cage, MeshMatrix};
+    /// use gregvox::surface::{Features, GregoryStencils, Tangents};
+    /// let cube = "v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nv 0 0 1\nv 1 0 1\nv 1 1 1\nv 0 1 1\n\
+    ///             f 1 4 3 2\nf 5 6 7 8\nf 1 2 6 5\nf 2 3 7 6\nf 3 4 8 7\nf 4 1 5 8\nt hole 1/0/0 1\n\
+    ///             t corner 1/1/0 6 10\n";
+    /// let cage = parse_obj_cage(cube, "cube.obj").unwrap();
+    /// let m = MeshMatrix::from_mesh(&cage.mesh);
+    /// let f = Features::from_tags(&m, &cage.tags).unwrap();
+    /// let s = GregoryStencils::with_features(&m, &f, Tangents::OpenSubdiv).unwrap();
+    /// assert_eq!(s.patch_face, [0, 2, 3, 4, 5]); // face 1 is a hole
+    /// let p = s.points(&cage.mesh.positions).unwrap();
+    /// assert_eq!(p[6], cage.mesh.positions[6]); // the sharp corner interpolates its vertex
+    /// ```
+    pub fn with_features(m: &MeshMatrix, features: &Features, tangents: Tangents) -> Result<Self> {
         let nf = m.n_faces();
         if nf == 0 {
             return Err(Error::Invalid(
@@ -409,14 +451,24 @@ impl GregoryStencils {
         }
         let nv = m.n_verts();
         let nc = m.n_corners();
+        features.check(m)?;
         let twin = twin_corners(m);
+        let tags = VertexTags::new(m, &twin, features);
         let rings: Vec<Ring> = (0..nc as u32)
-            .map(|c| ring_of(m, &twin, c))
+            .map(|c| {
+                let v = m.corner_vertex()[c as usize] as usize;
+                let mut r = ring_of(m, &twin, &tags.sharp_he, tags.cut(v), c)?;
+                r.sharp = tags.span_is_sharp(v, r.faces);
+                Ok(r)
+            })
             .collect::<Result<_>>()?;
-        // Face type: regular iff each corner is regular or a 1-face boundary corner (OpenSubdiv's legacy
-        // sharp-corner REGULAR patches at isolation 0).
+        // Face type: OpenSubdiv's PatchBuilder::IsPatchRegular at level 0 (B-spline patches between sharp
+        // edges, and its legacy sharp-corner REGULAR patches).
         let regular: Vec<bool> = (0..nf)
-            .map(|f| (0..4).all(|i| rings[4 * f + i].is_regular() || rings[4 * f + i].is_corner()))
+            .map(|f| {
+                let span = std::array::from_fn(|i| rings[4 * f + i].faces);
+                tags.face_is_regular(m, &twin, f, span)
+            })
             .collect();
         // Boundary half-edges get an extra row for the point at their head pointing back.
         let mut back_row = vec![NONE; nc];
@@ -612,10 +664,23 @@ impl GregoryStencils {
             col,
             val,
         };
+        // Holes: no patch, though their rings shaped every neighbour above.
+        let patch_face: Vec<u32> = (0..nf as u32)
+            .filter(|&f| !features.hole[f as usize])
+            .collect();
+        let (patch_points, regular) = if patch_face.len() == nf {
+            (patch_points, regular)
+        } else {
+            patch_face
+                .iter()
+                .map(|&f| (patch_points[f as usize], regular[f as usize]))
+                .unzip()
+        };
         Ok(GregoryStencils {
             w,
             patch_points,
             regular,
+            patch_face,
         })
     }
 
@@ -670,6 +735,106 @@ impl GregoryStencils {
             quad_mesh,
             note: Some(note),
         })
+    }
+
+    /// Stencils for a tagged cage ([`Cage`]): infinitely sharp creases and corners, holes and the boundary
+    /// rule ([`Features`]); a non-quad cage is refined once by Catmull–Clark with the sharp rules
+    /// ([`crate::mesh::catmull_clark_matrix_sharp`]), its features carried to the refined cage (the halves
+    /// of sharp edges sharp, sharp vertices kept, the children of holes holes) as OpenSubdiv's uniform
+    /// refinement carries them. An untagged cage gives exactly [`GregoryStencils::from_mesh`]'s stencils.
+    ///
+    /// Errors: what [`GregoryStencils::from_mesh`] refuses, and any tag gregvox cannot honour yet
+    /// ([`crate::mesh::SubdivTags::unsupported`]: semi-sharp creases and corners), named.
+    ///
+    /// ```
+    /// use gregvox::mesh::parse_obj_cage;
+    /// use gregvox::surface::{GregoryStencils, Tangents};
+    /// let text = "v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nv 0.5 0.5 1\n\
+    ///             f 1 2 5\nf 2 3 5\nf 3 4 5\nf 4 1 5\nf 1 4 3 2\nt crease 2/1/0 0 4 10\n";
+    /// let cage = parse_obj_cage(text, "pyramid.obj").unwrap();
+    /// let cs = GregoryStencils::from_cage(&cage, Tangents::OpenSubdiv).unwrap();
+    /// assert_eq!(cs.stencils.patch_points.len(), 16); // refined once: 4 triangles → 12 quads, 1 quad → 4
+    /// let semi = parse_obj_cage(&text.replace(" 10\n", " 2.5\n"), "semi.obj").unwrap();
+    /// let err = GregoryStencils::from_cage(&semi, Tangents::OpenSubdiv).unwrap_err().to_string();
+    /// assert!(err.contains("t crease 0 4 2.5") && err.contains("semi-sharp"), "{err}");
+    /// ```
+    pub fn from_cage(cage: &Cage, tangents: Tangents) -> Result<CageStencils> {
+        let mesh = &cage.mesh;
+        if let Some(msg) = cage.tags.unsupported(mesh) {
+            return Err(Error::Invalid(msg));
+        }
+        if mesh.n_faces() == 0 {
+            return Err(Error::Invalid(
+                "Gregory stencils: the cage has no faces".into(),
+            ));
+        }
+        let m = MeshMatrix::from_mesh(mesh);
+        let features = Features::from_tags(&m, &cage.tags)?;
+        let notes = cage.tags.notes();
+        let with_notes = |mut cs: CageStencils| {
+            if !notes.is_empty() {
+                let mut all: Vec<String> = cs.note.take().into_iter().collect();
+                all.extend(notes.iter().cloned());
+                cs.note = Some(all.join("; "));
+            }
+            cs
+        };
+        if features.is_none() {
+            return Ok(with_notes(Self::from_mesh(mesh, tangents)?));
+        }
+        if features.hole.iter().all(|&h| h) {
+            return Err(Error::Invalid(format!(
+                "Gregory stencils: every face of the cage is a hole ({} tagged{})",
+                cage.tags.holes.len(),
+                if cage.tags.boundary == crate::mesh::BoundaryInterpolation::None {
+                    ", and `t interpolateboundary 0` drops the faces at unsharpened boundaries"
+                } else {
+                    ""
+                }
+            )));
+        }
+        if (0..m.n_faces()).all(|f| m.face_len(f) == 4) {
+            let stencils = GregoryStencils::with_features(&m, &features, tangents)?;
+            return Ok(with_notes(CageStencils {
+                stencils,
+                quad_mesh: mesh.clone(),
+                note: None,
+            }));
+        }
+        let rep = m.report();
+        if rep.non_manifold_edges > 0 || rep.non_manifold_vertices > 0 {
+            return Err(Error::Invalid(format!(
+                "Gregory stencils: the cage is not a manifold ({} non-manifold edges, {} non-manifold vertices)",
+                rep.non_manifold_edges, rep.non_manifold_vertices
+            )));
+        }
+        let n_nonquad = (0..m.n_faces()).filter(|&f| m.face_len(f) != 4).count();
+        let (sub, sharp_edge, sharp_vertex) =
+            catmull_clark_matrix_sharp(&m, &features.sharp_edge, &features.sharp_vertex);
+        // Refined face k is the quad at corner k of the cage; it is a hole if its face is.
+        let hole = m
+            .corner_face()
+            .iter()
+            .map(|&f| features.hole[f as usize])
+            .collect();
+        let refined = Features {
+            sharp_edge,
+            sharp_vertex,
+            hole,
+        };
+        let mut stencils = GregoryStencils::with_features(&sub.topology, &refined, tangents)?;
+        stencils.w = stencils.w.matmul(&sub.s);
+        let quad_mesh = sub.topology.to_mesh(sub.s.spmv(&mesh.positions));
+        let note = format!(
+            "cage has {n_nonquad} non-quad faces: refined once with Catmull–Clark ({} → {} quads)",
+            m.n_faces(),
+            sub.topology.n_faces()
+        );
+        Ok(with_notes(CageStencils {
+            stencils,
+            quad_mesh,
+            note: Some(note),
+        }))
     }
 
     /// `w` in f32 (the GPU upload; weights rounded once from f64).

@@ -17,6 +17,18 @@ for c in catmark_cube catmark_torus catmark_gregory_test0 catmark_gregory_test1 
 done
 # Exact limit position and tangents per cage vertex (Sdc masks) for the Tangents::Exact checks.
 "$bin" "$osd/catmark_cube.obj" "$out/catmark_cube.osd" --samples --limit "$out/catmark_cube.limit"
+# Tagged shapes (infinitely sharp `t crease`/`t corner`, `t hole`, `t interpolateboundary`): the tags are the
+# OBJ's own, read by the oracle and by gregvox alike.
+for c in catmark_cube_corner4 catmark_edgecorner catmark_edgenone catmark_hole_test1 catmark_hole_test4 \
+         catmark_inf_crease0 catmark_inf_crease1 catmark_xord_boundary catmark_quadstrips catmark_fvar_bound4 \
+         catmark_xord_interior; do
+    "$bin" "$osd/$c.obj" "$out/$c.osd" --samples
+done
+"$bin" "$osd/catmark_hole_test3.obj" "$out/catmark_hole_test3_r1.osd" --refine --samples
+# gregvox's own tagged cages (tests/fixtures/surface/cages/): darts, an L-crease, a sharp interior corner; a
+# creased pyramid of triangles (refined once).
+"$bin" "$out/cages/quads_dart.obj" "$out/quads_dart.osd" --samples
+"$bin" "$out/cages/pyramid_creased.obj" "$out/pyramid_creased_r1.osd" --refine --samples
 # Valence 2 and mixed faces: one uniform Catmull-Clark step by Far, then isolation 0 on the refined cage.
 "$bin" "$osd/catmark_gregory_test8.obj" "$out/catmark_gregory_test8_r1.osd" --refine --samples
 "$bin" "$osd/catmark_nonquads.obj" "$out/catmark_nonquads_r1.osd" --refine

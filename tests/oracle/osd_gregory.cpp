@@ -1,8 +1,9 @@
 // OpenSubdiv oracle for gregvox's ACC-2 stencils (docs/notes/gregory.md §4.3). Not run by the tests: it writes the
 // fixtures in tests/fixtures/surface/ once (see build_osd.sh) and the Rust tests read them.
 //
-// Per cage: Far at isolation 0, Sdc CATMARK with VTX_BOUNDARY_EDGE_ONLY, ENDCAP_GREGORY_BASIS, double
-// precision patches; local (Gregory basis) points from the double local point stencil table appended after
+// Per cage: Far at isolation 0, Sdc CATMARK with VTX_BOUNDARY_EDGE_ONLY (or the cage's `t interpolateboundary`),
+// the cage's infinitely sharp `t crease`/`t corner` tags and `t hole`s, useInfSharpPatch, ENDCAP_GREGORY_BASIS,
+// double precision patches; local (Gregory basis) points from the double local point stencil table appended after
 // the cage vertices. For an all-quad cage at isolation 0 the ptex face of patch f is base face f.
 //
 // Per patch we write 20 points in GREGORY_BASIS order:
@@ -19,7 +20,9 @@
 //   u32 n_verts, u32 n_faces, u32 point_bytes (4 = f32 points, 8 = f64), u32 n_samples (per patch)
 //   f64 cage[n_verts][3]
 //   u32 face_ptr[n_faces + 1], u32 indices[face_ptr[n_faces]]
-//   u32 patch_type[n_faces]            (0 = REGULAR converted to Bezier, 1 = GREGORY_BASIS)
+//   u32 patch_type[n_faces]            (0 = REGULAR converted to Bezier, 1 = GREGORY_BASIS, 2 = hole: no patch,
+//                                       its points zero, 3 = GREGORY_BASIS whose face points OpenSubdiv 3.5
+//                                       computed with a non-affine row: compare P, Ep, Em only)
 //   point_bytes points[n_faces][20][3]
 //   f64 samples[n_faces][n_samples][11] (u, v, P.xyz, Du.xyz, Dv.xyz)
 //
@@ -55,6 +58,13 @@ struct Cage {
     std::vector<V3> pos;
     std::vector<int> nv;   // vertices per face
     std::vector<int> idx;  // concatenated
+    // OpenSubdiv shape tags (regression/common/far_utils.h): 0-based indices.
+    std::vector<int> crease_pairs;
+    std::vector<float> crease_w;
+    std::vector<int> corners;
+    std::vector<float> corner_w;
+    std::vector<int> holes;
+    Sdc::Options::VtxBoundaryInterpolation boundary = Sdc::Options::VTX_BOUNDARY_EDGE_ONLY;
 };
 
 static Cage read_obj(const char *path) {
@@ -68,6 +78,33 @@ static Cage read_obj(const char *path) {
         ss >> tag;
         if (tag == "v") {
             V3 v; ss >> v.p[0] >> v.p[1] >> v.p[2]; c.pos.push_back(v);
+        } else if (tag == "t") {
+            // t NAME nints/nfloats/nstrings ints floats strings
+            std::string name, counts;
+            ss >> name >> counts;
+            int ni = 0, nfl = 0, ns = 0;
+            sscanf(counts.c_str(), "%d/%d/%d", &ni, &nfl, &ns);
+            std::vector<int> iv(ni);
+            std::vector<float> fv(nfl);
+            for (auto &x : iv) ss >> x;
+            for (auto &x : fv) ss >> x;
+            auto weight = [&](int k) { return std::max(0.0f, nfl > 1 ? fv[k] : fv[0]); };
+            if (name == "crease") {
+                for (int j = 0; j + 1 < ni; j += 2) {
+                    c.crease_pairs.push_back(iv[j]); c.crease_pairs.push_back(iv[j + 1]);
+                    c.crease_w.push_back(weight(j / 2));
+                }
+            } else if (name == "corner") {
+                for (int j = 0; j < ni; ++j) { c.corners.push_back(iv[j]); c.corner_w.push_back(weight(j)); }
+            } else if (name == "hole") {
+                for (int j = 0; j < ni; ++j) c.holes.push_back(iv[j]);
+            } else if (name == "interpolateboundary") {
+                c.boundary = iv[0] == 0 ? Sdc::Options::VTX_BOUNDARY_NONE
+                           : iv[0] == 1 ? Sdc::Options::VTX_BOUNDARY_EDGE_AND_CORNER
+                                        : Sdc::Options::VTX_BOUNDARY_EDGE_ONLY;
+            } else if (name != "facevaryinginterpolateboundary") {
+                fprintf(stderr, "%s: tag '%s' not handled by the oracle\n", path, name.c_str()); exit(1);
+            }
         } else if (tag == "f") {
             std::string tok; int n = 0;
             while (ss >> tok) {
@@ -81,9 +118,9 @@ static Cage read_obj(const char *path) {
     return c;
 }
 
-static Sdc::Options sdc_options() {
+static Sdc::Options sdc_options(const Cage &c) {
     Sdc::Options o;
-    o.SetVtxBoundaryInterpolation(Sdc::Options::VTX_BOUNDARY_EDGE_ONLY);
+    o.SetVtxBoundaryInterpolation(c.boundary);
     return o;
 }
 
@@ -93,13 +130,25 @@ static Far::TopologyRefiner *make_refiner(const Cage &c) {
     d.numFaces = (int)c.nv.size();
     d.numVertsPerFace = c.nv.data();
     d.vertIndicesPerFace = c.idx.data();
+    d.numCreases = (int)c.crease_w.size();
+    d.creaseVertexIndexPairs = c.crease_pairs.data();
+    d.creaseWeights = c.crease_w.data();
+    d.numCorners = (int)c.corner_w.size();
+    d.cornerVertexIndices = c.corners.data();
+    d.cornerWeights = c.corner_w.data();
+    d.numHoles = (int)c.holes.size();
+    d.holeIndices = c.holes.data();
     typedef Far::TopologyRefinerFactory<Far::TopologyDescriptor> F;
-    return F::Create(d, F::Options(Sdc::SCHEME_CATMARK, sdc_options()));
+    Far::TopologyRefiner *r = F::Create(d, F::Options(Sdc::SCHEME_CATMARK, sdc_options(c)));
+    if (!r) { fprintf(stderr, "OpenSubdiv refused the cage\n"); exit(1); }
+    return r;
 }
 
 static Cage refine_once(const Cage &c) {
     Far::TopologyRefiner *r = make_refiner(c);
-    r->RefineUniform(Far::TopologyRefiner::UniformOptions(1));
+    Far::TopologyRefiner::UniformOptions uo(1);
+    uo.fullTopologyInLastLevel = true; // edge-face relations for the refined tags
+    r->RefineUniform(uo);
     std::vector<V3> all(r->GetNumVerticesTotal());
     std::copy(c.pos.begin(), c.pos.end(), all.begin());
     Far::PrimvarRefinerReal<double> pr(*r);
@@ -108,12 +157,27 @@ static Cage refine_once(const Cage &c) {
     pr.Interpolate(1, src, dst);
     Far::TopologyLevel const &l1 = r->GetLevel(1);
     Cage out;
+    out.boundary = c.boundary;
     out.pos.assign(dst, dst + l1.GetNumVertices());
     for (int f = 0; f < l1.GetNumFaces(); ++f) {
         Far::ConstIndexArray fv = l1.GetFaceVertices(f);
         out.nv.push_back(fv.size());
         for (int k = 0; k < fv.size(); ++k) out.idx.push_back(fv[k]);
+        if (l1.IsFaceHole(f)) out.holes.push_back(f);
     }
+    // The refined level's infinite sharpness as tags (boundary edges are sharpened again by Sdc). Under
+    // VTX_BOUNDARY_NONE the refined boundary faces are holes already (children of holes).
+    for (int e = 0; e < l1.GetNumEdges(); ++e) {
+        if (l1.GetEdgeSharpness(e) >= 10.0f && l1.GetEdgeFaces(e).size() == 2) {
+            Far::ConstIndexArray ev = l1.GetEdgeVertices(e);
+            out.crease_pairs.push_back(ev[0]); out.crease_pairs.push_back(ev[1]);
+            out.crease_w.push_back(10.0f);
+        }
+    }
+    for (int v = 0; v < l1.GetNumVertices(); ++v) {
+        if (l1.GetVertexSharpness(v) >= 10.0f) { out.corners.push_back(v); out.corner_w.push_back(10.0f); }
+    }
+
     delete r;
     return out;
 }
@@ -184,6 +248,7 @@ int main(int argc, char **argv) {
     Far::TopologyRefiner *r = make_refiner(cage);
     Far::PatchTableFactory::Options po(0);
     po.SetEndCapType(Far::PatchTableFactory::Options::ENDCAP_GREGORY_BASIS);
+    po.useInfSharpPatch = true;
     po.SetPatchPrecision<double>();
     r->RefineAdaptive(po.GetRefineAdaptiveOptions());
     Far::PatchTable const *pt = Far::PatchTableFactory::Create(*r, po);
@@ -213,13 +278,35 @@ int main(int argc, char **argv) {
             if (d.GetType() == Far::PatchDescriptor::GREGORY_BASIS) {
                 type[f] = 1; ++ngreg;
                 for (int k = 0; k < 20; ++k) for (int c = 0; c < 3; ++c) out[f * 60 + k * 3 + c] = pts[cv[k]].p[c];
+                // OpenSubdiv 3.5 mis-sizes some face-point rows next to darts: entries of one row spill
+                // into the next, leaving rows whose weights do not sum to 1. Such a patch is type 3: its
+                // corner and edge points are compared, its face points are not.
+                auto const *lst = pt->GetLocalPointStencilTable<double>();
+                for (int k = 0; k < 20; ++k) {
+                    if (cv[k] < nref) continue;
+                    auto st = lst->GetStencil(cv[k] - nref);
+                    double sum = 0;
+                    for (int j = 0; j < st.GetSize(); ++j) sum += st.GetWeights()[j];
+                    if (fabs(sum - 1.0) > 1e-9) {
+                        fprintf(stderr, "face %d: OpenSubdiv's point %d has weights summing to %.6f: face points not compared\n", f, k, sum);
+                        type[f] = 3;
+                    }
+                }
             } else if (d.GetType() == Far::PatchDescriptor::REGULAR) {
                 type[f] = 0; ++nreg;
             } else { fprintf(stderr, "unexpected patch type %d\n", (int)d.GetType()); return 1; }
         }
     }
     std::vector<double> w(20), wu(20), wv(20);
+    // Tagged holes, and under VTX_BOUNDARY_NONE the boundary faces OpenSubdiv made holes.
+    std::vector<char> hole(nf, 0);
+    for (int f = 0; f < nf; ++f) hole[f] = r->GetLevel(0).IsFaceHole(f);
     for (int f = 0; f < nf; ++f) {
+        if (hole[f]) {
+            if (type[f] != 99) { fprintf(stderr, "hole face %d has a patch\n", f); return 1; }
+            type[f] = 2;
+            continue;
+        }
         if (type[f] == 99) { fprintf(stderr, "face %d has no patch\n", f); return 1; }
         auto eval = [&](double u, double v, double P[3], double Du[3], double Dv[3]) {
             Far::PatchTable::PatchHandle const *h = pm.FindPatch(f, u, v);
