@@ -27,6 +27,14 @@ impl Array {
             data: v.iter().flat_map(|x| x.to_le_bytes()).collect(),
         }
     }
+    /// float64, shape (N, 3).
+    pub fn points_f64(v: &[[f64; 3]]) -> Array {
+        Array {
+            descr: "<f8",
+            shape: vec![v.len(), 3],
+            data: v.iter().flatten().flat_map(|x| x.to_le_bytes()).collect(),
+        }
+    }
     /// float32, shape (N,).
     pub fn f32s(v: &[f32]) -> Array {
         Array {

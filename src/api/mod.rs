@@ -37,7 +37,7 @@ pub use crate::mesh::{
 };
 pub use crate::passes::cage_deform::Deformation;
 pub use crate::passes::gregory_eval::SurfaceVertex as Vertex;
-pub use crate::surface::Tangents;
+pub use crate::surface::{LimitEvaluator, LimitSample, Tangents};
 pub use crate::voxel::cpu::FillRule;
 pub use crate::voxel::export::SaveOptions;
 pub use crate::voxel::grid::{Axis, Bounds, GridFrame, GridSize, GridSpec, VoxelGrid};

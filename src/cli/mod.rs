@@ -5,6 +5,7 @@ use std::process::ExitCode;
 
 pub mod batch;
 pub mod bench;
+pub mod evaluate;
 pub mod info;
 pub mod mesh;
 pub mod query;
@@ -42,6 +43,9 @@ pub enum Command {
     /// Reduce a mesh (OBJ, STL, PLY, OFF, glTF/GLB) by parallel quadric edge collapses to a ratio, a face
     /// count or an error, keeping its topology, borders and seams; levels of detail with --lod.
     Simplify(simplify::SimplifyArgs),
+    /// Evaluate a cage's limit surface at (face, u, v) rows of an (N, 3) .npy (OpenSubdiv's ptex faces):
+    /// positions and exact first and second derivatives, into an .npz.
+    Evaluate(evaluate::EvaluateArgs),
     /// Run the live demo in a window, or offscreen writing PNG frames.
     Demo(crate::demo::DemoArgs),
     /// Run the benchmark suites: tables (markdown, CSV, JSON) and scaling plots (PNG).
@@ -94,6 +98,7 @@ pub fn main() -> ExitCode {
         Command::Demo(a) => crate::demo::run(&a),
         Command::Voxelize(a) => voxelize::run(&a),
         Command::Query(a) => query::run(&a),
+        Command::Evaluate(a) => evaluate::run(&a),
         Command::Simplify(a) => simplify::run(&a),
         Command::Batch(a) => batch::run(&a),
         Command::Tessellate(a) => tessellate::run(&a),

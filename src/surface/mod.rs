@@ -5,10 +5,12 @@
 //! v0→v1, rows of u inner, vertex `j·(L+1)+i` at (i/L, j/L)).
 pub mod acc2;
 pub mod beziex;
+pub mod evaluate;
 pub mod features;
 pub mod gregory_host;
 pub mod tessellate;
 
 pub use acc2::{gather_patches, CageStencils, GregoryStencils, Tangents};
+pub use evaluate::{LimitEvaluator, LimitSample};
 pub use features::Features;
 pub use tessellate::{indices, tessellate, write_tessellation_obj, Tessellation};

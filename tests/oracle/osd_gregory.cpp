@@ -217,17 +217,93 @@ static const int GRID[4][4][2] = {
     {{15, 15}, {17, 17}, {11, 11}, {10, 10}},
 };
 
+// --ptex N FILE: N random (ptex face, u, v) on the cage as given, through Far::PatchMap and EvaluateBasis,
+// with RefineAdaptive(0) on an all-quad cage and RefineAdaptive(1) otherwise (non-quad faces need one level):
+//   u32 n; per sample f64[13]: face, u, v, P.xyz, Du.xyz, Dv.xyz, patch type (0 REGULAR, 1 GREGORY_BASIS).
+// The Gregory derivatives are OpenSubdiv's approximation; REGULAR ones are exact.
+static int write_ptex_samples(const Cage &cage, int n, const char *path) {
+    bool quads = true;
+    for (int k : cage.nv) quads &= (k == 4);
+    Far::TopologyRefiner *r = make_refiner(cage);
+    Far::PatchTableFactory::Options po(quads ? 0 : 1);
+    po.SetEndCapType(Far::PatchTableFactory::Options::ENDCAP_GREGORY_BASIS);
+    po.useInfSharpPatch = true;
+    po.SetPatchPrecision<double>();
+    Far::TopologyRefiner::AdaptiveOptions ao = po.GetRefineAdaptiveOptions();
+    r->RefineAdaptive(ao);
+    Far::PatchTable const *pt = Far::PatchTableFactory::Create(*r, po);
+    int nref = r->GetNumVerticesTotal();
+    int nloc = pt->GetNumLocalPoints();
+    std::vector<V3> pts(nref + nloc);
+    std::copy(cage.pos.begin(), cage.pos.end(), pts.begin());
+    Far::PrimvarRefinerReal<double> pr(*r);
+    for (int l = 1; l <= r->GetMaxLevel(); ++l) {
+        int off = 0;
+        for (int k = 0; k < l - 1; ++k) off += r->GetLevel(k).GetNumVertices();
+        V3 *src = pts.data() + off;
+        V3 *dst = src + r->GetLevel(l - 1).GetNumVertices();
+        pr.Interpolate(l, src, dst);
+    }
+    if (nloc) pt->GetLocalPointStencilTable<double>()->UpdateValues(pts.data(), pts.data() + nref);
+    Far::PatchMap pm(*pt);
+    // Ptex faces: a quad one, an n-gon n; holes skipped.
+    std::vector<int> ptex_face;
+    int id = 0;
+    std::vector<char> hole(cage.nv.size(), 0);
+    for (size_t f = 0; f < cage.nv.size(); ++f) hole[f] = r->GetLevel(0).IsFaceHole((int)f);
+    for (size_t f = 0; f < cage.nv.size(); ++f) {
+        int k = cage.nv[f] == 4 ? 1 : cage.nv[f];
+        for (int i = 0; i < k; ++i, ++id) if (!hole[f]) ptex_face.push_back(id);
+    }
+    std::vector<double> out;
+    std::vector<double> w(20), wu(20), wv(20);
+    uint64_t rng = 0x9E3779B97F4A7C15ull;
+    auto next = [&]() { rng ^= rng >> 12; rng ^= rng << 25; rng ^= rng >> 27; return (double)((rng * 0x2545F4914F6CDD1Dull) >> 11) / 9007199254740992.0; };
+    for (int s = 0; s < n; ++s) {
+        int face = ptex_face[(size_t)(next() * ptex_face.size()) % ptex_face.size()];
+        double u = next(), v = next();
+        if (s % 10 == 0) u = 0.5; // the seams between refined quadrants
+        Far::PatchTable::PatchHandle const *h = pm.FindPatch(face, u, v);
+        if (!h) { fprintf(stderr, "FindPatch failed: ptex %d (%g, %g)\n", face, u, v); return 1; }
+        pt->EvaluateBasis(*h, u, v, w.data(), wu.data(), wv.data());
+        Far::ConstIndexArray cv = pt->GetPatchVertices(*h);
+        double P[3] = {0, 0, 0}, Du[3] = {0, 0, 0}, Dv[3] = {0, 0, 0};
+        for (int k = 0; k < cv.size(); ++k) for (int c = 0; c < 3; ++c) {
+            P[c] += w[k] * pts[cv[k]].p[c]; Du[c] += wu[k] * pts[cv[k]].p[c]; Dv[c] += wv[k] * pts[cv[k]].p[c];
+        }
+        Far::PatchDescriptor d = pt->GetPatchDescriptor(*h);
+        out.push_back(face); out.push_back(u); out.push_back(v);
+        for (int c = 0; c < 3; ++c) out.push_back(P[c]);
+        for (int c = 0; c < 3; ++c) out.push_back(Du[c]);
+        for (int c = 0; c < 3; ++c) out.push_back(Dv[c]);
+        out.push_back(d.GetType() == Far::PatchDescriptor::GREGORY_BASIS ? 1.0 : 0.0);
+    }
+    FILE *fo = fopen(path, "wb");
+    if (!fo) { fprintf(stderr, "cannot write %s\n", path); return 1; }
+    uint32_t nn = n;
+    fwrite(&nn, 4, 1, fo);
+    fwrite(out.data(), 8, out.size(), fo);
+    fclose(fo);
+    fprintf(stderr, "%s: %d ptex samples over %zu ptex faces (max level %d)\n", path, n, ptex_face.size(), r->GetMaxLevel());
+    delete pt; delete r;
+    return 0;
+}
+
 int main(int argc, char **argv) {
     if (argc < 3) { fprintf(stderr, "usage: %s IN.obj OUT.osd [--refine] [--f32] [--samples]\n", argv[0]); return 2; }
     bool refine = false, f32 = false, samples = false;
     const char *limit_path = 0;
+    const char *ptex_path = 0;
+    int ptex_n = 0;
     for (int i = 3; i < argc; ++i) {
         if (!strcmp(argv[i], "--limit") && i + 1 < argc) { limit_path = argv[++i]; continue; }
+        if (!strcmp(argv[i], "--ptex") && i + 2 < argc) { ptex_n = atoi(argv[++i]); ptex_path = argv[++i]; continue; }
         if (!strcmp(argv[i], "--refine")) refine = true;
         else if (!strcmp(argv[i], "--f32")) f32 = true;
         else if (!strcmp(argv[i], "--samples")) samples = true;
     }
     Cage cage = read_obj(argv[1]);
+    if (ptex_path) return write_ptex_samples(cage, ptex_n, ptex_path);
     if (refine) cage = refine_once(cage);
     for (int n : cage.nv) if (n != 4) { fprintf(stderr, "%s: not all-quad (use --refine)\n", argv[1]); return 1; }
     int nf = (int)cage.nv.size();

@@ -1,0 +1,246 @@
+//! The limit surface at arbitrary (ptex face, u, v) against OpenSubdiv's `Far::PatchMap` + `EvaluateBasis`
+//! (fixtures `*.ptex` from tests/oracle/osd_gregory.cpp --ptex: RefineAdaptive(0) on all-quad cages, (1) on
+//! cages with other faces), the exactness of the derivatives, bad rows, and `gregvox evaluate`.
+#[path = "surface_common.rs"]
+mod common;
+use common::*;
+use glam::DVec3;
+use gregvox::mesh::load_obj_cage;
+use gregvox::surface::{LimitEvaluator, Tangents};
+
+/// One OpenSubdiv sample: (face, u, v), P, Du, Dv, whether its patch is a Gregory basis patch.
+struct Sample {
+    at: (u32, f64, f64),
+    p: DVec3,
+    du: DVec3,
+    dv: DVec3,
+    gregory: bool,
+}
+
+fn read_ptex(name: &str) -> Vec<Sample> {
+    let path = format!(
+        "{}/tests/fixtures/surface/{name}.ptex",
+        env!("CARGO_MANIFEST_DIR")
+    );
+    let b = std::fs::read(&path).unwrap_or_else(|e| panic!("{path}: {e}"));
+    let n = u32::from_le_bytes(b[..4].try_into().unwrap()) as usize;
+    let f: Vec<f64> = b[4..]
+        .chunks_exact(8)
+        .map(|c| f64::from_le_bytes(c.try_into().unwrap()))
+        .collect();
+    assert_eq!(f.len(), 13 * n, "{path}");
+    f.chunks_exact(13)
+        .map(|r| Sample {
+            at: (r[0] as u32, r[1], r[2]),
+            p: DVec3::new(r[3], r[4], r[5]),
+            du: DVec3::new(r[6], r[7], r[8]),
+            dv: DVec3::new(r[9], r[10], r[11]),
+            gregory: r[12] != 0.0,
+        })
+        .collect()
+}
+
+const SHAPES: &[(&str, &str)] = &[
+    ("catmark_cube", "opensubdiv/catmark_cube.obj"),
+    ("catmark_torus", "opensubdiv/catmark_torus.obj"),
+    (
+        "catmark_gregory_test6",
+        "opensubdiv/catmark_gregory_test6.obj",
+    ),
+    ("catmark_inf_crease0", "opensubdiv/catmark_inf_crease0.obj"),
+    ("catmark_edgenone", "opensubdiv/catmark_edgenone.obj"),
+    ("catmark_hole_test1", "opensubdiv/catmark_hole_test1.obj"),
+    ("catmark_nonquads", "opensubdiv/catmark_nonquads.obj"),
+    ("catmark_hole_test3", "opensubdiv/catmark_hole_test3.obj"),
+];
+
+#[test]
+fn evaluation_at_ptex_parameters_matches_opensubdivs_patch_map() {
+    for &(name, rel) in SHAPES {
+        let cage = load_obj_cage(model(rel)).unwrap();
+        let e = LimitEvaluator::new(&cage, Tangents::OpenSubdiv).unwrap();
+        let samples = read_ptex(name);
+        let at: Vec<_> = samples.iter().map(|s| s.at).collect();
+        let ours = e.evaluate(&at).unwrap();
+        let d = diag(&cage.mesh.positions);
+        let (mut pos, mut der, mut nrm) = (0.0f64, 0.0f64, 0.0f64);
+        let mut n_greg = 0;
+        for (s, o) in samples.iter().zip(&ours) {
+            pos = pos.max((o.position - s.p).length() / d);
+            if s.gregory {
+                // OpenSubdiv's Gregory derivatives are an approximation (Q frozen): normals compared.
+                n_greg += 1;
+                nrm = nrm.max(angle(o.du.cross(o.dv), s.du.cross(s.dv)).to_degrees());
+            } else {
+                der = der.max(((o.du - s.du).length() + (o.dv - s.dv).length()) / d);
+            }
+        }
+        eprintln!(
+            "{name:22} {} samples ({n_greg} on Gregory patches): position {pos:.1e}·diag, B-spline derivatives \
+             {der:.1e}·diag, Gregory normals vs OpenSubdiv's approximate ones {nrm:.3}°",
+            samples.len()
+        );
+        assert!(pos <= 1e-12, "{name}: position {pos:e}");
+        assert!(der <= 1e-12, "{name}: derivatives {der:e}");
+        assert!(nrm <= 5.0, "{name}: normals {nrm}°");
+    }
+}
+
+#[test]
+fn derivatives_are_the_exact_derivatives_of_the_evaluated_positions() {
+    // OpenSubdiv's Gregory derivatives freeze the rational points; ours differentiate them too. Central
+    // differences of our own positions (step 1e-5) check first and second derivatives, also across the
+    // quadrant map of refined quads (catmark_nonquads).
+    let h = 1e-5;
+    for &(name, rel) in SHAPES {
+        let cage = load_obj_cage(model(rel)).unwrap();
+        let e = LimitEvaluator::new(&cage, Tangents::OpenSubdiv).unwrap();
+        let d = diag(&cage.mesh.positions);
+        let mut rng = Rng(0x5eed ^ name.len() as u64);
+        let (mut e1, mut e2) = (0.0f64, 0.0f64);
+        for _ in 0..200 {
+            let f = ((rng.uniform() + 1.0) * 0.5 * e.ptex_faces() as f64) as u32
+                % e.ptex_faces() as u32;
+            // Away from the parameter border and the quadrant seams, where one-sided patches meet.
+            let pick = |r: &mut Rng| {
+                let x = 0.02 + 0.46 * (r.uniform() + 1.0) * 0.5;
+                if r.uniform() > 0.0 {
+                    x
+                } else {
+                    1.0 - x
+                }
+            };
+            let (u, v) = (pick(&mut rng), pick(&mut rng));
+            let q = |du: f64, dv: f64| (f, u + du, v + dv);
+            let Ok(s) = e.evaluate(&[q(0.0, 0.0), q(h, 0.0), q(-h, 0.0), q(0.0, h), q(0.0, -h)])
+            else {
+                continue; // a hole
+            };
+            let fd_u = (s[1].position - s[2].position) / (2.0 * h);
+            let fd_v = (s[3].position - s[4].position) / (2.0 * h);
+            e1 = e1.max(((fd_u - s[0].du).length() + (fd_v - s[0].dv).length()) / d);
+            let fd_uu = (s[1].du - s[2].du) / (2.0 * h);
+            let fd_uv = (s[3].du - s[4].du) / (2.0 * h);
+            let fd_vv = (s[3].dv - s[4].dv) / (2.0 * h);
+            e2 = e2.max(
+                ((fd_uu - s[0].duu).length()
+                    + (fd_uv - s[0].duv).length()
+                    + (fd_vv - s[0].dvv).length())
+                    / d,
+            );
+        }
+        eprintln!("{name:22} |D − finite differences|: first {e1:.1e}·diag, second {e2:.1e}·diag");
+        assert!(e1 < 1e-7 && e2 < 1e-5, "{name}: {e1:e} {e2:e}");
+    }
+}
+
+#[test]
+fn bad_rows_are_errors_naming_the_row() {
+    let cage = load_obj_cage(model("opensubdiv/catmark_hole_test1.obj")).unwrap();
+    let e = LimitEvaluator::new(&cage, Tangents::OpenSubdiv).unwrap();
+    for (row, needle) in [
+        ((0, 0.5, 0.5), ""),
+        ((1, 0.5, 0.5), "hole"),
+        ((6, 0.5, 0.5), "no such face"),
+        ((0, f64::NAN, 0.5), "[0, 1]"),
+        ((0, 0.5, 1.0 + 1e-9), "[0, 1]"),
+        ((0, -0.0, 1.0), ""),
+    ] {
+        let r = e.evaluate(&[(0, 0.5, 0.5), row]);
+        if needle.is_empty() {
+            assert!(r.is_ok(), "{row:?}: {r:?}");
+        } else {
+            let msg = r.unwrap_err().to_string();
+            assert!(
+                msg.contains("row 1") && msg.contains(needle),
+                "{row:?}: {msg}"
+            );
+        }
+    }
+}
+
+fn write_npy_f64(path: &std::path::Path, rows: &[[f64; 3]]) {
+    let mut header = format!(
+        "{{'descr': '<f8', 'fortran_order': False, 'shape': ({}, 3), }}",
+        rows.len()
+    );
+    while (10 + header.len() + 1) % 64 != 0 {
+        header.push(' ');
+    }
+    header.push('\n');
+    let mut b = b"\x93NUMPY\x01\x00".to_vec();
+    b.extend_from_slice(&(header.len() as u16).to_le_bytes());
+    b.extend_from_slice(header.as_bytes());
+    for r in rows {
+        for x in r {
+            b.extend_from_slice(&x.to_le_bytes());
+        }
+    }
+    std::fs::write(path, b).unwrap();
+}
+
+#[test]
+fn gregvox_evaluate_writes_the_arrays_and_refuses_bad_rows() {
+    let dir = std::env::temp_dir().join(format!("gregvox-evaluate-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let (fuv, out) = (dir.join("fuv.npy"), dir.join("p.npz"));
+    let samples = read_ptex("catmark_nonquads");
+    let rows: Vec<[f64; 3]> = samples[..50]
+        .iter()
+        .map(|s| [s.at.0 as f64, s.at.1, s.at.2])
+        .collect();
+    write_npy_f64(&fuv, &rows);
+    let run = || {
+        std::process::Command::new(env!("CARGO_BIN_EXE_gregvox"))
+            .arg("evaluate")
+            .arg(model("opensubdiv/catmark_nonquads.obj"))
+            .arg("--at")
+            .arg(&fuv)
+            .arg("--out")
+            .arg(&out)
+            .output()
+            .unwrap()
+    };
+    let r = run();
+    assert!(r.status.success(), "{}", String::from_utf8_lossy(&r.stderr));
+    // The .npz holds stored .npy entries: find "position.npy" and read its first row.
+    let z = std::fs::read(&out).unwrap();
+    for name in ["position", "du", "dv", "duu", "duv", "dvv"] {
+        assert!(
+            z.windows(name.len() + 4)
+                .any(|w| w == format!("{name}.npy").as_bytes()),
+            "{name} missing"
+        );
+    }
+    let at = z.windows(12).position(|w| w == b"position.npy").unwrap();
+    let magic = at + z[at..].windows(6).position(|w| w == b"\x93NUMPY").unwrap();
+    let hlen = u16::from_le_bytes([z[magic + 8], z[magic + 9]]) as usize;
+    let data = magic + 10 + hlen;
+    let x: Vec<f64> = (0..3)
+        .map(|k| f64::from_le_bytes(z[data + 8 * k..data + 8 * k + 8].try_into().unwrap()))
+        .collect();
+    assert!(
+        (DVec3::from_slice(&x) - samples[0].p).length() < 1e-12,
+        "{x:?}"
+    );
+    // A bad row: one error line naming the file and the row, nothing written.
+    std::fs::remove_file(&out).unwrap();
+    let mut bad = rows.clone();
+    bad[7] = [3.0, 0.5, 2.0];
+    write_npy_f64(&fuv, &bad);
+    let r = run();
+    let err = String::from_utf8_lossy(&r.stderr);
+    assert!(
+        !r.status.success() && err.contains("row 7") && err.contains("fuv.npy"),
+        "{err}"
+    );
+    assert!(!out.exists());
+    bad[7] = [2.5, 0.5, 0.5];
+    write_npy_f64(&fuv, &bad);
+    let err = String::from_utf8_lossy(&run().stderr).to_string();
+    assert!(
+        err.contains("row 7") && err.contains("whole number"),
+        "{err}"
+    );
+    std::fs::remove_dir_all(&dir).ok();
+}
