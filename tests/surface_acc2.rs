@@ -505,11 +505,17 @@ fn bad_cages_are_clear_errors() {
         .unwrap_err()
         .to_string();
     assert!(e.contains("non-manifold edges"), "{e}");
+    // The first such edge is named, with its face count.
+    assert!(
+        e.contains("is shared by 3 faces") && e.contains("edge "),
+        "{e}"
+    );
     let t4 = load_obj(model("opensubdiv/catmark_gregory_test4.obj")).unwrap();
     let e = GregoryStencils::from_mesh(&t4, Tangents::OpenSubdiv)
         .unwrap_err()
         .to_string();
     assert!(e.contains("non-manifold vertices"), "{e}");
+    assert!(e.contains("joins separate fans"), "{e}");
     // empty cage (no faces)
     let empty = MeshMatrix::new(3, &[0], vec![]).unwrap();
     let e = GregoryStencils::new(&empty, Tangents::OpenSubdiv)

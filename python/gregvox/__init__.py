@@ -26,6 +26,8 @@ __all__ = [
     "GregorySurface",
     "default_device",
     "load_mesh",
+    "load_cage",
+    "evaluate_at",
     "voxelize",
     "mesh_matrices",
     "action_map",
@@ -313,8 +315,77 @@ def _python_names(message: str) -> str:
     return message
 
 
+def _index_array(name: str, a: Any, width: int) -> np.ndarray:
+    a = np.asarray([] if a is None else a)
+    if a.size == 0:
+        return np.zeros(0, dtype=np.int64)
+    if a.dtype.kind not in "iu":
+        raise ValueError(f"{name} must hold integer indices, not {a.dtype}")
+    if (width == 2 and (a.ndim != 2 or a.shape[1] != 2)) or (width == 1 and a.ndim != 1):
+        shape = "(k, 2) vertex pairs" if width == 2 else "a 1-D array"
+        raise ValueError(f"{name} must be {shape}, not shape {a.shape}")
+    return np.ascontiguousarray(a, dtype=np.int64).reshape(-1)
+
+
+def _sharpness(name: str, s: Any, n: int) -> np.ndarray:
+    s = np.asarray(s, dtype=np.float64)
+    if s.ndim == 0:
+        s = np.full(n, float(s))
+    if s.shape != (n,):
+        raise ValueError(f"{name} must be one number or one per item ({n}), not shape {s.shape}")
+    if not np.isfinite(s).all():
+        raise ValueError(f"{name} must be finite")
+    return np.ascontiguousarray(s)
+
+
+def _tags(creases: Any = None, crease_sharpness: Any = 10.0, corners: Any = None, corner_sharpness: Any = 10.0,
+          holes: Any = None, boundary: str = "edge-only") -> Tuple[Any, ...]:
+    cp = _index_array("creases", creases, 2)
+    vs = _index_array("corners", corners, 1)
+    return (cp, _sharpness("crease_sharpness", crease_sharpness, cp.size // 2), vs,
+            _sharpness("corner_sharpness", corner_sharpness, vs.size), _index_array("holes", holes, 1), boundary)
+
+
+def load_cage(path: Union[str, os.PathLike]) -> Tuple[np.ndarray, Faces, Dict[str, Any]]:
+    """Loads a subdivision cage: ``V``, ``F`` as :func:`load_mesh` gives them and the OpenSubdiv tags of an OBJ
+    (``t crease``, ``t corner``, ``t hole``, ``t interpolateboundary``) as keyword arguments for
+    :class:`GregorySurface` and :func:`evaluate_at`: ``creases`` (k, 2) int64 vertex pairs, ``crease_sharpness``
+    (k,), ``corners`` (m,), ``corner_sharpness`` (m,), ``holes`` (h,) face indices, ``boundary`` ("none",
+    "edge-only", "edge-and-corner"). Sharpness 10 is infinitely sharp.
+
+    Raises ``ValueError`` naming the line for a tag gregvox does not know.
+    """
+    (V, ptr, idx), (cp, cs, vs, vsh, hs, boundary) = _gregvox.load_cage(os.fspath(path))
+    tags = {"creases": cp.reshape(-1, 2), "crease_sharpness": cs, "corners": vs, "corner_sharpness": vsh,
+            "holes": hs, "boundary": boundary}
+    return V, _faces_out(ptr, idx), tags
+
+
+def evaluate_at(V: Any, F: Faces, fuv: Any, *, creases: Any = None, crease_sharpness: Any = 10.0,
+                corners: Any = None, corner_sharpness: Any = 10.0, holes: Any = None, boundary: str = "edge-only",
+                tangents: str = "opensubdiv") -> Dict[str, np.ndarray]:
+    """The limit surface of the cage at (face, u, v) rows (``fuv`` (N, 3): an OpenSubdiv ptex face index, an
+    all-quad cage's face index, and u, v in [0, 1]), on the CPU in float64: ``position``, ``du``, ``dv``,
+    ``duu``, ``duv``, ``dvv``, each (N, 3), the exact derivatives with respect to the face's (u, v). What
+    ``gregvox evaluate`` writes.
+
+    >>> import gregvox, numpy as np
+    >>> V = np.array([[0, 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0]], float)
+    >>> gregvox.evaluate_at(V, [[0, 1, 2, 3]], [[0, 0.25, 0.5]])["position"]
+    array([[0.25, 0.5 , 0.  ]])
+    """
+    fuv = np.asarray(fuv, dtype=np.float64)
+    if fuv.ndim != 2 or fuv.shape[1] != 3:
+        raise ValueError(f"fuv must have shape (N, 3), not {fuv.shape}")
+    tags = _tags(creases, crease_sharpness, corners, corner_sharpness, holes, boundary)
+    arrays = _gregvox.evaluate_at(*_mesh(V, F), *tags, np.ascontiguousarray(fuv), tangents)
+    return dict(zip(["position", "du", "dv", "duu", "duv", "dvv"], arrays))
+
+
 class GregorySurface:
     """The ACC-2 Gregory surface of a quad cage (a non-quad cage is refined once), evaluated on the GPU.
+    Tags as :func:`load_cage` returns them: infinitely sharp creases and corners (sharpness 10), holes and
+    the boundary rule; semi-sharp ones are refused (``ValueError`` naming the tag).
 
     >>> import gregvox, numpy as np
     >>> V = np.array([[0, 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0]], float)
@@ -324,10 +395,13 @@ class GregorySurface:
     (1, 5, 5, 3)
     """
 
-    def __init__(self, V: Any, F: Faces, tangents: str = "opensubdiv", device: Optional[Device] = None):
+    def __init__(self, V: Any, F: Faces, tangents: str = "opensubdiv", device: Optional[Device] = None, *,
+                 creases: Any = None, crease_sharpness: Any = 10.0, corners: Any = None,
+                 corner_sharpness: Any = 10.0, holes: Any = None, boundary: str = "edge-only"):
         V, ptr, idx = _mesh(V, F)
         self._n = V.shape[0]
-        self._surface = _gregvox.GregorySurface(_device(device)._device, V, ptr, idx, tangents)
+        tags = _tags(creases, crease_sharpness, corners, corner_sharpness, holes, boundary)
+        self._surface = _gregvox.GregorySurface(_device(device)._device, V, ptr, idx, *tags, tangents)
 
     @property
     def patch_count(self) -> int:

@@ -36,7 +36,18 @@ class Grid:
 
 class GregorySurface:
     def __init__(
-        self, V: npt.ArrayLike, F: Faces, tangents: str = ..., device: Optional[Device] = ...
+        self,
+        V: npt.ArrayLike,
+        F: Faces,
+        tangents: str = ...,
+        device: Optional[Device] = ...,
+        *,
+        creases: Optional[npt.ArrayLike] = ...,
+        crease_sharpness: Union[float, npt.ArrayLike] = ...,
+        corners: Optional[npt.ArrayLike] = ...,
+        corner_sharpness: Union[float, npt.ArrayLike] = ...,
+        holes: Optional[npt.ArrayLike] = ...,
+        boundary: str = ...,
     ) -> None: ...
     @property
     def patch_count(self) -> int: ...
@@ -45,6 +56,22 @@ class GregorySurface:
     def indices(self, level: int) -> npt.NDArray[np.uint32]: ...
 
 def load_mesh(path: PathLike) -> Tuple[npt.NDArray[np.float64], Union[npt.NDArray[np.int64], List[npt.NDArray[np.int64]]]]: ...
+def load_cage(
+    path: PathLike,
+) -> Tuple[npt.NDArray[np.float64], Union[npt.NDArray[np.int64], List[npt.NDArray[np.int64]]], Dict[str, Any]]: ...
+def evaluate_at(
+    V: npt.ArrayLike,
+    F: Faces,
+    fuv: npt.ArrayLike,
+    *,
+    creases: Optional[npt.ArrayLike] = ...,
+    crease_sharpness: Union[float, npt.ArrayLike] = ...,
+    corners: Optional[npt.ArrayLike] = ...,
+    corner_sharpness: Union[float, npt.ArrayLike] = ...,
+    holes: Optional[npt.ArrayLike] = ...,
+    boundary: str = ...,
+    tangents: str = ...,
+) -> Dict[str, npt.NDArray[np.float64]]: ...
 def voxelize(
     V: npt.ArrayLike,
     F: Faces,

@@ -22,13 +22,40 @@ class PackedGrid:
     def boundary_mesh(self) -> Tuple[npt.NDArray[np.float64], npt.NDArray[np.int64]]: ...
 
 class GregorySurface:
-    def __init__(self, device: Device, v: F64, face_ptr: I64, indices: I64, tangents: str) -> None: ...
+    def __init__(
+        self,
+        device: Device,
+        v: F64,
+        face_ptr: I64,
+        indices: I64,
+        crease_pairs: I64,
+        crease_sharpness: F64,
+        corners: I64,
+        corner_sharpness: F64,
+        holes: I64,
+        boundary: str,
+        tangents: str,
+    ) -> None: ...
     @property
     def patch_count(self) -> int: ...
     def evaluate(self, level: int) -> Tuple[npt.NDArray[np.float32], npt.NDArray[np.float32]]: ...
     def set_cage(self, v: F64) -> None: ...
 
 def load_mesh(path: str) -> Tuple[F64, I64, I64]: ...
+def load_cage(path: str) -> Tuple[Tuple[F64, I64, I64], Tuple[I64, F64, I64, F64, I64, str]]: ...
+def evaluate_at(
+    v: F64,
+    face_ptr: I64,
+    indices: I64,
+    crease_pairs: I64,
+    crease_sharpness: F64,
+    corners: I64,
+    corner_sharpness: F64,
+    holes: I64,
+    boundary: str,
+    fuv: F64,
+    tangents: str,
+) -> Tuple[F64, F64, F64, F64, F64, F64]: ...
 def topology_json(v: F64, face_ptr: I64, indices: I64) -> str: ...
 def subdivide(v: F64, face_ptr: I64, indices: I64, levels: int, scheme: str) -> Tuple[F64, I64, I64]: ...
 def mesh_matrices(v: F64, face_ptr: I64, indices: I64) -> Dict[str, CsrTriplets]: ...

@@ -8,8 +8,9 @@
 use glam::DVec3;
 use gregvox::api::tessellate::{Patches, TessellateOptions};
 use gregvox::api::{
-    self, ContextDesc, Fill, FillRule, Gpu, GridSize, Mesh, Method, SaveOptions, Scheme, Tangents,
-    Validation, VoxelGrid, VoxelizeOptions,
+    self, BoundaryInterpolation, Cage, ContextDesc, CornerTag, Crease, Fill, FillRule, Gpu,
+    GridSize, LimitEvaluator, Mesh, Method, SaveOptions, Scheme, SubdivTags, Tangents, Validation,
+    VoxelGrid, VoxelizeOptions,
 };
 use gregvox::mesh::NormalWeighting;
 use gregvox::Error;
@@ -175,6 +176,199 @@ type MeshArrays<'py> = (
     Bound<'py, PyArray1<i64>>,
     Bound<'py, PyArray1<i64>>,
 );
+
+/// Subdivision tags as flat arrays: crease vertex pairs (2k) and sharpness (k), corner vertices (m) and
+/// sharpness (m), hole faces (h), the boundary rule's name.
+type TagArrays<'py> = (
+    Bound<'py, PyArray1<i64>>,
+    Bound<'py, PyArray1<f64>>,
+    Bound<'py, PyArray1<i64>>,
+    Bound<'py, PyArray1<f64>>,
+    Bound<'py, PyArray1<i64>>,
+    &'static str,
+);
+
+const BOUNDARIES: &[(&str, BoundaryInterpolation)] = &[
+    ("none", BoundaryInterpolation::None),
+    ("edge-only", BoundaryInterpolation::EdgeOnly),
+    ("edge-and-corner", BoundaryInterpolation::EdgeAndCorner),
+];
+
+fn index_u32(what: &str, i: i64) -> PyResult<u32> {
+    u32::try_from(i).map_err(|_| bad(format!("{what}: index {i} is out of range")))
+}
+
+/// A cage from the mesh and tag arrays, checked by the engine (`Cage::new`: edges exist, indices in
+/// range, sharpness finite).
+#[allow(clippy::too_many_arguments)]
+fn cage_of(
+    mesh: Mesh,
+    crease_pairs: &PyReadonlyArray1<'_, i64>,
+    crease_sharpness: &PyReadonlyArray1<'_, f64>,
+    corners: &PyReadonlyArray1<'_, i64>,
+    corner_sharpness: &PyReadonlyArray1<'_, f64>,
+    holes: &PyReadonlyArray1<'_, i64>,
+    boundary: &str,
+) -> PyResult<Cage> {
+    let cp = crease_pairs
+        .as_slice()
+        .map_err(|_| bad("creases must be contiguous"))?;
+    let cs = crease_sharpness
+        .as_slice()
+        .map_err(|_| bad("crease_sharpness must be contiguous"))?;
+    let vs = corners
+        .as_slice()
+        .map_err(|_| bad("corners must be contiguous"))?;
+    let vsh = corner_sharpness
+        .as_slice()
+        .map_err(|_| bad("corner_sharpness must be contiguous"))?;
+    let hs = holes
+        .as_slice()
+        .map_err(|_| bad("holes must be contiguous"))?;
+    if cp.len() != 2 * cs.len() || vs.len() != vsh.len() {
+        return Err(bad(
+            "creases and crease_sharpness, corners and corner_sharpness must have matching lengths",
+        ));
+    }
+    let mut tags = SubdivTags {
+        boundary: choice("boundary", boundary, BOUNDARIES)?,
+        ..SubdivTags::default()
+    };
+    for (k, &s) in cs.iter().enumerate() {
+        tags.creases.push(Crease {
+            a: index_u32("creases", cp[2 * k])?,
+            b: index_u32("creases", cp[2 * k + 1])?,
+            sharpness: s.max(0.0) as f32,
+        });
+    }
+    for (&v, &s) in vs.iter().zip(vsh) {
+        tags.corners.push(CornerTag {
+            vertex: index_u32("corners", v)?,
+            sharpness: s.max(0.0) as f32,
+        });
+    }
+    for &h in hs {
+        tags.holes.push(index_u32("holes", h)?);
+    }
+    Cage::new(mesh, tags).map_err(to_py)
+}
+
+fn tag_arrays<'py>(py: Python<'py>, tags: &SubdivTags) -> TagArrays<'py> {
+    let cp: Vec<i64> = tags
+        .creases
+        .iter()
+        .flat_map(|c| [c.a as i64, c.b as i64])
+        .collect();
+    let cs: Vec<f64> = tags.creases.iter().map(|c| c.sharpness as f64).collect();
+    let vs: Vec<i64> = tags.corners.iter().map(|c| c.vertex as i64).collect();
+    let vsh: Vec<f64> = tags.corners.iter().map(|c| c.sharpness as f64).collect();
+    let hs: Vec<i64> = tags.holes.iter().map(|&h| h as i64).collect();
+    let boundary = BOUNDARIES
+        .iter()
+        .find(|(_, b)| *b == tags.boundary)
+        .map(|(n, _)| *n)
+        .unwrap_or("edge-only");
+    (
+        cp.into_pyarray(py),
+        cs.into_pyarray(py),
+        vs.into_pyarray(py),
+        vsh.into_pyarray(py),
+        hs.into_pyarray(py),
+        boundary,
+    )
+}
+
+/// Loads a cage file: the mesh arrays and its OpenSubdiv tags (an OBJ's `t` lines; other formats none).
+#[pyfunction]
+fn load_cage<'py>(
+    py: Python<'py>,
+    path: std::path::PathBuf,
+) -> PyResult<(MeshArrays<'py>, TagArrays<'py>)> {
+    let cage = py.allow_threads(|| api::load_cage(&path)).map_err(to_py)?;
+    Ok((arrays_of(py, &cage.mesh), tag_arrays(py, &cage.tags)))
+}
+
+type Samples<'py> = (
+    Bound<'py, PyArray2<f64>>,
+    Bound<'py, PyArray2<f64>>,
+    Bound<'py, PyArray2<f64>>,
+    Bound<'py, PyArray2<f64>>,
+    Bound<'py, PyArray2<f64>>,
+    Bound<'py, PyArray2<f64>>,
+);
+
+/// The limit surface at (face, u, v) rows (`fuv`, (N, 3) float64): position, du, dv, duu, duv, dvv.
+#[pyfunction]
+#[allow(clippy::too_many_arguments)]
+fn evaluate_at<'py>(
+    py: Python<'py>,
+    v: PyReadonlyArray2<'_, f64>,
+    face_ptr: PyReadonlyArray1<'_, i64>,
+    indices: PyReadonlyArray1<'_, i64>,
+    crease_pairs: PyReadonlyArray1<'_, i64>,
+    crease_sharpness: PyReadonlyArray1<'_, f64>,
+    corners: PyReadonlyArray1<'_, i64>,
+    corner_sharpness: PyReadonlyArray1<'_, f64>,
+    holes: PyReadonlyArray1<'_, i64>,
+    boundary: &str,
+    fuv: PyReadonlyArray2<'_, f64>,
+    tangents: &str,
+) -> PyResult<Samples<'py>> {
+    let mesh = mesh_of(&v, &face_ptr, &indices)?;
+    let cage = cage_of(
+        mesh,
+        &crease_pairs,
+        &crease_sharpness,
+        &corners,
+        &corner_sharpness,
+        &holes,
+        boundary,
+    )?;
+    let tangents = choice(
+        "tangents",
+        tangents,
+        &[
+            ("opensubdiv", Tangents::OpenSubdiv),
+            ("exact", Tangents::Exact),
+        ],
+    )?;
+    if fuv.shape()[1] != 3 {
+        return Err(bad(format!(
+            "fuv must have shape (N, 3), not {:?}",
+            fuv.shape()
+        )));
+    }
+    let rows = fuv
+        .as_slice()
+        .map_err(|_| bad("fuv must be C-contiguous"))?;
+    let mut at = Vec::with_capacity(rows.len() / 3);
+    for (r, x) in rows.chunks_exact(3).enumerate() {
+        if !(x[0] >= 0.0 && x[0].fract() == 0.0 && x[0] <= u32::MAX as f64) {
+            return Err(bad(format!(
+                "fuv row {r}: face {} is not a non-negative whole number",
+                x[0]
+            )));
+        }
+        at.push((x[0] as u32, x[1], x[2]));
+    }
+    let s = py
+        .allow_threads(|| LimitEvaluator::new(&cage, tangents)?.evaluate(&at))
+        .map_err(to_py)?;
+    let col = |f: fn(&api::LimitSample) -> DVec3| {
+        let flat: Vec<f64> = s.iter().flat_map(|x| f(x).to_array()).collect();
+        flat.into_pyarray(py)
+            .reshape([s.len(), 3])
+            .expect("N × 3 values")
+    };
+    Ok((
+        col(|x| x.position),
+        col(|x| x.du),
+        col(|x| x.dv),
+        col(|x| x.duu),
+        col(|x| x.duv),
+        col(|x| x.dvv),
+    ))
+}
 
 /// Loads any mesh file of the loader: (V float64 (n, 3), face offsets int64 (m + 1), indices int64).
 #[pyfunction]
@@ -540,15 +734,31 @@ struct GregorySurface {
 #[pymethods]
 impl GregorySurface {
     #[new]
+    #[allow(clippy::too_many_arguments)]
     fn new(
         py: Python<'_>,
         device: &Device,
         v: PyReadonlyArray2<'_, f64>,
         face_ptr: PyReadonlyArray1<'_, i64>,
         indices: PyReadonlyArray1<'_, i64>,
+        crease_pairs: PyReadonlyArray1<'_, i64>,
+        crease_sharpness: PyReadonlyArray1<'_, f64>,
+        corners: PyReadonlyArray1<'_, i64>,
+        corner_sharpness: PyReadonlyArray1<'_, f64>,
+        holes: PyReadonlyArray1<'_, i64>,
+        boundary: &str,
         tangents: &str,
     ) -> PyResult<Self> {
         let mesh = mesh_of(&v, &face_ptr, &indices)?;
+        let cage = cage_of(
+            mesh,
+            &crease_pairs,
+            &crease_sharpness,
+            &corners,
+            &corner_sharpness,
+            &holes,
+            boundary,
+        )?;
         let tangents = choice(
             "tangents",
             tangents,
@@ -558,7 +768,7 @@ impl GregorySurface {
             ],
         )?;
         let patches = py
-            .allow_threads(|| Patches::from_cage(&mesh, tangents))
+            .allow_threads(|| Patches::from_tagged_cage(&cage, tangents))
             .map_err(to_py)?;
         Ok(GregorySurface {
             gpu: device.gpu()?,
@@ -785,6 +995,8 @@ fn _gregvox(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<PackedGrid>()?;
     m.add_class::<GregorySurface>()?;
     m.add_function(wrap_pyfunction!(load_mesh, m)?)?;
+    m.add_function(wrap_pyfunction!(load_cage, m)?)?;
+    m.add_function(wrap_pyfunction!(evaluate_at, m)?)?;
     m.add_function(wrap_pyfunction!(topology_json, m)?)?;
     m.add_function(wrap_pyfunction!(subdivide, m)?)?;
     m.add_function(wrap_pyfunction!(mesh_matrices, m)?)?;

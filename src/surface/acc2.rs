@@ -436,13 +436,10 @@ impl GregoryStencils {
                 m.face_len(f)
             )));
         }
-        let rep = m.report();
-        if rep.non_manifold_edges > 0 || rep.non_manifold_vertices > 0 {
-            return Err(Error::Invalid(format!(
-                "Gregory stencils: the cage is not a manifold ({} non-manifold edges, {} non-manifold vertices)",
-                rep.non_manifold_edges, rep.non_manifold_vertices
-            )));
+        if let Some(msg) = manifold_error(m) {
+            return Err(Error::Invalid(msg));
         }
+        let rep = m.report();
         if rep.inconsistent_edges > 0 || rep.second_writes > 0 {
             return Err(Error::Invalid(format!(
                 "Gregory stencils: the cage is not consistently oriented ({} edges used twice in the same direction)",
@@ -713,12 +710,8 @@ impl GregoryStencils {
                 note: None,
             });
         }
-        let rep = m.report();
-        if rep.non_manifold_edges > 0 || rep.non_manifold_vertices > 0 {
-            return Err(Error::Invalid(format!(
-                "Gregory stencils: the cage is not a manifold ({} non-manifold edges, {} non-manifold vertices)",
-                rep.non_manifold_edges, rep.non_manifold_vertices
-            )));
+        if let Some(msg) = manifold_error(&m) {
+            return Err(Error::Invalid(msg));
         }
         let n_nonquad = (0..m.n_faces()).filter(|&f| m.face_len(f) != 4).count();
         let sub = catmull_clark_matrix(&m);
@@ -801,12 +794,8 @@ impl GregoryStencils {
                 note: None,
             }));
         }
-        let rep = m.report();
-        if rep.non_manifold_edges > 0 || rep.non_manifold_vertices > 0 {
-            return Err(Error::Invalid(format!(
-                "Gregory stencils: the cage is not a manifold ({} non-manifold edges, {} non-manifold vertices)",
-                rep.non_manifold_edges, rep.non_manifold_vertices
-            )));
+        if let Some(msg) = manifold_error(&m) {
+            return Err(Error::Invalid(msg));
         }
         let n_nonquad = (0..m.n_faces()).filter(|&f| m.face_len(f) != 4).count();
         let (sub, sharp_edge, sharp_vertex) =
@@ -909,6 +898,35 @@ pub fn gather_patches(patch_points: &[[u32; 20]], pts: &[DVec3]) -> Vec<PatchF64
             cv: std::array::from_fn(|j| pts[pp[j] as usize]),
         })
         .collect()
+}
+
+/// Why `m` is not a manifold, naming the first non-manifold edge and vertex (`None` if it is one).
+/// OpenSubdiv accepts such cages by making the edges infinitely sharp; gregvox refuses them.
+fn manifold_error(m: &MeshMatrix) -> Option<String> {
+    let uses = m.edge_uses();
+    let bad_edges: Vec<usize> = (0..uses.len()).filter(|&e| uses[e].faces() > 2).collect();
+    let bad_verts = m.non_manifold_vertices();
+    if bad_edges.is_empty() && bad_verts.is_empty() {
+        return None;
+    }
+    let mut first = Vec::new();
+    if let Some(&e) = bad_edges.first() {
+        let [a, b] = m.edge_vertices(e);
+        first.push(format!(
+            "edge {a}–{b} (0-based vertices) is shared by {} faces",
+            uses[e].faces()
+        ));
+    }
+    if let Some(&v) = bad_verts.first() {
+        first.push(format!("vertex {v} joins separate fans of faces"));
+    }
+    Some(format!(
+        "Gregory stencils: the cage is not a manifold ({} non-manifold edges, {} non-manifold vertices; {}); \
+         OpenSubdiv would make such edges infinitely sharp, gregvox refuses them",
+        bad_edges.len(),
+        bad_verts.len(),
+        first.join("; ")
+    ))
 }
 
 /// The ring edge of the Em point of a corner (toward the previous face vertex).

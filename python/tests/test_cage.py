@@ -1,0 +1,86 @@
+"""Tagged cages from Python: the tags `gregvox.load_cage` reads reach the engine (the CLI of this checkout is
+the oracle), evaluation at (face, u, v) equals `gregvox evaluate`, bad tags and rows are ValueErrors."""
+import numpy as np
+import pytest
+
+import gregvox
+from conftest import read_obj
+
+
+def test_load_cage_reads_opensubdivs_tags(models):
+    V, F, tags = gregvox.load_cage(models / "opensubdiv" / "catmark_edgenone.obj")
+    assert V.shape == (64, 3)
+    assert tags["boundary"] == "none"
+    assert tags["creases"].shape == (18, 2) and (tags["crease_sharpness"] == 10).all()
+    assert tags["corners"].shape == (1,)
+    _, _, plain = gregvox.load_cage(models / "opensubdiv" / "catmark_cube.obj")
+    assert plain["creases"].shape == (0, 2) and plain["boundary"] == "edge-only"
+
+
+def test_a_tagged_surface_is_the_cli_tessellation(cli, models, tmp_path):
+    cage = models / "opensubdiv" / "catmark_hole_test1.obj"
+    V, F, tags = gregvox.load_cage(cage)
+    s = gregvox.GregorySurface(V, F, **tags)
+    assert s.patch_count == 5  # one face is a hole
+    P, N = s.evaluate(3)
+    out = tmp_path / "cli.obj"
+    cli.run("tessellate", cage, "--level", 3, "--no-weld", "--out", out)
+    v, vn, f = read_obj(out)
+    np.testing.assert_array_equal(P.reshape(-1, 3), v.astype(np.float32))
+    # Without the tags the hole is drawn: the tags reached the engine.
+    assert gregvox.GregorySurface(V, F).patch_count == 6
+
+
+def test_creases_change_the_surface_and_semi_sharp_ones_are_refused(models):
+    V, F, _ = gregvox.load_cage(models / "opensubdiv" / "catmark_cube.obj")
+    smooth, _ = gregvox.GregorySurface(V, F).evaluate(2)
+    edges = np.array([[0, 1], [1, 3], [3, 2], [2, 0]])
+    sharp, _ = gregvox.GregorySurface(V, F, creases=edges).evaluate(2)
+    assert not np.array_equal(smooth, sharp)
+    with pytest.raises(ValueError, match="semi-sharp"):
+        gregvox.GregorySurface(V, F, creases=edges, crease_sharpness=2.0)
+    with pytest.raises(ValueError, match="not an edge"):
+        gregvox.GregorySurface(V, F, creases=[[0, 7]])
+    with pytest.raises(ValueError, match="boundary"):
+        gregvox.GregorySurface(V, F, boundary="sideways")
+
+
+def _read_npz(path):
+    with np.load(path) as z:
+        return {k: z[k] for k in z.files}
+
+
+def test_evaluate_at_is_the_cli_evaluation(cli, models, tmp_path):
+    cage = models / "opensubdiv" / "catmark_nonquads.obj"
+    V, F, tags = gregvox.load_cage(cage)
+    rng = np.random.default_rng(7)
+    n_ptex = sum(1 if len(f) == 4 else len(f) for f in F)
+    fuv = np.column_stack([rng.integers(0, n_ptex, 300), rng.random(300), rng.random(300)]).astype(float)
+    ours = gregvox.evaluate_at(V, F, fuv, **tags)
+    np.save(tmp_path / "fuv.npy", fuv)
+    cli.run("evaluate", cage, "--at", tmp_path / "fuv.npy", "--out", tmp_path / "p.npz")
+    theirs = _read_npz(tmp_path / "p.npz")
+    assert set(theirs) == set(ours) == {"position", "du", "dv", "duu", "duv", "dvv"}
+    for k in ours:
+        assert ours[k].shape == (300, 3) and ours[k].dtype == np.float64
+        np.testing.assert_array_equal(ours[k], theirs[k])
+    # The derivatives are those of the positions (central differences, away from the quadrant seams).
+    inner = fuv.copy()
+    inner[:, 1:] = 0.1 + 0.3 * inner[:, 1:]
+    h = 1e-6
+    p = gregvox.evaluate_at(V, F, inner, **tags)
+    fd = (gregvox.evaluate_at(V, F, inner + [0, h, 0], **tags)["position"]
+          - gregvox.evaluate_at(V, F, inner - [0, h, 0], **tags)["position"]) / (2 * h)
+    np.testing.assert_allclose(fd, p["du"], atol=1e-6)
+
+
+def test_bad_rows_are_value_errors(models):
+    V, F, tags = gregvox.load_cage(models / "opensubdiv" / "catmark_hole_test1.obj")
+    with pytest.raises(ValueError, match="row 1.*hole"):
+        gregvox.evaluate_at(V, F, [[0, 0.5, 0.5], [1, 0.5, 0.5]], **tags)
+    with pytest.raises(ValueError, match=r"\[0, 1\]"):
+        gregvox.evaluate_at(V, F, [[0, 0.5, 1.5]], **tags)
+    with pytest.raises(ValueError, match="whole number"):
+        gregvox.evaluate_at(V, F, [[0.5, 0.5, 0.5]], **tags)
+    with pytest.raises(ValueError, match="shape"):
+        gregvox.evaluate_at(V, F, [0, 0.5, 0.5], **tags)
