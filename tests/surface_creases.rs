@@ -1,7 +1,8 @@
 //! Tagged cages (OpenSubdiv's `t crease`, `t corner`, `t hole`, `t interpolateboundary`) against OpenSubdiv
 //! 3.5 with `useInfSharpPatch` at isolation 0 (fixtures from tests/oracle/osd_gregory.cpp, which reads the
 //! same OBJ tags): the same patches, points and patch types; creases C0 with a fold, the rest still
-//! smooth; what cannot be honoured yet refused with the tag named.
+//! smooth; bad tags and what cannot be honoured refused with the tag named. Semi-sharp cages are checked
+//! against OpenSubdiv's adaptive patches in tests/surface_evaluate.rs.
 #[path = "surface_common.rs"]
 mod common;
 use common::*;
@@ -336,24 +337,40 @@ fn an_untagged_cage_builds_the_same_stencils_either_way() {
 }
 
 #[test]
-fn semi_sharp_tags_are_refused_with_the_tag_named() {
-    for (rel, needle) in [
-        ("opensubdiv/catmark_cube_creases0.obj", "t crease"),
-        (
-            "opensubdiv/catmark_cubes_infsharp.obj",
-            "t crease 24 25 0.1",
-        ),
-        ("opensubdiv/catmark_edgeonly.obj", "t corner"),
-    ] {
-        let cage = load(rel);
-        let err = GregoryStencils::from_cage(&cage, Tangents::OpenSubdiv)
-            .unwrap_err()
-            .to_string();
-        assert!(
-            err.contains(needle) && err.contains("semi-sharp"),
-            "{rel}: {err}"
-        );
+fn a_semi_sharp_feature_that_would_refine_past_the_limit_is_refused_before_any_work() {
+    // A 64×64 grid with one crease of sharpness 9.5: ten uniform levels would make 4096·4⁹ ≈ 10⁹ patches.
+    let n = 64;
+    let mut text = String::new();
+    for j in 0..=n {
+        for i in 0..=n {
+            text += &format!("v {i} {j} 0\n");
+        }
     }
+    for j in 0..n {
+        for i in 0..n {
+            let a = j * (n + 1) + i + 1;
+            text += &format!("f {a} {} {} {}\n", a + 1, a + n + 2, a + n + 1);
+        }
+    }
+    text += "t crease 2/1/0 70 71 9.5\n";
+    let cage = parse_obj_cage(&text, "grid.obj").unwrap();
+    let t0 = std::time::Instant::now();
+    let err = GregoryStencils::from_cage(&cage, Tangents::OpenSubdiv)
+        .unwrap_err()
+        .to_string();
+    assert!(
+        err.contains("t crease 70 71 9.5") && err.contains("10 levels") && err.contains("limit"),
+        "{err}"
+    );
+    assert!(t0.elapsed().as_secs_f64() < 5.0, "refused only after work");
+    // Sharpness 2 on the same grid is fine: 2 levels.
+    let ok = parse_obj_cage(&text.replace(" 9.5\n", " 2\n"), "grid.obj").unwrap();
+    let cs = GregoryStencils::from_cage(&ok, Tangents::OpenSubdiv).unwrap();
+    assert_eq!(
+        (cs.levels, cs.stencils.patch_points.len()),
+        (2, 64 * 64 * 16)
+    );
+    assert!(cs.note.unwrap().contains("semi-sharp"));
 }
 
 #[test]
@@ -416,7 +433,7 @@ fn bad_tags_are_clear_errors_naming_the_line() {
 }
 
 #[test]
-fn the_cli_refuses_a_semi_sharp_cage_and_draws_an_infinitely_sharp_one() {
+fn the_cli_refuses_an_unknown_tag_and_draws_tagged_cages() {
     let dir = std::env::temp_dir().join(format!("gregvox-creases-{}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
     let out = dir.join("o.obj");
@@ -427,26 +444,32 @@ fn the_cli_refuses_a_semi_sharp_cage_and_draws_an_infinitely_sharp_one() {
             .output()
             .unwrap()
     };
-    let r = run(&model("opensubdiv/catmark_cube_creases0.obj"));
+    let edit = dir.join("edit.obj");
+    let cube = std::fs::read_to_string(model("opensubdiv/catmark_cube.obj")).unwrap();
+    std::fs::write(&edit, format!("{cube}t vertexedit 1/0/0 0\n")).unwrap();
+    let r = run(edit.to_str().unwrap());
     let stderr = String::from_utf8_lossy(&r.stderr);
     assert!(!r.status.success(), "{stderr}");
     assert!(
-        stderr.contains("catmark_cube_creases0.obj") && stderr.contains("t crease"),
+        stderr.contains("edit.obj") && stderr.contains("t vertexedit"),
         "{stderr}"
     );
     assert!(!out.exists(), "nothing is written on an error");
-    // A hole: 5 of the cube's 6 faces drawn.
     let faces_of = |input: &str| {
         let r = run(input);
         assert!(r.status.success(), "{}", String::from_utf8_lossy(&r.stderr));
         let text = std::fs::read_to_string(&out).unwrap();
         text.lines().filter(|l| l.starts_with("f ")).count()
     };
+    // A hole: 5 of the cube's 6 faces drawn.
     let holed = faces_of(&model("opensubdiv/catmark_hole_test1.obj"));
     let whole = faces_of(&model("opensubdiv/catmark_cube.obj"));
     assert!(
         whole > 0 && 6 * holed == 5 * whole,
         "{holed} of {whole} faces"
     );
+    // A semi-sharp crease (2.0): the cube refined twice, 16 patches per face.
+    let creased = faces_of(&model("opensubdiv/catmark_cube_creases0.obj"));
+    assert_eq!(creased, 16 * whole);
     std::fs::remove_dir_all(&dir).ok();
 }

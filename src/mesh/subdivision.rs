@@ -271,6 +271,322 @@ pub fn catmull_clark_matrix_sharp(
 /// `nv + f`, see [`catmull_clark`]) instead of expanding each into its face's vertices, which makes the
 /// matrix linear in the mesh: expanded, every edge and vertex of an n-gon carries n weights (a 10,000-gon
 /// cap alone would need 2·10⁸ entries, 1.9 GB).
+/// Sdc's sharpness arithmetic (`Sdc::Crease`): ≤ 0 smooth, ≥ 10 infinite.
+mod sharpness {
+    pub const INFINITE: f32 = 10.0;
+
+    pub fn is_sharp(s: f32) -> bool {
+        s > 0.0
+    }
+
+    pub fn is_semi(s: f32) -> bool {
+        s > 0.0 && s < INFINITE
+    }
+
+    /// One level of uniform decay (`decrementSharpness`).
+    pub fn decrement(s: f32) -> f32 {
+        if s <= 0.0 {
+            0.0
+        } else if s >= INFINITE {
+            INFINITE
+        } else if s > 1.0 {
+            s - 1.0
+        } else {
+            0.0
+        }
+    }
+
+    /// The child sharpness of each edge at a vertex (`SubdivideEdgeSharpnessesAroundVertex`).
+    pub fn children_at_vertex(parent: &[f32], chaikin: bool) -> Vec<f32> {
+        if !chaikin || parent.len() < 2 {
+            return parent.iter().map(|&s| decrement(s)).collect();
+        }
+        let (mut sum, mut count) = (0.0f32, 0u32);
+        for &s in parent {
+            if is_semi(s) {
+                sum += s;
+                count += 1;
+            }
+        }
+        if count == 0 {
+            return parent.to_vec();
+        }
+        parent
+            .iter()
+            .map(|&p| {
+                if p <= 0.0 {
+                    0.0
+                } else if p >= INFINITE {
+                    INFINITE
+                } else if count == 1 {
+                    decrement(p)
+                } else {
+                    let other = (sum - p) / (count - 1) as f32;
+                    let c = (0.75 * p + 0.25 * other) - 1.0;
+                    if c > 0.0 {
+                        c
+                    } else {
+                        0.0
+                    }
+                }
+            })
+            .collect()
+    }
+
+    /// The parent rule's weight where a vertex's rule changes (`ComputeFractionalWeightAtVertex`).
+    pub fn fractional_weight(
+        parent_vertex: f32,
+        child_vertex: f32,
+        parent: &[f32],
+        child: &[f32],
+        chaikin: bool,
+    ) -> f32 {
+        let (mut count, mut sum) = (0u32, 0.0f32);
+        if is_sharp(parent_vertex) && !is_sharp(child_vertex) {
+            count = 1;
+            sum = parent_vertex;
+        }
+        for (&p, &c) in parent.iter().zip(child) {
+            let transition = if chaikin {
+                is_sharp(p) && !is_sharp(c)
+            } else {
+                is_sharp(p) && p <= 1.0
+            };
+            if transition {
+                sum += p;
+                count += 1;
+            }
+        }
+        if count == 0 {
+            return 0.0;
+        }
+        (sum / count as f32).min(1.0)
+    }
+}
+
+/// Sdc's vertex rule.
+#[derive(Clone, Copy, PartialEq, Eq, Debug)]
+enum VertexRule {
+    Smooth,
+    Dart,
+    Crease,
+    Corner,
+}
+
+fn vertex_rule(vertex: f32, edges: &[f32]) -> VertexRule {
+    if sharpness::is_sharp(vertex) {
+        return VertexRule::Corner;
+    }
+    match edges.iter().filter(|&&s| sharpness::is_sharp(s)).count() {
+        0 => VertexRule::Smooth,
+        1 => VertexRule::Dart,
+        2 => VertexRule::Crease,
+        _ => VertexRule::Corner,
+    }
+}
+
+/// A refinement level with Sdc sharpness: the subdivision matrix, the refined topology and the refined
+/// sharpness of every edge (refined edge ids) and vertex.
+#[derive(Debug, Clone)]
+pub struct CreasedSubdivision {
+    pub sub: Subdivision,
+    pub edge_sharpness: Vec<f32>,
+    pub vertex_sharpness: Vec<f32>,
+}
+
+/// One Catmull–Clark level with OpenSubdiv's crease rules (Sdc `Scheme<CATMARK>` with `Crease`): edge and
+/// vertex sharpness per `m` edge id and vertex (boundary edges are infinitely sharp whatever is given;
+/// ≥ 10 is infinite), semi-sharp features decaying by one per level (uniform) or by Chaikin's averaging
+/// along a crease, and a vertex whose rule changes across the level blended by Sdc's fractional weight.
+/// Returns the refined sharpness for the next level.
+///
+/// ```
+/// use gregvox::mesh::{catmull_clark_matrix_creased, MeshMatrix};
+/// // a 2×1 strip of quads with its middle edge semi-sharp (1.5)
+/// let m = MeshMatrix::new(6, &[0, 4, 8], vec![0, 1, 4, 3, 1, 2, 5, 4]).unwrap();
+/// let mid = m.half_edge_edge()[m.find(1, 4) as usize] as usize;
+/// let mut s = vec![0.0f32; m.n_edges()];
+/// s[mid] = 1.5;
+/// let c = catmull_clark_matrix_creased(&m, &s, &[0.0; 6], false);
+/// // the two halves of the middle edge keep sharpness 0.5; the next level smooths them
+/// assert_eq!(c.edge_sharpness.iter().filter(|&&x| x == 0.5).count(), 2);
+/// ```
+pub fn catmull_clark_matrix_creased(
+    m: &MeshMatrix,
+    edge_sharpness: &[f32],
+    vertex_sharpness: &[f32],
+    chaikin: bool,
+) -> CreasedSubdivision {
+    use sharpness::{children_at_vertex, decrement, fractional_weight, is_sharp, INFINITE};
+    let (nv, nf, ne) = (m.n_verts(), m.n_faces(), m.n_edges());
+    let vc = m.vertex_corners();
+    let cf = m.corner_face();
+    let cv = m.corner_vertex();
+    let uses = m.edge_uses();
+    let entry = m.corner_entries();
+    let he_edge = m.half_edge_edge();
+    let twin = m.twins();
+    let es: Vec<f32> = (0..ne)
+        .map(|e| {
+            if uses[e].faces() != 2 {
+                INFINITE
+            } else {
+                edge_sharpness[e].max(0.0)
+            }
+        })
+        .collect();
+    // The edges at each vertex: every corner's outgoing edge, and the incoming one where it has no twin.
+    let mut vedges: Vec<Vec<u32>> = vec![Vec::new(); nv];
+    for c in 0..m.n_corners() {
+        let v = cv[c] as usize;
+        vedges[v].push(he_edge[entry[c] as usize]);
+        let p = m.prev(c as u32) as usize;
+        if twin[entry[p] as usize] == NONE {
+            vedges[v].push(he_edge[entry[p] as usize]);
+        }
+    }
+    let other_end = |e: u32, v: u32| {
+        let [a, b] = m.edge_vertices(e as usize);
+        if a == v {
+            b
+        } else {
+            a
+        }
+    };
+    // Child sharpness of each edge's half at each of its ends.
+    let mut half = vec![[0.0f32; 2]; ne];
+    let mut child_v = vec![0.0f32; nv];
+    let mut rb = RowBuilder::new(nv + nf + ne, 16 * m.n_corners());
+    let face_point = |rb: &mut RowBuilder, f: usize, w: f64| {
+        let face = m.face(f);
+        let wf = w / face.len() as f64;
+        for &u in face {
+            rb.add(u, wf);
+        }
+    };
+    let mut nbrs = Vec::new();
+    for v in 0..nv {
+        let vu = v as u32;
+        let pe: Vec<f32> = vedges[v].iter().map(|&e| es[e as usize]).collect();
+        let ce = children_at_vertex(&pe, chaikin);
+        for (k, &e) in vedges[v].iter().enumerate() {
+            let [a, _] = m.edge_vertices(e as usize);
+            half[e as usize][(a != vu) as usize] = ce[k];
+        }
+        let pvs = vertex_sharpness[v].max(0.0);
+        let cvs = decrement(pvs);
+        child_v[v] = cvs;
+        if !m.is_referenced(v) {
+            rb.add(vu, 1.0);
+            rb.finish_row();
+            continue;
+        }
+        let p_rule = vertex_rule(pvs, &pe);
+        let c_rule = vertex_rule(cvs, &ce);
+        // The mask of a rule, scaled by `w`.
+        let mut mask = |rb: &mut RowBuilder, rule: VertexRule, edges: &[f32], w: f64| match rule {
+            VertexRule::Smooth | VertexRule::Dart => {
+                m.neighbours_into(v, &mut nbrs);
+                let n = nbrs.len() as f64;
+                let n_faces = (vc.ptr[v + 1] - vc.ptr[v]) as f64;
+                rb.add(vu, w * (n - 2.0) / n);
+                for &j in &nbrs {
+                    rb.add(j, w / (n * n));
+                }
+                for k in vc.ptr[v]..vc.ptr[v + 1] {
+                    let f = cf[vc.corner[k as usize] as usize] as usize;
+                    face_point(rb, f, w / (n * n_faces));
+                }
+            }
+            VertexRule::Crease => {
+                rb.add(vu, w * 0.75);
+                let ends: Vec<u32> = vedges[v]
+                    .iter()
+                    .zip(edges)
+                    .filter(|(_, &s)| is_sharp(s))
+                    .map(|(&e, _)| other_end(e, vu))
+                    .take(2)
+                    .collect();
+                for x in ends {
+                    rb.add(x, w * 0.125);
+                }
+            }
+            VertexRule::Corner => rb.add(vu, w),
+        };
+        if matches!(p_rule, VertexRule::Smooth | VertexRule::Dart) || p_rule == c_rule {
+            mask(&mut rb, p_rule, &pe, 1.0);
+        } else {
+            let pw = fractional_weight(pvs, cvs, &pe, &ce, chaikin) as f64;
+            mask(&mut rb, p_rule, &pe, pw);
+            mask(&mut rb, c_rule, &ce, 1.0 - pw);
+        }
+        rb.finish_row();
+    }
+    for f in 0..nf {
+        face_point(&mut rb, f, 1.0);
+        rb.finish_row();
+    }
+    let two_faces = EdgeTwoFaces::new(m);
+    for (e, &s) in es.iter().enumerate() {
+        let [a, b] = m.edge_vertices(e);
+        let smooth = |rb: &mut RowBuilder, w: f64| {
+            rb.add(a, 0.25 * w);
+            rb.add(b, 0.25 * w);
+            for f in two_faces.get(e) {
+                face_point(rb, f as usize, 0.25 * w);
+            }
+        };
+        let child_crease = is_sharp(half[e][0]) && is_sharp(half[e][1]);
+        if !is_sharp(s) {
+            smooth(&mut rb, 1.0);
+        } else if child_crease {
+            rb.add(a, 0.5);
+            rb.add(b, 0.5);
+        } else {
+            // Sdc blends the smooth mask toward the crease mask by the parent sharpness.
+            let pw = s as f64;
+            rb.add(a, pw * 0.5);
+            rb.add(b, pw * 0.5);
+            smooth(&mut rb, 1.0 - pw);
+        }
+        rb.finish_row();
+    }
+    let s = rb.build(nv);
+    // Topology: one quad per corner, as catmull_clark_level.
+    let (fo, eo) = (nv as u32, (nv + nf) as u32);
+    let mut idx = Vec::with_capacity(4 * m.n_corners());
+    for c in 0..m.n_corners() as u32 {
+        let f = cf[c as usize];
+        let e_next = he_edge[entry[c as usize] as usize];
+        let e_prev = he_edge[entry[m.prev(c) as usize] as usize];
+        idx.extend_from_slice(&[cv[c as usize], eo + e_next, fo + f, eo + e_prev]);
+    }
+    let face_ptr: Vec<u32> = (0..=m.n_corners() as u32).map(|c| 4 * c).collect();
+    let topology = MeshMatrix::from_parts_unchecked((nv + nf + ne) as u32, &face_ptr, idx);
+    let mut edge_out = vec![0.0f32; topology.n_edges()];
+    let the = topology.half_edge_edge();
+    for (e, h) in half.iter().enumerate() {
+        let [a, b] = m.edge_vertices(e);
+        let mid = eo + e as u32;
+        for (k, (x, y)) in [(a, mid), (mid, b)].into_iter().enumerate() {
+            let k2 = match topology.find(x, y) {
+                NONE => topology.find(y, x),
+                k => k,
+            };
+            if k2 != NONE && uses[e].faces() == 2 {
+                edge_out[the[k2 as usize] as usize] = h[k];
+            }
+        }
+    }
+    let mut vertex_out = vec![0.0f32; topology.n_verts()];
+    vertex_out[..nv].copy_from_slice(&child_v);
+    CreasedSubdivision {
+        sub: Subdivision { s, topology },
+        edge_sharpness: edge_out,
+        vertex_sharpness: vertex_out,
+    }
+}
+
 fn catmull_clark_level(
     m: &MeshMatrix,
     staged: bool,

@@ -10,9 +10,8 @@
 //!   the line ([`parse_obj_cage`]); a tag that is understood but has no effect on what gregvox builds
 //!   (`facevaryingpropagatecorners`, which OpenSubdiv itself ignores; `facevaryinginterpolateboundary`
 //!   while UVs are not carried) is kept and reported by [`SubdivTags::notes`].
-//! - What the surface builder cannot honour yet (semi-sharp creases and corners, which need
-//!   feature-adaptive isolation; `smoothtriangles smooth` on a cage with triangles) is refused there with
-//!   the tag named ([`SubdivTags::unsupported`]), never smoothed over.
+//! - What the surface builder cannot honour yet (`smoothtriangles smooth` on a cage with triangles) is
+//!   refused there with the tag named ([`SubdivTags::unsupported`]), never smoothed over.
 //! - Indices follow OpenSubdiv's tags: 0-based vertices and faces (unlike OBJ's 1-based `f` lines).
 //! - Sharpness follows Sdc: ≤ 0 is smooth, ≥ [`SHARPNESS_INFINITE`] (10) is infinitely sharp, in between
 //!   is semi-sharp.
@@ -130,35 +129,15 @@ impl SubdivTags {
     }
 
     /// What the Gregory surface builder cannot honour yet, as one message naming the tag (`None` when
-    /// everything can be built exactly): semi-sharp creases and corners (0 < s < 10: they need
-    /// OpenSubdiv's feature-adaptive isolation), `smoothtriangles smooth` on a cage with triangles.
+    /// everything can be built exactly): `smoothtriangles smooth` on a cage with triangles.
     ///
     /// ```
-    /// use gregvox::mesh::{parse_obj_cage};
-    /// let c = parse_obj_cage("v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nf 1 2 3 4\nt crease 2/1/0 0 1 2.0\n", "c.obj").unwrap();
+    /// use gregvox::mesh::parse_obj_cage;
+    /// let c = parse_obj_cage("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\nt smoothtriangles 0/0/1 smooth\n", "c.obj").unwrap();
     /// let msg = c.tags.unsupported(&c.mesh).unwrap();
-    /// assert!(msg.contains("t crease") && msg.contains("semi-sharp"), "{msg}");
+    /// assert!(msg.contains("t smoothtriangles smooth"), "{msg}");
     /// ```
     pub fn unsupported(&self, mesh: &Mesh) -> Option<String> {
-        let semi = |s: f32| s > 0.0 && s < SHARPNESS_INFINITE;
-        let n_semi_c = self.creases.iter().filter(|c| semi(c.sharpness)).count();
-        if let Some(c) = self.creases.iter().find(|c| semi(c.sharpness)) {
-            return Some(format!(
-                "t crease {} {} {}: semi-sharp creases (0 < sharpness < 10; {n_semi_c} in this cage) need \
-                 feature-adaptive isolation, which gregvox does not build yet; infinitely sharp creases \
-                 (sharpness 10) are supported",
-                c.a, c.b, c.sharpness
-            ));
-        }
-        let n_semi_v = self.corners.iter().filter(|c| semi(c.sharpness)).count();
-        if let Some(c) = self.corners.iter().find(|c| semi(c.sharpness)) {
-            return Some(format!(
-                "t corner {} {}: semi-sharp corners (0 < sharpness < 10; {n_semi_v} in this cage) need \
-                 feature-adaptive isolation, which gregvox does not build yet; infinitely sharp corners \
-                 (sharpness 10) are supported",
-                c.vertex, c.sharpness
-            ));
-        }
         if self.smooth_triangles {
             if let Some(f) = (0..mesh.n_faces()).find(|&f| mesh.face(f).len() == 3) {
                 return Some(format!(
@@ -246,7 +225,6 @@ fn check_hole(mesh: &Mesh, f: u32) -> std::result::Result<(), String> {
 /// let c = parse_obj_cage(text, "q.obj").unwrap();
 /// assert_eq!((c.tags.creases.len(), c.tags.corners.len()), (1, 1));
 /// assert_eq!(c.tags.boundary, BoundaryInterpolation::EdgeAndCorner);
-/// assert!(c.tags.unsupported(&c.mesh).is_none());
 /// let err = parse_obj_cage("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\nt vertexedit 1/0/0 0\n", "e.obj").unwrap_err();
 /// assert!(err.to_string().contains("line 5") && err.to_string().contains("vertexedit"));
 /// ```

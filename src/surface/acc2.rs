@@ -24,7 +24,7 @@ use super::features::{Features, VertexTags};
 use crate::error::{Error, Result};
 use crate::geom::gregory::PatchF64;
 use crate::mesh::{
-    catmull_clark_matrix, catmull_clark_matrix_sharp, Cage, Mesh, MeshMatrix, SparseMatrix, NONE,
+    catmull_clark_matrix, catmull_clark_matrix_creased, Cage, Mesh, MeshMatrix, SparseMatrix, NONE,
 };
 use glam::DVec3;
 use std::f64::consts::PI;
@@ -39,6 +39,10 @@ pub enum Tangents {
     /// limit tangent plane; boundary corners keep OpenSubdiv's masks.
     Exact,
 }
+
+/// The most patches a cage refined for semi-sharp features may make (each costs about 2 KiB of stencils;
+/// 2²⁰ patches is a few GiB at the composition of the levels' matrices).
+pub const MAX_REFINED_PATCHES: u64 = 1 << 20;
 
 /// One point row under construction: (cage vertex, weight) pairs, duplicates summed later.
 type Row = Vec<(u32, f64)>;
@@ -82,6 +86,9 @@ pub struct CageStencils {
     pub quad_mesh: Mesh,
     /// `Some(message)` if the cage had non-quad faces and was refined once; print it.
     pub note: Option<String>,
+    /// Catmull–Clark levels applied before building patches: 0 (an all-quad cage), 1 (non-quad faces),
+    /// ⌈s⌉ for semi-sharp features of sharpness up to s.
+    pub levels: u32,
 }
 
 /// Per patch corner: the CCW one-ring of its vertex (docs/notes/gregory.md §3.1) in OpenSubdiv's layout —
@@ -708,6 +715,7 @@ impl GregoryStencils {
                 stencils,
                 quad_mesh: mesh.clone(),
                 note: None,
+                levels: 0,
             });
         }
         if let Some(msg) = manifold_error(&m) {
@@ -727,17 +735,22 @@ impl GregoryStencils {
             stencils,
             quad_mesh,
             note: Some(note),
+            levels: 1,
         })
     }
 
     /// Stencils for a tagged cage ([`Cage`]): infinitely sharp creases and corners, holes and the boundary
     /// rule ([`Features`]); a non-quad cage is refined once by Catmull–Clark with the sharp rules
-    /// ([`crate::mesh::catmull_clark_matrix_sharp`]), its features carried to the refined cage (the halves
+    /// ([`crate::mesh::catmull_clark_matrix_creased`]), its features carried to the refined cage (the halves
     /// of sharp edges sharp, sharp vertices kept, the children of holes holes) as OpenSubdiv's uniform
     /// refinement carries them. An untagged cage gives exactly [`GregoryStencils::from_mesh`]'s stencils.
     ///
+    /// Semi-sharp creases and corners (0 < s < 10, uniform or Chaikin creasing) refine the whole cage
+    /// ⌈s⌉ times with Sdc's crease rules ([`crate::mesh::catmull_clark_matrix_creased`]) before the
+    /// patches are built, folded into `w` like the single step of a non-quad cage.
+    ///
     /// Errors: what [`GregoryStencils::from_mesh`] refuses, and any tag gregvox cannot honour yet
-    /// ([`crate::mesh::SubdivTags::unsupported`]: semi-sharp creases and corners), named.
+    /// ([`crate::mesh::SubdivTags::unsupported`]), named.
     ///
     /// ```
     /// use gregvox::mesh::parse_obj_cage;
@@ -747,9 +760,10 @@ impl GregoryStencils {
     /// let cage = parse_obj_cage(text, "pyramid.obj").unwrap();
     /// let cs = GregoryStencils::from_cage(&cage, Tangents::OpenSubdiv).unwrap();
     /// assert_eq!(cs.stencils.patch_points.len(), 16); // refined once: 4 triangles → 12 quads, 1 quad → 4
+    /// // A semi-sharp crease (2.5) is exact after ⌈2.5⌉ = 3 levels.
     /// let semi = parse_obj_cage(&text.replace(" 10\n", " 2.5\n"), "semi.obj").unwrap();
-    /// let err = GregoryStencils::from_cage(&semi, Tangents::OpenSubdiv).unwrap_err().to_string();
-    /// assert!(err.contains("t crease 0 4 2.5") && err.contains("semi-sharp"), "{err}");
+    /// let cs = GregoryStencils::from_cage(&semi, Tangents::OpenSubdiv).unwrap();
+    /// assert_eq!((cs.levels, cs.stencils.patch_points.len()), (3, 16 * 16));
     /// ```
     pub fn from_cage(cage: &Cage, tangents: Tangents) -> Result<CageStencils> {
         let mesh = &cage.mesh;
@@ -772,7 +786,18 @@ impl GregoryStencils {
             }
             cs
         };
-        if features.is_none() {
+        // Semi-sharp features are exact after ⌈s⌉ levels (OpenSubdiv isolates them adaptively to that
+        // level; here the whole cage is refined uniformly, which gives the same limit surface wherever
+        // OpenSubdiv's patches are exact B-splines or Gregory caps at that level).
+        let semi = cage
+            .tags
+            .creases
+            .iter()
+            .map(|c| c.sharpness)
+            .chain(cage.tags.corners.iter().map(|c| c.sharpness))
+            .filter(|&s| s > 0.0 && s < crate::mesh::SHARPNESS_INFINITE)
+            .fold(0.0f32, f32::max);
+        if features.is_none() && semi == 0.0 {
             return Ok(with_notes(Self::from_mesh(mesh, tangents)?));
         }
         if features.hole.iter().all(|&h| h) {
@@ -786,43 +811,104 @@ impl GregoryStencils {
                 }
             )));
         }
-        if (0..m.n_faces()).all(|f| m.face_len(f) == 4) {
+        let all_quads = (0..m.n_faces()).all(|f| m.face_len(f) == 4);
+        let levels = (semi.ceil() as u32).max(!all_quads as u32);
+        if levels == 0 {
             let stencils = GregoryStencils::with_features(&m, &features, tangents)?;
             return Ok(with_notes(CageStencils {
                 stencils,
                 quad_mesh: mesh.clone(),
                 note: None,
+                levels: 0,
             }));
+        }
+        // Uniform refinement multiplies the patches by 4 per level: refuse before allocating what a deep
+        // semi-sharp feature on a large cage would need.
+        let patches = (m.n_corners() as u64) << (2 * (levels - 1));
+        if patches > MAX_REFINED_PATCHES {
+            let tag = cage
+                .tags
+                .creases
+                .iter()
+                .filter(|c| c.sharpness == semi)
+                .map(|c| format!("t crease {} {} {}", c.a, c.b, c.sharpness))
+                .chain(
+                    cage.tags
+                        .corners
+                        .iter()
+                        .filter(|c| c.sharpness == semi)
+                        .map(|c| format!("t corner {} {}", c.vertex, c.sharpness)),
+                )
+                .next()
+                .unwrap_or_default();
+            return Err(Error::Invalid(format!(
+                "{tag}: semi-sharp features need {levels} levels of refinement; gregvox refines the whole \
+                 cage uniformly (OpenSubdiv isolates them adaptively), which would make {patches} patches, \
+                 past the limit of {MAX_REFINED_PATCHES}: lower the sharpness or split the cage"
+            )));
         }
         if let Some(msg) = manifold_error(&m) {
             return Err(Error::Invalid(msg));
         }
         let n_nonquad = (0..m.n_faces()).filter(|&f| m.face_len(f) != 4).count();
-        let (sub, sharp_edge, sharp_vertex) =
-            catmull_clark_matrix_sharp(&m, &features.sharp_edge, &features.sharp_vertex);
-        // Refined face k is the quad at corner k of the cage; it is a hole if its face is.
-        let hole = m
-            .corner_face()
-            .iter()
-            .map(|&f| features.hole[f as usize])
-            .collect();
+        let (mut es, mut vs) = Features::sharpness_from_tags(&m, &cage.tags)?;
+        let mut hole = features.hole.clone();
+        let mut level_m = m;
+        let mut total: Option<SparseMatrix<f64>> = None;
+        for _ in 0..levels {
+            let c = catmull_clark_matrix_creased(&level_m, &es, &vs, cage.tags.chaikin);
+            // Refined face k is the quad at corner k of the level above; a hole if its face is.
+            hole = level_m
+                .corner_face()
+                .iter()
+                .map(|&f| hole[f as usize])
+                .collect();
+            total = Some(match total {
+                None => c.sub.s,
+                Some(t) => c.sub.s.matmul(&t),
+            });
+            level_m = c.sub.topology;
+            es = c.edge_sharpness;
+            vs = c.vertex_sharpness;
+        }
+        let total = total.expect("levels ≥ 1");
         let refined = Features {
-            sharp_edge,
-            sharp_vertex,
+            sharp_edge: es
+                .iter()
+                .map(|&s| s >= crate::mesh::SHARPNESS_INFINITE)
+                .collect(),
+            sharp_vertex: vs
+                .iter()
+                .map(|&s| s >= crate::mesh::SHARPNESS_INFINITE)
+                .collect(),
             hole,
         };
-        let mut stencils = GregoryStencils::with_features(&sub.topology, &refined, tangents)?;
-        stencils.w = stencils.w.matmul(&sub.s);
-        let quad_mesh = sub.topology.to_mesh(sub.s.spmv(&mesh.positions));
+        let mut stencils = GregoryStencils::with_features(&level_m, &refined, tangents)?;
+        stencils.w = stencils.w.matmul(&total);
+        let quad_mesh = level_m.to_mesh(total.spmv(&mesh.positions));
+        let mut why = Vec::new();
+        if n_nonquad > 0 {
+            why.push(format!("{n_nonquad} non-quad faces"));
+        }
+        if semi > 0.0 {
+            why.push(format!("semi-sharp features (sharpness up to {semi})"));
+        }
         let note = format!(
-            "cage has {n_nonquad} non-quad faces: refined once with Catmull–Clark ({} → {} quads)",
-            m.n_faces(),
-            sub.topology.n_faces()
+            "cage has {}: refined {} with Catmull–Clark ({} → {} quads)",
+            why.join(" and "),
+            if levels == 1 {
+                "once".to_string()
+            } else {
+                format!("{levels} times")
+            },
+            mesh.n_faces(),
+            level_m.n_faces()
         );
         Ok(with_notes(CageStencils {
             stencils,
             quad_mesh,
             note: Some(note),
+            levels,
         }))
     }
 

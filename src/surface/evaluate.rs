@@ -7,13 +7,14 @@
 //!   one ptex face, an n-gon (n ≠ 4) n of them, its sub-face i the quad at its corner i with (0, 0) at the
 //!   corner's vertex, u toward the midpoint of the next edge and v toward the midpoint of the previous one.
 //!   An all-quad cage's ptex faces are its faces.
-//! - A cage with non-quad faces was refined once ([`GregoryStencils::from_cage`]), every face split into the
-//!   quads at its corners: a quad's (u, v) picks the quadrant and is mapped onto that child's own (u, v) by
-//!   a rotation and a scale by 2, and the derivatives are mapped back by the chain rule (Jacobian entries
-//!   0, ±2), so they are the derivatives with respect to the ptex face's own (u, v).
+//! - A cage refined L times ([`GregoryStencils::from_cage`]: non-quad faces, semi-sharp features) has every
+//!   face split into the quads at its corners, level after level: a quad's (u, v) picks the quadrant and is
+//!   mapped onto that child's own (u, v) by a rotation and a scale by 2, once per level, and the
+//!   derivatives are mapped back by the chain rule (the product of the levels' Jacobians), so they are the
+//!   derivatives with respect to the ptex face's own (u, v).
 //! - u and v must lie in [0, 1] and be finite; the face must exist and not be a hole: anything else is an
 //!   error naming the row, never a clamp.
-//! - Cost: O(1) per query after an O(patches) build (the ptex map and the f64 points W·cage).
+//! - Cost: O(L) per query after an O(patches) build (the ptex map and the f64 points W·cage).
 use super::acc2::{CageStencils, GregoryStencils, Tangents};
 use crate::error::{Error, Result};
 use crate::geom::gregory::{eval_generic, PatchF64};
@@ -21,15 +22,15 @@ use crate::mesh::{Cage, NONE};
 use glam::DVec3;
 use rayon::prelude::*;
 
-/// Where a ptex face's patch comes from.
+/// A ptex face: where its patches are.
 #[derive(Debug, Clone, Copy)]
 enum Ptex {
-    /// One patch (a quad of an all-quad cage, or a sub-face of a refined n-gon).
+    /// A face of an unrefined (all-quad) cage: patch `0` (`NONE` for a hole).
     Patch(u32),
-    /// A quad of a refined cage: the patches of its corners 0…3 (`NONE` for holes).
-    Quadrants([u32; 4]),
-    /// A hole face.
-    Hole(u32),
+    /// A quad of a refined cage: its level-1 children are the quads `first..first + 4` (its corners).
+    Quad { first: u32 },
+    /// Sub-face `corner` of an n-gon of a refined cage: the level-1 quad `corner`.
+    SubFace { corner: u32 },
 }
 
 /// The surface at (face, u, v): position and exact derivatives with respect to the ptex face's (u, v).
@@ -56,7 +57,13 @@ pub struct LimitSample {
 /// ```
 pub struct LimitEvaluator {
     patches: Vec<PatchF64>,
+    /// Per quad of the finest level: its patch, or `NONE` (a hole).
+    patch_of: Vec<u32>,
     ptex: Vec<Ptex>,
+    /// The cage face of each ptex face (for messages).
+    ptex_cage_face: Vec<u32>,
+    /// Catmull–Clark levels between the cage and the patches.
+    levels: u32,
 }
 
 impl LimitEvaluator {
@@ -71,41 +78,36 @@ impl LimitEvaluator {
         let s = &cs.stencils;
         let patches = s.patches_f64(&cage.mesh.positions)?;
         let mesh = &cage.mesh;
-        let nf = mesh.n_faces();
-        // Patch of each (refined or not) quad face.
-        let n_quads = cs.quad_mesh.n_faces();
-        let mut patch_of = vec![NONE; n_quads];
+        let mut patch_of = vec![NONE; cs.quad_mesh.n_faces()];
         for (k, &f) in s.patch_face.iter().enumerate() {
             patch_of[f as usize] = k as u32;
         }
-        let refined = n_quads != nf;
-        let mut ptex = Vec::with_capacity(nf);
-        let mut corner = 0usize;
-        for f in 0..nf {
-            let n = mesh.face(f).len();
-            if !refined {
-                ptex.push(match patch_of[f] {
-                    NONE => Ptex::Hole(f as u32),
-                    k => Ptex::Patch(k),
-                });
+        let mut ptex = Vec::with_capacity(mesh.n_faces());
+        let mut ptex_cage_face = Vec::with_capacity(mesh.n_faces());
+        let mut corner = 0u32;
+        for f in 0..mesh.n_faces() {
+            let n = mesh.face(f).len() as u32;
+            if cs.levels == 0 {
+                ptex.push(Ptex::Patch(patch_of[f]));
+                ptex_cage_face.push(f as u32);
             } else if n == 4 {
-                let q: [u32; 4] = std::array::from_fn(|i| patch_of[corner + i]);
-                ptex.push(if q.iter().all(|&k| k == NONE) {
-                    Ptex::Hole(f as u32)
-                } else {
-                    Ptex::Quadrants(q)
-                });
+                ptex.push(Ptex::Quad { first: corner });
+                ptex_cage_face.push(f as u32);
             } else {
                 for i in 0..n {
-                    ptex.push(match patch_of[corner + i] {
-                        NONE => Ptex::Hole(f as u32),
-                        k => Ptex::Patch(k),
-                    });
+                    ptex.push(Ptex::SubFace { corner: corner + i });
+                    ptex_cage_face.push(f as u32);
                 }
             }
             corner += n;
         }
-        Ok(LimitEvaluator { patches, ptex })
+        Ok(LimitEvaluator {
+            patches,
+            patch_of,
+            ptex,
+            ptex_cage_face,
+            levels: cs.levels,
+        })
     }
 
     /// Number of ptex faces (the valid `face` values are `0..ptex_faces()`).
@@ -138,31 +140,53 @@ impl LimitEvaluator {
                 self.ptex.len()
             ))
         })?;
-        match p {
-            Ptex::Hole(face) => Err(bad(format!(
-                "cage face {face} is a hole (`t hole`): it has no surface"
-            ))),
-            Ptex::Patch(k) => Ok((k, u, v, [[1.0, 0.0], [0.0, 1.0]])),
-            Ptex::Quadrants(q) => {
-                // The child at corner i has (0, 0) at the quad's corner i, u' toward corner i + 1 and v'
-                // toward corner i − 1, half the size.
-                let (i, uu, vv, j) = match (u >= 0.5, v >= 0.5) {
-                    (false, false) => (0, 2.0 * u, 2.0 * v, [[2.0, 0.0], [0.0, 2.0]]),
-                    (true, false) => (1, 2.0 * v, 2.0 * (1.0 - u), [[0.0, 2.0], [-2.0, 0.0]]),
-                    (true, true) => (
-                        2,
-                        2.0 * (1.0 - u),
-                        2.0 * (1.0 - v),
-                        [[-2.0, 0.0], [0.0, -2.0]],
-                    ),
-                    (false, true) => (3, 2.0 * (1.0 - v), 2.0 * u, [[0.0, -2.0], [2.0, 0.0]]),
-                };
-                match q[i] {
-                    NONE => Err(bad("that part of the face is a hole".into())),
-                    k => Ok((k, uu, vv, j)),
-                }
-            }
+        let (mut uu, mut vv, mut j) = (u, v, [[1.0, 0.0], [0.0, 1.0]]);
+        let descend = |first: u32, uu: &mut f64, vv: &mut f64, j: &mut [[f64; 2]; 2]| -> u32 {
+            // The child at corner i has (0, 0) at the quad's corner i, u' toward corner i + 1 and v'
+            // toward corner i − 1, half the size: (u', v') = A·(u, v) + b.
+            let (i, a, b) = match (*uu >= 0.5, *vv >= 0.5) {
+                (false, false) => (0, [[2.0, 0.0], [0.0, 2.0]], [0.0, 0.0]),
+                (true, false) => (1, [[0.0, 2.0], [-2.0, 0.0]], [0.0, 2.0]),
+                (true, true) => (2, [[-2.0, 0.0], [0.0, -2.0]], [2.0, 2.0]),
+                (false, true) => (3, [[0.0, -2.0], [2.0, 0.0]], [2.0, 0.0]),
+            };
+            let (x, y) = (*uu, *vv);
+            *uu = a[0][0] * x + a[0][1] * y + b[0];
+            *vv = a[1][0] * x + a[1][1] * y + b[1];
+            *j = [
+                [
+                    a[0][0] * j[0][0] + a[0][1] * j[1][0],
+                    a[0][0] * j[0][1] + a[0][1] * j[1][1],
+                ],
+                [
+                    a[1][0] * j[0][0] + a[1][1] * j[1][0],
+                    a[1][0] * j[0][1] + a[1][1] * j[1][1],
+                ],
+            ];
+            first + i
+        };
+        // Patch: already a patch index (levels = 0).
+        let (mut quad, levels_left) = match p {
+            Ptex::Patch(k) => (k, 0),
+            Ptex::Quad { first } => (descend(first, &mut uu, &mut vv, &mut j), self.levels - 1),
+            Ptex::SubFace { corner } => (corner, self.levels - 1),
+        };
+        for _ in 0..levels_left {
+            quad = descend(4 * quad, &mut uu, &mut vv, &mut j);
         }
+        let k = if self.levels == 0 {
+            quad
+        } else {
+            self.patch_of[quad as usize]
+        };
+        if k == NONE {
+            return Err(bad(format!(
+                "cage face {} is a hole (`t hole`): it has no surface there",
+                self.ptex_cage_face[f as usize]
+            )));
+        }
+        // Rounding in the maps above stays inside [0, 1] (exact for dyadic steps), but clamp anyway.
+        Ok((k, uu.clamp(0.0, 1.0), vv.clamp(0.0, 1.0), j))
     }
 
     fn sample(&self, row: usize, f: u32, u: f64, v: f64) -> Result<LimitSample> {

@@ -129,6 +129,32 @@ impl Features {
         Ok(f)
     }
 
+    /// The tags' sharpness per `m` edge id and vertex, as OpenSubdiv's level 0 holds it: the last tag on
+    /// an element wins, negative is 0, and under [`BoundaryInterpolation::EdgeAndCorner`] a topological
+    /// corner is infinitely sharp (boundary edges are sharpened by the refinement itself).
+    pub fn sharpness_from_tags(m: &MeshMatrix, tags: &SubdivTags) -> Result<(Vec<f32>, Vec<f32>)> {
+        let f = Features::from_tags(m, tags)?;
+        let mut edges = vec![0.0f32; m.n_edges()];
+        let he_edge = m.half_edge_edge();
+        for c in &tags.creases {
+            let k = match m.find(c.a, c.b) {
+                NONE => m.find(c.b, c.a),
+                k => k,
+            };
+            edges[he_edge[k as usize] as usize] = c.sharpness.max(0.0);
+        }
+        let mut verts = vec![0.0f32; m.n_verts()];
+        for c in &tags.corners {
+            verts[c.vertex as usize] = c.sharpness.max(0.0);
+        }
+        for (v, &sharp) in f.sharp_vertex.iter().enumerate() {
+            if sharp {
+                verts[v] = verts[v].max(SHARPNESS_INFINITE);
+            }
+        }
+        Ok((edges, verts))
+    }
+
     /// Errors unless the flags have `m`'s sizes.
     pub(crate) fn check(&self, m: &MeshMatrix) -> Result<()> {
         if self.sharp_edge.len() != m.n_edges()

@@ -39,3 +39,11 @@ for c in catmark_cube catmark_torus catmark_gregory_test6 catmark_inf_crease0 ca
          catmark_nonquads catmark_hole_test3; do
     "$bin" "$osd/$c.obj" /dev/null --ptex 1000 "$out/$c.ptex"
 done
+# Semi-sharp creases and corners (uniform and Chaikin): OpenSubdiv's RefineAdaptive(⌈s⌉) patches at random
+# (ptex face, u, v); 300 samples each keeps the fixtures small.
+for c in catmark_cube_creases1 catmark_cube_creases2 catmark_cubes_semisharp catmark_chaikin0 \
+         catmark_chaikin1 catmark_chaikin2 catmark_tent_creases0 catmark_tent_creases1 catmark_pyramid_creases0 catmark_pyramid_creases1 \
+         catmark_pyramid_creases2 catmark_torus_creases0 catmark_torus_creases1 catmark_dart_edgeonly catmark_dart_edgecorner catmark_val2_interior \
+         catmark_cube_corner0 catmark_cube_corner1 catmark_cube_corner2 catmark_cube_corner3 catmark_gregory_test3 catmark_cube_creases0 catmark_cubes_infsharp catmark_edgeonly; do
+    "$bin" "$osd/$c.obj" /dev/null --ptex 300 "$out/$c.ptex"
+done

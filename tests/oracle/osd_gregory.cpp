@@ -65,6 +65,7 @@ struct Cage {
     std::vector<float> corner_w;
     std::vector<int> holes;
     Sdc::Options::VtxBoundaryInterpolation boundary = Sdc::Options::VTX_BOUNDARY_EDGE_ONLY;
+    bool chaikin = false;
 };
 
 static Cage read_obj(const char *path) {
@@ -102,6 +103,9 @@ static Cage read_obj(const char *path) {
                 c.boundary = iv[0] == 0 ? Sdc::Options::VTX_BOUNDARY_NONE
                            : iv[0] == 1 ? Sdc::Options::VTX_BOUNDARY_EDGE_AND_CORNER
                                         : Sdc::Options::VTX_BOUNDARY_EDGE_ONLY;
+            } else if (name == "creasemethod") {
+                std::string m; ss >> m;
+                c.chaikin = (m == "chaikin");
             } else if (name != "facevaryinginterpolateboundary") {
                 fprintf(stderr, "%s: tag '%s' not handled by the oracle\n", path, name.c_str()); exit(1);
             }
@@ -121,6 +125,7 @@ static Cage read_obj(const char *path) {
 static Sdc::Options sdc_options(const Cage &c) {
     Sdc::Options o;
     o.SetVtxBoundaryInterpolation(c.boundary);
+    if (c.chaikin) o.SetCreasingMethod(Sdc::Options::CREASE_CHAIKIN);
     return o;
 }
 
@@ -218,14 +223,18 @@ static const int GRID[4][4][2] = {
 };
 
 // --ptex N FILE: N random (ptex face, u, v) on the cage as given, through Far::PatchMap and EvaluateBasis,
-// with RefineAdaptive(0) on an all-quad cage and RefineAdaptive(1) otherwise (non-quad faces need one level):
+// with RefineAdaptive(L), L = the largest semi-sharp sharpness rounded up, at least 1 with non-quad faces:
 //   u32 n; per sample f64[13]: face, u, v, P.xyz, Du.xyz, Dv.xyz, patch type (0 REGULAR, 1 GREGORY_BASIS).
 // The Gregory derivatives are OpenSubdiv's approximation; REGULAR ones are exact.
 static int write_ptex_samples(const Cage &cage, int n, const char *path) {
     bool quads = true;
     for (int k : cage.nv) quads &= (k == 4);
+    float semi = 0;
+    for (float w : cage.crease_w) if (w > 0 && w < 10) semi = std::max(semi, w);
+    for (float w : cage.corner_w) if (w > 0 && w < 10) semi = std::max(semi, w);
+    int level = std::max((int)std::ceil(semi), quads ? 0 : 1);
     Far::TopologyRefiner *r = make_refiner(cage);
-    Far::PatchTableFactory::Options po(quads ? 0 : 1);
+    Far::PatchTableFactory::Options po(level);
     po.SetEndCapType(Far::PatchTableFactory::Options::ENDCAP_GREGORY_BASIS);
     po.useInfSharpPatch = true;
     po.SetPatchPrecision<double>();
