@@ -346,12 +346,21 @@ def _tags(creases: Any = None, crease_sharpness: Any = 10.0, corners: Any = None
             _sharpness("corner_sharpness", corner_sharpness, vs.size), _index_array("holes", holes, 1), boundary)
 
 
+def _isolation(isolation: Optional[int]) -> Optional[int]:
+    if isolation is None:
+        return None
+    if int(isolation) != isolation or not 0 <= isolation <= 10:
+        raise ValueError(f"isolation must be an integer from 0 to 10, not {isolation!r}")
+    return int(isolation)
+
+
 def load_cage(path: Union[str, os.PathLike]) -> Tuple[np.ndarray, Faces, Dict[str, Any]]:
     """Loads a subdivision cage: ``V``, ``F`` as :func:`load_mesh` gives them and the OpenSubdiv tags of an OBJ
     (``t crease``, ``t corner``, ``t hole``, ``t interpolateboundary``) as keyword arguments for
     :class:`GregorySurface` and :func:`evaluate_at`: ``creases`` (k, 2) int64 vertex pairs, ``crease_sharpness``
     (k,), ``corners`` (m,), ``corner_sharpness`` (m,), ``holes`` (h,) face indices, ``boundary`` ("none",
-    "edge-only", "edge-and-corner"). Sharpness 10 is infinitely sharp.
+    "edge-only", "edge-and-corner"). Sharpness 10 is infinitely sharp; semi-sharp features refine the cage
+    ⌈s⌉ times (``isolation``, a keyword of both, can ask for more, as OpenSubdiv's ``RefineAdaptive(L)``).
 
     Raises ``ValueError`` naming the line for a tag gregvox does not know.
     """
@@ -363,7 +372,7 @@ def load_cage(path: Union[str, os.PathLike]) -> Tuple[np.ndarray, Faces, Dict[st
 
 def evaluate_at(V: Any, F: Faces, fuv: Any, *, creases: Any = None, crease_sharpness: Any = 10.0,
                 corners: Any = None, corner_sharpness: Any = 10.0, holes: Any = None, boundary: str = "edge-only",
-                tangents: str = "opensubdiv") -> Dict[str, np.ndarray]:
+                isolation: Optional[int] = None, tangents: str = "opensubdiv") -> Dict[str, np.ndarray]:
     """The limit surface of the cage at (face, u, v) rows (``fuv`` (N, 3): an OpenSubdiv ptex face index, an
     all-quad cage's face index, and u, v in [0, 1]), on the CPU in float64: ``position``, ``du``, ``dv``,
     ``duu``, ``duv``, ``dvv``, each (N, 3), the exact derivatives with respect to the face's (u, v). What
@@ -378,14 +387,14 @@ def evaluate_at(V: Any, F: Faces, fuv: Any, *, creases: Any = None, crease_sharp
     if fuv.ndim != 2 or fuv.shape[1] != 3:
         raise ValueError(f"fuv must have shape (N, 3), not {fuv.shape}")
     tags = _tags(creases, crease_sharpness, corners, corner_sharpness, holes, boundary)
-    arrays = _gregvox.evaluate_at(*_mesh(V, F), *tags, np.ascontiguousarray(fuv), tangents)
+    arrays = _gregvox.evaluate_at(*_mesh(V, F), *tags, _isolation(isolation), np.ascontiguousarray(fuv), tangents)
     return dict(zip(["position", "du", "dv", "duu", "duv", "dvv"], arrays))
 
 
 class GregorySurface:
     """The ACC-2 Gregory surface of a quad cage (a non-quad cage is refined once), evaluated on the GPU.
     Tags as :func:`load_cage` returns them: infinitely sharp creases and corners (sharpness 10), holes and
-    the boundary rule; semi-sharp ones are refused (``ValueError`` naming the tag).
+    the boundary rule; semi-sharp ones refine the cage ⌈s⌉ times, or ``isolation`` times when larger.
 
     >>> import gregvox, numpy as np
     >>> V = np.array([[0, 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0]], float)
@@ -397,11 +406,13 @@ class GregorySurface:
 
     def __init__(self, V: Any, F: Faces, tangents: str = "opensubdiv", device: Optional[Device] = None, *,
                  creases: Any = None, crease_sharpness: Any = 10.0, corners: Any = None,
-                 corner_sharpness: Any = 10.0, holes: Any = None, boundary: str = "edge-only"):
+                 corner_sharpness: Any = 10.0, holes: Any = None, boundary: str = "edge-only",
+                 isolation: Optional[int] = None):
         V, ptr, idx = _mesh(V, F)
         self._n = V.shape[0]
         tags = _tags(creases, crease_sharpness, corners, corner_sharpness, holes, boundary)
-        self._surface = _gregvox.GregorySurface(_device(device)._device, V, ptr, idx, *tags, tangents)
+        self._surface = _gregvox.GregorySurface(_device(device)._device, V, ptr, idx, *tags, _isolation(isolation),
+                                                tangents)
 
     @property
     def patch_count(self) -> int:

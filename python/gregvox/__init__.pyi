@@ -48,6 +48,7 @@ class GregorySurface:
         corner_sharpness: Union[float, npt.ArrayLike] = ...,
         holes: Optional[npt.ArrayLike] = ...,
         boundary: str = ...,
+        isolation: Optional[int] = ...,
     ) -> None: ...
     @property
     def patch_count(self) -> int: ...
@@ -70,6 +71,7 @@ def evaluate_at(
     corner_sharpness: Union[float, npt.ArrayLike] = ...,
     holes: Optional[npt.ArrayLike] = ...,
     boundary: str = ...,
+    isolation: Optional[int] = ...,
     tangents: str = ...,
 ) -> Dict[str, npt.NDArray[np.float64]]: ...
 def voxelize(

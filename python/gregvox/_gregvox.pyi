@@ -34,6 +34,7 @@ class GregorySurface:
         corner_sharpness: F64,
         holes: I64,
         boundary: str,
+        isolation: Optional[int],
         tangents: str,
     ) -> None: ...
     @property
@@ -53,6 +54,7 @@ def evaluate_at(
     corner_sharpness: F64,
     holes: I64,
     boundary: str,
+    isolation: Optional[int],
     fuv: F64,
     tangents: str,
 ) -> Tuple[F64, F64, F64, F64, F64, F64]: ...

@@ -209,6 +209,7 @@ fn cage_of(
     corner_sharpness: &PyReadonlyArray1<'_, f64>,
     holes: &PyReadonlyArray1<'_, i64>,
     boundary: &str,
+    isolation: Option<u32>,
 ) -> PyResult<Cage> {
     let cp = crease_pairs
         .as_slice()
@@ -232,6 +233,7 @@ fn cage_of(
     }
     let mut tags = SubdivTags {
         boundary: choice("boundary", boundary, BOUNDARIES)?,
+        isolation,
         ..SubdivTags::default()
     };
     for (k, &s) in cs.iter().enumerate() {
@@ -311,6 +313,7 @@ fn evaluate_at<'py>(
     corner_sharpness: PyReadonlyArray1<'_, f64>,
     holes: PyReadonlyArray1<'_, i64>,
     boundary: &str,
+    isolation: Option<u32>,
     fuv: PyReadonlyArray2<'_, f64>,
     tangents: &str,
 ) -> PyResult<Samples<'py>> {
@@ -323,6 +326,7 @@ fn evaluate_at<'py>(
         &corner_sharpness,
         &holes,
         boundary,
+        isolation,
     )?;
     let tangents = choice(
         "tangents",
@@ -747,6 +751,7 @@ impl GregorySurface {
         corner_sharpness: PyReadonlyArray1<'_, f64>,
         holes: PyReadonlyArray1<'_, i64>,
         boundary: &str,
+        isolation: Option<u32>,
         tangents: &str,
     ) -> PyResult<Self> {
         let mesh = mesh_of(&v, &face_ptr, &indices)?;
@@ -758,6 +763,7 @@ impl GregorySurface {
             &corner_sharpness,
             &holes,
             boundary,
+            isolation,
         )?;
         let tangents = choice(
             "tangents",

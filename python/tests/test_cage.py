@@ -31,14 +31,22 @@ def test_a_tagged_surface_is_the_cli_tessellation(cli, models, tmp_path):
     assert gregvox.GregorySurface(V, F).patch_count == 6
 
 
-def test_creases_change_the_surface_and_semi_sharp_ones_are_refused(models):
+def test_creases_change_the_surface_and_semi_sharp_ones_refine_it(models):
     V, F, _ = gregvox.load_cage(models / "opensubdiv" / "catmark_cube.obj")
     smooth, _ = gregvox.GregorySurface(V, F).evaluate(2)
     edges = np.array([[0, 1], [1, 3], [3, 2], [2, 0]])
     sharp, _ = gregvox.GregorySurface(V, F, creases=edges).evaluate(2)
     assert not np.array_equal(smooth, sharp)
-    with pytest.raises(ValueError, match="semi-sharp"):
-        gregvox.GregorySurface(V, F, creases=edges, crease_sharpness=2.0)
+    # Semi-sharp (2.0): two levels, 16 patches a face; the same as the cage file's own tags.
+    semi = gregvox.GregorySurface(V, F, creases=[[0, 1], [1, 3]], crease_sharpness=2.0)
+    assert semi.patch_count == 96
+    Vc, Fc, tags = gregvox.load_cage(models / "opensubdiv" / "catmark_cube_creases0.obj")
+    from_file = gregvox.GregorySurface(Vc, Fc, **tags)
+    assert from_file.patch_count == 96
+    # isolation: more levels than the cage needs, never fewer.
+    assert gregvox.GregorySurface(V, F, isolation=1).patch_count == 24
+    with pytest.raises(ValueError, match="isolation 1 is below"):
+        gregvox.GregorySurface(Vc, Fc, isolation=1, **tags)
     with pytest.raises(ValueError, match="not an edge"):
         gregvox.GregorySurface(V, F, creases=[[0, 7]])
     with pytest.raises(ValueError, match="boundary"):
@@ -56,9 +64,9 @@ def test_evaluate_at_is_the_cli_evaluation(cli, models, tmp_path):
     rng = np.random.default_rng(7)
     n_ptex = sum(1 if len(f) == 4 else len(f) for f in F)
     fuv = np.column_stack([rng.integers(0, n_ptex, 300), rng.random(300), rng.random(300)]).astype(float)
-    ours = gregvox.evaluate_at(V, F, fuv, **tags)
+    ours = gregvox.evaluate_at(V, F, fuv, **tags, isolation=2)
     np.save(tmp_path / "fuv.npy", fuv)
-    cli.run("evaluate", cage, "--at", tmp_path / "fuv.npy", "--out", tmp_path / "p.npz")
+    cli.run("evaluate", cage, "--at", tmp_path / "fuv.npy", "--out", tmp_path / "p.npz", "--isolation", 2)
     theirs = _read_npz(tmp_path / "p.npz")
     assert set(theirs) == set(ours) == {"position", "du", "dv", "duu", "duv", "dvv"}
     for k in ours:

@@ -18,12 +18,18 @@ pub struct EvaluateArgs {
     /// The output .npz: `position`, `du`, `dv`, `duu`, `duv`, `dvv`, each (N, 3) float64.
     #[arg(long, value_name = "P.npz")]
     pub out: PathBuf,
+    /// Isolation level L of a cage: refine it L times before building patches, as OpenSubdiv's
+    /// RefineAdaptive(L) isolates irregular features (default: the least exact level, ⌈largest
+    /// semi-sharp sharpness⌉, 1 with non-quad faces, else 0).
+    #[arg(long, value_name = "L")]
+    pub isolation: Option<u32>,
 }
 
 /// Runs `gregvox evaluate`.
 pub fn run(args: &EvaluateArgs) -> anyhow::Result<()> {
     let t0 = Instant::now();
-    let cage = load_cage(&args.input)?;
+    let mut cage = load_cage(&args.input)?;
+    cage.tags.isolation = args.isolation;
     let rows = read_points(&args.at)?;
     let mut at = Vec::with_capacity(rows.len());
     for (r, &[f, u, v]) in rows.iter().enumerate() {

@@ -55,6 +55,11 @@ pub struct TessellateArgs {
     /// Edge-point masks of a cage's ACC-2 patches at extraordinary vertices.
     #[arg(long, value_enum, default_value = "opensubdiv")]
     pub tangents: TangentMode,
+    /// Isolation level L of a cage: refine it L times before building patches, as OpenSubdiv's
+    /// RefineAdaptive(L) isolates irregular features (default: the least exact level, ⌈largest
+    /// semi-sharp sharpness⌉, 1 with non-quad faces, else 0).
+    #[arg(long, value_name = "L")]
+    pub isolation: Option<u32>,
     /// Screen-space adaptive levels: target PIXELS per tessellation segment on screen, each patch's level
     /// between 1 and --level (compute path, cages only), listed in a `# levels` comment. Welded and
     /// crack-free; with --no-weld the OBJ holds every patch's own (L_p+1)² grid in patch order (rows of u
@@ -122,7 +127,20 @@ pub fn run(args: &TessellateArgs) -> anyhow::Result<()> {
         crate::io::check_output(out)?;
     }
     args.profile.check_outputs()?;
-    let patches = Patches::load(&args.input, args.tangents.into())?;
+    if is_beziex(&args.input) && args.isolation.is_some() {
+        bail!(
+            "--isolation refines a cage; {} is a Beziex model",
+            args.input.display()
+        );
+    }
+    let patches = if is_beziex(&args.input) {
+        Patches::load(&args.input, args.tangents.into())?
+    } else {
+        let mut cage = crate::api::load_cage(&args.input)?;
+        cage.tags.isolation = args.isolation;
+        Patches::from_tagged_cage(&cage, args.tangents.into())
+            .map_err(|e| e.for_input(&args.input))?
+    };
     if let Some(n) = patches.note() {
         eprintln!("gregvox tessellate: {n}");
     }

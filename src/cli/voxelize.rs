@@ -90,6 +90,10 @@ pub struct VoxelizeArgs {
     /// it straight from the device-local vertex buffer (no CPU round trip of the surface).
     #[arg(long, value_name = "LEVEL")]
     pub gregory_level: Option<u32>,
+    /// With --gregory-level: the cage's isolation level L (refined L times first, as OpenSubdiv's
+    /// RefineAdaptive(L); default: ⌈largest semi-sharp sharpness⌉, 1 with non-quad faces, else 0).
+    #[arg(long, value_name = "L", requires = "gregory_level")]
+    pub isolation: Option<u32>,
     /// What the output holds: `occupancy` (the solid voxels), or `sdf`, a narrow-band signed distance level
     /// set (an OpenVDB FloatGrid of class "level set" named `sdf`, .vdb only): exact distances at the band's
     /// voxel centres, negative on the solid voxels, ±half-width voxels elsewhere.
@@ -278,7 +282,8 @@ pub fn run(args: &VoxelizeArgs) -> anyhow::Result<()> {
         (Some(gpu), Some(level)) => {
             // The cage with its OpenSubdiv tags (creases, corners, holes): the mesh above was read for
             // the grid's frame, which tags do not change.
-            let cage = crate::api::load_cage(&args.input)?;
+            let mut cage = crate::api::load_cage(&args.input)?;
+            cage.tags.isolation = args.isolation;
             gpu.voxelize_gregory(&cage, level, &opts, profiler.as_mut())
         }
         (Some(gpu), None) => gpu.voxelize_profiled(&mesh, &opts, profiler.as_mut()),

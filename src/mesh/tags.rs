@@ -71,6 +71,10 @@ pub struct SubdivTags {
     pub smooth_triangles: bool,
     /// Tags read that change nothing gregvox builds, with why (see [`SubdivTags::notes`]).
     pub ignored: Vec<String>,
+    /// The isolation level L (`--isolation`): the cage is refined L times before the patches are built,
+    /// as OpenSubdiv's `RefineAdaptive(L)` isolates every irregular feature to level L. `None`: the least
+    /// exact level, ⌈largest semi-sharp sharpness⌉ (at least 1 with non-quad faces, else 0).
+    pub isolation: Option<u32>,
 }
 
 /// A subdivision cage: the polygon mesh and its tags.

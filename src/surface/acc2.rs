@@ -797,7 +797,7 @@ impl GregoryStencils {
             .chain(cage.tags.corners.iter().map(|c| c.sharpness))
             .filter(|&s| s > 0.0 && s < crate::mesh::SHARPNESS_INFINITE)
             .fold(0.0f32, f32::max);
-        if features.is_none() && semi == 0.0 {
+        if features.is_none() && semi == 0.0 && cage.tags.isolation.unwrap_or(0) == 0 {
             return Ok(with_notes(Self::from_mesh(mesh, tangents)?));
         }
         if features.hole.iter().all(|&h| h) {
@@ -812,7 +812,23 @@ impl GregoryStencils {
             )));
         }
         let all_quads = (0..m.n_faces()).all(|f| m.face_len(f) == 4);
-        let levels = (semi.ceil() as u32).max(!all_quads as u32);
+        let least = (semi.ceil() as u32).max(!all_quads as u32);
+        let levels = match cage.tags.isolation {
+            None => least,
+            Some(l) if l >= least => l,
+            Some(l) => {
+                return Err(Error::Invalid(format!(
+                    "--isolation {l} is below the {least} level(s) this cage needs ({})",
+                    if semi > 0.0 {
+                        format!(
+                            "semi-sharp features up to sharpness {semi} are exact after ⌈s⌉ levels"
+                        )
+                    } else {
+                        "non-quad faces need one Catmull–Clark level".to_string()
+                    }
+                )))
+            }
+        };
         if levels == 0 {
             let stencils = GregoryStencils::with_features(&m, &features, tangents)?;
             return Ok(with_notes(CageStencils {
@@ -892,6 +908,9 @@ impl GregoryStencils {
         }
         if semi > 0.0 {
             why.push(format!("semi-sharp features (sharpness up to {semi})"));
+        }
+        if levels > least {
+            why.push(format!("an isolation level of {levels} (--isolation)"));
         }
         let note = format!(
             "cage has {}: refined {} with Catmull–Clark ({} → {} quads)",

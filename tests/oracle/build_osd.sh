@@ -47,3 +47,7 @@ for c in catmark_cube_creases1 catmark_cube_creases2 catmark_cubes_semisharp cat
          catmark_cube_corner0 catmark_cube_corner1 catmark_cube_corner2 catmark_cube_corner3 catmark_gregory_test3 catmark_cube_creases0 catmark_cubes_infsharp catmark_edgeonly; do
     "$bin" "$osd/$c.obj" /dev/null --ptex 300 "$out/$c.ptex"
 done
+# --isolation 2 on cages that need none: OpenSubdiv's RefineAdaptive(2) (EVs isolated to level 2).
+for c in catmark_cube catmark_gregory_test6 catmark_tent; do
+    "$bin" "$osd/$c.obj" /dev/null --ptex 300 "$out/${c}_iso2.ptex" --isolation 2
+done

@@ -222,17 +222,18 @@ static const int GRID[4][4][2] = {
     {{15, 15}, {17, 17}, {11, 11}, {10, 10}},
 };
 
-// --ptex N FILE: N random (ptex face, u, v) on the cage as given, through Far::PatchMap and EvaluateBasis,
-// with RefineAdaptive(L), L = the largest semi-sharp sharpness rounded up, at least 1 with non-quad faces:
+// --ptex N FILE [--isolation L]: N random (ptex face, u, v) on the cage as given, through Far::PatchMap and
+// EvaluateBasis, with RefineAdaptive(L), L at least the largest semi-sharp sharpness rounded up, at least 1
+// with non-quad faces:
 //   u32 n; per sample f64[13]: face, u, v, P.xyz, Du.xyz, Dv.xyz, patch type (0 REGULAR, 1 GREGORY_BASIS).
 // The Gregory derivatives are OpenSubdiv's approximation; REGULAR ones are exact.
-static int write_ptex_samples(const Cage &cage, int n, const char *path) {
+static int write_ptex_samples(const Cage &cage, int n, const char *path, int isolation) {
     bool quads = true;
     for (int k : cage.nv) quads &= (k == 4);
     float semi = 0;
     for (float w : cage.crease_w) if (w > 0 && w < 10) semi = std::max(semi, w);
     for (float w : cage.corner_w) if (w > 0 && w < 10) semi = std::max(semi, w);
-    int level = std::max((int)std::ceil(semi), quads ? 0 : 1);
+    int level = std::max(std::max((int)std::ceil(semi), quads ? 0 : 1), isolation);
     Far::TopologyRefiner *r = make_refiner(cage);
     Far::PatchTableFactory::Options po(level);
     po.SetEndCapType(Far::PatchTableFactory::Options::ENDCAP_GREGORY_BASIS);
@@ -303,16 +304,17 @@ int main(int argc, char **argv) {
     bool refine = false, f32 = false, samples = false;
     const char *limit_path = 0;
     const char *ptex_path = 0;
-    int ptex_n = 0;
+    int ptex_n = 0, isolation = 0;
     for (int i = 3; i < argc; ++i) {
         if (!strcmp(argv[i], "--limit") && i + 1 < argc) { limit_path = argv[++i]; continue; }
         if (!strcmp(argv[i], "--ptex") && i + 2 < argc) { ptex_n = atoi(argv[++i]); ptex_path = argv[++i]; continue; }
+        if (!strcmp(argv[i], "--isolation") && i + 1 < argc) { isolation = atoi(argv[++i]); continue; }
         if (!strcmp(argv[i], "--refine")) refine = true;
         else if (!strcmp(argv[i], "--f32")) f32 = true;
         else if (!strcmp(argv[i], "--samples")) samples = true;
     }
     Cage cage = read_obj(argv[1]);
-    if (ptex_path) return write_ptex_samples(cage, ptex_n, ptex_path);
+    if (ptex_path) return write_ptex_samples(cage, ptex_n, ptex_path, isolation);
     if (refine) cage = refine_once(cage);
     for (int n : cage.nv) if (n != 4) { fprintf(stderr, "%s: not all-quad (use --refine)\n", argv[1]); return 1; }
     int nf = (int)cage.nv.size();
