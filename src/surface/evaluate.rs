@@ -85,10 +85,10 @@ impl LimitEvaluator {
         let mut ptex = Vec::with_capacity(mesh.n_faces());
         let mut ptex_cage_face = Vec::with_capacity(mesh.n_faces());
         let mut corner = 0u32;
-        for f in 0..mesh.n_faces() {
+        for (f, &patch) in patch_of.iter().enumerate().take(mesh.n_faces()) {
             let n = mesh.face(f).len() as u32;
             if cs.levels == 0 {
-                ptex.push(Ptex::Patch(patch_of[f]));
+                ptex.push(Ptex::Patch(patch));
                 ptex_cage_face.push(f as u32);
             } else if n == 4 {
                 ptex.push(Ptex::Quad { first: corner });
