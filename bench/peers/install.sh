@@ -28,10 +28,11 @@ python3 -c "import igl, trimesh, numpy, scipy, fast_simplification, pyfqmr" 2>/d
     python3 -m pip install -r "$here/requirements.txt"
 mkdir -p "$root/target/bench-peers"
 c++ -O2 -fopenmp -std=c++14 -o "$root/target/bench-peers/osd_eval_bench" "$here/osd_eval_bench.cpp" -losdCPU
+c++ -O2 -fopenmp -std=c++14 -o "$root/target/bench-peers/osd_ptex_bench" "$here/osd_ptex_bench.cpp" -losdCPU
 c++ -O2 -std=c++14 -o "$root/target/bench-peers/osd_glcompute_bench" "$here/osd_glcompute_bench.cpp" \
     -losdGPU -losdCPU -lEGL -lOpenGL
 # The meshoptimizer peer of the simplify suite: an example of this crate (the meshopt crate compiles
 # meshoptimizer's C++ source), copied where `gregvox bench` looks for peers.
 cargo build --release --quiet --example meshopt_peer --manifest-path "$root/Cargo.toml"
 cp "$root/target/release/examples/meshopt_peer" "$root/target/bench-peers/meshopt_peer"
-echo "peers installed: target/bench-peers/osd_eval_bench, target/bench-peers/osd_glcompute_bench, python3 libigl + trimesh"
+echo "peers installed: target/bench-peers/osd_eval_bench, osd_ptex_bench, osd_glcompute_bench, python3 libigl + trimesh"

@@ -1,15 +1,20 @@
-// Shared by the OpenSubdiv peers of `gregvox bench` (osd_eval_bench.cpp, osd_glcompute_bench.cpp): the
-// point types Far's stencil and patch evaluation fill, the all-quad OBJ cage reader with its checks
-// (missing file, a face that is not a quad, no faces, an index out of range: one line on stderr, false),
-// the patch tables both evaluate (built as tests/oracle/osd_gregory.cpp builds them), and one sample of
-// the double CPU reference.
+// Shared by the OpenSubdiv peers of `gregvox bench` (osd_eval_bench.cpp, osd_glcompute_bench.cpp,
+// osd_ptex_bench.cpp): the median timer, the point types Far's stencil and patch evaluation fill, the OBJ cage
+// readers with their checks (missing file, no faces, an index out of range, for the quad reader a face that
+// is not a quad: one line on stderr, false; the tagged reader keeps OpenSubdiv's `t` tags), the patch tables
+// they evaluate (built as tests/oracle/osd_gregory.cpp builds them), and one sample of the double CPU
+// reference.
 #pragma once
 #include <opensubdiv/far/patchMap.h>
 #include <opensubdiv/far/patchTableFactory.h>
 #include <opensubdiv/far/stencilTable.h>
 #include <opensubdiv/far/topologyDescriptor.h>
+#include <opensubdiv/far/primvarRefiner.h>
 #include <opensubdiv/osd/types.h>
 #include <algorithm>
+#include <chrono>
+#include <functional>
+#include <cmath>
 #include <memory>
 #include <cstdio>
 #include <cstdlib>
@@ -17,6 +22,20 @@
 #include <sstream>
 #include <string>
 #include <vector>
+
+// Median seconds of `run` over `repeats` timed runs after one warm-up run.
+static double median_seconds(int repeats, const std::function<void()> &run) {
+    std::vector<double> times;
+    for (int rep = 0; rep < repeats + 1; ++rep) {
+        auto t0 = std::chrono::steady_clock::now();
+        run();
+        auto t1 = std::chrono::steady_clock::now();
+        if (rep > 0) times.push_back(std::chrono::duration<double>(t1 - t0).count());
+    }
+    std::sort(times.begin(), times.end());
+    size_t m = times.size();
+    return m % 2 ? times[m / 2] : 0.5 * (times[m / 2 - 1] + times[m / 2]);
+}
 
 struct V3 {
     double p[3];
@@ -31,10 +50,21 @@ struct V3f {
 };
 static_assert(sizeof(V3f) == 3 * sizeof(float), "a buffer of x, y, z floats");
 
-// Reads the `v` and `f` lines of an OBJ (negative indices relative, texture/normal indices ignored) into
-// positions, vertices per face and 0-based face indices; false (after one stderr line) unless it is a
-// non-empty all-quad cage whose indices are in range.
-static bool read_quad_cage(const char *path, std::vector<V3> &pos, std::vector<int> &nv, std::vector<int> &idx) {
+// A cage of any polygons with the OpenSubdiv tags the regression shapes carry (`t crease`, `t corner`,
+// `t hole`, `t interpolateboundary`, `t creasemethod`; other `t` lines are ignored here: gregvox refuses
+// the ones it does not know before the bench runs), 0-based indices as in far_utils.h.
+struct TaggedCage {
+    std::vector<V3> pos;
+    std::vector<int> nv, idx, crease_pairs, corners, holes;
+    std::vector<float> crease_w, corner_w;
+    OpenSubdiv::Sdc::Options::VtxBoundaryInterpolation boundary =
+        OpenSubdiv::Sdc::Options::VTX_BOUNDARY_EDGE_ONLY;
+    bool chaikin = false;
+};
+
+// Reads a tagged cage; false (after one stderr line) when it cannot be read, has no faces or an index is out
+// of range.
+static bool read_tagged_cage(const char *path, TaggedCage &c) {
     std::ifstream in(path);
     if (!in) { fprintf(stderr, "%s: cannot open\n", path); return false; }
     std::string line;
@@ -42,16 +72,56 @@ static bool read_quad_cage(const char *path, std::vector<V3> &pos, std::vector<i
         std::istringstream ss(line);
         std::string tag;
         ss >> tag;
-        if (tag == "v") { V3 v; ss >> v.p[0] >> v.p[1] >> v.p[2]; pos.push_back(v); }
+        if (tag == "v") { V3 v; ss >> v.p[0] >> v.p[1] >> v.p[2]; c.pos.push_back(v); }
         else if (tag == "f") {
             std::string tok; int n = 0;
-            while (ss >> tok) { int i = atoi(tok.c_str()); if (i < 0) i = (int)pos.size() + i + 1; idx.push_back(i - 1); ++n; }
-            nv.push_back(n);
+            while (ss >> tok) { int i = atoi(tok.c_str()); if (i < 0) i = (int)c.pos.size() + i + 1; c.idx.push_back(i - 1); ++n; }
+            c.nv.push_back(n);
+        } else if (tag == "t") {
+            std::string name, counts;
+            ss >> name >> counts;
+            int ni = 0, nfl = 0, ns = 0;
+            sscanf(counts.c_str(), "%d/%d/%d", &ni, &nfl, &ns);
+            std::vector<int> iv(ni);
+            std::vector<float> fv(nfl);
+            std::string sv;
+            for (auto &x : iv) ss >> x;
+            for (auto &x : fv) ss >> x;
+            if (ns) ss >> sv;
+            auto weight = [&](int k) { return nfl == 0 ? 0.0f : std::max(0.0f, nfl > 1 ? fv[k] : fv[0]); };
+            if (name == "crease") {
+                for (int j = 0; j + 1 < ni; j += 2) {
+                    c.crease_pairs.push_back(iv[j]); c.crease_pairs.push_back(iv[j + 1]);
+                    c.crease_w.push_back(weight(j / 2));
+                }
+            } else if (name == "corner") {
+                for (int j = 0; j < ni; ++j) { c.corners.push_back(iv[j]); c.corner_w.push_back(weight(j)); }
+            } else if (name == "hole") {
+                for (int j = 0; j < ni; ++j) c.holes.push_back(iv[j]);
+            } else if (name == "interpolateboundary" && ni == 1) {
+                c.boundary = iv[0] == 0 ? OpenSubdiv::Sdc::Options::VTX_BOUNDARY_NONE
+                           : iv[0] == 1 ? OpenSubdiv::Sdc::Options::VTX_BOUNDARY_EDGE_AND_CORNER
+                                        : OpenSubdiv::Sdc::Options::VTX_BOUNDARY_EDGE_ONLY;
+            } else if (name == "creasemethod") {
+                c.chaikin = (sv == "chaikin");
+            }
         }
     }
-    for (int n : nv) if (n != 4) { fprintf(stderr, "%s: not an all-quad cage\n", path); return false; }
-    if (nv.empty()) { fprintf(stderr, "%s: no faces\n", path); return false; }
-    for (int i : idx) if (i < 0 || i >= (int)pos.size()) { fprintf(stderr, "%s: face index out of range\n", path); return false; }
+    if (c.nv.empty()) { fprintf(stderr, "%s: no faces\n", path); return false; }
+    for (int i : c.idx) if (i < 0 || i >= (int)c.pos.size()) { fprintf(stderr, "%s: face index out of range\n", path); return false; }
+    return true;
+}
+
+// Reads the `v` and `f` lines of an OBJ (negative indices relative, texture/normal indices ignored) into
+// positions, vertices per face and 0-based face indices; false (after one stderr line) unless it is a
+// non-empty all-quad cage whose indices are in range.
+static bool read_quad_cage(const char *path, std::vector<V3> &pos, std::vector<int> &nv, std::vector<int> &idx) {
+    TaggedCage c;
+    if (!read_tagged_cage(path, c)) return false;
+    for (int n : c.nv) if (n != 4) { fprintf(stderr, "%s: not an all-quad cage\n", path); return false; }
+    pos = c.pos;
+    nv = c.nv;
+    idx = c.idx;
     return true;
 }
 
@@ -137,5 +207,73 @@ static bool patch_coords(const GregoryTables &t, int L, std::vector<OpenSubdiv::
                 if (!h) { fprintf(stderr, "FindPatch (float) failed face %d\n", f); return false; }
                 coords[k] = OpenSubdiv::Osd::PatchCoord(*h, u, v);
             }
+    return true;
+}
+
+// The isolation level gregvox uses by default: the largest semi-sharp sharpness rounded up, at least 1 with
+// non-quad faces.
+static int default_isolation(const TaggedCage &c) {
+    float semi = 0;
+    for (float w : c.crease_w) if (w > 0 && w < 10) semi = std::max(semi, w);
+    for (float w : c.corner_w) if (w > 0 && w < 10) semi = std::max(semi, w);
+    bool quads = true;
+    for (int n : c.nv) quads &= (n == 4);
+    return std::max((int)std::ceil(semi), quads ? 0 : 1);
+}
+
+// Far for a tagged cage at isolation L: the refiner (RefineAdaptive(L), useInfSharpPatch, Gregory basis end
+// caps) with its tags, and the double (`pt`, `pts`, `pm`) and float (`ptf`, `ptsf`, `pmf`) patch tables with
+// every refined and local point. False (after one stderr line) if Far refuses the cage.
+static bool make_tagged_tables(const char *path, const TaggedCage &c, int L, GregoryTables &t) {
+    namespace Far = OpenSubdiv::Far;
+    Far::TopologyDescriptor d;
+    d.numVertices = (int)c.pos.size();
+    d.numFaces = (int)c.nv.size();
+    d.numVertsPerFace = c.nv.data();
+    d.vertIndicesPerFace = c.idx.data();
+    d.numCreases = (int)c.crease_w.size();
+    d.creaseVertexIndexPairs = c.crease_pairs.data();
+    d.creaseWeights = c.crease_w.data();
+    d.numCorners = (int)c.corner_w.size();
+    d.cornerVertexIndices = c.corners.data();
+    d.cornerWeights = c.corner_w.data();
+    d.numHoles = (int)c.holes.size();
+    d.holeIndices = c.holes.data();
+    OpenSubdiv::Sdc::Options o;
+    o.SetVtxBoundaryInterpolation(c.boundary);
+    if (c.chaikin) o.SetCreasingMethod(OpenSubdiv::Sdc::Options::CREASE_CHAIKIN);
+    typedef Far::TopologyRefinerFactory<Far::TopologyDescriptor> F;
+    t.refiner.reset(F::Create(d, F::Options(OpenSubdiv::Sdc::SCHEME_CATMARK, o)));
+    if (!t.refiner) { fprintf(stderr, "%s: Far::TopologyRefinerFactory::Create failed\n", path); return false; }
+    Far::PatchTableFactory::Options po(L);
+    po.SetEndCapType(Far::PatchTableFactory::Options::ENDCAP_GREGORY_BASIS);
+    po.useInfSharpPatch = true;
+    po.SetPatchPrecision<double>();
+    t.refiner->RefineAdaptive(po.GetRefineAdaptiveOptions());
+    t.pt.reset(Far::PatchTableFactory::Create(*t.refiner, po));
+    t.nref = t.refiner->GetNumVerticesTotal();
+    t.pts.assign(t.nref + t.pt->GetNumLocalPoints(), V3());
+    std::copy(c.pos.begin(), c.pos.end(), t.pts.begin());
+    Far::PrimvarRefinerReal<double> pr(*t.refiner);
+    int off = 0;
+    for (int l = 1; l <= t.refiner->GetMaxLevel(); ++l) {
+        V3 *src = t.pts.data() + off;
+        V3 *dst = src + t.refiner->GetLevel(l - 1).GetNumVertices();
+        pr.Interpolate(l, src, dst);
+        off += t.refiner->GetLevel(l - 1).GetNumVertices();
+    }
+    if (t.pt->GetNumLocalPoints())
+        t.pt->GetLocalPointStencilTable<double>()->UpdateValues(t.pts.data(), t.pts.data() + t.nref);
+    t.pm.reset(new Far::PatchMap(*t.pt));
+    Far::PatchTableFactory::Options pof(L);
+    pof.SetEndCapType(Far::PatchTableFactory::Options::ENDCAP_GREGORY_BASIS);
+    pof.useInfSharpPatch = true;
+    t.ptf.reset(Far::PatchTableFactory::Create(*t.refiner, pof));
+    t.pmf.reset(new Far::PatchMap(*t.ptf));
+    t.ptsf.assign(t.nref + t.ptf->GetNumLocalPoints(), V3f());
+    for (int q = 0; q < t.nref; ++q)
+        for (int e = 0; e < 3; ++e) t.ptsf[q].p[e] = (float)t.pts[q].p[e];
+    if (t.ptf->GetNumLocalPoints())
+        t.ptf->GetLocalPointStencilTable<float>()->UpdateValues(t.ptsf.data(), t.ptsf.data() + t.nref);
     return true;
 }

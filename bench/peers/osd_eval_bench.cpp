@@ -43,19 +43,6 @@
 using namespace OpenSubdiv;
 
 
-// Median seconds of `run` over `repeats` timed runs after one warm-up run.
-static double median_seconds(int repeats, const std::function<void()> &run) {
-    std::vector<double> times;
-    for (int rep = 0; rep < repeats + 1; ++rep) {
-        auto t0 = std::chrono::steady_clock::now();
-        run();
-        auto t1 = std::chrono::steady_clock::now();
-        if (rep > 0) times.push_back(std::chrono::duration<double>(t1 - t0).count());
-    }
-    std::sort(times.begin(), times.end());
-    size_t m = times.size();
-    return m % 2 ? times[m / 2] : 0.5 * (times[m / 2 - 1] + times[m / 2]);
-}
 
 // Every sample of faces [f0, f1): position, du, dv as float, 9 per sample, into out (sample-major).
 static bool eval_faces(const GregoryTables &t, int L, int f0, int f1, float *out) {

@@ -387,7 +387,7 @@ def evaluate_at(V: Any, F: Faces, fuv: Any, *, creases: Any = None, crease_sharp
     if fuv.ndim != 2 or fuv.shape[1] != 3:
         raise ValueError(f"fuv must have shape (N, 3), not {fuv.shape}")
     tags = _tags(creases, crease_sharpness, corners, corner_sharpness, holes, boundary)
-    arrays = _gregvox.evaluate_at(*_mesh(V, F), *tags, _isolation(isolation), np.ascontiguousarray(fuv), tangents)
+    arrays = _gregvox.evaluate_at(*_mesh(V, F), (*tags, _isolation(isolation)), np.ascontiguousarray(fuv), tangents)
     return dict(zip(["position", "du", "dv", "duu", "duv", "dvv"], arrays))
 
 
@@ -411,7 +411,7 @@ class GregorySurface:
         V, ptr, idx = _mesh(V, F)
         self._n = V.shape[0]
         tags = _tags(creases, crease_sharpness, corners, corner_sharpness, holes, boundary)
-        self._surface = _gregvox.GregorySurface(_device(device)._device, V, ptr, idx, *tags, _isolation(isolation),
+        self._surface = _gregvox.GregorySurface(_device(device)._device, V, ptr, idx, (*tags, _isolation(isolation)),
                                                 tangents)
 
     @property

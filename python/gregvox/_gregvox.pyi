@@ -7,6 +7,8 @@ import numpy.typing as npt
 
 F64 = npt.NDArray[np.float64]
 I64 = npt.NDArray[np.int64]
+# crease pairs (2k), crease sharpness (k), corners, corner sharpness, holes, boundary rule, isolation level
+Tags = Tuple[I64, F64, I64, F64, I64, str, Optional[int]]
 CsrTriplets = Tuple[I64, I64, I64, Tuple[int, int]]
 
 class Device:
@@ -28,13 +30,7 @@ class GregorySurface:
         v: F64,
         face_ptr: I64,
         indices: I64,
-        crease_pairs: I64,
-        crease_sharpness: F64,
-        corners: I64,
-        corner_sharpness: F64,
-        holes: I64,
-        boundary: str,
-        isolation: Optional[int],
+        tags: Tags,
         tangents: str,
     ) -> None: ...
     @property
@@ -48,13 +44,7 @@ def evaluate_at(
     v: F64,
     face_ptr: I64,
     indices: I64,
-    crease_pairs: I64,
-    crease_sharpness: F64,
-    corners: I64,
-    corner_sharpness: F64,
-    holes: I64,
-    boundary: str,
-    isolation: Optional[int],
+    tags: Tags,
     fuv: F64,
     tangents: str,
 ) -> Tuple[F64, F64, F64, F64, F64, F64]: ...

@@ -50,6 +50,18 @@ fn choice<T: Copy>(what: &str, given: &str, options: &[(&str, T)]) -> PyResult<T
 
 const GIB: f64 = (1u64 << 30) as f64;
 
+/// `tangents="opensubdiv"` or `"exact"`.
+fn tangents_of(given: &str) -> PyResult<Tangents> {
+    choice(
+        "tangents",
+        given,
+        &[
+            ("opensubdiv", Tangents::OpenSubdiv),
+            ("exact", Tangents::Exact),
+        ],
+    )
+}
+
 fn bad(msg: impl Into<String>) -> PyErr {
     PyValueError::new_err(msg.into())
 }
@@ -198,19 +210,24 @@ fn index_u32(what: &str, i: i64) -> PyResult<u32> {
     u32::try_from(i).map_err(|_| bad(format!("{what}: index {i} is out of range")))
 }
 
+/// The tags as the Python layer passes them, one tuple: crease vertex pairs (2k) and sharpness (k), corner
+/// vertices (m) and sharpness (m), hole faces (h), the boundary rule's name, the isolation level.
+type TagArgs<'a> = (
+    PyReadonlyArray1<'a, i64>,
+    PyReadonlyArray1<'a, f64>,
+    PyReadonlyArray1<'a, i64>,
+    PyReadonlyArray1<'a, f64>,
+    PyReadonlyArray1<'a, i64>,
+    String,
+    Option<u32>,
+);
+
 /// A cage from the mesh and tag arrays, checked by the engine (`Cage::new`: edges exist, indices in
 /// range, sharpness finite).
-#[allow(clippy::too_many_arguments)]
-fn cage_of(
-    mesh: Mesh,
-    crease_pairs: &PyReadonlyArray1<'_, i64>,
-    crease_sharpness: &PyReadonlyArray1<'_, f64>,
-    corners: &PyReadonlyArray1<'_, i64>,
-    corner_sharpness: &PyReadonlyArray1<'_, f64>,
-    holes: &PyReadonlyArray1<'_, i64>,
-    boundary: &str,
-    isolation: Option<u32>,
-) -> PyResult<Cage> {
+fn cage_of(mesh: Mesh, tags: &TagArgs<'_>) -> PyResult<Cage> {
+    let (crease_pairs, crease_sharpness, corners, corner_sharpness, holes, boundary, isolation) =
+        tags;
+    let isolation = *isolation;
     let cp = crease_pairs
         .as_slice()
         .map_err(|_| bad("creases must be contiguous"))?;
@@ -232,7 +249,7 @@ fn cage_of(
         ));
     }
     let mut tags = SubdivTags {
-        boundary: choice("boundary", boundary, BOUNDARIES)?,
+        boundary: choice("boundary", boundary.as_str(), BOUNDARIES)?,
         isolation,
         ..SubdivTags::default()
     };
@@ -301,41 +318,17 @@ type Samples<'py> = (
 
 /// The limit surface at (face, u, v) rows (`fuv`, (N, 3) float64): position, du, dv, duu, duv, dvv.
 #[pyfunction]
-#[allow(clippy::too_many_arguments)]
 fn evaluate_at<'py>(
     py: Python<'py>,
     v: PyReadonlyArray2<'_, f64>,
     face_ptr: PyReadonlyArray1<'_, i64>,
     indices: PyReadonlyArray1<'_, i64>,
-    crease_pairs: PyReadonlyArray1<'_, i64>,
-    crease_sharpness: PyReadonlyArray1<'_, f64>,
-    corners: PyReadonlyArray1<'_, i64>,
-    corner_sharpness: PyReadonlyArray1<'_, f64>,
-    holes: PyReadonlyArray1<'_, i64>,
-    boundary: &str,
-    isolation: Option<u32>,
+    tags: TagArgs<'_>,
     fuv: PyReadonlyArray2<'_, f64>,
     tangents: &str,
 ) -> PyResult<Samples<'py>> {
-    let mesh = mesh_of(&v, &face_ptr, &indices)?;
-    let cage = cage_of(
-        mesh,
-        &crease_pairs,
-        &crease_sharpness,
-        &corners,
-        &corner_sharpness,
-        &holes,
-        boundary,
-        isolation,
-    )?;
-    let tangents = choice(
-        "tangents",
-        tangents,
-        &[
-            ("opensubdiv", Tangents::OpenSubdiv),
-            ("exact", Tangents::Exact),
-        ],
-    )?;
+    let cage = cage_of(mesh_of(&v, &face_ptr, &indices)?, &tags)?;
+    let tangents = tangents_of(tangents)?;
     if fuv.shape()[1] != 3 {
         return Err(bad(format!(
             "fuv must have shape (N, 3), not {:?}",
@@ -738,41 +731,17 @@ struct GregorySurface {
 #[pymethods]
 impl GregorySurface {
     #[new]
-    #[allow(clippy::too_many_arguments)]
     fn new(
         py: Python<'_>,
         device: &Device,
         v: PyReadonlyArray2<'_, f64>,
         face_ptr: PyReadonlyArray1<'_, i64>,
         indices: PyReadonlyArray1<'_, i64>,
-        crease_pairs: PyReadonlyArray1<'_, i64>,
-        crease_sharpness: PyReadonlyArray1<'_, f64>,
-        corners: PyReadonlyArray1<'_, i64>,
-        corner_sharpness: PyReadonlyArray1<'_, f64>,
-        holes: PyReadonlyArray1<'_, i64>,
-        boundary: &str,
-        isolation: Option<u32>,
+        tags: TagArgs<'_>,
         tangents: &str,
     ) -> PyResult<Self> {
-        let mesh = mesh_of(&v, &face_ptr, &indices)?;
-        let cage = cage_of(
-            mesh,
-            &crease_pairs,
-            &crease_sharpness,
-            &corners,
-            &corner_sharpness,
-            &holes,
-            boundary,
-            isolation,
-        )?;
-        let tangents = choice(
-            "tangents",
-            tangents,
-            &[
-                ("opensubdiv", Tangents::OpenSubdiv),
-                ("exact", Tangents::Exact),
-            ],
-        )?;
+        let cage = cage_of(mesh_of(&v, &face_ptr, &indices)?, &tags)?;
+        let tangents = tangents_of(tangents)?;
         let patches = py
             .allow_threads(|| Patches::from_tagged_cage(&cage, tangents))
             .map_err(to_py)?;

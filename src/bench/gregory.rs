@@ -590,6 +590,144 @@ pub fn curvature(cfg: &BenchConfig, report: &mut Report) -> anyhow::Result<()> {
     Ok(())
 }
 
+/// Table `gregory_evaluate_at`: the limit surface at random (ptex face, u, v) — `gregvox evaluate`'s work,
+/// [`crate::surface::LimitEvaluator::evaluate`] on every core in f64 with first and second derivatives —
+/// beside OpenSubdiv's PatchMap + EvaluateBasis (one thread, every core) and `Osd::OmpEvaluator::EvalPatches`
+/// on the same samples (bench/peers/osd_ptex_bench.cpp), on an all-quad cage, a non-quad cage (isolation
+/// level 1) and semi-sharp cages (isolation up to 5: the uniform refinement's 4^L patches against
+/// OpenSubdiv's adaptive ones). The stencils and OpenSubdiv's tables are built before timing.
+pub fn evaluate_at(cfg: &BenchConfig, report: &mut Report) -> anyhow::Result<()> {
+    use crate::mesh::load_cage_file;
+    use crate::surface::LimitEvaluator;
+    let n: usize = if cfg.quick { 20_000 } else { 200_000 };
+    let mut t = Table::new(
+        "gregory_evaluate_at",
+        "Evaluation at random (ptex face, u, v): LimitEvaluator vs OpenSubdiv",
+        &format!(
+            "{n} random samples per cage (seeded), the same for both. gregvox = LimitEvaluator::evaluate, \
+             f64 position, exact first and second derivatives, every core (rayon), wall clock; OpenSubdiv = \
+             Far::PatchMap::FindPatch + PatchTable::EvaluateBasis + the sums of position and both first \
+             derivatives in double, on one thread and on every core (OpenMP), and Osd::OmpEvaluator::\
+             EvalPatches in float (patch coordinates found before timing), the faster all-core figure \
+             kept; median of {} repeats. Patches: gregvox refines uniformly to the isolation level L, \
+             OpenSubdiv adaptively (RefineAdaptive(L)). |Δ sum| = relative difference of Σ(x + y + z) of the \
+             positions (the same surface).",
+            cfg.repeats
+        ),
+        &[
+            "cage",
+            "L",
+            "patches gregvox",
+            "patches OpenSubdiv",
+            "gregvox ms",
+            "OpenSubdiv 1 thread ms",
+            "OpenSubdiv all cores ms",
+            "speed-up vs all cores",
+            "|Δ sum|",
+        ],
+    );
+    let dir = std::env::temp_dir().join(format!("gregvox-bench-ptex-{}", std::process::id()));
+    std::fs::create_dir_all(&dir)?;
+    let cages: &[&str] = if cfg.quick {
+        &[
+            "spot_quadrangulated.obj",
+            "opensubdiv/catmark_cube_creases0.obj",
+        ]
+    } else {
+        &[
+            "spot_quadrangulated.obj",
+            "opensubdiv/catmark_nonquads.obj",
+            "opensubdiv/catmark_cube_creases0.obj",
+            "opensubdiv/catmark_chaikin0.obj",
+            "opensubdiv/catmark_torus_creases0.obj",
+        ]
+    };
+    for name in cages {
+        let path = cfg.model(name)?;
+        let cage = load_cage_file(&path)?;
+        let cs = GregoryStencils::from_cage(&cage, Tangents::OpenSubdiv)?;
+        let e = LimitEvaluator::from_stencils(&cage, &cs)?;
+        let mut rng = crate::geom::random::SplitMix64(0x9e37_79b9 ^ n as u64);
+        let at: Vec<(u32, f64, f64)> = (0..n)
+            .map(|_| (rng.below(e.ptex_faces()) as u32, rng.unit(), rng.unit()))
+            .collect();
+        let mut samples_out = Vec::new();
+        let ours = time_cpu(cfg.repeats, || -> crate::Result<()> {
+            samples_out = e.evaluate(&at)?;
+            Ok(())
+        });
+        anyhow::ensure!(samples_out.len() == n, "{name}: evaluation failed");
+        let sum: f64 = samples_out
+            .iter()
+            .map(|s| s.position.x + s.position.y + s.position.z)
+            .sum();
+        let bin = dir.join("samples.bin");
+        let mut bytes = (n as u32).to_le_bytes().to_vec();
+        for &(f, u, v) in &at {
+            for x in [f as f64, u, v] {
+                bytes.extend_from_slice(&x.to_le_bytes());
+            }
+        }
+        std::fs::write(&bin, bytes)?;
+        let peer_bin = cfg.peers.join("osd_ptex_bench");
+        let peer = if peer_bin.is_file() {
+            peers::run(
+                &peer_bin,
+                &[
+                    path.display().to_string(),
+                    bin.display().to_string(),
+                    cfg.repeats.to_string(),
+                ],
+            )
+        } else {
+            Peer::Missing(format!("{} not built", peer_bin.display()))
+        };
+        let short = name
+            .trim_start_matches("opensubdiv/")
+            .trim_end_matches(".obj");
+        let mut row = vec![
+            short.into(),
+            cs.levels.into(),
+            cs.stencils.patch_points.len().into(),
+        ];
+        match &peer {
+            Peer::Ran(v) if !v.is_empty() => {
+                let o = &v[0];
+                let single = o["median_s"].as_f64().unwrap_or(f64::NAN) * 1e3;
+                let all = [o["threads_median_s"].as_f64(), o["omp_median_s"].as_f64()]
+                    .into_iter()
+                    .flatten()
+                    .fold(f64::INFINITY, f64::min)
+                    * 1e3;
+                let theirs = o["position_sum"].as_f64().unwrap_or(f64::NAN);
+                row.extend([
+                    o["patches"].as_u64().unwrap_or(0).into(),
+                    num(ours),
+                    num(single),
+                    num(all),
+                    speedup(Some(all), ours),
+                    format!("{:.1e}", ((sum - theirs) / theirs.abs().max(1e-300)).abs()).into(),
+                ]);
+            }
+            other => {
+                let why = other.status();
+                row.extend([
+                    why.clone().into(),
+                    num(ours),
+                    why.clone().into(),
+                    why.into(),
+                    "—".into(),
+                    "—".into(),
+                ]);
+            }
+        }
+        t.push(row);
+    }
+    std::fs::remove_dir_all(&dir).ok();
+    report.tables.push(t);
+    Ok(())
+}
+
 /// The tessellation-level curve: compute, vertex pull and the f64 CPU evaluation on a 160-patch box cage.
 pub fn scaling(ctx: &Context, cfg: &BenchConfig, report: &mut Report) -> anyhow::Result<()> {
     let mesh = crate::engine::cage::builtin_cage(8, 4, 4);

@@ -621,6 +621,7 @@ pub fn run(cfg: &BenchConfig, command: &str) -> anyhow::Result<Report> {
                     gregory::run(&ctx, cfg, peak.as_ref(), &mut report)?;
                     gregory::adaptive(cfg, &mut report)?;
                     gregory::curvature(cfg, &mut report)?;
+                    gregory::evaluate_at(cfg, &mut report)?;
                 }
                 "voxel" => voxel::run(&ctx, cfg, peak.as_ref(), &mut report)?,
                 "gwn" => gwn::run(cfg, &mut report)?,

@@ -167,12 +167,12 @@ impl<'a> EdgeTwoFaces<'a> {
 }
 
 /// Per vertex: the neighbours across crease edges (boundary or non-manifold), at most 3 recorded.
-fn crease_neighbours(m: &MeshMatrix, sharp: impl Fn(usize) -> bool) -> (Vec<u32>, Vec<[u32; 2]>) {
+fn crease_neighbours(m: &MeshMatrix) -> (Vec<u32>, Vec<[u32; 2]>) {
     let uses = m.edge_uses();
     let mut count = vec![0u32; m.n_verts()];
     let mut nb = vec![[0u32; 2]; m.n_verts()];
     for (e, u) in uses.iter().enumerate() {
-        if u.faces() != 2 || sharp(e) {
+        if u.faces() != 2 {
             let [a, b] = m.edge_vertices(e);
             for (x, y) in [(a, b), (b, a)] {
                 let k = count[x as usize];
@@ -216,55 +216,7 @@ fn crease_vertex_row(rb: &mut RowBuilder, v: u32, count: u32, nb: [u32; 2]) -> b
 /// assert_eq!(sub.s.spmv(&p)[4], DVec3::new(0.5, 0.5, 0.0)); // the face point
 /// ```
 pub fn catmull_clark_matrix(m: &MeshMatrix) -> Subdivision {
-    catmull_clark_level(m, false, None)
-}
-
-/// [`catmull_clark_matrix`] with infinitely sharp edges (`sharp_edge`, per `m` edge id) and vertices
-/// (`sharp_vertex`), by Sdc's rules: a sharp edge's point is its midpoint; a vertex with two sharp edges
-/// (boundary edges count) moves by the crease rule (6v + a + b)/8, one that is sharp or has three or more
-/// stays put, one with a single sharp edge (a dart) is smooth. Also returns the refined cage's sharp edges
-/// (the halves of the sharp ones, per refined edge id) and sharp vertices (the sharp vertices, kept).
-///
-/// ```
-/// use gregvox::mesh::{catmull_clark_matrix_sharp, MeshMatrix};
-/// let m = MeshMatrix::new(4, &[0, 3, 6], vec![0, 1, 2, 0, 2, 3]).unwrap(); // two triangles
-/// let diag = m.half_edge_edge()[m.find(0, 2) as usize] as usize;
-/// let mut sharp = vec![false; m.n_edges()];
-/// sharp[diag] = true;
-/// let (sub, edges, verts) = catmull_clark_matrix_sharp(&m, &sharp, &[false; 4]);
-/// assert_eq!(edges.iter().filter(|&&s| s).count(), 2); // the diagonal's two halves
-/// assert!(verts.iter().all(|&s| !s));
-/// // the diagonal's edge point is its midpoint
-/// let row = 4 + 2 + diag;
-/// let w: Vec<(u32, f64)> = (sub.s.row_ptr[row]..sub.s.row_ptr[row + 1]).map(|k| (sub.s.col[k as usize], sub.s.val[k as usize])).collect();
-/// assert_eq!(w, [(0, 0.5), (2, 0.5)]);
-/// ```
-pub fn catmull_clark_matrix_sharp(
-    m: &MeshMatrix,
-    sharp_edge: &[bool],
-    sharp_vertex: &[bool],
-) -> (Subdivision, Vec<bool>, Vec<bool>) {
-    let sub = catmull_clark_level(m, false, Some((sharp_edge, sharp_vertex)));
-    let t = &sub.topology;
-    let mut edges = vec![false; t.n_edges()];
-    let eo = (m.n_verts() + m.n_faces()) as u32;
-    let he = t.half_edge_edge();
-    for (e, _) in sharp_edge.iter().enumerate().filter(|(_, &s)| s) {
-        let [a, b] = m.edge_vertices(e);
-        let mid = eo + e as u32;
-        for (x, y) in [(a, mid), (mid, b)] {
-            let k = match t.find(x, y) {
-                NONE => t.find(y, x),
-                k => k,
-            };
-            if k != NONE {
-                edges[he[k as usize] as usize] = true;
-            }
-        }
-    }
-    let mut verts = vec![false; t.n_verts()];
-    verts[..m.n_verts()].copy_from_slice(sharp_vertex);
-    (sub, edges, verts)
+    catmull_clark_level(m, false)
 }
 
 /// One Catmull–Clark level. `staged`: the rows read the face points as variables of their own (columns
@@ -552,17 +504,8 @@ pub fn catmull_clark_matrix_creased(
         rb.finish_row();
     }
     let s = rb.build(nv);
-    // Topology: one quad per corner, as catmull_clark_level.
-    let (fo, eo) = (nv as u32, (nv + nf) as u32);
-    let mut idx = Vec::with_capacity(4 * m.n_corners());
-    for c in 0..m.n_corners() as u32 {
-        let f = cf[c as usize];
-        let e_next = he_edge[entry[c as usize] as usize];
-        let e_prev = he_edge[entry[m.prev(c) as usize] as usize];
-        idx.extend_from_slice(&[cv[c as usize], eo + e_next, fo + f, eo + e_prev]);
-    }
-    let face_ptr: Vec<u32> = (0..=m.n_corners() as u32).map(|c| 4 * c).collect();
-    let topology = MeshMatrix::from_parts_unchecked((nv + nf + ne) as u32, &face_ptr, idx);
+    let topology = quads_at_corners(m);
+    let eo = (nv + nf) as u32;
     let mut edge_out = vec![0.0f32; topology.n_edges()];
     let the = topology.half_edge_edge();
     for (e, h) in half.iter().enumerate() {
@@ -587,28 +530,32 @@ pub fn catmull_clark_matrix_creased(
     }
 }
 
-fn catmull_clark_level(
-    m: &MeshMatrix,
-    staged: bool,
-    sharp: Option<(&[bool], &[bool])>,
-) -> Subdivision {
+/// The refined connectivity of one Catmull–Clark level: one quad per corner c of `m`, (vertex of c, point of
+/// the edge after c, point of c's face, point of the edge before c), vertex points first, then face points,
+/// then edge points.
+fn quads_at_corners(m: &MeshMatrix) -> MeshMatrix {
+    let (nv, nf, ne) = (m.n_verts(), m.n_faces(), m.n_edges());
+    let (cf, cv) = (m.corner_face(), m.corner_vertex());
+    let entry = m.corner_entries();
+    let he_edge = m.half_edge_edge();
+    let (fo, eo) = (nv as u32, (nv + nf) as u32);
+    let mut idx = Vec::with_capacity(4 * m.n_corners());
+    for c in 0..m.n_corners() as u32 {
+        let f = cf[c as usize];
+        let e_next = he_edge[entry[c as usize] as usize];
+        let e_prev = he_edge[entry[m.prev(c) as usize] as usize];
+        idx.extend_from_slice(&[cv[c as usize], eo + e_next, fo + f, eo + e_prev]);
+    }
+    let face_ptr: Vec<u32> = (0..=m.n_corners() as u32).map(|c| 4 * c).collect();
+    MeshMatrix::from_parts_unchecked((nv + nf + ne) as u32, &face_ptr, idx)
+}
+
+fn catmull_clark_level(m: &MeshMatrix, staged: bool) -> Subdivision {
     let (nv, nf, ne) = (m.n_verts(), m.n_faces(), m.n_edges());
     let vc = m.vertex_corners();
     let cf = m.corner_face();
-    let cv = m.corner_vertex();
     let uses = m.edge_uses();
-    let sharp_edge = |e: usize| sharp.is_some_and(|(se, _)| se[e]);
-    let (mut ccount, cnb) = crease_neighbours(m, sharp_edge);
-    if let Some((_, sv)) = sharp {
-        let (boundary_count, _) = crease_neighbours(m, |_| false);
-        for (v, &s) in sv.iter().enumerate() {
-            if s {
-                ccount[v] = ccount[v].max(3); // a sharp vertex is a corner: it stays put
-            } else if ccount[v] == 1 && boundary_count[v] == 0 {
-                ccount[v] = 0; // a dart: one sharp edge ends in a smooth vertex
-            }
-        }
-    }
+    let (ccount, cnb) = crease_neighbours(m);
     let mut rb = RowBuilder::new(nv + nf + ne, 16 * m.n_corners());
     let mut nbrs = Vec::new();
     // Vertex points.
@@ -657,7 +604,7 @@ fn catmull_clark_level(
     let two_faces = EdgeTwoFaces::new(m);
     for (e, u) in uses.iter().enumerate() {
         let [a, b] = m.edge_vertices(e);
-        if u.faces() == 2 && !sharp_edge(e) {
+        if u.faces() == 2 {
             rb.add(a, 0.25);
             rb.add(b, 0.25);
             for f in two_faces.get(e) {
@@ -678,19 +625,7 @@ fn catmull_clark_level(
         rb.finish_row();
     }
     let s = rb.build(if staged { nv + nf } else { nv });
-    // Topology: one quad per corner.
-    let entry = m.corner_entries();
-    let he_edge = m.half_edge_edge();
-    let (fo, eo) = (nv as u32, (nv + nf) as u32);
-    let mut idx = Vec::with_capacity(4 * m.n_corners());
-    for c in 0..m.n_corners() as u32 {
-        let f = cf[c as usize];
-        let e_next = he_edge[entry[c as usize] as usize];
-        let e_prev = he_edge[entry[m.prev(c) as usize] as usize];
-        idx.extend_from_slice(&[cv[c as usize], eo + e_next, fo + f, eo + e_prev]);
-    }
-    let face_ptr: Vec<u32> = (0..=m.n_corners() as u32).map(|c| 4 * c).collect();
-    let topology = MeshMatrix::from_parts_unchecked((nv + nf + ne) as u32, &face_ptr, idx);
+    let topology = quads_at_corners(m);
     Subdivision { s, topology }
 }
 
@@ -711,7 +646,7 @@ pub fn loop_matrix(m: &MeshMatrix, beta: LoopBeta) -> Result<Subdivision> {
     }
     let (nv, ne) = (m.n_verts(), m.n_edges());
     let uses = m.edge_uses();
-    let (ccount, cnb) = crease_neighbours(m, |_| false);
+    let (ccount, cnb) = crease_neighbours(m);
     let mut rb = RowBuilder::new(nv + ne, 7 * nv + 4 * ne);
     let mut nbrs = Vec::new();
     for v in 0..nv {
@@ -849,7 +784,7 @@ pub fn catmull_clark(mesh: &Mesh, levels: u32) -> Mesh {
     for _ in 0..levels {
         // Staged, linear in the mesh whatever its polygon sizes: the face points first (each face's
         // average), then every new point from the old points and the face points.
-        let sub = catmull_clark_level(&m, true, None);
+        let sub = catmull_clark_level(&m, true);
         let face_points: Vec<DVec3> = (0..m.n_faces())
             .map(|f| {
                 let face = m.face(f);

@@ -117,14 +117,18 @@ impl LimitEvaluator {
 
     /// The surface at each `(face, u, v)`, in parallel. Errors name the first bad row.
     pub fn evaluate(&self, at: &[(u32, f64, f64)]) -> Result<Vec<LimitSample>> {
-        for (row, &(f, u, v)) in at.iter().enumerate() {
-            self.locate(row, f, u, v)?;
-        }
-        Ok(at
+        let out: Result<Vec<LimitSample>> = at
             .par_iter()
             .enumerate()
-            .map(|(row, &(f, u, v))| self.sample(row, f, u, v).expect("checked above"))
-            .collect())
+            .map(|(row, &(f, u, v))| self.sample(row, f, u, v))
+            .collect();
+        // Rayon reports whichever failing row it met first: name the first one in order instead.
+        out.map_err(|e| {
+            at.iter()
+                .enumerate()
+                .find_map(|(row, &(f, u, v))| self.locate(row, f, u, v).err())
+                .unwrap_or(e)
+        })
     }
 
     /// The patch, its (u, v) and the Jacobian d(u', v')/d(u, v) as [[du'/du, du'/dv], [dv'/du, dv'/dv]].
