@@ -391,3 +391,41 @@ fn an_isolation_level_refines_as_opensubdivs_refine_adaptive_does() {
         "{err}"
     );
 }
+
+#[test]
+fn gregvox_evaluate_refuses_a_cage_past_the_valence_limit_before_any_work() {
+    // A 200-gon refined once makes a vertex of valence 200: W would grow with its square.
+    let dir = std::env::temp_dir().join(format!("gregvox-evaluate-ngon-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let mut obj = String::new();
+    for k in 0..200 {
+        let a = k as f64 * std::f64::consts::TAU / 200.0;
+        obj += &format!("v {} {} 0\n", a.cos(), a.sin());
+    }
+    obj += "f";
+    for k in 1..=200 {
+        obj += &format!(" {k}");
+    }
+    obj += "\n";
+    let cage = dir.join("ngon.obj");
+    std::fs::write(&cage, obj).unwrap();
+    let fuv = dir.join("fuv.npy");
+    write_npy_f64(&fuv, &[[0.0, 0.5, 0.5]]);
+    let out = dir.join("p.npz");
+    let r = std::process::Command::new(env!("CARGO_BIN_EXE_gregvox"))
+        .arg("evaluate")
+        .arg(&cage)
+        .arg("--at")
+        .arg(&fuv)
+        .arg("--out")
+        .arg(&out)
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&r.stderr);
+    assert!(
+        !r.status.success() && err.contains("ngon.obj") && err.contains("valence"),
+        "{err}"
+    );
+    assert!(!out.exists());
+    std::fs::remove_dir_all(&dir).ok();
+}

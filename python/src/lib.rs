@@ -328,6 +328,7 @@ fn evaluate_at<'py>(
     tangents: &str,
 ) -> PyResult<Samples<'py>> {
     let cage = cage_of(mesh_of(&v, &face_ptr, &indices)?, &tags)?;
+    gregvox::engine::cage::check_cage_valence(&cage.mesh).map_err(to_py)?;
     let tangents = tangents_of(tangents)?;
     if fuv.shape()[1] != 3 {
         return Err(bad(format!(

@@ -1,6 +1,7 @@
 //! `gregvox evaluate`: a cage's limit surface at (face, u, v) rows, into an `.npz` (a thin client of
 //! `api::LimitEvaluator`).
 use crate::api::{load_cage, LimitEvaluator, Tangents};
+use crate::error::Error;
 use crate::npy::{read_points, write_npz, Array};
 use clap::Args;
 use std::path::PathBuf;
@@ -30,6 +31,12 @@ pub fn run(args: &EvaluateArgs) -> anyhow::Result<()> {
     let t0 = Instant::now();
     let mut cage = load_cage(&args.input)?;
     cage.tags.isolation = args.isolation;
+    // What the cage itself gets wrong names the cage file.
+    let named = |e: Error| match e {
+        Error::Invalid(msg) | Error::Mesh(msg) => Error::parse(&args.input, msg),
+        e => e,
+    };
+    crate::engine::cage::check_cage_valence(&cage.mesh).map_err(named)?;
     let rows = read_points(&args.at)?;
     let mut at = Vec::with_capacity(rows.len());
     for (r, &[f, u, v]) in rows.iter().enumerate() {
@@ -41,8 +48,7 @@ pub fn run(args: &EvaluateArgs) -> anyhow::Result<()> {
         }
         at.push((f as u32, u, v));
     }
-    let e =
-        LimitEvaluator::new(&cage, Tangents::OpenSubdiv).map_err(|e| e.for_input(&args.input))?;
+    let e = LimitEvaluator::new(&cage, Tangents::OpenSubdiv).map_err(named)?;
     let s = e
         .evaluate(&at)
         .map_err(|e| anyhow::anyhow!("{}: {e}", args.at.display()))?;
