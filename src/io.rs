@@ -106,7 +106,10 @@ pub fn check_output(path: &Path) -> Result<()> {
 }
 
 /// Creates the file `probe` and removes it at once; errors name `target`, what the user asked to write.
+/// Created and removed under the registry's lock, as a write's temporary is: a SIGINT between the two
+/// would otherwise leave the probe behind (seen on a loaded machine, where the handler thread ran first).
 fn probe(probe: &Path, target: &Path) -> Result<()> {
+    let _registry = in_flight();
     std::fs::OpenOptions::new()
         .write(true)
         .create_new(true)
