@@ -604,8 +604,10 @@ pub fn evaluate_at(cfg: &BenchConfig, report: &mut Report) -> anyhow::Result<()>
         "gregory_evaluate_at",
         "Evaluation at random (ptex face, u, v): LimitEvaluator vs OpenSubdiv",
         &format!(
-            "{n} random samples per cage (seeded), the same for both. gregvox = LimitEvaluator::evaluate, \
-             f64 position, exact first and second derivatives, every core (rayon), wall clock; OpenSubdiv = \
+            "{n} random samples per cage (seeded), the same for both. gregvox = LimitEvaluator::\
+             evaluate_first_order (f64 position and exact first derivatives, what OpenSubdiv computes) and \
+             ::evaluate (also exact second derivatives, what gregvox evaluate writes), every core (rayon), \
+             wall clock; OpenSubdiv = \
              Far::PatchMap::FindPatch + PatchTable::EvaluateBasis + the sums of position and both first \
              derivatives in double, on one thread and on every core (OpenMP), and Osd::OmpEvaluator::\
              EvalPatches in float (patch coordinates found before timing), the faster all-core figure \
@@ -620,6 +622,7 @@ pub fn evaluate_at(cfg: &BenchConfig, report: &mut Report) -> anyhow::Result<()>
             "patches gregvox",
             "patches OpenSubdiv",
             "gregvox ms",
+            "gregvox with 2nd derivatives ms",
             "OpenSubdiv 1 thread ms",
             "OpenSubdiv all cores ms",
             "speed-up vs all cores",
@@ -652,8 +655,9 @@ pub fn evaluate_at(cfg: &BenchConfig, report: &mut Report) -> anyhow::Result<()>
             .map(|_| (rng.below(e.ptex_faces()) as u32, rng.unit(), rng.unit()))
             .collect();
         let mut samples_out = Vec::new();
+        let ours_second = time_cpu(cfg.repeats, || e.evaluate(&at).map(|s| s.len()));
         let ours = time_cpu(cfg.repeats, || -> crate::Result<()> {
-            samples_out = e.evaluate(&at)?;
+            samples_out = e.evaluate_first_order(&at)?;
             Ok(())
         });
         anyhow::ensure!(samples_out.len() == n, "{name}: evaluation failed");
@@ -703,6 +707,7 @@ pub fn evaluate_at(cfg: &BenchConfig, report: &mut Report) -> anyhow::Result<()>
                 row.extend([
                     o["patches"].as_u64().unwrap_or(0).into(),
                     num(ours),
+                    num(ours_second),
                     num(single),
                     num(all),
                     speedup(Some(all), ours),
@@ -714,6 +719,7 @@ pub fn evaluate_at(cfg: &BenchConfig, report: &mut Report) -> anyhow::Result<()>
                 row.extend([
                     why.clone().into(),
                     num(ours),
+                    num(ours_second),
                     why.clone().into(),
                     why.into(),
                     "—".into(),

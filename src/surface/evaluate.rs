@@ -117,10 +117,20 @@ impl LimitEvaluator {
 
     /// The surface at each `(face, u, v)`, in parallel. Errors name the first bad row.
     pub fn evaluate(&self, at: &[(u32, f64, f64)]) -> Result<Vec<LimitSample>> {
+        self.evaluate_with(at, true)
+    }
+
+    /// [`LimitEvaluator::evaluate`] without the second derivatives (left zero): position and exact first
+    /// derivatives only, what OpenSubdiv's `EvaluateBasis` gives (measured: about a third of the time).
+    pub fn evaluate_first_order(&self, at: &[(u32, f64, f64)]) -> Result<Vec<LimitSample>> {
+        self.evaluate_with(at, false)
+    }
+
+    fn evaluate_with(&self, at: &[(u32, f64, f64)], second: bool) -> Result<Vec<LimitSample>> {
         let out: Result<Vec<LimitSample>> = at
             .par_iter()
             .enumerate()
-            .map(|(row, &(f, u, v))| self.sample(row, f, u, v))
+            .map(|(row, &(f, u, v))| self.sample(row, f, u, v, second))
             .collect();
         // Rayon reports whichever failing row it met first: name the first one in order instead.
         out.map_err(|e| {
@@ -193,9 +203,9 @@ impl LimitEvaluator {
         Ok((k, uu.clamp(0.0, 1.0), vv.clamp(0.0, 1.0), j))
     }
 
-    fn sample(&self, row: usize, f: u32, u: f64, v: f64) -> Result<LimitSample> {
+    fn sample(&self, row: usize, f: u32, u: f64, v: f64, second: bool) -> Result<LimitSample> {
         let (k, uu, vv, j) = self.locate(row, f, u, v)?;
-        let e = eval_generic(&self.patches[k as usize].cv, uu, vv, true, true);
+        let e = eval_generic(&self.patches[k as usize].cv, uu, vv, true, second);
         let [suu, suv, svv] = e.second;
         // P(u, v) = C(u'(u, v), v'(u, v)), J constant: first derivatives J columns, second JᵀHJ.
         let d = |a: usize| e.su * j[0][a] + e.sv * j[1][a];
