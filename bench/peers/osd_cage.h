@@ -60,6 +60,8 @@ struct TaggedCage {
     OpenSubdiv::Sdc::Options::VtxBoundaryInterpolation boundary =
         OpenSubdiv::Sdc::Options::VTX_BOUNDARY_EDGE_ONLY;
     bool chaikin = false;
+    // Tag names read but not applied (the oracle refuses them; the bench peers ignore them).
+    std::vector<std::string> unknown;
 };
 
 // Reads a tagged cage; false (after one stderr line) when it cannot be read, has no faces or an index is out
@@ -104,6 +106,8 @@ static bool read_tagged_cage(const char *path, TaggedCage &c) {
                                         : OpenSubdiv::Sdc::Options::VTX_BOUNDARY_EDGE_ONLY;
             } else if (name == "creasemethod") {
                 c.chaikin = (sv == "chaikin");
+            } else if (name != "facevaryinginterpolateboundary") {
+                c.unknown.push_back(name);
             }
         }
     }
@@ -221,10 +225,9 @@ static int default_isolation(const TaggedCage &c) {
     return std::max((int)std::ceil(semi), quads ? 0 : 1);
 }
 
-// Far for a tagged cage at isolation L: the refiner (RefineAdaptive(L), useInfSharpPatch, Gregory basis end
-// caps) with its tags, and the double (`pt`, `pts`, `pm`) and float (`ptf`, `ptsf`, `pmf`) patch tables with
-// every refined and local point. False (after one stderr line) if Far refuses the cage.
-static bool make_tagged_tables(const char *path, const TaggedCage &c, int L, GregoryTables &t) {
+// Far's refiner of a tagged cage (CATMARK, its boundary rule, creasing method, creases, corners and holes),
+// unrefined; null if Far refuses the cage.
+static OpenSubdiv::Far::TopologyRefiner *make_tagged_refiner(const TaggedCage &c) {
     namespace Far = OpenSubdiv::Far;
     Far::TopologyDescriptor d;
     d.numVertices = (int)c.pos.size();
@@ -243,7 +246,15 @@ static bool make_tagged_tables(const char *path, const TaggedCage &c, int L, Gre
     o.SetVtxBoundaryInterpolation(c.boundary);
     if (c.chaikin) o.SetCreasingMethod(OpenSubdiv::Sdc::Options::CREASE_CHAIKIN);
     typedef Far::TopologyRefinerFactory<Far::TopologyDescriptor> F;
-    t.refiner.reset(F::Create(d, F::Options(OpenSubdiv::Sdc::SCHEME_CATMARK, o)));
+    return F::Create(d, F::Options(OpenSubdiv::Sdc::SCHEME_CATMARK, o));
+}
+
+// Far for a tagged cage at isolation L: the refiner (RefineAdaptive(L), useInfSharpPatch, Gregory basis end
+// caps) with its tags, and the double (`pt`, `pts`, `pm`) and float (`ptf`, `ptsf`, `pmf`) patch tables with
+// every refined and local point. False (after one stderr line) if Far refuses the cage.
+static bool make_tagged_tables(const char *path, const TaggedCage &c, int L, GregoryTables &t) {
+    namespace Far = OpenSubdiv::Far;
+    t.refiner.reset(make_tagged_refiner(c));
     if (!t.refiner) { fprintf(stderr, "%s: Far::TopologyRefinerFactory::Create failed\n", path); return false; }
     Far::PatchTableFactory::Options po(L);
     po.SetEndCapType(Far::PatchTableFactory::Options::ENDCAP_GREGORY_BASIS);

@@ -1,5 +1,6 @@
 // OpenSubdiv oracle for gregvox's ACC-2 stencils (docs/notes/gregory.md §4.3). Not run by the tests: it writes the
-// fixtures in tests/fixtures/surface/ once (see build_osd.sh) and the Rust tests read them.
+// fixtures in tests/fixtures/surface/ once (see build_osd.sh) and the Rust tests read them. The OBJ reader with
+// OpenSubdiv's tags and the tagged refiner are bench/peers/osd_cage.h's, shared with the bench's peers.
 //
 // Per cage: Far at isolation 0, Sdc CATMARK with VTX_BOUNDARY_EDGE_ONLY (or the cage's `t interpolateboundary`),
 // the cage's infinitely sharp `t crease`/`t corner` tags and `t hole`s, useInfSharpPatch, ENDCAP_GREGORY_BASIS,
@@ -46,105 +47,22 @@
 #include <string>
 #include <vector>
 
+#include "../../bench/peers/osd_cage.h"
+
 using namespace OpenSubdiv;
 
-struct V3 {
-    double p[3];
-    void Clear(void * = 0) { p[0] = p[1] = p[2] = 0; }
-    void AddWithWeight(V3 const &s, double w) { for (int k = 0; k < 3; ++k) p[k] += w * s.p[k]; }
-};
+typedef TaggedCage Cage;
 
-struct Cage {
-    std::vector<V3> pos;
-    std::vector<int> nv;   // vertices per face
-    std::vector<int> idx;  // concatenated
-    // OpenSubdiv shape tags (regression/common/far_utils.h): 0-based indices.
-    std::vector<int> crease_pairs;
-    std::vector<float> crease_w;
-    std::vector<int> corners;
-    std::vector<float> corner_w;
-    std::vector<int> holes;
-    Sdc::Options::VtxBoundaryInterpolation boundary = Sdc::Options::VTX_BOUNDARY_EDGE_ONLY;
-    bool chaikin = false;
-};
-
+// The cage file and its tags; exits on a tag the oracle would not apply (so no fixture silently ignores one).
 static Cage read_obj(const char *path) {
     Cage c;
-    std::ifstream in(path);
-    if (!in) { fprintf(stderr, "cannot open %s\n", path); exit(1); }
-    std::string line;
-    while (std::getline(in, line)) {
-        std::istringstream ss(line);
-        std::string tag;
-        ss >> tag;
-        if (tag == "v") {
-            V3 v; ss >> v.p[0] >> v.p[1] >> v.p[2]; c.pos.push_back(v);
-        } else if (tag == "t") {
-            // t NAME nints/nfloats/nstrings ints floats strings
-            std::string name, counts;
-            ss >> name >> counts;
-            int ni = 0, nfl = 0, ns = 0;
-            sscanf(counts.c_str(), "%d/%d/%d", &ni, &nfl, &ns);
-            std::vector<int> iv(ni);
-            std::vector<float> fv(nfl);
-            for (auto &x : iv) ss >> x;
-            for (auto &x : fv) ss >> x;
-            auto weight = [&](int k) { return std::max(0.0f, nfl > 1 ? fv[k] : fv[0]); };
-            if (name == "crease") {
-                for (int j = 0; j + 1 < ni; j += 2) {
-                    c.crease_pairs.push_back(iv[j]); c.crease_pairs.push_back(iv[j + 1]);
-                    c.crease_w.push_back(weight(j / 2));
-                }
-            } else if (name == "corner") {
-                for (int j = 0; j < ni; ++j) { c.corners.push_back(iv[j]); c.corner_w.push_back(weight(j)); }
-            } else if (name == "hole") {
-                for (int j = 0; j < ni; ++j) c.holes.push_back(iv[j]);
-            } else if (name == "interpolateboundary") {
-                c.boundary = iv[0] == 0 ? Sdc::Options::VTX_BOUNDARY_NONE
-                           : iv[0] == 1 ? Sdc::Options::VTX_BOUNDARY_EDGE_AND_CORNER
-                                        : Sdc::Options::VTX_BOUNDARY_EDGE_ONLY;
-            } else if (name == "creasemethod") {
-                std::string m; ss >> m;
-                c.chaikin = (m == "chaikin");
-            } else if (name != "facevaryinginterpolateboundary") {
-                fprintf(stderr, "%s: tag '%s' not handled by the oracle\n", path, name.c_str()); exit(1);
-            }
-        } else if (tag == "f") {
-            std::string tok; int n = 0;
-            while (ss >> tok) {
-                int i = atoi(tok.c_str());
-                if (i < 0) i = (int)c.pos.size() + i + 1;
-                c.idx.push_back(i - 1); ++n;
-            }
-            c.nv.push_back(n);
-        }
-    }
+    if (!read_tagged_cage(path, c)) exit(1);
+    if (!c.unknown.empty()) { fprintf(stderr, "%s: tag '%s' not handled by the oracle\n", path, c.unknown[0].c_str()); exit(1); }
     return c;
 }
 
-static Sdc::Options sdc_options(const Cage &c) {
-    Sdc::Options o;
-    o.SetVtxBoundaryInterpolation(c.boundary);
-    if (c.chaikin) o.SetCreasingMethod(Sdc::Options::CREASE_CHAIKIN);
-    return o;
-}
-
 static Far::TopologyRefiner *make_refiner(const Cage &c) {
-    Far::TopologyDescriptor d;
-    d.numVertices = (int)c.pos.size();
-    d.numFaces = (int)c.nv.size();
-    d.numVertsPerFace = c.nv.data();
-    d.vertIndicesPerFace = c.idx.data();
-    d.numCreases = (int)c.crease_w.size();
-    d.creaseVertexIndexPairs = c.crease_pairs.data();
-    d.creaseWeights = c.crease_w.data();
-    d.numCorners = (int)c.corner_w.size();
-    d.cornerVertexIndices = c.corners.data();
-    d.cornerWeights = c.corner_w.data();
-    d.numHoles = (int)c.holes.size();
-    d.holeIndices = c.holes.data();
-    typedef Far::TopologyRefinerFactory<Far::TopologyDescriptor> F;
-    Far::TopologyRefiner *r = F::Create(d, F::Options(Sdc::SCHEME_CATMARK, sdc_options(c)));
+    Far::TopologyRefiner *r = make_tagged_refiner(c);
     if (!r) { fprintf(stderr, "OpenSubdiv refused the cage\n"); exit(1); }
     return r;
 }
@@ -228,12 +146,7 @@ static const int GRID[4][4][2] = {
 //   u32 n; per sample f64[13]: face, u, v, P.xyz, Du.xyz, Dv.xyz, patch type (0 REGULAR, 1 GREGORY_BASIS).
 // The Gregory derivatives are OpenSubdiv's approximation; REGULAR ones are exact.
 static int write_ptex_samples(const Cage &cage, int n, const char *path, int isolation) {
-    bool quads = true;
-    for (int k : cage.nv) quads &= (k == 4);
-    float semi = 0;
-    for (float w : cage.crease_w) if (w > 0 && w < 10) semi = std::max(semi, w);
-    for (float w : cage.corner_w) if (w > 0 && w < 10) semi = std::max(semi, w);
-    int level = std::max(std::max((int)std::ceil(semi), quads ? 0 : 1), isolation);
+    int level = std::max(default_isolation(cage), isolation);
     Far::TopologyRefiner *r = make_refiner(cage);
     Far::PatchTableFactory::Options po(level);
     po.SetEndCapType(Far::PatchTableFactory::Options::ENDCAP_GREGORY_BASIS);
