@@ -631,29 +631,8 @@ fn from_mesh_on_non_quad_cages_matches_opensubdiv_refine_then_iso0() {
         let cs = GregoryStencils::from_mesh(&mesh, Tangents::OpenSubdiv).unwrap();
         let ours = cs.stencils.patches_f64(&mesh.positions).unwrap();
         assert_eq!(ours.len(), fx.points.len());
-        let d = diag(&mesh.positions);
-        let mut used = vec![false; ours.len()];
-        let mut worst = 0.0f64;
-        for theirs in &fx.points {
-            let mut best = (f64::INFINITY, 0);
-            for (g, p) in ours.iter().enumerate() {
-                for r in 0..4 {
-                    let e = (0..20)
-                        .map(|j| (p.cv[(j + 5 * r) % 20] - theirs[j]).length())
-                        .fold(0.0, f64::max);
-                    if e < best.0 {
-                        best = (e, g);
-                    }
-                }
-            }
-            assert!(
-                !used[best.1],
-                "{name}: two OpenSubdiv patches matched gregvox patch {}",
-                best.1
-            );
-            used[best.1] = true;
-            worst = worst.max(best.0 / d);
-        }
+        let theirs: Vec<&[DVec3; 20]> = fx.points.iter().collect();
+        let worst = worst_matched_patch(name, &ours, &theirs) / diag(&mesh.positions);
         eprintln!("{name}: from_mesh (CC folded into W) vs OpenSubdiv refine + iso 0: max {worst:.1e}·diag over {} patches", ours.len());
         assert!(worst <= 1e-12, "{name}: {worst:e}");
     }

@@ -234,3 +234,36 @@ impl Rng {
         }
     }
 }
+
+/// The worst distance between OpenSubdiv's patches and ours matched one to one by geometry (numberings
+/// differ after a refinement), up to a rotation of the corners (a cyclic shift of the 5-point corner
+/// blocks); panics if two of theirs match the same one of ours.
+pub fn worst_matched_patch(
+    name: &str,
+    ours: &[gregvox::geom::gregory::PatchF64],
+    theirs: &[&[DVec3; 20]],
+) -> f64 {
+    let mut used = vec![false; ours.len()];
+    let mut worst = 0.0f64;
+    for t in theirs {
+        let mut best = (f64::INFINITY, 0);
+        for (g, p) in ours.iter().enumerate() {
+            for r in 0..4 {
+                let e = (0..20)
+                    .map(|j| (p.cv[(j + 5 * r) % 20] - t[j]).length())
+                    .fold(0.0, f64::max);
+                if e < best.0 {
+                    best = (e, g);
+                }
+            }
+        }
+        assert!(
+            !used[best.1],
+            "{name}: two OpenSubdiv patches matched gregvox patch {}",
+            best.1
+        );
+        used[best.1] = true;
+        worst = worst.max(best.0);
+    }
+    worst
+}

@@ -175,25 +175,7 @@ fn tagged_non_quad_cages_refine_their_features_as_opensubdiv_does() {
             .map(|f| &fx.points[f])
             .collect();
         assert_eq!(ours.len(), theirs.len(), "{name}: patch count");
-        let d = diag(&cage.mesh.positions);
-        let mut used = vec![false; ours.len()];
-        let mut worst = 0.0f64;
-        for t in theirs {
-            let mut best = (f64::INFINITY, 0);
-            for (g, p) in ours.iter().enumerate() {
-                for r in 0..4 {
-                    let e = (0..20)
-                        .map(|j| (p.cv[(j + 5 * r) % 20] - t[j]).length())
-                        .fold(0.0, f64::max);
-                    if e < best.0 {
-                        best = (e, g);
-                    }
-                }
-            }
-            assert!(!used[best.1], "{name}: two OpenSubdiv patches matched one");
-            used[best.1] = true;
-            worst = worst.max(best.0 / d);
-        }
+        let worst = worst_matched_patch(name, &ours, &theirs) / diag(&cage.mesh.positions);
         eprintln!(
             "{name}: sharp CC step + iso 0 vs OpenSubdiv: max {worst:.1e}·diag over {} patches",
             ours.len()
