@@ -345,6 +345,19 @@ impl MeshMatrix {
         self.find_opt(i, j).unwrap_or(NONE)
     }
 
+    /// The undirected edge id of the edge between `i` and `j` (either direction), or `None`.
+    ///
+    /// ```
+    /// # use gregvox::mesh::MeshMatrix;
+    /// let m = MeshMatrix::new(3, &[0, 3], vec![0, 1, 2]).unwrap();
+    /// assert_eq!(m.edge_id(1, 0), m.edge_id(0, 1));
+    /// assert!(m.edge_id(0, 1).is_some() && MeshMatrix::new(4, &[0, 3], vec![0, 1, 2]).unwrap().edge_id(0, 3).is_none());
+    /// ```
+    pub fn edge_id(&self, i: u32, j: u32) -> Option<usize> {
+        let k = self.find_opt(i, j).or_else(|| self.find_opt(j, i))?;
+        Some(self.edge[k as usize] as usize)
+    }
+
     fn find_opt(&self, i: u32, j: u32) -> Option<u32> {
         let (a, b) = (self.vc.ptr[i as usize], self.vc.ptr[i as usize + 1]);
         (a..b).find(|&k| self.e.col[k as usize] == j)

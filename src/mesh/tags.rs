@@ -15,6 +15,9 @@
 //! - Indices follow OpenSubdiv's tags: 0-based vertices and faces (unlike OBJ's 1-based `f` lines).
 //! - Sharpness follows Sdc: ≤ 0 is smooth, ≥ [`SHARPNESS_INFINITE`] (10) is infinitely sharp, in between
 //!   is semi-sharp.
+//! - Cost: one pass over the lines after the mesh parse, and one hash set of the mesh's edges (O(corners))
+//!   to check crease edges; a tag line's argument counts are checked against the line before anything is
+//!   allocated from them, so a lying `t crease 999999999/1/0` is an error, not an allocation.
 use super::obj::{parse_obj_bytes, Mesh};
 use crate::error::{Error, Result};
 use std::collections::HashSet;

@@ -20,6 +20,13 @@
 //! - Regular faces (every corner interior valence 4, boundary with 2 faces, or a boundary corner with 1 face
 //!   — OpenSubdiv's legacy sharp-corner REGULAR patches) give the Bézier form of the bicubic B-spline patch:
 //!   f+ = f−, and one row per face-point pair.
+//!
+//! Cost: O(Σ valence²) per cage level (every corner's ring makes rows of its vertex's ring size), so a
+//! vertex of valence n costs n² (the engine refuses valence above 64: `engine::cage::MAX_CAGE_VALENCE`).
+//! [`GregoryStencils::from_cage`] refines uniformly to the isolation level L first: corners·4^(L−1)
+//! patches, each level's matrix composed into W. Its attacking input is a deep semi-sharp crease on a large
+//! cage (a 64² grid with sharpness 9.5 would make ~10⁹ patches): refused before any work past
+//! [`MAX_REFINED_PATCHES`] (tests/surface_creases.rs).
 use super::features::{Features, VertexTags};
 use crate::error::{Error, Result};
 use crate::geom::gregory::PatchF64;
@@ -867,7 +874,7 @@ impl GregoryStencils {
             return Err(Error::Invalid(msg));
         }
         let n_nonquad = (0..m.n_faces()).filter(|&f| m.face_len(f) != 4).count();
-        let (mut es, mut vs) = Features::sharpness_from_tags(&m, &cage.tags)?;
+        let (mut es, mut vs) = features.sharpness(&m, &cage.tags);
         let mut hole = features.hole.clone();
         let mut level_m = m;
         let mut total: Option<SparseMatrix<f64>> = None;

@@ -12,6 +12,7 @@
 //! - The vertex rule is Sdc's: a sharp vertex is a corner; otherwise 0 sharp edges smooth, 1 a dart, 2 a
 //!   crease, 3 or more a corner. A dart keeps its whole ring (smooth); a crease or corner vertex with sharp
 //!   edges cuts its ring into spans at them; a sharp span is a corner (P = v).
+//! - Cost: O(corners + tags) per cage; a crease's edge is found by scanning its vertex's row (O(valence)).
 //! - An untagged cage ([`Features::none`]) gives exactly the rings, spans and patch types gregvox built
 //!   before features existed (boundaries were the only sharp edges).
 use crate::error::{Error, Result};
@@ -54,20 +55,12 @@ impl Features {
     /// ```
     pub fn from_tags(m: &MeshMatrix, tags: &SubdivTags) -> Result<Self> {
         let mut f = Features::none(m);
-        let he_edge = m.half_edge_edge();
         for c in &tags.creases {
-            let mut k = m.find(c.a, c.b);
-            if k == NONE {
-                k = m.find(c.b, c.a);
-            }
-            if k == NONE {
-                return Err(Error::Invalid(format!(
-                    "crease {} {}: not an edge of the cage",
-                    c.a, c.b
-                )));
-            }
+            let e = m.edge_id(c.a, c.b).ok_or_else(|| {
+                Error::Invalid(format!("crease {} {}: not an edge of the cage", c.a, c.b))
+            })?;
             // A later tag on the same edge wins, as in OpenSubdiv.
-            f.sharp_edge[he_edge[k as usize] as usize] = c.sharpness >= SHARPNESS_INFINITE;
+            f.sharp_edge[e] = c.sharpness >= SHARPNESS_INFINITE;
         }
         for c in &tags.corners {
             let v = c.vertex as usize;
@@ -114,7 +107,7 @@ impl Features {
                 let mut exclude = vec![false; m.n_verts()];
                 for c in 0..m.n_corners() as u32 {
                     let k = entry[c as usize] as usize;
-                    if twin[k] == NONE && !f.sharp_edge[he_edge[k] as usize] {
+                    if twin[k] == NONE && !f.sharp_edge[m.half_edge_edge()[k] as usize] {
                         exclude[cv[c as usize] as usize] = true;
                         exclude[cv[m.next(c) as usize] as usize] = true;
                     }
@@ -129,30 +122,28 @@ impl Features {
         Ok(f)
     }
 
-    /// The tags' sharpness per `m` edge id and vertex, as OpenSubdiv's level 0 holds it: the last tag on
-    /// an element wins, negative is 0, and under [`BoundaryInterpolation::EdgeAndCorner`] a topological
-    /// corner is infinitely sharp (boundary edges are sharpened by the refinement itself).
-    pub fn sharpness_from_tags(m: &MeshMatrix, tags: &SubdivTags) -> Result<(Vec<f32>, Vec<f32>)> {
-        let f = Features::from_tags(m, tags)?;
+    /// The tags' sharpness per `m` edge id and vertex, as OpenSubdiv's level 0 holds it, for features
+    /// `self` built by [`Features::from_tags`] from the same tags (which checked every crease edge): the
+    /// last tag on an element wins, negative is 0, and a vertex `self` made sharp (a corner tag of 10, or a
+    /// topological corner under [`BoundaryInterpolation::EdgeAndCorner`]) is infinitely sharp. Boundary
+    /// edges are sharpened by the refinement itself.
+    pub fn sharpness(&self, m: &MeshMatrix, tags: &SubdivTags) -> (Vec<f32>, Vec<f32>) {
         let mut edges = vec![0.0f32; m.n_edges()];
-        let he_edge = m.half_edge_edge();
         for c in &tags.creases {
-            let k = match m.find(c.a, c.b) {
-                NONE => m.find(c.b, c.a),
-                k => k,
-            };
-            edges[he_edge[k as usize] as usize] = c.sharpness.max(0.0);
+            if let Some(e) = m.edge_id(c.a, c.b) {
+                edges[e] = c.sharpness.max(0.0);
+            }
         }
         let mut verts = vec![0.0f32; m.n_verts()];
         for c in &tags.corners {
             verts[c.vertex as usize] = c.sharpness.max(0.0);
         }
-        for (v, &sharp) in f.sharp_vertex.iter().enumerate() {
+        for (v, &sharp) in self.sharp_vertex.iter().enumerate() {
             if sharp {
                 verts[v] = verts[v].max(SHARPNESS_INFINITE);
             }
         }
-        Ok((edges, verts))
+        (edges, verts)
     }
 
     /// Errors unless the flags have `m`'s sizes.
