@@ -40,9 +40,18 @@ fn stress_mesh(name: &str) -> Mesh {
         c["fnv1a"].as_str().unwrap(),
         "{name}: the generator no longer makes the mesh the oracle saw (rerun tests/oracle/gen_gwn_stress.py)"
     );
-    let file = PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join(format!("gwn-stress-{name}.obj"));
+    // One file per call: tests running in parallel load the same case, and a shared path let one read the
+    // file while another truncated it ("empty mesh", seen in CI).
+    static CALLS: std::sync::atomic::AtomicUsize = std::sync::atomic::AtomicUsize::new(0);
+    let call = CALLS.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+    let file = PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join(format!(
+        "gwn-stress-{name}-{}-{call}.obj",
+        std::process::id()
+    ));
     std::fs::write(&file, text).unwrap();
-    load_mesh(&file).unwrap()
+    let mesh = load_mesh(&file).unwrap();
+    std::fs::remove_file(&file).ok();
+    mesh
 }
 
 /// The oracle's mask `kind` ("magnitude" or "positive") of case `name` in the grid of `mesh`.
