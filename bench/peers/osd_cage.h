@@ -60,6 +60,11 @@ struct TaggedCage {
     OpenSubdiv::Sdc::Options::VtxBoundaryInterpolation boundary =
         OpenSubdiv::Sdc::Options::VTX_BOUNDARY_EDGE_ONLY;
     bool chaikin = false;
+    // Face-varying UVs: `vt` values (u, v pairs) and one index per face corner (empty without UVs), and
+    // `t facevaryinginterpolateboundary` (gregvox's default without the tag: 1, FVAR_LINEAR_CORNERS_ONLY).
+    std::vector<double> uvs;
+    std::vector<int> uv_idx;
+    int fvar_rule = 1;
     // Tag names read but not applied (the oracle refuses them; the bench peers ignore them).
     std::vector<std::string> unknown;
 };
@@ -75,9 +80,18 @@ static bool read_tagged_cage(const char *path, TaggedCage &c) {
         std::string tag;
         ss >> tag;
         if (tag == "v") { V3 v; ss >> v.p[0] >> v.p[1] >> v.p[2]; c.pos.push_back(v); }
+        else if (tag == "vt") { double u = 0, v = 0; ss >> u >> v; c.uvs.push_back(u); c.uvs.push_back(v); }
         else if (tag == "f") {
             std::string tok; int n = 0;
-            while (ss >> tok) { int i = atoi(tok.c_str()); if (i < 0) i = (int)c.pos.size() + i + 1; c.idx.push_back(i - 1); ++n; }
+            while (ss >> tok) {
+                int i = atoi(tok.c_str()); if (i < 0) i = (int)c.pos.size() + i + 1; c.idx.push_back(i - 1); ++n;
+                size_t slash = tok.find('/');
+                if (slash != std::string::npos && slash + 1 < tok.size() && tok[slash + 1] != '/') {
+                    int t = atoi(tok.c_str() + slash + 1);
+                    if (t < 0) t = (int)(c.uvs.size() / 2) + t + 1;
+                    c.uv_idx.push_back(t - 1);
+                }
+            }
             c.nv.push_back(n);
         } else if (tag == "t") {
             std::string name, counts;
@@ -106,6 +120,8 @@ static bool read_tagged_cage(const char *path, TaggedCage &c) {
                                         : OpenSubdiv::Sdc::Options::VTX_BOUNDARY_EDGE_ONLY;
             } else if (name == "creasemethod") {
                 c.chaikin = (sv == "chaikin");
+            } else if (name == "facevaryinginterpolateboundary" && ni == 1) {
+                c.fvar_rule = iv[0];
             } else if (name != "facevaryinginterpolateboundary") {
                 c.unknown.push_back(name);
             }
@@ -113,6 +129,9 @@ static bool read_tagged_cage(const char *path, TaggedCage &c) {
     }
     if (c.nv.empty()) { fprintf(stderr, "%s: no faces\n", path); return false; }
     for (int i : c.idx) if (i < 0 || i >= (int)c.pos.size()) { fprintf(stderr, "%s: face index out of range\n", path); return false; }
+    // UVs only when every corner names one (gregvox's rule too).
+    if (c.uv_idx.size() != c.idx.size()) c.uv_idx.clear();
+    for (int i : c.uv_idx) if (i < 0 || i >= (int)c.uvs.size() / 2) { fprintf(stderr, "%s: uv index out of range\n", path); return false; }
     return true;
 }
 
@@ -225,9 +244,10 @@ static int default_isolation(const TaggedCage &c) {
     return std::max((int)std::ceil(semi), quads ? 0 : 1);
 }
 
-// Far's refiner of a tagged cage (CATMARK, its boundary rule, creasing method, creases, corners and holes),
+// Far's refiner of a tagged cage (CATMARK, its boundary rule, creasing method, creases, corners and holes;
+// with `fvar` and UVs, the UVs as face-varying channel 0 under the cage's FVarLinearInterpolation),
 // unrefined; null if Far refuses the cage.
-static OpenSubdiv::Far::TopologyRefiner *make_tagged_refiner(const TaggedCage &c) {
+static OpenSubdiv::Far::TopologyRefiner *make_tagged_refiner(const TaggedCage &c, bool fvar = false) {
     namespace Far = OpenSubdiv::Far;
     Far::TopologyDescriptor d;
     d.numVertices = (int)c.pos.size();
@@ -242,7 +262,15 @@ static OpenSubdiv::Far::TopologyRefiner *make_tagged_refiner(const TaggedCage &c
     d.cornerWeights = c.corner_w.data();
     d.numHoles = (int)c.holes.size();
     d.holeIndices = c.holes.data();
+    Far::TopologyDescriptor::FVarChannel channel;
     OpenSubdiv::Sdc::Options o;
+    if (fvar && !c.uv_idx.empty()) {
+        channel.numValues = (int)c.uvs.size() / 2;
+        channel.valueIndices = c.uv_idx.data();
+        d.numFVarChannels = 1;
+        d.fvarChannels = &channel;
+        o.SetFVarLinearInterpolation((OpenSubdiv::Sdc::Options::FVarLinearInterpolation)c.fvar_rule);
+    }
     o.SetVtxBoundaryInterpolation(c.boundary);
     if (c.chaikin) o.SetCreasingMethod(OpenSubdiv::Sdc::Options::CREASE_CHAIKIN);
     typedef Far::TopologyRefinerFactory<Far::TopologyDescriptor> F;

@@ -34,6 +34,7 @@ mod stl;
 mod subdivision;
 mod tags;
 mod topology;
+mod uv;
 pub mod write;
 
 pub use load::{load_cage_file, load_mesh_file, parse_mesh_bytes, MeshFormat};
@@ -53,3 +54,4 @@ pub use tags::{
     SHARPNESS_INFINITE,
 };
 pub use topology::{EdgeUse, TopologyReport};
+pub use uv::{FVarLinear, FaceVarying};

@@ -9,7 +9,8 @@
 //! - Nothing is dropped silently: a tag line is understood, or refused with a message naming the tag and
 //!   the line ([`parse_obj_cage`]); a tag that is understood but has no effect on what gregvox builds
 //!   (`facevaryingpropagatecorners`, which OpenSubdiv itself ignores; `facevaryinginterpolateboundary`
-//!   while UVs are not carried) is kept and reported by [`SubdivTags::notes`].
+//!   on a cage without UVs) is kept and reported by [`SubdivTags::notes`], as are UVs that could not be
+//!   kept (some faces without `vt` indices: [`crate::mesh::FaceVarying`]).
 //! - What the surface builder cannot honour yet (`smoothtriangles smooth` on a cage with triangles) is
 //!   refused there with the tag named ([`SubdivTags::unsupported`]), never smoothed over.
 //! - Indices follow OpenSubdiv's tags: 0-based vertices and faces (unlike OBJ's 1-based `f` lines).
@@ -19,6 +20,7 @@
 //!   to check crease edges; a tag line's argument counts are checked against the line before anything is
 //!   allocated from them, so a lying `t crease 999999999/1/0` is an error, not an allocation.
 use super::obj::{parse_obj_bytes, Mesh};
+use super::uv::{parse_obj_uvs, FVarLinear, FaceVarying};
 use crate::error::{Error, Result};
 use std::collections::HashSet;
 use std::path::Path;
@@ -80,11 +82,13 @@ pub struct SubdivTags {
     pub isolation: Option<u32>,
 }
 
-/// A subdivision cage: the polygon mesh and its tags.
+/// A subdivision cage: the polygon mesh, its tags and its UVs.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Cage {
     pub mesh: Mesh,
     pub tags: SubdivTags,
+    /// Face-varying UVs (`vt`), interpolated as [`SubdivTags::fvar_linear`] says.
+    pub uv: Option<FaceVarying>,
 }
 
 impl From<Mesh> for Cage {
@@ -92,6 +96,7 @@ impl From<Mesh> for Cage {
         Cage {
             mesh,
             tags: SubdivTags::default(),
+            uv: None,
         }
     }
 }
@@ -121,11 +126,30 @@ impl Cage {
         for &f in &tags.holes {
             check_hole(&mesh, f).map_err(Error::Invalid)?;
         }
-        Ok(Cage { mesh, tags })
+        Ok(Cage {
+            mesh,
+            tags,
+            uv: None,
+        })
+    }
+
+    /// The cage with UVs: `values` and one value index per face corner (the layout of
+    /// [`Mesh::indices`]), checked by [`FaceVarying::new`].
+    pub fn with_uv(mut self, values: Vec<[f64; 2]>, indices: Vec<u32>) -> Result<Self> {
+        self.uv = Some(FaceVarying::new(&self.mesh, values, indices)?);
+        Ok(self)
     }
 }
 
 impl SubdivTags {
+    /// How UVs follow the surface: the `facevaryinginterpolateboundary` tag, or
+    /// [`FVarLinear::CornersOnly`] without one.
+    pub fn fvar_linear(&self) -> FVarLinear {
+        self.fvar_interpolation
+            .and_then(FVarLinear::from_tag)
+            .unwrap_or_default()
+    }
+
     /// True when the tags change nothing: the cage is the untagged smooth cage.
     pub fn is_plain(&self) -> bool {
         self.creases.iter().all(|c| c.sharpness <= 0.0)
@@ -263,7 +287,16 @@ pub(crate) fn parse_obj_cage_bytes(bytes: &[u8], path: &Path) -> Result<Cage> {
         let tag = parse_tag_line(tok).map_err(|m| err(line_no, m))?;
         apply_tag(&mesh, &edges, &tag, &mut tags).map_err(|m| err(line_no, m))?;
     }
-    Ok(Cage { mesh, tags })
+    let (uv, note) = parse_obj_uvs(text, &mesh, path)?;
+    tags.ignored.extend(note);
+    if uv.is_none() {
+        if let Some(n) = tags.fvar_interpolation {
+            tags.ignored.push(format!(
+                "t facevaryinginterpolateboundary {n}: read; the cage has no UVs, so it changes nothing"
+            ));
+        }
+    }
+    Ok(Cage { mesh, tags, uv })
 }
 
 /// One `t` line: name and its integer, float and string arguments.
@@ -434,9 +467,6 @@ fn apply_tag(
                 ));
             }
             tags.fvar_interpolation = Some(n as u32);
-            tags.ignored.push(format!(
-                "t facevaryinginterpolateboundary {n}: read; gregvox does not carry UVs yet, so it changes nothing"
-            ));
         }
         "facevaryingpropagatecorners" => {
             one_int(t)?;

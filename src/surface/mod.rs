@@ -7,6 +7,7 @@ pub mod acc2;
 pub mod beziex;
 pub mod evaluate;
 pub mod features;
+pub mod fvar;
 pub mod gregory_host;
 pub mod tessellate;
 

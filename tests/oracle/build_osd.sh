@@ -51,3 +51,20 @@ done
 for c in catmark_cube catmark_gregory_test6 catmark_tent; do
     "$bin" "$osd/$c.obj" /dev/null --ptex 300 "$out/${c}_iso2.ptex" --isolation 2
 done
+# Face-varying UVs (`vt`, `t facevaryinginterpolateboundary`, CORNERS_ONLY without the tag) through Far's
+# smooth face-varying patches at random (ptex face, u, v) (tests/surface_uv.rs).
+for c in catmark_cube catmark_torus catmark_fvar_bound0 catmark_fvar_bound1 catmark_fvar_bound2 catmark_fvar_bound3 \
+         catmark_fvar_bound4 catmark_fvar_project0 catmark_cubes_infsharp catmark_cubes_semisharp catmark_xord_interior \
+         catmark_xord_boundary catmark_edgenone catmark_edgecorner catmark_hole_test1 catmark_nonquads catmark_inf_crease0 \
+         catmark_gregory_test6 catmark_chaikin0 catmark_quadstrips; do
+    "$bin" "$osd/$c.obj" /dev/null --fvar 300 "$out/$c.fvar"
+done
+# Every rule: the shapes above with `t facevaryinginterpolateboundary N` (N = 0, 2…5) appended (cages/fvar/).
+for c in catmark_cube catmark_fvar_bound0 catmark_fvar_bound1 catmark_fvar_bound2 catmark_fvar_bound3 catmark_fvar_project0 \
+         catmark_xord_interior catmark_edgecorner catmark_inf_crease0; do
+    for r in 0 2 3 4 5; do
+        (grep -v "^t facevaryinginterpolateboundary" "$osd/$c.obj"; echo "t facevaryinginterpolateboundary 1/0/0 $r") \
+            > "$out/cages/fvar/${c}_r$r.obj"
+        "$bin" "$out/cages/fvar/${c}_r$r.obj" /dev/null --fvar 200 "$out/${c}_r$r.fvar"
+    done
+done

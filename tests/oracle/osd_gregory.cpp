@@ -212,15 +212,115 @@ static int write_ptex_samples(const Cage &cage, int n, const char *path, int iso
     return 0;
 }
 
+// --fvar N FILE [--isolation L]: the cage's UVs (face-varying channel 0, `vt`) at N random (ptex face, u, v),
+// drawn as --ptex draws them, through Far's face-varying patches: RefineAdaptive(L) as --ptex, with
+// generateFVarTables and smooth face-varying patches (generateFVarLegacyLinearPatches off: B-spline patches
+// where the UVs are regular, Gregory basis end caps where not, on the face-varying topology; its refinement
+// then isolates face-varying features too, considerFVarChannels) under the cage's
+// `t facevaryinginterpolateboundary` (1, FVAR_LINEAR_CORNERS_ONLY, without it):
+//   u32 n; per sample f64[9]: face, u, v, P.xyz, uv, flag.
+// flag 1: the sample's face-varying patch is a Gregory basis patch with a face point whose stencil has 2
+// entries: OpenSubdiv 3.5's GregoryConverter sizes the face point between two sharp corners at 2
+// (getIrregularFacePointSize) while computeIrregularFacePoint writes the corner, both edge points and the
+// ring terms, so that row is truncated and the patch is not the one it means to build (only the UV rules that
+// sharpen spans of more than one face, 2-4, make such corners). Compare those samples' UVs loosely.
+static int write_fvar_samples(const Cage &cage, int n, const char *path, int isolation) {
+    if (cage.uv_idx.empty()) { fprintf(stderr, "%s: the cage has no UVs\n", path); return 1; }
+    int level = std::max(default_isolation(cage), isolation);
+    Far::TopologyRefiner *r = make_tagged_refiner(cage, true);
+    if (!r) { fprintf(stderr, "OpenSubdiv refused the cage\n"); return 1; }
+    Far::PatchTableFactory::Options po(level);
+    po.SetEndCapType(Far::PatchTableFactory::Options::ENDCAP_GREGORY_BASIS);
+    po.useInfSharpPatch = true;
+    po.SetPatchPrecision<double>();
+    po.SetFVarPatchPrecision<double>();
+    po.generateFVarTables = true;
+    po.generateFVarLegacyLinearPatches = false;
+    r->RefineAdaptive(po.GetRefineAdaptiveOptions());
+    Far::PatchTable const *pt = Far::PatchTableFactory::Create(*r, po);
+    int nref = r->GetNumVerticesTotal();
+    int nloc = pt->GetNumLocalPoints();
+    std::vector<V3> pts(nref + nloc);
+    std::copy(cage.pos.begin(), cage.pos.end(), pts.begin());
+    Far::PrimvarRefinerReal<double> pr(*r);
+    int nfv = 0;
+    for (int l = 0; l <= r->GetMaxLevel(); ++l) nfv += r->GetLevel(l).GetNumFVarValues(0);
+    int nlocfv = pt->GetNumLocalPointsFaceVarying(0);
+    std::vector<V3> fv(nfv + nlocfv);
+    for (size_t i = 0; i < cage.uvs.size() / 2; ++i) { fv[i].p[0] = cage.uvs[2 * i]; fv[i].p[1] = cage.uvs[2 * i + 1]; fv[i].p[2] = 0; }
+    int off = 0, offv = 0;
+    for (int l = 1; l <= r->GetMaxLevel(); ++l) {
+        V3 *src = pts.data() + off;
+        V3 *dst = src + r->GetLevel(l - 1).GetNumVertices();
+        pr.Interpolate(l, src, dst);
+        off += r->GetLevel(l - 1).GetNumVertices();
+        V3 *fsrc = fv.data() + offv;
+        V3 *fdst = fsrc + r->GetLevel(l - 1).GetNumFVarValues(0);
+        pr.InterpolateFaceVarying(l, fsrc, fdst, 0);
+        offv += r->GetLevel(l - 1).GetNumFVarValues(0);
+    }
+    if (nloc) pt->GetLocalPointStencilTable<double>()->UpdateValues(pts.data(), pts.data() + nref);
+    if (nlocfv) pt->GetLocalPointFaceVaryingStencilTable<double>(0)->UpdateValues(fv.data(), fv.data() + nfv);
+    Far::PatchMap pm(*pt);
+    std::vector<int> ptex_face;
+    int id = 0;
+    for (size_t f = 0; f < cage.nv.size(); ++f) {
+        int k = cage.nv[f] == 4 ? 1 : cage.nv[f];
+        for (int i = 0; i < k; ++i, ++id) if (!r->GetLevel(0).IsFaceHole((int)f)) ptex_face.push_back(id);
+    }
+    std::vector<double> out;
+    std::vector<double> w(20), wu(20), wv(20);
+    uint64_t rng = 0x9E3779B97F4A7C15ull;
+    auto next = [&]() { rng ^= rng >> 12; rng ^= rng << 25; rng ^= rng >> 27; return (double)((rng * 0x2545F4914F6CDD1Dull) >> 11) / 9007199254740992.0; };
+    for (int s = 0; s < n; ++s) {
+        int face = ptex_face[(size_t)(next() * ptex_face.size()) % ptex_face.size()];
+        double u = next(), v = next();
+        if (s % 10 == 0) u = 0.5;
+        if (s % 10 == 1) { u = (s / 10) % 2 ? 0.0 : 1.0; } // the ptex face's own edges: seams, boundaries
+        Far::PatchTable::PatchHandle const *h = pm.FindPatch(face, u, v);
+        if (!h) { fprintf(stderr, "FindPatch failed: ptex %d (%g, %g)\n", face, u, v); return 1; }
+        pt->EvaluateBasis(*h, u, v, w.data(), wu.data(), wv.data());
+        Far::ConstIndexArray cv = pt->GetPatchVertices(*h);
+        double P[3] = {0, 0, 0}, UV[2] = {0, 0};
+        for (int k = 0; k < cv.size(); ++k) for (int c = 0; c < 3; ++c) P[c] += w[k] * pts[cv[k]].p[c];
+        pt->EvaluateBasisFaceVarying(*h, u, v, w.data(), wu.data(), wv.data(), 0, 0, 0, 0);
+        Far::ConstIndexArray cf = pt->GetPatchFVarValues(*h, 0);
+        for (int k = 0; k < cf.size(); ++k) for (int c = 0; c < 2; ++c) UV[c] += w[k] * fv[cf[k]].p[c];
+        double flag = 0;
+        if (!pt->GetPatchFVarPatchParam(h->arrayIndex, h->patchIndex, 0).IsRegular() && cf.size() == 20) {
+            static const int FACE_POINTS[8] = {3, 4, 8, 9, 13, 14, 18, 19};
+            for (int k : FACE_POINTS)
+                if (cf[k] >= nfv && pt->GetLocalPointFaceVaryingStencilTable<double>(0)->GetStencil(cf[k] - nfv).GetSize() == 2)
+                    flag = 1;
+        }
+        out.push_back(face); out.push_back(u); out.push_back(v);
+        for (int c = 0; c < 3; ++c) out.push_back(P[c]);
+        for (int c = 0; c < 2; ++c) out.push_back(UV[c]);
+        out.push_back(flag);
+    }
+    FILE *fo = fopen(path, "wb");
+    if (!fo) { fprintf(stderr, "cannot write %s\n", path); return 1; }
+    uint32_t nn = n;
+    fwrite(&nn, 4, 1, fo);
+    fwrite(out.data(), 8, out.size(), fo);
+    fclose(fo);
+    fprintf(stderr, "%s: %d UV samples over %zu ptex faces (max level %d, %d local UV points, rule %d)\n", path, n,
+            ptex_face.size(), r->GetMaxLevel(), nlocfv, cage.fvar_rule);
+    delete pt; delete r;
+    return 0;
+}
+
 int main(int argc, char **argv) {
     if (argc < 3) { fprintf(stderr, "usage: %s IN.obj OUT.osd [--refine] [--f32] [--samples]\n", argv[0]); return 2; }
     bool refine = false, f32 = false, samples = false;
     const char *limit_path = 0;
     const char *ptex_path = 0;
-    int ptex_n = 0, isolation = 0;
+    int ptex_n = 0, isolation = 0, fvar_n = 0;
+    const char *fvar_path = 0;
     for (int i = 3; i < argc; ++i) {
         if (!strcmp(argv[i], "--limit") && i + 1 < argc) { limit_path = argv[++i]; continue; }
         if (!strcmp(argv[i], "--ptex") && i + 2 < argc) { ptex_n = atoi(argv[++i]); ptex_path = argv[++i]; continue; }
+        if (!strcmp(argv[i], "--fvar") && i + 2 < argc) { fvar_n = atoi(argv[++i]); fvar_path = argv[++i]; continue; }
         if (!strcmp(argv[i], "--isolation") && i + 1 < argc) { isolation = atoi(argv[++i]); continue; }
         if (!strcmp(argv[i], "--refine")) refine = true;
         else if (!strcmp(argv[i], "--f32")) f32 = true;
@@ -228,6 +328,7 @@ int main(int argc, char **argv) {
     }
     Cage cage = read_obj(argv[1]);
     if (ptex_path) return write_ptex_samples(cage, ptex_n, ptex_path, isolation);
+    if (fvar_path) return write_fvar_samples(cage, fvar_n, fvar_path, isolation);
     if (refine) cage = refine_once(cage);
     for (int n : cage.nv) if (n != 4) { fprintf(stderr, "%s: not all-quad (use --refine)\n", argv[1]); return 1; }
     int nf = (int)cage.nv.size();
