@@ -35,6 +35,14 @@ impl Array {
             data: v.iter().flatten().flat_map(|x| x.to_le_bytes()).collect(),
         }
     }
+    /// float64, shape (N, 2) (UVs).
+    pub fn f64_rows(v: &[[f64; 2]]) -> Array {
+        Array {
+            descr: "<f8",
+            shape: vec![v.len(), 2],
+            data: v.iter().flatten().flat_map(|x| x.to_le_bytes()).collect(),
+        }
+    }
     /// float32, shape (N,).
     pub fn f32s(v: &[f32]) -> Array {
         Array {

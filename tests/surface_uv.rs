@@ -185,3 +185,243 @@ fn every_face_varying_rule_matches_opensubdiv() {
     eprintln!("worst uv error {worst:.1e}·uv diag");
     assert!(bad.is_empty(), "{bad:#?}");
 }
+
+#[path = "common/mod.rs"]
+mod gpu;
+
+#[test]
+fn tessellation_carries_the_uv_surface_on_every_grid_vertex() {
+    // The UV surface is evaluated on the device on the positions' grids: every vertex's UV is the CPU
+    // evaluator's at the same (ptex face, i/L, j/L), to f32; the welded OBJ keeps seams apart.
+    use gregvox::api::tessellate::{Patches, TessellateOptions};
+    let gpu = gpu::validated_gpu();
+    for rel in [
+        "opensubdiv/catmark_cube.obj",
+        "opensubdiv/catmark_fvar_bound1.obj",
+        "opensubdiv/catmark_xord_boundary.obj",
+    ] {
+        let cage = load_obj_cage(model(rel)).unwrap();
+        let e = LimitEvaluator::new(&cage, Tangents::OpenSubdiv).unwrap();
+        let patches = Patches::from_tagged_cage(&cage, Tangents::OpenSubdiv).unwrap();
+        assert_eq!(
+            patches.count() as usize,
+            e.ptex_faces(),
+            "{rel}: all quads, no holes"
+        );
+        let level = 5;
+        let opts = TessellateOptions {
+            level,
+            ..Default::default()
+        };
+        let mut profiler = gpu.profiler().unwrap();
+        let t = gpu.tessellate(&patches, &opts, &mut profiler).unwrap();
+        let uvs = t.uvs.as_ref().expect("UVs");
+        assert_eq!(uvs.len(), t.vertices.len());
+        let n = level + 1;
+        let at: Vec<(u32, f64, f64)> = (0..patches.count())
+            .flat_map(|p| {
+                (0..n * n).map(move |k| {
+                    (
+                        p,
+                        (k % n) as f64 / level as f64,
+                        (k / n) as f64 / level as f64,
+                    )
+                })
+            })
+            .collect();
+        let cpu = e.evaluate_uv(&at).unwrap();
+        let du = uv_diag(&cage.uv.as_ref().unwrap().values);
+        let worst = uvs
+            .iter()
+            .zip(&cpu)
+            .map(|(g, c)| ((g[0] as f64 - c[0]).hypot(g[1] as f64 - c[1])) / du)
+            .fold(0.0f64, f64::max);
+        eprintln!("{rel}: device UVs vs CPU {worst:.1e}·uv diag");
+        assert!(worst < 2e-6, "{rel}: {worst:e}");
+        // Welded: a vertex is its position and its UV, so seams stay apart, shared continuous edges merge.
+        let w = t.welded();
+        let by_position: std::collections::HashSet<[u32; 3]> =
+            t.vertices.iter().map(|v| v.position_key()).collect();
+        let wuv = w.uvs.as_ref().unwrap();
+        assert_eq!(wuv.len(), w.positions.len());
+        assert!(w.positions.len() >= by_position.len() && w.positions.len() < t.vertices.len());
+        if rel.ends_with("catmark_cube.obj") {
+            // The cross layout has 7 seam edges: each splits L - 1 interior samples and its corners.
+            assert!(w.positions.len() > by_position.len(), "{rel}: seams split");
+        }
+        let out = std::env::temp_dir().join(format!("gregvox-uv-{}.obj", std::process::id()));
+        t.write_obj(&out, true).unwrap();
+        let text = std::fs::read_to_string(&out).unwrap();
+        let _ = std::fs::remove_file(&out);
+        let count = |p: &str| text.lines().filter(|l| l.starts_with(p)).count();
+        assert_eq!(count("vt "), count("v "));
+        assert!(text
+            .lines()
+            .any(|l| l.starts_with("f ") && !l.contains("//")));
+    }
+    gpu.finish().unwrap();
+}
+
+fn write_npy_f64(path: &std::path::Path, rows: &[[f64; 3]]) {
+    let mut header = format!(
+        "{{'descr': '<f8', 'fortran_order': False, 'shape': ({}, 3), }}",
+        rows.len()
+    );
+    while (10 + header.len() + 1) % 64 != 0 {
+        header.push(' ');
+    }
+    header.push('\n');
+    let mut b = b"\x93NUMPY\x01\x00".to_vec();
+    b.extend_from_slice(&(header.len() as u16).to_le_bytes());
+    b.extend_from_slice(header.as_bytes());
+    for r in rows {
+        for x in r {
+            b.extend_from_slice(&x.to_le_bytes());
+        }
+    }
+    std::fs::write(path, b).unwrap();
+}
+
+/// The float64 data of entry `name` of a stored (uncompressed) .npz.
+fn npz_f64(z: &[u8], name: &str) -> Option<Vec<f64>> {
+    let key = format!("{name}.npy");
+    // The name as a whole: "uv.npy" also ends "duv.npy".
+    let at = (1..z.len().saturating_sub(key.len()))
+        .find(|&i| &z[i..i + key.len()] == key.as_bytes() && !z[i - 1].is_ascii_alphanumeric())?;
+    let magic = at + z[at..].windows(6).position(|w| w == b"\x93NUMPY")?;
+    let hlen = u16::from_le_bytes([z[magic + 8], z[magic + 9]]) as usize;
+    let header = std::str::from_utf8(&z[magic + 10..magic + 10 + hlen]).ok()?;
+    let shape = &header[header.find("'shape': (")? + 10..];
+    let dims: Vec<usize> = shape[..shape.find(')')?]
+        .split(',')
+        .filter_map(|s| s.trim().parse().ok())
+        .collect();
+    let n: usize = dims.iter().product();
+    let data = magic + 10 + hlen;
+    Some(
+        (0..n)
+            .map(|k| f64::from_le_bytes(z[data + 8 * k..data + 8 * k + 8].try_into().unwrap()))
+            .collect(),
+    )
+}
+
+#[test]
+fn gregvox_evaluate_writes_uv_when_the_cage_has_uvs() {
+    let dir = std::env::temp_dir().join(format!("gregvox-evaluate-uv-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let (fuv, out) = (dir.join("fuv.npy"), dir.join("p.npz"));
+    let run = |cage: &str| {
+        std::process::Command::new(env!("CARGO_BIN_EXE_gregvox"))
+            .arg("evaluate")
+            .arg(cage)
+            .arg("--at")
+            .arg(&fuv)
+            .arg("--out")
+            .arg(&out)
+            .output()
+            .unwrap()
+    };
+    // A refined cage (triangles, pentagon, hexagons): UVs through the ptex sub-faces and the quadrant map.
+    let samples = read_fvar("catmark_nonquads");
+    let rows: Vec<[f64; 3]> = samples
+        .iter()
+        .map(|s| [s.at.0 as f64, s.at.1, s.at.2])
+        .collect();
+    write_npy_f64(&fuv, &rows);
+    let r = run(&model("opensubdiv/catmark_nonquads.obj"));
+    assert!(r.status.success(), "{}", String::from_utf8_lossy(&r.stderr));
+    let z = std::fs::read(&out).unwrap();
+    let uv = npz_f64(&z, "uv").expect("uv in the .npz");
+    assert_eq!(uv.len(), 2 * samples.len());
+    for (s, q) in samples.iter().zip(uv.chunks_exact(2)) {
+        assert!(
+            (q[0] - s.uv[0]).hypot(q[1] - s.uv[1]) < 1e-12,
+            "{:?} {q:?}",
+            s.at
+        );
+    }
+    // No UVs, no `uv` entry.
+    let plain = dir.join("plain.obj");
+    std::fs::write(&plain, "v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nf 1 2 3 4\n").unwrap();
+    write_npy_f64(&fuv, &[[0.0, 0.5, 0.5]]);
+    let r = run(plain.to_str().unwrap());
+    assert!(r.status.success(), "{}", String::from_utf8_lossy(&r.stderr));
+    assert!(npz_f64(&std::fs::read(&out).unwrap(), "uv").is_none());
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn bad_uvs_are_refused_with_the_line_or_dropped_with_a_note() {
+    use gregvox::mesh::parse_obj_cage;
+    let quad = "v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\n";
+    let err = |text: &str| parse_obj_cage(text, "uv.obj").unwrap_err().to_string();
+    // An index past the vt lines, a NaN, index 0, a face with some corners named: errors naming the line.
+    let e = err(&format!("{quad}vt 0 0\nvt 1 0\nf 1/1 2/2 3/3 4/9\n"));
+    assert!(e.contains("line 7") && e.contains("out of range"), "{e}");
+    let e = err(&format!("{quad}vt 0 nan\nf 1/1 2/1 3/1 4/1\n"));
+    assert!(e.contains("line 5") && e.contains("non-finite"), "{e}");
+    let e = err(&format!("{quad}vt 0 0\nf 1/0 2/1 3/1 4/1\n"));
+    assert!(e.contains("line 6") && e.contains("index 0"), "{e}");
+    let e = err(&format!("{quad}vt 0 0\nf 1/1 2 3/1 4/1\n"));
+    assert!(
+        e.contains("line 6") && e.contains("3 of its 4 corners"),
+        "{e}"
+    );
+    // Some faces with UVs, others without: no UVs, and a note naming the first face without.
+    let two = "v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nv 2 0 0\nv 2 1 0\nvt 0 0\nf 1/1 2/1 3/1 4/1\nf 2 5 6 3\n";
+    let c = parse_obj_cage(two, "partial.obj").unwrap();
+    assert!(c.uv.is_none());
+    let notes = c.tags.notes().join("\n");
+    assert!(
+        notes.contains("UVs dropped") && notes.contains("face 2"),
+        "{notes}"
+    );
+    // Relative (negative) vt indices count back from the last vt so far.
+    let c = parse_obj_cage(
+        &format!("{quad}vt 0 0\nvt 1 0\nvt 1 1\nvt 0 1\nf 1/-4 2/-3 3/-2 4/-1\n"),
+        "rel.obj",
+    )
+    .unwrap();
+    assert_eq!(c.uv.unwrap().indices, [0, 1, 2, 3]);
+    // The facevarying rule tag on a cage without UVs is reported, not applied silently.
+    let c = parse_obj_cage(
+        &format!("{quad}f 1 2 3 4\nt facevaryinginterpolateboundary 1/0/0 3\n"),
+        "rule.obj",
+    )
+    .unwrap();
+    assert!(c.tags.notes().join("\n").contains("no UVs"));
+}
+
+#[test]
+fn a_surface_reads_its_uvs_back_at_every_level() {
+    // The library's Surface: UVs beside the vertices (the same grids as `tessellate`), kept through
+    // set_level, exposed as a second vertex stream for renderers.
+    use gregvox::api::tessellate::{Patches, TessellateOptions};
+    let gpu = gpu::validated_gpu();
+    let cage = load_obj_cage(model("opensubdiv/catmark_fvar_bound1.obj")).unwrap();
+    let mut s = gpu
+        .tagged_gregory_surface(&cage, 4, Tangents::OpenSubdiv)
+        .unwrap();
+    assert!(s.has_uv() && s.buffers().uvs.is_some());
+    let patches = Patches::from_tagged_cage(&cage, Tangents::OpenSubdiv).unwrap();
+    for level in [4, 7] {
+        s.set_level(level).unwrap();
+        let uvs = s.read_uvs().unwrap().unwrap();
+        assert_eq!(uvs.len(), s.read_vertices().unwrap().len());
+        let opts = TessellateOptions {
+            level,
+            ..Default::default()
+        };
+        let mut profiler = gpu.profiler().unwrap();
+        let t = gpu.tessellate(&patches, &opts, &mut profiler).unwrap();
+        assert_eq!(Some(uvs), t.uvs, "level {level}");
+    }
+    let plain = load_obj_cage(model("opensubdiv/catmark_torus.obj")).unwrap();
+    let plain = gregvox::mesh::Cage { uv: None, ..plain };
+    let s2 = gpu
+        .tagged_gregory_surface(&plain, 2, Tangents::OpenSubdiv)
+        .unwrap();
+    assert!(!s2.has_uv() && s2.read_uvs().unwrap().is_none() && s2.buffers().uvs.is_none());
+    drop((s, s2));
+    gpu.finish().unwrap();
+}

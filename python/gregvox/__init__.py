@@ -346,6 +346,20 @@ def _tags(creases: Any = None, crease_sharpness: Any = 10.0, corners: Any = None
             _sharpness("corner_sharpness", corner_sharpness, vs.size), _index_array("holes", holes, 1), boundary)
 
 
+def _uv(uvs: Any, uv_faces: Any, uv_rule: int) -> Optional[Tuple[np.ndarray, np.ndarray, int]]:
+    if uvs is None and uv_faces is None:
+        return None
+    if uvs is None or uv_faces is None:
+        raise ValueError("give uvs and uv_faces together")
+    u = np.ascontiguousarray(np.asarray(uvs, dtype=np.float64))
+    if u.ndim != 2 or u.shape[1] != 2:
+        raise ValueError(f"uvs must have shape (k, 2), not {u.shape}")
+    _, idx = _faces(uv_faces)
+    if int(uv_rule) != uv_rule or not 0 <= uv_rule <= 5:
+        raise ValueError(f"uv_rule must be 0…5 (Sdc FVarLinearInterpolation), not {uv_rule!r}")
+    return u, idx, int(uv_rule)
+
+
 def _isolation(isolation: Optional[int]) -> Optional[int]:
     if isolation is None:
         return None
@@ -362,21 +376,29 @@ def load_cage(path: Union[str, os.PathLike]) -> Tuple[np.ndarray, Faces, Dict[st
     "edge-only", "edge-and-corner"). Sharpness 10 is infinitely sharp; semi-sharp features refine the cage
     ⌈s⌉ times (``isolation``, a keyword of both, can ask for more, as OpenSubdiv's ``RefineAdaptive(L)``).
 
+    A cage with UVs (``vt`` on every face) also gets ``uvs`` (k, 2) float64, ``uv_faces`` (one value index per
+    face corner, shaped as ``F``) and ``uv_rule`` (``t facevaryinginterpolateboundary``, 0…5; 1, corners
+    only, without the tag): the UVs then follow the surface as OpenSubdiv's face-varying patches do.
+
     Raises ``ValueError`` naming the line for a tag gregvox does not know.
     """
-    (V, ptr, idx), (cp, cs, vs, vsh, hs, boundary) = _gregvox.load_cage(os.fspath(path))
+    (V, ptr, idx), (cp, cs, vs, vsh, hs, boundary, uv) = _gregvox.load_cage(os.fspath(path))
     tags = {"creases": cp.reshape(-1, 2), "crease_sharpness": cs, "corners": vs, "corner_sharpness": vsh,
             "holes": hs, "boundary": boundary}
+    if uv is not None:
+        tags.update(uvs=uv[0], uv_faces=_faces_out(ptr, uv[1]), uv_rule=uv[2])
     return V, _faces_out(ptr, idx), tags
 
 
 def evaluate_at(V: Any, F: Faces, fuv: Any, *, creases: Any = None, crease_sharpness: Any = 10.0,
                 corners: Any = None, corner_sharpness: Any = 10.0, holes: Any = None, boundary: str = "edge-only",
-                isolation: Optional[int] = None, tangents: str = "opensubdiv") -> Dict[str, np.ndarray]:
+                isolation: Optional[int] = None, tangents: str = "opensubdiv", uvs: Any = None,
+                uv_faces: Any = None, uv_rule: int = 1) -> Dict[str, np.ndarray]:
     """The limit surface of the cage at (face, u, v) rows (``fuv`` (N, 3): an OpenSubdiv ptex face index, an
     all-quad cage's face index, and u, v in [0, 1]), on the CPU in float64: ``position``, ``du``, ``dv``,
-    ``duu``, ``duv``, ``dvv``, each (N, 3), the exact derivatives with respect to the face's (u, v). What
-    ``gregvox evaluate`` writes.
+    ``duu``, ``duv``, ``dvv``, each (N, 3), the exact derivatives with respect to the face's (u, v), and
+    ``uv`` (N, 2) when UVs are given (``uvs``, ``uv_faces``, ``uv_rule`` as :func:`load_cage` returns them).
+    What ``gregvox evaluate`` writes.
 
     >>> import gregvox, numpy as np
     >>> V = np.array([[0, 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0]], float)
@@ -387,14 +409,19 @@ def evaluate_at(V: Any, F: Faces, fuv: Any, *, creases: Any = None, crease_sharp
     if fuv.ndim != 2 or fuv.shape[1] != 3:
         raise ValueError(f"fuv must have shape (N, 3), not {fuv.shape}")
     tags = _tags(creases, crease_sharpness, corners, corner_sharpness, holes, boundary)
-    arrays = _gregvox.evaluate_at(*_mesh(V, F), (*tags, _isolation(isolation)), np.ascontiguousarray(fuv), tangents)
-    return dict(zip(["position", "du", "dv", "duu", "duv", "dvv"], arrays))
+    arrays = _gregvox.evaluate_at(*_mesh(V, F), (*tags, _isolation(isolation), _uv(uvs, uv_faces, uv_rule)),
+                                  np.ascontiguousarray(fuv), tangents)
+    out = dict(zip(["position", "du", "dv", "duu", "duv", "dvv"], arrays[:6]))
+    if arrays[6] is not None:
+        out["uv"] = arrays[6]
+    return out
 
 
 class GregorySurface:
     """The ACC-2 Gregory surface of a quad cage (a non-quad cage is refined once), evaluated on the GPU.
     Tags as :func:`load_cage` returns them: infinitely sharp creases and corners (sharpness 10), holes and
-    the boundary rule; semi-sharp ones refine the cage ⌈s⌉ times, or ``isolation`` times when larger.
+    the boundary rule; semi-sharp ones refine the cage ⌈s⌉ times, or ``isolation`` times when larger; UVs
+    (``uvs``, ``uv_faces``, ``uv_rule``) follow the surface as OpenSubdiv's face-varying patches.
 
     >>> import gregvox, numpy as np
     >>> V = np.array([[0, 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0]], float)
@@ -407,21 +434,29 @@ class GregorySurface:
     def __init__(self, V: Any, F: Faces, tangents: str = "opensubdiv", device: Optional[Device] = None, *,
                  creases: Any = None, crease_sharpness: Any = 10.0, corners: Any = None,
                  corner_sharpness: Any = 10.0, holes: Any = None, boundary: str = "edge-only",
-                 isolation: Optional[int] = None):
+                 isolation: Optional[int] = None, uvs: Any = None, uv_faces: Any = None, uv_rule: int = 1):
         V, ptr, idx = _mesh(V, F)
         self._n = V.shape[0]
+        self.has_uv = uvs is not None
         tags = _tags(creases, crease_sharpness, corners, corner_sharpness, holes, boundary)
-        self._surface = _gregvox.GregorySurface(_device(device)._device, V, ptr, idx, (*tags, _isolation(isolation)),
-                                                tangents)
+        self._surface = _gregvox.GregorySurface(_device(device)._device, V, ptr, idx,
+                                                (*tags, _isolation(isolation), _uv(uvs, uv_faces, uv_rule)), tangents)
 
     @property
     def patch_count(self) -> int:
         return self._surface.patch_count
 
-    def evaluate(self, level: int) -> Tuple[np.ndarray, np.ndarray]:
+    def evaluate(self, level: int, uvs: bool = False) -> Tuple[np.ndarray, ...]:
         """Positions and unit normals, float32 (patches, level+1, level+1, 3): sample ``[p, j, i]`` at
-        (u, v) = (i/level, j/level) of patch p, bit for bit what ``gregvox tessellate --no-weld`` writes."""
-        return self._surface.evaluate(int(level))
+        (u, v) = (i/level, j/level) of patch p, bit for bit what ``gregvox tessellate --no-weld`` writes.
+        ``uvs=True`` adds the UVs, float32 (patches, level+1, level+1, 2), evaluated on the device beside the
+        positions (the ``vt`` that ``tessellate`` writes); ``ValueError`` if the surface has none."""
+        P, N, UV = self._surface.evaluate(int(level))
+        if not uvs:
+            return P, N
+        if UV is None:
+            raise ValueError("the surface has no UVs (pass uvs= and uv_faces=, or load a cage with vt)")
+        return P, N, UV
 
     def set_cage(self, V: Any) -> None:
         """Moves the cage (the same number of vertices); the next ``evaluate`` runs on the GPU again."""

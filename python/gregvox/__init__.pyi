@@ -49,10 +49,14 @@ class GregorySurface:
         holes: Optional[npt.ArrayLike] = ...,
         boundary: str = ...,
         isolation: Optional[int] = ...,
+        uvs: Optional[npt.ArrayLike] = ...,
+        uv_faces: Optional[Faces] = ...,
+        uv_rule: int = ...,
     ) -> None: ...
+    has_uv: bool
     @property
     def patch_count(self) -> int: ...
-    def evaluate(self, level: int) -> Tuple[npt.NDArray[np.float32], npt.NDArray[np.float32]]: ...
+    def evaluate(self, level: int, uvs: bool = ...) -> Tuple[npt.NDArray[np.float32], ...]: ...
     def set_cage(self, V: npt.ArrayLike) -> None: ...
     def indices(self, level: int) -> npt.NDArray[np.uint32]: ...
 
@@ -73,6 +77,9 @@ def evaluate_at(
     boundary: str = ...,
     isolation: Optional[int] = ...,
     tangents: str = ...,
+    uvs: Optional[npt.ArrayLike] = ...,
+    uv_faces: Optional[Faces] = ...,
+    uv_rule: int = ...,
 ) -> Dict[str, npt.NDArray[np.float64]]: ...
 def voxelize(
     V: npt.ArrayLike,

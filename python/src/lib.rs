@@ -198,7 +198,12 @@ type TagArrays<'py> = (
     Bound<'py, PyArray1<f64>>,
     Bound<'py, PyArray1<i64>>,
     &'static str,
+    UvArrays<'py>,
 );
+
+/// UVs as the Python layer sees them: values float64 (k, 2), one index per face corner (int64, the order of
+/// the face indices) and the face-varying rule (0…5), or None.
+type UvArrays<'py> = Option<(Bound<'py, PyArray2<f64>>, Bound<'py, PyArray1<i64>>, u32)>;
 
 const BOUNDARIES: &[(&str, BoundaryInterpolation)] = &[
     ("none", BoundaryInterpolation::None),
@@ -211,7 +216,8 @@ fn index_u32(what: &str, i: i64) -> PyResult<u32> {
 }
 
 /// The tags as the Python layer passes them, one tuple: crease vertex pairs (2k) and sharpness (k), corner
-/// vertices (m) and sharpness (m), hole faces (h), the boundary rule's name, the isolation level.
+/// vertices (m) and sharpness (m), hole faces (h), the boundary rule's name, the isolation level, and the
+/// UVs (values (k, 2), one index per corner, the face-varying rule 0…5) or None.
 type TagArgs<'a> = (
     PyReadonlyArray1<'a, i64>,
     PyReadonlyArray1<'a, f64>,
@@ -220,12 +226,13 @@ type TagArgs<'a> = (
     PyReadonlyArray1<'a, i64>,
     String,
     Option<u32>,
+    Option<(PyReadonlyArray2<'a, f64>, PyReadonlyArray1<'a, i64>, u32)>,
 );
 
 /// A cage from the mesh and tag arrays, checked by the engine (`Cage::new`: edges exist, indices in
 /// range, sharpness finite).
 fn cage_of(mesh: Mesh, tags: &TagArgs<'_>) -> PyResult<Cage> {
-    let (crease_pairs, crease_sharpness, corners, corner_sharpness, holes, boundary, isolation) =
+    let (crease_pairs, crease_sharpness, corners, corner_sharpness, holes, boundary, isolation, uv) =
         tags;
     let isolation = *isolation;
     let cp = crease_pairs
@@ -269,7 +276,36 @@ fn cage_of(mesh: Mesh, tags: &TagArgs<'_>) -> PyResult<Cage> {
     for &h in hs {
         tags.holes.push(index_u32("holes", h)?);
     }
-    Cage::new(mesh, tags).map_err(to_py)
+    let Some((values, uv_indices, rule)) = uv else {
+        return Cage::new(mesh, tags).map_err(to_py);
+    };
+    if *rule > 5 {
+        return Err(bad(format!(
+            "uv_rule {rule} is not a face-varying rule (0…5: Sdc FVarLinearInterpolation)"
+        )));
+    }
+    tags.fvar_interpolation = Some(*rule);
+    if values.shape()[1] != 2 {
+        return Err(bad(format!(
+            "uvs must have shape (k, 2), not {:?}",
+            values.shape()
+        )));
+    }
+    let vals: Vec<[f64; 2]> = values
+        .as_slice()
+        .map_err(|_| bad("uvs must be C-contiguous"))?
+        .chunks_exact(2)
+        .map(|c| [c[0], c[1]])
+        .collect();
+    let idx = uv_indices
+        .as_slice()
+        .map_err(|_| bad("uv_faces must be contiguous"))?
+        .iter()
+        .map(|&i| index_u32("uv_faces", i))
+        .collect::<PyResult<Vec<u32>>>()?;
+    Cage::new(mesh, tags)
+        .and_then(|c| c.with_uv(vals, idx))
+        .map_err(to_py)
 }
 
 fn tag_arrays<'py>(py: Python<'py>, tags: &SubdivTags) -> TagArrays<'py> {
@@ -294,6 +330,7 @@ fn tag_arrays<'py>(py: Python<'py>, tags: &SubdivTags) -> TagArrays<'py> {
         vsh.into_pyarray(py),
         hs.into_pyarray(py),
         boundary,
+        None,
     )
 }
 
@@ -304,7 +341,19 @@ fn load_cage<'py>(
     path: std::path::PathBuf,
 ) -> PyResult<(MeshArrays<'py>, TagArrays<'py>)> {
     let cage = py.allow_threads(|| api::load_cage(&path)).map_err(to_py)?;
-    Ok((arrays_of(py, &cage.mesh), tag_arrays(py, &cage.tags)))
+    let mut tags = tag_arrays(py, &cage.tags);
+    if let Some(uv) = &cage.uv {
+        let flat: Vec<f64> = uv.values.iter().flatten().copied().collect();
+        let idx: Vec<i64> = uv.indices.iter().map(|&i| i as i64).collect();
+        tags.6 = Some((
+            flat.into_pyarray(py)
+                .reshape([uv.values.len(), 2])
+                .expect("k × 2 values"),
+            idx.into_pyarray(py),
+            cage.tags.fvar_linear().tag(),
+        ));
+    }
+    Ok((arrays_of(py, &cage.mesh), tags))
 }
 
 type Samples<'py> = (
@@ -314,6 +363,7 @@ type Samples<'py> = (
     Bound<'py, PyArray2<f64>>,
     Bound<'py, PyArray2<f64>>,
     Bound<'py, PyArray2<f64>>,
+    Option<Bound<'py, PyArray2<f64>>>,
 );
 
 /// The limit surface at (face, u, v) rows (`fuv`, (N, 3) float64): position, du, dv, duu, duv, dvv.
@@ -349,8 +399,16 @@ fn evaluate_at<'py>(
         }
         at.push((x[0] as u32, x[1], x[2]));
     }
-    let s = py
-        .allow_threads(|| LimitEvaluator::new(&cage, tangents)?.evaluate(&at))
+    let (s, uv) = py
+        .allow_threads(|| -> gregvox::Result<_> {
+            let e = LimitEvaluator::new(&cage, tangents)?;
+            let uv = if e.has_uv() {
+                Some(e.evaluate_uv(&at)?)
+            } else {
+                None
+            };
+            Ok((e.evaluate(&at)?, uv))
+        })
         .map_err(to_py)?;
     let col = |f: fn(&api::LimitSample) -> DVec3| {
         let flat: Vec<f64> = s.iter().flat_map(|x| f(x).to_array()).collect();
@@ -365,6 +423,11 @@ fn evaluate_at<'py>(
         col(|x| x.duu),
         col(|x| x.duv),
         col(|x| x.dvv),
+        uv.map(|uv| {
+            let n = uv.len();
+            let flat: Vec<f64> = uv.into_iter().flatten().collect();
+            flat.into_pyarray(py).reshape([n, 2]).expect("N × 2 values")
+        }),
     ))
 }
 
@@ -768,6 +831,7 @@ impl GregorySurface {
     ) -> PyResult<(
         Bound<'py, numpy::PyArray4<f32>>,
         Bound<'py, numpy::PyArray4<f32>>,
+        Option<Bound<'py, numpy::PyArray4<f32>>>,
     )> {
         let gpu = self.gpu.clone();
         let patches = &self.patches;
@@ -802,9 +866,17 @@ impl GregorySurface {
             }));
             nn.extend(v.normal_xyz());
         }
+        let uv = match &t.uvs {
+            Some(uv) => {
+                let flat: Vec<f32> = uv.iter().flatten().copied().collect();
+                Some(flat.into_pyarray(py).reshape([shape[0], n, n, 2])?)
+            }
+            None => None,
+        };
         Ok((
             p.into_pyarray(py).reshape(shape)?,
             nn.into_pyarray(py).reshape(shape)?,
+            uv,
         ))
     }
 

@@ -68,9 +68,10 @@ def test_evaluate_at_is_the_cli_evaluation(cli, models, tmp_path):
     np.save(tmp_path / "fuv.npy", fuv)
     cli.run("evaluate", cage, "--at", tmp_path / "fuv.npy", "--out", tmp_path / "p.npz", "--isolation", 2)
     theirs = _read_npz(tmp_path / "p.npz")
-    assert set(theirs) == set(ours) == {"position", "du", "dv", "duu", "duv", "dvv"}
+    # catmark_nonquads has UVs (vt): "uv" (N, 2) beside the six (N, 3) arrays.
+    assert set(theirs) == set(ours) == {"position", "du", "dv", "duu", "duv", "dvv", "uv"}
     for k in ours:
-        assert ours[k].shape == (300, 3) and ours[k].dtype == np.float64
+        assert ours[k].shape == (300, 2 if k == "uv" else 3) and ours[k].dtype == np.float64
         np.testing.assert_array_equal(ours[k], theirs[k])
     # The derivatives are those of the positions (central differences, away from the quadrant seams).
     inner = fuv.copy()
@@ -92,3 +93,33 @@ def test_bad_rows_are_value_errors(models):
         gregvox.evaluate_at(V, F, [[0.5, 0.5, 0.5]], **tags)
     with pytest.raises(ValueError, match="shape"):
         gregvox.evaluate_at(V, F, [0, 0.5, 0.5], **tags)
+
+
+def test_uvs_follow_the_surface_as_the_cli_writes_them(cli, models, tmp_path):
+    cage = models / "opensubdiv" / "catmark_fvar_bound1.obj"
+    V, F, tags = gregvox.load_cage(cage)
+    assert tags["uvs"].shape[1] == 2 and tags["uv_rule"] == 1
+    assert np.asarray(tags["uv_faces"]).shape == np.asarray(F).shape
+    s = gregvox.GregorySurface(V, F, **tags)
+    assert s.has_uv
+    P, N, UV = s.evaluate(3, uvs=True)
+    assert UV.shape == P.shape[:3] + (2,) and UV.dtype == np.float32
+    # The CLI's unwelded OBJ carries the same vt, bit for bit.
+    out = tmp_path / "cli.obj"
+    cli.run("tessellate", cage, "--level", 3, "--no-weld", "--out", out)
+    vt = np.array([[float(x) for x in l.split()[1:3]] for l in out.read_text().splitlines() if l.startswith("vt ")])
+    np.testing.assert_array_equal(UV.reshape(-1, 2), vt.astype(np.float32))
+    # evaluate_at: the same UVs in float64 at the grid's parameters, and "uv" only with UVs.
+    fuv = np.array([[p, i / 3, j / 3] for p in range(s.patch_count) for j in range(4) for i in range(4)])
+    r = gregvox.evaluate_at(V, F, fuv, **tags)
+    np.testing.assert_allclose(r["uv"], UV.reshape(-1, 2), atol=1e-6)
+    assert "uv" not in gregvox.evaluate_at(V, F, fuv)
+    with pytest.raises(ValueError, match="no UVs"):
+        gregvox.GregorySurface(V, F).evaluate(2, uvs=True)
+    # The rule changes the UVs at the UV boundary: linear-all (5) is bilinear inside every face.
+    lin = gregvox.evaluate_at(V, F, fuv, **{**tags, "uv_rule": 5})["uv"]
+    assert not np.allclose(lin, r["uv"])
+    with pytest.raises(ValueError, match="uv_rule"):
+        gregvox.evaluate_at(V, F, fuv, **{**tags, "uv_rule": 7})
+    with pytest.raises(ValueError, match="out of range"):
+        gregvox.evaluate_at(V, F, fuv, **{**tags, "uvs": tags["uvs"][:3]})

@@ -18,7 +18,7 @@
 //!   constructors and the immediate updates (`deform`, `set_cage`) submit one-shot work on the queue and
 //!   wait for it.
 use super::{to_mesh_error, Gpu};
-use crate::engine::cage::tagged_cage_topology;
+use crate::engine::cage::tagged_cage_topologies;
 use crate::engine::gregory::GregorySurface;
 use crate::error::{Error, Result};
 use crate::gpu::resources::{memory_barrier, BufferRange};
@@ -63,16 +63,27 @@ impl Gpu {
                 "--level {level} is out of range: the tessellation level must be between 1 and {MAX_LEVEL}"
             )));
         }
-        let (topo, rest, note) = tagged_cage_topology(cage, tangents).map_err(to_mesh_error)?;
-        let inner = GregorySurface::new(&self.ctx, &topo, &rest, level)?;
+        let t = tagged_cage_topologies(cage, tangents, true).map_err(to_mesh_error)?;
+        let inner = GregorySurface::new(&self.ctx, &t.topology, &t.rest, level)?;
+        let uv = match &t.uv {
+            Some(uv) => Some(GregorySurface::new(
+                &self.ctx,
+                &uv.topology,
+                &uv.values,
+                level,
+            )?),
+            None => None,
+        };
         let mut surface = Surface {
             gpu: self,
             inner,
-            rest,
-            note,
+            rest: t.rest,
+            note: t.note,
             curvature: None,
+            uv,
         };
         surface.evaluate(None)?;
+        surface.evaluate_uv()?;
         Ok(surface)
     }
 }
@@ -129,6 +140,10 @@ pub struct SurfaceBuffers {
     /// `STORAGE_BUFFER | VERTEX_BUFFER | TRANSFER_SRC`: a second vertex stream), once
     /// [`Surface::enable_curvature`] was called; uniform mode only.
     pub curvature: Option<vk::Buffer>,
+    /// UVs (a cage with UVs): a second vertex stream with the vertices' layout (stride
+    /// [`SurfaceBuffers::VERTEX_STRIDE`], u and v the first two f32 of each vertex), on the uniform grids
+    /// of the current level (adaptive mode does not carry UVs).
+    pub uvs: Option<vk::Buffer>,
     /// Adaptive mode: the index buffer of every level's grid and one `VkDrawIndexedIndirectCommand` per
     /// patch (usage `INDIRECT_BUFFER`), `patches` of them, [`SurfaceBuffers::INDIRECT_STRIDE`] apart.
     pub indirect: Option<IndirectDraws>,
@@ -159,6 +174,9 @@ pub struct Surface<'g> {
     note: Option<String>,
     /// The curvature stream `record` also writes, once [`Surface::enable_curvature`] was called.
     curvature: Option<Curvature>,
+    /// The UV surface (a cage with UVs): the same patches and grids, its vertices' positions (u, v, 0).
+    /// UVs do not move with the cage, so it is evaluated once per level.
+    uv: Option<GregorySurface>,
 }
 
 /// The curvature pass and its (H, K) buffer at the surface's current level.
@@ -177,6 +195,7 @@ impl Surface<'_> {
             indices: e.indices().raw(),
             index_count: e.index_count(),
             curvature: self.curvature.as_ref().map(|c| c.buffer.raw()),
+            uvs: self.uv.as_ref().map(|u| u.vertices().raw()),
             indirect: e.adaptive_draw().map(|(indices, commands)| IndirectDraws {
                 indices: indices.raw(),
                 commands: commands.raw(),
@@ -346,18 +365,48 @@ impl Surface<'_> {
         ctx.one_shot(|cmd| self.inner.record_cage_update(ctx, cmd, positions))
     }
 
-    /// Switches the tessellation level (1–64) and re-evaluates the rest cage.
+    /// Switches the tessellation level (1–64) and re-evaluates the rest cage (and the UVs).
     pub fn set_level(&mut self, level: u32) -> Result<()> {
         self.inner.set_level(&self.gpu.ctx, level)?;
+        if let Some(uv) = self.uv.as_mut() {
+            uv.set_level(&self.gpu.ctx, level)?;
+        }
         if self.curvature.is_some() {
             self.enable_curvature()?;
         }
-        self.evaluate(None)
+        self.evaluate(None)?;
+        self.evaluate_uv()
+    }
+
+    fn evaluate_uv(&mut self) -> Result<()> {
+        match self.uv.as_mut() {
+            Some(uv) => uv.evaluate(&self.gpu.ctx, None, None),
+            None => Ok(()),
+        }
     }
 
     /// Reads the evaluated positions and unit normals back, patch after patch.
     pub fn read_vertices(&self) -> Result<Vec<SurfaceVertex>> {
         self.inner.read_vertices(&self.gpu.ctx)
+    }
+
+    /// Whether the surface carries UVs (its cage had `vt` on every face).
+    pub fn has_uv(&self) -> bool {
+        self.uv.is_some()
+    }
+
+    /// Reads the UV of every vertex back, in the order of [`Surface::read_vertices`] (uniform grids of the
+    /// current level): OpenSubdiv's face-varying limit ([`crate::surface::fvar`]). `None` without UVs.
+    pub fn read_uvs(&self) -> Result<Option<Vec<[f32; 2]>>> {
+        let Some(uv) = &self.uv else {
+            return Ok(None);
+        };
+        Ok(Some(
+            uv.read_vertices(&self.gpu.ctx)?
+                .iter()
+                .map(|v| [v.position[0], v.position[1]])
+                .collect(),
+        ))
     }
 
     /// Triangles of the uniform grids (two per grid cell, counter-clockwise seen from the normal side).

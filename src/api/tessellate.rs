@@ -5,7 +5,9 @@
 //! Invariants: every check on the input happens before any GPU work; the vertices come back exactly as the
 //! GPU wrote them (the compute and vertex-pull paths agree bit for bit on the same points).
 use super::{Cage, Deformation, Gpu, Mesh, Tangents};
-use crate::engine::cage::{cage_jumps, max_jump_coincident, tagged_cage_topology, CageJumps};
+use crate::engine::cage::{
+    cage_jumps, max_jump_coincident, tagged_cage_topologies, CageJumps, UvTopology,
+};
 use crate::engine::gregory::{GregorySurface, GregoryTopology};
 use crate::engine::vertex_pull::vertex_pull;
 use crate::error::{Error, Result};
@@ -31,6 +33,8 @@ pub enum Patches {
         topology: GregoryTopology,
         rest: Vec<DVec3>,
         note: Option<String>,
+        /// The UV surface's layout when the cage has UVs (patch `k` is patch `k` of `topology`).
+        uv: Option<Box<UvTopology>>,
     },
     /// Beziex patches (the "Beziex patch 2019" format).
     Beziex(Vec<BeziexPatch>),
@@ -44,14 +48,15 @@ impl Patches {
 
     /// The Gregory patches of a tagged cage (creases, corners, holes, boundary rule).
     pub fn from_tagged_cage(cage: &Cage, tangents: Tangents) -> Result<Patches> {
-        let (topology, rest, note) = tagged_cage_topology(cage, tangents).map_err(|e| match e {
+        let t = tagged_cage_topologies(cage, tangents, true).map_err(|e| match e {
             Error::Invalid(msg) => Error::Mesh(msg),
             e => e,
         })?;
         Ok(Patches::Cage {
-            topology,
-            rest,
-            note,
+            topology: t.topology,
+            rest: t.rest,
+            note: t.note,
+            uv: t.uv.map(Box::new),
         })
     }
 
@@ -182,6 +187,9 @@ pub struct Tessellation {
     /// 10⁷ units from the world origin keeps its f32 precision (a unit cube there once came out as three
     /// x values).
     pub origin: [f64; 3],
+    /// The UVs of every vertex (a cage with UVs, uniform levels), from the UV surface evaluated on the
+    /// same grids: OpenSubdiv's face-varying limit, discontinuous across seams.
+    pub uvs: Option<Vec<[f32; 2]>>,
 }
 
 impl Tessellation {
@@ -221,17 +229,23 @@ impl Tessellation {
     /// their normals; triangles that a merge collapsed (the snapped rows where an adaptive patch is finer
     /// than its edge) dropped. A closed cage gives a closed, watertight mesh.
     pub fn welded(&self) -> WeldedMesh {
-        let mut index: HashMap<[u32; 3], u32> = HashMap::with_capacity(self.vertices.len());
+        let mut index: HashMap<([u32; 3], [u32; 2]), u32> =
+            HashMap::with_capacity(self.vertices.len());
         let mut remap = Vec::with_capacity(self.vertices.len());
         let mut positions = Vec::new();
+        let mut uvs = Vec::new();
         let mut sums: Vec<DVec3> = Vec::new();
         let mut first_normal: Vec<[f32; 3]> = Vec::new();
-        for v in &self.vertices {
+        for (k, v) in self.vertices.iter().enumerate() {
             let next = positions.len() as u32;
             let (position, normal) = (v.xyz(), v.normal_xyz());
-            let id = *index.entry(v.position_key()).or_insert(next);
+            // With UVs a vertex is its position and its UV: a seam keeps its two sides apart.
+            let uv = self.uvs.as_ref().map_or([0.0; 2], |u| u[k]);
+            let key = (v.position_key(), uv.map(f32::to_bits));
+            let id = *index.entry(key).or_insert(next);
             if id == next {
                 positions.push(position);
+                uvs.push(uv);
                 sums.push(DVec3::ZERO);
                 first_normal.push(normal);
             }
@@ -310,10 +324,12 @@ impl Tessellation {
             positions,
             normals,
             triangles,
+            uvs: self.uvs.as_ref().map(|_| uvs),
         }
     }
 
-    /// Writes OBJ atomically: `v` and `vn` per vertex, 1-based `a//a` triangles and a header comment (with
+    /// Writes OBJ atomically: `v` and `vn` (and `vt` with UVs) per vertex, 1-based `a//a` (`a/a/a`)
+    /// triangles and a header comment (with
     /// the per-patch levels of an adaptive tessellation in a `# levels` comment). `weld`: the
     /// [`Tessellation::welded`] mesh; otherwise one (L+1)² grid per patch in the contract order.
     /// Returns the numbers of vertices and triangles written.
@@ -378,9 +394,21 @@ impl Tessellation {
             for n in normals {
                 writeln!(w, "vn {} {} {}", n[0], n[1], n[2])?;
             }
+            let uvs = match &welded {
+                Some(m) => m.uvs.as_ref(),
+                None => self.uvs.as_ref(),
+            };
+            for t in uvs.into_iter().flatten() {
+                writeln!(w, "vt {} {}", t[0], t[1])?;
+            }
+            let with_uv = uvs.is_some();
             let mut face = |t: [u32; 3]| {
                 let (a, b, c) = (t[0] + 1, t[1] + 1, t[2] + 1);
-                writeln!(w, "f {a}//{a} {b}//{b} {c}//{c}")
+                if with_uv {
+                    writeln!(w, "f {a}/{a}/{a} {b}/{b}/{b} {c}/{c}/{c}")
+                } else {
+                    writeln!(w, "f {a}//{a} {b}//{b} {c}//{c}")
+                }
             };
             match &welded {
                 Some(m) => m.triangles.iter().try_for_each(|t| face(*t))?,
@@ -404,6 +432,8 @@ pub struct WeldedMesh {
     pub normals: Vec<[f32; 3]>,
     /// With the orientation of the patch grids.
     pub triangles: Vec<[u32; 3]>,
+    /// One UV per position, when the tessellation has UVs.
+    pub uvs: Option<Vec<[f32; 2]>>,
 }
 
 /// The adaptive parameters for a cage with bounding box `box_min + [0, box_size]`.
@@ -529,10 +559,31 @@ impl Gpu {
             level,
             levels,
             origin,
+            uvs: None,
         };
         let shift = |p: DVec3| p - DVec3::from(origin);
         match patches {
-            Patches::Cage { topology, rest, .. } => {
+            Patches::Cage {
+                topology, rest, uv, ..
+            } => {
+                // UVs: the UV surface on the same uniform grids (deformation moves positions only).
+                let uvs = match uv {
+                    Some(uv) if opts.adaptive.is_none() => {
+                        let mut s = GregorySurface::new(ctx, &uv.topology, &uv.values, level)?;
+                        s.evaluate(ctx, None, None)?;
+                        Some(
+                            s.read_vertices(ctx)?
+                                .iter()
+                                .map(|v| [v.position[0], v.position[1]])
+                                .collect(),
+                        )
+                    }
+                    _ => None,
+                };
+                let done = |vertices, levels| Tessellation {
+                    uvs: uvs.clone(),
+                    ..done(vertices, levels)
+                };
                 let local: Vec<DVec3> = rest.iter().map(|&p| shift(p)).collect();
                 let mut surface = GregorySurface::new(ctx, topology, &local, level)?;
                 if let Some(a) = &opts.adaptive {

@@ -16,7 +16,8 @@ pub struct EvaluateArgs {
     /// all-quad cage's face index), u and v in [0, 1].
     #[arg(long, value_name = "FUV.npy")]
     pub at: PathBuf,
-    /// The output .npz: `position`, `du`, `dv`, `duu`, `duv`, `dvv`, each (N, 3) float64.
+    /// The output .npz: `position`, `du`, `dv`, `duu`, `duv`, `dvv`, each (N, 3) float64, and `uv`
+    /// (N, 2) float64 when the cage has UVs (`vt`).
     #[arg(long, value_name = "P.npz")]
     pub out: PathBuf,
     /// Isolation level L of a cage: refine it L times before building patches, as OpenSubdiv's
@@ -55,17 +56,21 @@ pub fn run(args: &EvaluateArgs) -> anyhow::Result<()> {
     let col = |f: fn(&crate::api::LimitSample) -> glam::DVec3| -> Array {
         Array::points_f64(&s.iter().map(|x| f(x).to_array()).collect::<Vec<_>>())
     };
-    write_npz(
-        &args.out,
-        &[
-            ("position", col(|x| x.position)),
-            ("du", col(|x| x.du)),
-            ("dv", col(|x| x.dv)),
-            ("duu", col(|x| x.duu)),
-            ("duv", col(|x| x.duv)),
-            ("dvv", col(|x| x.dvv)),
-        ],
-    )?;
+    let mut arrays = vec![
+        ("position", col(|x| x.position)),
+        ("du", col(|x| x.du)),
+        ("dv", col(|x| x.dv)),
+        ("duu", col(|x| x.duu)),
+        ("duv", col(|x| x.duv)),
+        ("dvv", col(|x| x.dvv)),
+    ];
+    if e.has_uv() {
+        let uv = e
+            .evaluate_uv(&at)
+            .map_err(|e| anyhow::anyhow!("{}: {e}", args.at.display()))?;
+        arrays.push(("uv", Array::f64_rows(&uv)));
+    }
+    write_npz(&args.out, &arrays)?;
     eprintln!(
         "evaluated {} points on {} ptex faces in {:.3} s → {}",
         s.len(),

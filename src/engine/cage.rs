@@ -4,7 +4,7 @@
 use crate::engine::gregory::{canonical_edge_flags, GregoryTopology, SingularPoint};
 use crate::mesh::{load_cage_file, Cage, Mesh};
 use crate::passes::gregory_eval::SurfaceVertex;
-use crate::surface::{GregoryStencils, Tangents};
+use crate::surface::{CageStencils, GregoryStencils, Tangents};
 use glam::{DVec3, Vec3};
 use std::collections::HashMap;
 use std::path::Path;
@@ -95,9 +95,29 @@ pub fn tagged_cage_topology(
     cage: &Cage,
     tangents: Tangents,
 ) -> crate::Result<(GregoryTopology, Vec<DVec3>, Option<String>)> {
-    let mesh = &cage.mesh;
-    check_cage_valence(mesh)?;
-    let cs = GregoryStencils::from_cage(cage, tangents)?;
+    let t = tagged_cage_topologies(cage, tangents, false)?;
+    Ok((t.topology, t.rest, t.note))
+}
+
+/// A UV surface's patch layout: the UV cage's stencils ([`crate::surface::fvar`]) and its values as points
+/// (u, v, 0); patch `k` is the positions' patch `k`.
+#[derive(Clone, Debug)]
+pub struct UvTopology {
+    pub topology: GregoryTopology,
+    pub values: Vec<DVec3>,
+}
+
+/// What [`tagged_cage_topologies`] builds.
+pub struct CageTopologies {
+    pub topology: GregoryTopology,
+    /// The cage's positions.
+    pub rest: Vec<DVec3>,
+    pub note: Option<String>,
+    /// The UVs' layout, when asked for and the cage has UVs.
+    pub uv: Option<UvTopology>,
+}
+
+fn topology_of(cs: CageStencils) -> GregoryTopology {
     let quads: Vec<[u32; 4]> = cs
         .stencils
         .patch_face
@@ -107,13 +127,41 @@ pub fn tagged_cage_topology(
             [q[0], q[1], q[2], q[3]]
         })
         .collect();
-    let topo = GregoryTopology {
+    GregoryTopology {
         w: cs.stencils.w,
         patch_points: cs.stencils.patch_points,
         patch_flags: canonical_edge_flags(&quads),
         singular: singular_points(&quads),
+    }
+}
+
+/// [`tagged_cage_topology`], and with `uvs` the UV surface's layout beside it (OpenSubdiv's tangent
+/// masks; `None` when the cage has no UVs).
+pub fn tagged_cage_topologies(
+    cage: &Cage,
+    tangents: Tangents,
+    uvs: bool,
+) -> crate::Result<CageTopologies> {
+    let mesh = &cage.mesh;
+    check_cage_valence(mesh)?;
+    let cs = GregoryStencils::from_cage(cage, tangents)?;
+    let uv = if uvs {
+        crate::surface::fvar::uv_stencils(cage, &cs, Tangents::OpenSubdiv)?.map(|(uvc, ucs)| {
+            UvTopology {
+                topology: topology_of(ucs),
+                values: uvc.mesh.positions,
+            }
+        })
+    } else {
+        None
     };
-    Ok((topo, mesh.positions.clone(), cs.note))
+    let note = cs.note.clone();
+    Ok(CageTopologies {
+        topology: topology_of(cs),
+        rest: mesh.positions.clone(),
+        note,
+        uv,
+    })
 }
 
 /// The interior vertices of valence 2 of an all-quad patch layout, with their patch corners.

@@ -230,11 +230,11 @@ pub(crate) fn parse_obj_uvs(
         ));
     }
     // Forward references are allowed (as for positions): check once everything is read.
-    for f in 0..mesh.n_faces() {
+    for (f, &line) in face_lines.iter().enumerate() {
         let (a, b) = (mesh.face_ptr[f] as usize, mesh.face_ptr[f + 1] as usize);
         if let Some(&i) = indices[a..b].iter().find(|&&i| i as usize >= values.len()) {
             return Err(err(
-                face_lines[f],
+                line,
                 format!(
                     "face {}: texture coordinate {} is out of range ({} defined)",
                     f + 1,

@@ -64,6 +64,9 @@ pub struct LimitEvaluator {
     ptex_cage_face: Vec<u32>,
     /// Catmull–Clark levels between the cage and the patches.
     levels: u32,
+    /// The UV cage's evaluator (same ptex faces and levels: [`crate::surface::fvar`]), when the cage has
+    /// UVs.
+    uv: Option<Box<LimitEvaluator>>,
 }
 
 impl LimitEvaluator {
@@ -73,8 +76,17 @@ impl LimitEvaluator {
         Self::from_stencils(cage, &cs)
     }
 
-    /// From stencils already built for `cage`.
+    /// From stencils already built for `cage` (and, when the cage has UVs, the UV cage's stencils at the
+    /// same level, with OpenSubdiv's tangent masks).
     pub fn from_stencils(cage: &Cage, cs: &CageStencils) -> Result<Self> {
+        let mut e = Self::positions_only(cage, cs)?;
+        if let Some((uv_cage, uv_cs)) = super::fvar::uv_stencils(cage, cs, Tangents::OpenSubdiv)? {
+            e.uv = Some(Box::new(Self::positions_only(&uv_cage, &uv_cs)?));
+        }
+        Ok(e)
+    }
+
+    fn positions_only(cage: &Cage, cs: &CageStencils) -> Result<Self> {
         let s = &cs.stencils;
         let patches = s.patches_f64(&cage.mesh.positions)?;
         let mesh = &cage.mesh;
@@ -107,7 +119,36 @@ impl LimitEvaluator {
             ptex,
             ptex_cage_face,
             levels: cs.levels,
+            uv: None,
         })
+    }
+
+    /// Whether the cage has UVs ([`LimitEvaluator::evaluate_uv`]).
+    pub fn has_uv(&self) -> bool {
+        self.uv.is_some()
+    }
+
+    /// The UVs at each `(face, u, v)` (the UV surface's value: OpenSubdiv's face-varying patches), in
+    /// parallel; errors as [`LimitEvaluator::evaluate`], and when the cage has no UVs.
+    ///
+    /// ```
+    /// use gregvox::mesh::parse_obj_cage;
+    /// use gregvox::surface::{LimitEvaluator, Tangents};
+    /// let quad = "v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nvt 0 0\nvt 2 0\nvt 2 2\nvt 0 2\nf 1/1 2/2 3/3 4/4\n";
+    /// let e = LimitEvaluator::new(&parse_obj_cage(quad, "q.obj").unwrap(), Tangents::OpenSubdiv).unwrap();
+    /// let uv = e.evaluate_uv(&[(0, 0.25, 0.5)]).unwrap();
+    /// assert!((uv[0][0] - 0.5).abs() < 1e-15 && (uv[0][1] - 1.0).abs() < 1e-15);
+    /// ```
+    pub fn evaluate_uv(&self, at: &[(u32, f64, f64)]) -> Result<Vec<[f64; 2]>> {
+        let uv = self
+            .uv
+            .as_ref()
+            .ok_or_else(|| Error::Invalid("the cage has no UVs (no `vt` on its faces)".into()))?;
+        Ok(uv
+            .evaluate_first_order(at)?
+            .iter()
+            .map(|s| [s.position.x, s.position.y])
+            .collect())
     }
 
     /// Number of ptex faces (the valid `face` values are `0..ptex_faces()`).

@@ -89,8 +89,8 @@ pub fn uv_cage(cage: &Cage, levels: u32) -> Result<Option<Cage>> {
     }
     // Directed edge (tail, head) → its corner (the tail's corner).
     let mut directed: HashMap<(u32, u32), u32> = HashMap::with_capacity(n_corners);
-    for c in 0..n_corners {
-        directed.insert((mesh.indices[c], mesh.indices[next[c] as usize]), c as u32);
+    for (c, &n) in next.iter().enumerate() {
+        directed.insert((mesh.indices[c], mesh.indices[n as usize]), c as u32);
     }
     let val = |c: u32| uv.indices[c as usize];
     let vtx = |c: u32| mesh.indices[c as usize];
