@@ -2,6 +2,7 @@
 // The shadowed surface path: every shading mode of the demo.
 //   0 Phong (lecture model) with hard shadows from the shadow map (one depth-compare tap, NEAREST: hard
 //     edges, deterministic); 1 normals; 2 zebra; 3 wireframe of patch boundaries over shadowed Phong;
+//   6 a checker texture over the cage's UVs (or the patch parameters), under shadowed Phong;
 //   4 mean curvature H, 5 Gaussian curvature K: diverging colours white → red (positive) / blue (negative)
 //     of tanh(H·s) and tanh(K·s²), s = the scene's size (float bits in mode.z), so a sphere of the scene's
 //     size reads as a medium tint whatever the units.
@@ -17,6 +18,7 @@ layout(location = 0) in vec3 world_pos;
 layout(location = 1) in vec3 world_normal;
 layout(location = 2) in vec2 patch_uv;
 layout(location = 3) in vec2 curvature;   // (H, K)
+layout(location = 4) in vec2 surface_uv;  // the cage's UVs (mode.w bit 2), else the patch parameters
 layout(location = 0) out vec4 out_color;
 
 // 1 when lit, 0 in shadow; outside the light's frustum counts as lit.
@@ -52,6 +54,8 @@ void main() {
         float x = mode == 4u ? tanh(curvature.x * s) : tanh(curvature.y * s * s);
         // A little Lambert keeps the shape readable under the colour map.
         c = diverging(x) * (0.55 + 0.45 * shade_lambert(n, l));
+    } else if (mode == 6u) {
+        c = mode_checker(surface_uv) * surface_phong(n, l, v, pc.light.w, lit);
     } else {
         c = pc.color.rgb * surface_phong(n, l, v, pc.light.w, lit);
         if (mode == 3u) c = mode_wireframe(c, patch_uv);

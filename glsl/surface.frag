@@ -1,6 +1,7 @@
 #version 460
 // The plain surface path (no descriptors; also the vertex-pull path's fragment shader): modes 0 Lambert +
-// ambient + Phong (lecture model), 1 normals as colours, 2 zebra stripes, 3 wireframe of patch boundaries;
+// ambient + Phong (lecture model), 1 normals as colours, 2 zebra stripes, 3 wireframe of patch boundaries,
+// 6 a checker over the patch parameters (the UVs are the shadowed path's);
 // the curvature modes need the shadowed path's curvature buffer and fall back to Phong here.
 #include "surface_common.glsl"
 #include "shadow_shading.glsl"
@@ -19,6 +20,8 @@ void main() {
         c = mode_normals(n);
     } else if (mode == 2u) {
         c = mode_zebra(n, v);
+    } else if (mode == 6u) {
+        c = mode_checker(patch_uv) * surface_phong(n, l, v, pc.light.w, true);
     } else {
         c = pc.color.rgb * surface_phong(n, l, v, pc.light.w, true);
         if (mode == 3u) c = mode_wireframe(c, patch_uv);

@@ -559,6 +559,7 @@ fn shadow_map_darkens_exactly_the_ground_the_cpu_ray_cast_puts_in_shadow() {
                 &[LitDraw {
                     vertices: &occ_v,
                     curvature: None,
+                    uvs: None,
                     indices: &ib,
                     index_count: 6,
                     indirect: None,
@@ -567,6 +568,7 @@ fn shadow_map_darkens_exactly_the_ground_the_cpu_ray_cast_puts_in_shadow() {
             let lit = |v| LitDraw {
                 vertices: v,
                 curvature: None,
+                uvs: None,
                 indices: &ib,
                 index_count: 6,
                 indirect: None,
@@ -643,4 +645,77 @@ fn shadow_map_darkens_exactly_the_ground_the_cpu_ray_cast_puts_in_shadow() {
         shadowed > 300 && lit > 5000,
         "shadowed {shadowed}, lit {lit}"
     );
+}
+
+#[test]
+fn the_checker_shading_shows_the_cages_own_uvs() {
+    // `--shading checker` on a cage with UVs (vt) draws a checker over the UV surface the device evaluates
+    // beside the positions; the same cage without its vt shows the checker over the patch parameters
+    // instead: the two frames differ where the UVs do, and both hold the checker's light and dark squares.
+    common::with_gpu(|ctx| {
+        let model = format!(
+            "{}/assets/models/opensubdiv/catmark_fvar_bound1.obj",
+            env!("CARGO_MANIFEST_DIR")
+        );
+        let text = std::fs::read_to_string(&model).unwrap();
+        // The same cage without UVs: vt lines dropped, f corners reduced to their vertex index.
+        let plain: String = text
+            .lines()
+            .filter(|l| !l.starts_with("vt"))
+            .map(|l| {
+                if let Some(rest) = l.strip_prefix("f ") {
+                    let corners: Vec<&str> = rest
+                        .split_whitespace()
+                        .map(|t| t.split('/').next().unwrap())
+                        .collect();
+                    format!("f {}\n", corners.join(" "))
+                } else {
+                    format!("{l}\n")
+                }
+            })
+            .collect();
+        let plain_path =
+            std::env::temp_dir().join(format!("gregvox-checker-{}.obj", std::process::id()));
+        std::fs::write(&plain_path, plain).unwrap();
+        let frame = |m: &str, shading: &str| {
+            let args = demo_args(&[
+                "--scene",
+                "cage",
+                "--model",
+                m,
+                "--shading",
+                shading,
+                "--deform",
+                "none",
+            ]);
+            render(ctx, &args, &[0]).remove(0)
+        };
+        let with_uv = frame(&model, "checker");
+        let without = frame(plain_path.to_str().unwrap(), "checker");
+        let phong = frame(&model, "phong");
+        let _ = std::fs::remove_file(&plain_path);
+        let differing = |a: &[u8], b: &[u8]| {
+            a.chunks_exact(4)
+                .zip(b.chunks_exact(4))
+                .filter(|(p, q)| p.iter().zip(q.iter()).any(|(x, y)| x.abs_diff(*y) > 24))
+                .count() as f64
+                / (a.len() / 4) as f64
+        };
+        let d_uv = differing(&with_uv, &without);
+        let d_phong = differing(&with_uv, &phong);
+        eprintln!("checker with UVs vs patch parameters: {d_uv:.3}; vs phong: {d_phong:.3}");
+        assert!(d_uv > 0.02, "the cage's UVs change the checker ({d_uv})");
+        assert!(d_phong > 0.02, "the checker is drawn ({d_phong})");
+        // Light and dark squares: luminance spread over the frame.
+        let lum: Vec<u32> = with_uv
+            .chunks_exact(4)
+            .map(|p| p[0] as u32 + p[1] as u32 + p[2] as u32)
+            .collect();
+        let dark = lum.iter().filter(|&&l| l < 200).count();
+        assert!(
+            dark > lum.len() / 50,
+            "dark squares: {dark} of {}",
+            lum.len()
+        );
+    });
 }

@@ -5,7 +5,8 @@ layout(push_constant) uniform SurfacePush {
     vec4 light;      // xyz: direction towards the light (unit), w: ambient intensity
     vec4 color;      // rgb: base colour
     uvec4 mode;      // x: shading mode (0 Phong, 1 normals, 2 zebra, 3 wireframe of patch boundaries,
-                     //    4 mean curvature, 5 Gaussian curvature), y: level L,
+                     //    4 mean curvature, 5 Gaussian curvature, 6 UV checker), y: level L,
                      // z: patch kind (vertex pull) or curvature scale (float bits, shadowed path),
-                     // w: flags of the shadowed path (bit 0: ground plane, bit 1: shadows on)
+                     // w: flags of the shadowed path (bit 0: ground plane, bit 1: shadows on,
+                     //    bit 2: the UV stream holds the cage's UVs)
 } pc;

@@ -15,9 +15,9 @@ pub fn build(
     format: impl Into<ColorTarget>,
 ) -> anyhow::Result<Box<dyn Scene>> {
     let format: ColorTarget = format.into();
-    let (mesh, topo, cage, note, name) = match &args.model {
+    let (mesh, topo, cage, note, name, uv) = match &args.model {
         Some(path) => {
-            let (m, t, c, n) = load_cage(path)?;
+            let (m, t, c, n, uv) = load_cage(path)?;
             (
                 m,
                 t,
@@ -26,12 +26,13 @@ pub fn build(
                 path.file_name()
                     .map(|f| f.to_string_lossy().into_owned())
                     .unwrap_or_default(),
+                uv,
             )
         }
         None => {
             let mesh = builtin_cage(4, 2, 2);
             let (t, c, n) = cage_topology(&mesh, Tangents::OpenSubdiv)?;
-            (mesh, t, c, n, "built-in box cage".to_string())
+            (mesh, t, c, n, "built-in box cage".to_string(), None)
         }
     };
     if let Some(n) = note {
@@ -39,6 +40,10 @@ pub fn build(
     }
     let surface = GregorySurface::new(ctx, &topo, &cage, args.level.unwrap_or(8))?;
     let mut scene = CageScene::new(ctx, format, surface, mesh, args.deform, name)?;
+    if let Some(uv) = uv {
+        // The checker shading reads the cage's own UVs (OpenSubdiv's face-varying surface) when it has them.
+        scene.set_uvs(ctx, uv)?;
+    }
     scene.adaptive = args.adaptive;
     Ok(Box::new(scene))
 }

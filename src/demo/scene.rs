@@ -12,6 +12,7 @@
 //! profiler scope.
 //! Surface scenes draw through [`SurfaceLook`]: shadow map → (curvature) → ground + surface (lit path), or the
 //! vertex-pull path for the surface when `ViewState::path` asks for it and the scene has control points.
+use crate::engine::cage::UvTopology;
 use crate::engine::flag::FlagSurface;
 use crate::engine::gregory::GregorySurface;
 use crate::gpu::{Buffer, Context, MemoryLocation, Profiler};
@@ -25,7 +26,7 @@ use crate::passes::spinner::SpinnerPass;
 use crate::passes::surface_curvature::{SurfaceCurvaturePass, CURVATURE_STRIDE};
 use crate::passes::surface_draw::{
     DrawTarget, IndirectDraw, LitDraw, ShadingMode, SurfaceDrawPass, SurfacePush, FLAG_GROUND,
-    FLAG_SHADOWS,
+    FLAG_SHADOWS, FLAG_UVS,
 };
 use crate::passes::triangles::TrianglesPass;
 use ash::vk;
@@ -324,6 +325,8 @@ pub struct SurfaceFrame<'a> {
     /// commands. The curvature modes and the vertex-pull path work on uniform grids only (Phong and the
     /// compute path instead).
     pub indirect: Option<IndirectDraw<'a>>,
+    /// UVs on the same (uniform) grids for the checker shading: a UV surface's vertices.
+    pub uvs: Option<&'a Buffer>,
 }
 
 /// Where a surface scene sits: a sphere around the (animated) surface and the ground plane under it.
@@ -444,6 +447,7 @@ impl SurfaceLook {
                 &[LitDraw {
                     vertices: surface.vertices,
                     curvature: None,
+                    uvs: None,
                     indices: surface.indices,
                     index_count: surface.index_count,
                     indirect: surface.indirect,
@@ -478,13 +482,14 @@ impl SurfaceLook {
         let mut push = surface_push(&view, targets, surface.color, surface.level);
         // Curvature colour scale: H = 2/radius (a sphere half the stage's size) maps to tanh(1).
         push.mode[2] = (0.5 * self.stage.radius).to_bits();
-        push.mode[3] = FLAG_SHADOWS;
+        push.mode[3] = FLAG_SHADOWS | if surface.uvs.is_some() { FLAG_UVS } else { 0 };
         let mut ground_push = surface_push(&view, targets, [0.78, 0.76, 0.72], 1);
         ground_push.mode[3] = FLAG_SHADOWS | FLAG_GROUND;
         let target = targets.draw_target();
         let ground = LitDraw {
             vertices: &self.ground[0],
             curvature: None,
+            uvs: None,
             indices: &self.ground[1],
             index_count: 6,
             indirect: None,
@@ -492,6 +497,7 @@ impl SurfaceLook {
         let lit = LitDraw {
             vertices: surface.vertices,
             curvature,
+            uvs: surface.uvs,
             indices: surface.indices,
             index_count: surface.index_count,
             indirect: surface.indirect,
@@ -741,6 +747,7 @@ impl Scene for FlagScene {
             }),
             color: [0.85, 0.25, 0.2],
             indirect: None,
+            uvs: None,
         };
         self.look
             .record(ctx, cmd, targets, view, profiler, &surface)?;
@@ -820,6 +827,9 @@ impl Scene for FlagScene {
 /// vertices can be dragged (the edited cage goes to the GPU in the next frame's command buffer).
 pub struct CageScene {
     surface: GregorySurface,
+    /// The cage's UV surface (same patches and grids), evaluated once per level: UVs do not move with the
+    /// cage.
+    uv: Option<GregorySurface>,
     look: SurfaceLook,
     pub deformation: Deformation,
     name: String,
@@ -906,6 +916,7 @@ impl CageScene {
         look.resize(ctx, surface.patch_count(), surface.level())?;
         Ok(CageScene {
             surface,
+            uv: None,
             look,
             deformation,
             name,
@@ -916,6 +927,21 @@ impl CageScene {
             held: None,
             lines: SceneLines::new(ctx, format)?,
         })
+    }
+
+    /// Gives the scene the cage's UV layout (patch `k` of it is the surface's patch `k`): the checker shading
+    /// then shows the cage's own UVs. Builds and evaluates the UV surface at the current level.
+    pub fn set_uvs(&mut self, ctx: &Context, uv: UvTopology) -> anyhow::Result<()> {
+        anyhow::ensure!(
+            uv.topology.patch_points.len() == self.surface.patch_count() as usize,
+            "the UV layout has {} patches, the surface {}",
+            uv.topology.patch_points.len(),
+            self.surface.patch_count()
+        );
+        let mut s = GregorySurface::new(ctx, &uv.topology, &uv.values, self.surface.level())?;
+        s.evaluate(ctx, None, None)?;
+        self.uv = Some(s);
+        Ok(())
     }
 
     /// The cage's edges and a cross at each vertex (the held one larger, in orange), as line segments.
@@ -1009,6 +1035,12 @@ impl Scene for CageScene {
                 patch_count: self.surface.patch_count(),
             }),
             color: [0.3, 0.55, 0.85],
+            // UVs are evaluated on the uniform grids only.
+            uvs: self
+                .uv
+                .as_ref()
+                .filter(|_| self.adaptive.is_none())
+                .map(|u| u.vertices()),
             indirect,
         };
         self.look
@@ -1095,6 +1127,10 @@ impl Scene for CageScene {
 
     fn set_level(&mut self, ctx: &Context, level: u32) -> anyhow::Result<bool> {
         self.surface.set_level(ctx, level)?;
+        if let Some(uv) = self.uv.as_mut() {
+            uv.set_level(ctx, level)?;
+            uv.evaluate(ctx, None, None)?;
+        }
         self.look
             .resize(ctx, self.surface.patch_count(), self.surface.level())?;
         Ok(true)

@@ -15,21 +15,28 @@ use std::path::Path;
 pub fn load_cage_topology(
     path: &Path,
 ) -> crate::Result<(GregoryTopology, Vec<DVec3>, Option<String>)> {
-    let (_, topo, rest, note) = load_cage(path)?;
+    let (_, topo, rest, note, _) = load_cage(path)?;
     Ok((topo, rest, note))
 }
 
 /// [`load_cage_topology`] that also returns the cage as loaded, its positions moved as the rest positions
-/// are (the demo draws and edits it).
+/// are (the demo draws and edits it), and its UV layout when it has UVs.
+#[allow(clippy::type_complexity)]
 pub fn load_cage(
     path: &Path,
-) -> crate::Result<(Mesh, GregoryTopology, Vec<DVec3>, Option<String>)> {
+) -> crate::Result<(
+    Mesh,
+    GregoryTopology,
+    Vec<DVec3>,
+    Option<String>,
+    Option<UvTopology>,
+)> {
     let cage = load_cage_file(path)?;
-    let (topo, mut rest, note) =
-        tagged_cage_topology(&cage, Tangents::OpenSubdiv).map_err(|e| match e {
-            crate::Error::Invalid(msg) => crate::Error::parse(path, msg),
-            e => e,
-        })?;
+    let t = tagged_cage_topologies(&cage, Tangents::OpenSubdiv, true).map_err(|e| match e {
+        crate::Error::Invalid(msg) => crate::Error::parse(path, msg),
+        e => e,
+    })?;
+    let (topo, mut rest, note) = (t.topology, t.rest, t.note);
     let lo = rest
         .iter()
         .fold(DVec3::splat(f64::INFINITY), |a, p| a.min(*p));
@@ -43,7 +50,7 @@ pub fn load_cage(
     }
     let mut mesh = cage.mesh;
     mesh.positions.clone_from(&rest);
-    Ok((mesh, topo, rest, note))
+    Ok((mesh, topo, rest, note, t.uv))
 }
 
 /// Largest vertex valence (and polygon size: an n-gon refined once makes a valence-n vertex) accepted for

@@ -55,6 +55,9 @@ pub struct LitDraw<'a> {
     /// bound again in its place (a valid stream the shader reads but the non-curvature modes ignore), so one
     /// pipeline serves both.
     pub curvature: Option<&'a Buffer>,
+    /// UVs per vertex (stride 32, u and v the first two f32: a UV surface's vertex buffer), or `None`: the
+    /// vertex buffer is bound in its place and the checker shading uses the patch parameters.
+    pub uvs: Option<&'a Buffer>,
     /// u32 triangle-list indices.
     pub indices: &'a Buffer,
     pub index_count: u32,

@@ -34,24 +34,28 @@ pub enum ShadingMode {
     Mean = 4,
     /// Gaussian curvature K, diverging colours (lit path only; Phong on the plain path).
     Gaussian = 5,
+    /// A checker texture over the cage's UVs (OpenSubdiv's face-varying surface; the patch parameters
+    /// where the cage has none, or on the plain path), shaded.
+    Checker = 6,
 }
 
 impl ShadingMode {
     /// Every mode, in the order the S key cycles through them.
-    pub const ALL: [ShadingMode; 6] = [
+    pub const ALL: [ShadingMode; 7] = [
         ShadingMode::Phong,
         ShadingMode::Normals,
         ShadingMode::Zebra,
         ShadingMode::Wireframe,
         ShadingMode::Mean,
         ShadingMode::Gaussian,
+        ShadingMode::Checker,
     ];
 
     /// The next mode (wrapping).
     ///
     /// ```
     /// use gregvox::passes::surface_draw::ShadingMode;
-    /// assert_eq!(ShadingMode::Gaussian.next(), ShadingMode::Phong);
+    /// assert_eq!(ShadingMode::Checker.next(), ShadingMode::Phong);
     /// ```
     pub fn next(self) -> ShadingMode {
         Self::ALL[(self as usize + 1) % Self::ALL.len()]
@@ -65,7 +69,7 @@ impl ShadingMode {
     /// Whether the mode needs every patch's grid at the uniform level (the curvature stream is written per
     /// uniform grid vertex; the wireframe finds patch boundaries from the vertex index and the level).
     pub fn needs_uniform_grid(self) -> bool {
-        self.needs_curvature() || self == ShadingMode::Wireframe
+        self.needs_curvature() || matches!(self, ShadingMode::Wireframe | ShadingMode::Checker)
     }
 }
 
@@ -73,6 +77,8 @@ impl ShadingMode {
 pub const FLAG_GROUND: u32 = 1;
 /// `mode.w` flag: sample the shadow map.
 pub const FLAG_SHADOWS: u32 = 2;
+/// `mode.w` flag: the UV stream (binding 2) holds the cage's UVs (else the checker uses patch parameters).
+pub const FLAG_UVS: u32 = 4;
 
 /// Push constants of the surface shaders (`SurfacePush` in glsl/include/surface_common.glsl).
 #[repr(C)]
@@ -138,6 +144,14 @@ impl SurfaceDrawPass {
                 stride: 8,
                 input_rate: vk::VertexInputRate::VERTEX,
             });
+        // Binding 2: the UV stream (a UV surface's vertices: u, v first; stride 32).
+        lit_desc
+            .vertex_bindings
+            .push(vk::VertexInputBindingDescription {
+                binding: 2,
+                stride: 32,
+                input_rate: vk::VertexInputRate::VERTEX,
+            });
         lit_desc.vertex_attributes = desc.vertex_attributes.clone();
         lit_desc
             .vertex_attributes
@@ -145,6 +159,14 @@ impl SurfaceDrawPass {
                 location: 2,
                 binding: 1,
                 format: vk::Format::R32G32_SFLOAT,
+                offset: 0,
+            });
+        lit_desc
+            .vertex_attributes
+            .push(vk::VertexInputAttributeDescription {
+                location: 4,
+                binding: 2,
+                format: vk::Format::R32G32B32A32_SFLOAT,
                 offset: 0,
             });
         lit_desc.push_constant_bytes = desc.push_constant_bytes;
@@ -194,13 +216,14 @@ impl SurfaceDrawPass {
                 };
             }
             let curvature = d.curvature.unwrap_or(d.vertices);
+            let uvs = d.uvs.unwrap_or(d.vertices);
             // SAFETY: inside the render pass with the pipeline bound; buffers have VERTEX/INDEX usage.
             unsafe {
                 ctx.device.cmd_bind_vertex_buffers(
                     cmd,
                     0,
-                    &[d.vertices.raw(), curvature.raw()],
-                    &[0, 0],
+                    &[d.vertices.raw(), curvature.raw(), uvs.raw()],
+                    &[0, 0, 0],
                 );
                 ctx.device
                     .cmd_bind_index_buffer(cmd, d.indices.raw(), 0, vk::IndexType::UINT32);
