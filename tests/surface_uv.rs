@@ -340,6 +340,36 @@ fn gregvox_evaluate_writes_uv_when_the_cage_has_uvs() {
             s.at
         );
     }
+    // --device: the same points in f32 from the device pass (position, du, dv, uv; no second derivatives).
+    let r = std::process::Command::new(env!("CARGO_BIN_EXE_gregvox"))
+        .args([
+            "evaluate",
+            &model("opensubdiv/catmark_nonquads.obj"),
+            "--device",
+            "--at",
+        ])
+        .arg(&fuv)
+        .arg("--out")
+        .arg(&out)
+        .output()
+        .unwrap();
+    assert!(r.status.success(), "{}", String::from_utf8_lossy(&r.stderr));
+    let z = std::fs::read(&out).unwrap();
+    let p = npz_f64(&z, "position").unwrap();
+    let uv = npz_f64(&z, "uv").unwrap();
+    assert!(npz_f64(&z, "duu").is_none());
+    for (k, s) in samples.iter().enumerate() {
+        assert!(
+            (DVec3::from_slice(&p[3 * k..3 * k + 3]) - s.p).length() < 1e-5,
+            "{:?}",
+            s.at
+        );
+        assert!(
+            (uv[2 * k] - s.uv[0]).hypot(uv[2 * k + 1] - s.uv[1]) < 1e-5,
+            "{:?}",
+            s.at
+        );
+    }
     // No UVs, no `uv` entry.
     let plain = dir.join("plain.obj");
     std::fs::write(&plain, "v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nf 1 2 3 4\n").unwrap();
@@ -423,5 +453,105 @@ fn a_surface_reads_its_uvs_back_at_every_level() {
         .unwrap();
     assert!(!s2.has_uv() && s2.read_uvs().unwrap().is_none() && s2.buffers().uvs.is_none());
     drop((s, s2));
+    gpu.finish().unwrap();
+}
+
+#[test]
+fn the_device_evaluates_the_surface_at_arbitrary_ptex_points_as_the_cpu_does() {
+    // Surface::evaluate_at: located on the host, evaluated by the device pass (f32): positions, exact first
+    // derivatives (through the quadrant descent's Jacobian on refined cages) and UVs equal the f64 CPU
+    // evaluator's to f32 precision; bad rows are refused before any device work; a deformed cage moves
+    // the points; 2.1 M points run in several dispatches.
+    let gpu = gpu::validated_gpu();
+    for rel in [
+        "opensubdiv/catmark_nonquads.obj",
+        "opensubdiv/catmark_fvar_bound2.obj",
+        "opensubdiv/catmark_cube.obj",
+        "opensubdiv/catmark_hole_test1.obj",
+    ] {
+        let cage = load_obj_cage(model(rel)).unwrap();
+        let e = LimitEvaluator::new(&cage, Tangents::OpenSubdiv).unwrap();
+        let s = gpu
+            .tagged_gregory_surface(&cage, 2, Tangents::OpenSubdiv)
+            .unwrap();
+        let mut rng = Rng(0xface ^ rel.len() as u64);
+        let at: Vec<(u32, f64, f64)> = (0..4000)
+            .map(|_| {
+                let f = ((rng.uniform() + 1.0) * 0.5 * e.ptex_faces() as f64) as u32
+                    % e.ptex_faces() as u32;
+                (f, (rng.uniform() + 1.0) * 0.5, (rng.uniform() + 1.0) * 0.5)
+            })
+            .filter(|&q| e.evaluate_first_order(&[q]).is_ok()) // not on a hole
+            .collect();
+        let cpu = e.evaluate_first_order(&at).unwrap();
+        let dev = s.evaluate_at(&at).unwrap();
+        let d = diag(&cage.mesh.positions);
+        let (mut ep, mut ed) = (0.0f64, 0.0f64);
+        let v3 = |a: [f32; 3]| DVec3::new(a[0] as f64, a[1] as f64, a[2] as f64);
+        for (k, c) in cpu.iter().enumerate() {
+            ep = ep.max((v3(dev.position[k]) - c.position).length() / d);
+            let scale = c.du.length().max(c.dv.length()).max(1e-3 * d);
+            ed = ed.max(
+                ((v3(dev.du[k]) - c.du).length()).max((v3(dev.dv[k]) - c.dv).length()) / scale,
+            );
+        }
+        eprintln!(
+            "{rel}: {} points, device vs CPU position {ep:.1e}·diag, derivatives {ed:.1e}",
+            at.len()
+        );
+        assert!(ep < 1e-6, "{rel}: position {ep:e}");
+        assert!(ed < 1e-4, "{rel}: derivatives {ed:e}");
+        let uv = dev.uv.expect("these cages have UVs");
+        let cuv = e.evaluate_uv(&at).unwrap();
+        let du = uv_diag(&cage.uv.as_ref().unwrap().values);
+        let euv = uv
+            .iter()
+            .zip(&cuv)
+            .map(|(g, c)| (g[0] as f64 - c[0]).hypot(g[1] as f64 - c[1]) / du)
+            .fold(0.0f64, f64::max);
+        assert!(euv < 1e-6, "{rel}: uv {euv:e}");
+        if rel.ends_with("catmark_hole_test1.obj") {
+            // A row on a hole, or outside [0, 1], is an error naming the row; nothing is evaluated.
+            let hole = (0..e.ptex_faces() as u32)
+                .find(|&f| e.evaluate(&[(f, 0.5, 0.5)]).is_err())
+                .unwrap();
+            let msg = s
+                .evaluate_at(&[(0, 0.5, 0.5), (hole, 0.5, 0.5)])
+                .unwrap_err()
+                .to_string();
+            assert!(msg.contains("row 1") && msg.contains("hole"), "{msg}");
+            let msg = s.evaluate_at(&[(0, 1.5, 0.5)]).unwrap_err().to_string();
+            assert!(msg.contains("row 0"), "{msg}");
+        }
+    }
+    // Deformed: the device evaluates the cage it deformed; millions of points in several dispatches.
+    let cage = load_obj_cage(model("opensubdiv/catmark_cube.obj")).unwrap();
+    let mut s = gpu
+        .tagged_gregory_surface(&cage, 2, Tangents::OpenSubdiv)
+        .unwrap();
+    let rest = s.evaluate_at(&[(0, 0.3, 0.7)]).unwrap();
+    s.deform(gregvox::api::Deformation::Twist, 1.0, 0.5)
+        .unwrap();
+    let moved = s.evaluate_at(&[(0, 0.3, 0.7)]).unwrap();
+    assert_ne!(rest.position, moved.position);
+    let n = (1usize << 21) + 17;
+    let at: Vec<(u32, f64, f64)> = (0..n)
+        .map(|i| {
+            (
+                (i % 6) as u32,
+                (i % 1000) as f64 / 999.0,
+                (i % 777) as f64 / 776.0,
+            )
+        })
+        .collect();
+    let big = s.evaluate_at(&at).unwrap();
+    assert_eq!(big.position.len(), n);
+    let last = s.evaluate_at(&at[n - 1..]).unwrap();
+    assert_eq!(
+        big.position[n - 1],
+        last.position[0],
+        "the last batch as a batch of one"
+    );
+    drop(s);
     gpu.finish().unwrap();
 }

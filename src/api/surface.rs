@@ -27,8 +27,9 @@ use crate::mesh::{Cage, Mesh};
 pub use crate::passes::adaptive_levels::AdaptiveParams;
 use crate::passes::cage_deform::{DeformParams, Deformation};
 use crate::passes::gregory_eval::{grid_indices, vertex_count, SurfaceVertex, MAX_LEVEL};
+use crate::passes::patch_at::{PatchAtPass, PatchQuery, PatchSample};
 use crate::passes::surface_curvature::{SurfaceCurvaturePass, CURVATURE_STRIDE};
-use crate::surface::Tangents;
+use crate::surface::{PtexMap, Tangents};
 use ash::vk;
 use glam::DVec3;
 
@@ -81,6 +82,8 @@ impl Gpu {
             note: t.note,
             curvature: None,
             uv,
+            ptex: t.ptex,
+            at_pass: std::cell::OnceCell::new(),
         };
         surface.evaluate(None)?;
         surface.evaluate_uv()?;
@@ -177,7 +180,26 @@ pub struct Surface<'g> {
     /// The UV surface (a cage with UVs): the same patches and grids, its vertices' positions (u, v, 0).
     /// UVs do not move with the cage, so it is evaluated once per level.
     uv: Option<GregorySurface>,
+    /// Where each (ptex face, u, v) is among the patches ([`Surface::evaluate_at`]).
+    ptex: PtexMap,
+    /// The evaluation-at-points pass, built on the first [`Surface::evaluate_at`].
+    at_pass: std::cell::OnceCell<PatchAtPass>,
 }
+
+/// The surface at (face, u, v) points, from the device ([`Surface::evaluate_at`]): f32, in the order of the
+/// points.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct SurfaceSamples {
+    pub position: Vec<[f32; 3]>,
+    /// Exact first derivatives with respect to the ptex face's u and v.
+    pub du: Vec<[f32; 3]>,
+    pub dv: Vec<[f32; 3]>,
+    /// The UVs there, when the surface has UVs.
+    pub uv: Option<Vec<[f32; 2]>>,
+}
+
+/// Queries uploaded at once by [`Surface::evaluate_at`] (80 bytes each on the device).
+const QUERIES_PER_UPLOAD: usize = 1 << 22;
 
 /// The curvature pass and its (H, K) buffer at the surface's current level.
 struct Curvature {
@@ -383,6 +405,75 @@ impl Surface<'_> {
             Some(uv) => uv.evaluate(&self.gpu.ctx, None, None),
             None => Ok(()),
         }
+    }
+
+    /// The surface at each `(face, u, v)` (OpenSubdiv ptex faces, as [`crate::surface::LimitEvaluator`]
+    /// numbers them) on the device: position, exact first derivatives and the UVs, in f32, from the control
+    /// points the device wrote last (the rest cage, or the last `deform`/`set_cage`). The points are located
+    /// on the host (O(isolation level) each, in parallel), evaluated by one invocation each
+    /// ([`crate::passes::patch_at`]), 4 M at a time. Errors name the first bad row, before any device work.
+    pub fn evaluate_at(&self, at: &[(u32, f64, f64)]) -> Result<SurfaceSamples> {
+        let located = self.ptex.locate_all(at)?;
+        let ctx = &self.gpu.ctx;
+        let pass = match self.at_pass.get() {
+            Some(p) => p,
+            None => {
+                let p = PatchAtPass::new(ctx)?;
+                self.at_pass.get_or_init(|| p)
+            }
+        };
+        let mut out = SurfaceSamples {
+            uv: self.uv.as_ref().map(|_| Vec::with_capacity(at.len())),
+            ..Default::default()
+        };
+        for chunk in located.chunks(QUERIES_PER_UPLOAD) {
+            let queries: Vec<PatchQuery> = chunk
+                .iter()
+                .map(|&(patch, u, v, j)| PatchQuery {
+                    patch,
+                    u: u as f32,
+                    v: v as f32,
+                    pad: 0,
+                    jac: [j[0][0], j[0][1], j[1][0], j[1][1]].map(|x| x as f32),
+                })
+                .collect();
+            let n = queries.len() as u64;
+            let qbuf = ctx.upload_buffer(
+                "patch queries",
+                bytemuck::cast_slice(&queries),
+                vk::BufferUsageFlags::STORAGE_BUFFER,
+            )?;
+            let run = |s: &GregorySurface| -> Result<Vec<PatchSample>> {
+                let samples = ctx.create_buffer(
+                    "patch samples",
+                    n * std::mem::size_of::<PatchSample>() as u64,
+                    vk::BufferUsageFlags::STORAGE_BUFFER | vk::BufferUsageFlags::TRANSFER_SRC,
+                    MemoryLocation::GpuOnly,
+                )?;
+                ctx.one_shot(|cmd| {
+                    pass.record(
+                        ctx,
+                        cmd,
+                        s.control_points(),
+                        s.patch_points(),
+                        &qbuf,
+                        &samples,
+                        n,
+                    )
+                })?;
+                ctx.read_pod(&samples)
+            };
+            for s in run(&self.inner)? {
+                out.position
+                    .push([s.position[0], s.position[1], s.position[2]]);
+                out.du.push([s.du[0], s.du[1], s.du[2]]);
+                out.dv.push([s.dv[0], s.dv[1], s.dv[2]]);
+            }
+            if let (Some(uv), Some(list)) = (&self.uv, out.uv.as_mut()) {
+                list.extend(run(uv)?.iter().map(|s| [s.position[0], s.position[1]]));
+            }
+        }
+        Ok(out)
     }
 
     /// Reads the evaluated positions and unit normals back, patch after patch.

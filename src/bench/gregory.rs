@@ -611,7 +611,9 @@ pub fn evaluate_at(cfg: &BenchConfig, report: &mut Report) -> anyhow::Result<()>
              Far::PatchMap::FindPatch + PatchTable::EvaluateBasis + the sums of position and both first \
              derivatives in double, on one thread and on every core (OpenMP), and Osd::OmpEvaluator::\
              EvalPatches in float (patch coordinates found before timing), the faster all-core figure \
-             kept; median of {} repeats. Patches: gregvox refines uniformly to the isolation level L, \
+             kept; median of {} repeats. gregvox device = Surface::evaluate_at (host locate, upload, the \
+             patch_at pass in f32 with first derivatives, read back: the whole call). Patches: gregvox \
+             refines uniformly to the isolation level L, \
              OpenSubdiv adaptively (RefineAdaptive(L)). |Δ sum| = relative difference of Σ(x + y + z) of the \
              positions (the same surface).",
             cfg.repeats
@@ -623,6 +625,7 @@ pub fn evaluate_at(cfg: &BenchConfig, report: &mut Report) -> anyhow::Result<()>
             "patches OpenSubdiv",
             "gregvox ms",
             "gregvox with 2nd derivatives ms",
+            "gregvox device ms",
             "OpenSubdiv 1 thread ms",
             "OpenSubdiv all cores ms",
             "speed-up vs all cores",
@@ -631,6 +634,7 @@ pub fn evaluate_at(cfg: &BenchConfig, report: &mut Report) -> anyhow::Result<()>
     );
     let dir = std::env::temp_dir().join(format!("gregvox-bench-ptex-{}", std::process::id()));
     std::fs::create_dir_all(&dir)?;
+    let gpu = crate::api::Gpu::new()?;
     let cages: &[&str] = if cfg.quick {
         &[
             "spot_quadrangulated.obj",
@@ -661,6 +665,11 @@ pub fn evaluate_at(cfg: &BenchConfig, report: &mut Report) -> anyhow::Result<()>
             Ok(())
         });
         anyhow::ensure!(samples_out.len() == n, "{name}: evaluation failed");
+        let surface = gpu.tagged_gregory_surface(&cage, 1, Tangents::OpenSubdiv)?;
+        let device = time_cpu(cfg.repeats, || {
+            surface.evaluate_at(&at).map(|s| s.position.len())
+        });
+        drop(surface);
         let sum: f64 = samples_out
             .iter()
             .map(|s| s.position.x + s.position.y + s.position.z)
@@ -708,6 +717,7 @@ pub fn evaluate_at(cfg: &BenchConfig, report: &mut Report) -> anyhow::Result<()>
                     o["patches"].as_u64().unwrap_or(0).into(),
                     num(ours),
                     num(ours_second),
+                    num(device),
                     num(single),
                     num(all),
                     speedup(Some(all), ours),
@@ -720,6 +730,7 @@ pub fn evaluate_at(cfg: &BenchConfig, report: &mut Report) -> anyhow::Result<()>
                     why.clone().into(),
                     num(ours),
                     num(ours_second),
+                    num(device),
                     why.clone().into(),
                     why.into(),
                     "—".into(),
@@ -730,6 +741,7 @@ pub fn evaluate_at(cfg: &BenchConfig, report: &mut Report) -> anyhow::Result<()>
         t.push(row);
     }
     std::fs::remove_dir_all(&dir).ok();
+    gpu.finish()?;
     report.tables.push(t);
     Ok(())
 }

@@ -25,6 +25,10 @@ pub struct EvaluateArgs {
     /// semi-sharp sharpness⌉, 1 with non-quad faces, else 0).
     #[arg(long, value_name = "L")]
     pub isolation: Option<u32>,
+    /// Evaluate on the device (f32; `Surface::evaluate_at`): `position`, `du`, `dv` (and `uv`), no second
+    /// derivatives. Default: the CPU in f64 with second derivatives.
+    #[arg(long)]
+    pub device: bool,
 }
 
 /// Runs `gregvox evaluate`.
@@ -48,6 +52,9 @@ pub fn run(args: &EvaluateArgs) -> anyhow::Result<()> {
             );
         }
         at.push((f as u32, u, v));
+    }
+    if args.device {
+        return run_device(args, &cage, &at, t0);
     }
     let e = LimitEvaluator::new(&cage, Tangents::OpenSubdiv).map_err(named)?;
     let s = e
@@ -75,6 +82,49 @@ pub fn run(args: &EvaluateArgs) -> anyhow::Result<()> {
         "evaluated {} points on {} ptex faces in {:.3} s → {}",
         s.len(),
         e.ptex_faces(),
+        t0.elapsed().as_secs_f64(),
+        args.out.display()
+    );
+    Ok(())
+}
+
+/// `--device`: the surface built on the device at level 1 (its grids are not read) and evaluated there.
+fn run_device(
+    args: &EvaluateArgs,
+    cage: &crate::api::Cage,
+    at: &[(u32, f64, f64)],
+    t0: Instant,
+) -> anyhow::Result<()> {
+    let named = |e: Error| match e {
+        Error::Invalid(msg) | Error::Mesh(msg) => Error::parse(&args.input, msg),
+        e => e,
+    };
+    let gpu = crate::api::Gpu::new()?;
+    let surface = gpu
+        .tagged_gregory_surface(cage, 1, Tangents::OpenSubdiv)
+        .map_err(named)?;
+    let s = surface
+        .evaluate_at(at)
+        .map_err(|e| anyhow::anyhow!("{}: {e}", args.at.display()))?;
+    let wide = |v: &[[f32; 3]]| -> Array {
+        Array::points_f64(&v.iter().map(|p| p.map(f64::from)).collect::<Vec<_>>())
+    };
+    let mut arrays = vec![
+        ("position", wide(&s.position)),
+        ("du", wide(&s.du)),
+        ("dv", wide(&s.dv)),
+    ];
+    if let Some(uv) = &s.uv {
+        arrays.push((
+            "uv",
+            Array::f64_rows(&uv.iter().map(|p| p.map(f64::from)).collect::<Vec<_>>()),
+        ));
+    }
+    write_npz(&args.out, &arrays)?;
+    drop(surface);
+    eprintln!(
+        "evaluated {} points on the device in {:.3} s → {}",
+        s.position.len(),
         t0.elapsed().as_secs_f64(),
         args.out.display()
     );

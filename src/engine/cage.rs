@@ -4,7 +4,7 @@
 use crate::engine::gregory::{canonical_edge_flags, GregoryTopology, SingularPoint};
 use crate::mesh::{load_cage_file, Cage, Mesh};
 use crate::passes::gregory_eval::SurfaceVertex;
-use crate::surface::{CageStencils, GregoryStencils, Tangents};
+use crate::surface::{CageStencils, GregoryStencils, PtexMap, Tangents};
 use glam::{DVec3, Vec3};
 use std::collections::HashMap;
 use std::path::Path;
@@ -122,6 +122,8 @@ pub struct CageTopologies {
     pub note: Option<String>,
     /// The UVs' layout, when asked for and the cage has UVs.
     pub uv: Option<UvTopology>,
+    /// Where each ptex face (face, u, v) is among the patches (both layouts).
+    pub ptex: PtexMap,
 }
 
 fn topology_of(cs: CageStencils) -> GregoryTopology {
@@ -163,11 +165,13 @@ pub fn tagged_cage_topologies(
         None
     };
     let note = cs.note.clone();
+    let ptex = PtexMap::new(cage, &cs);
     Ok(CageTopologies {
         topology: topology_of(cs),
         rest: mesh.positions.clone(),
         note,
         uv,
+        ptex,
     })
 }
 

@@ -12,6 +12,7 @@ pub mod iota;
 pub mod lines;
 pub mod mesh_normals;
 pub mod overlay;
+pub mod patch_at;
 pub mod patch_pull;
 pub mod peel;
 pub mod peel_check;

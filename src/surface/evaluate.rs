@@ -57,6 +57,17 @@ pub struct LimitSample {
 /// ```
 pub struct LimitEvaluator {
     patches: Vec<PatchF64>,
+    map: PtexMap,
+    /// The UV cage's evaluator (same ptex faces and levels: [`crate::surface::fvar`]), when the cage has
+    /// UVs.
+    uv: Option<Box<LimitEvaluator>>,
+}
+
+/// Where each ptex face's surface is: (face, u, v) → (patch, the patch's own (u, v), the Jacobian of that
+/// map). The patch layout of [`GregoryStencils::from_cage`]; shared by the CPU evaluator and the device
+/// pass ([`crate::passes::patch_at`]).
+#[derive(Debug, Clone)]
+pub struct PtexMap {
     /// Per quad of the finest level: its patch, or `NONE` (a hole).
     patch_of: Vec<u32>,
     ptex: Vec<Ptex>,
@@ -64,10 +75,10 @@ pub struct LimitEvaluator {
     ptex_cage_face: Vec<u32>,
     /// Catmull–Clark levels between the cage and the patches.
     levels: u32,
-    /// The UV cage's evaluator (same ptex faces and levels: [`crate::surface::fvar`]), when the cage has
-    /// UVs.
-    uv: Option<Box<LimitEvaluator>>,
 }
+
+/// A located query: the patch, its own (u, v), and d(u', v')/d(u, v) as [[du'/du, du'/dv], [dv'/du, dv'/dv]].
+pub type Located = (u32, f64, f64, [[f64; 2]; 2]);
 
 impl LimitEvaluator {
     /// Builds the stencils of `cage` (see [`GregoryStencils::from_cage`]) and its ptex map.
@@ -87,40 +98,21 @@ impl LimitEvaluator {
     }
 
     fn positions_only(cage: &Cage, cs: &CageStencils) -> Result<Self> {
-        let s = &cs.stencils;
-        let patches = s.patches_f64(&cage.mesh.positions)?;
-        let mesh = &cage.mesh;
-        let mut patch_of = vec![NONE; cs.quad_mesh.n_faces()];
-        for (k, &f) in s.patch_face.iter().enumerate() {
-            patch_of[f as usize] = k as u32;
-        }
-        let mut ptex = Vec::with_capacity(mesh.n_faces());
-        let mut ptex_cage_face = Vec::with_capacity(mesh.n_faces());
-        let mut corner = 0u32;
-        for (f, &patch) in patch_of.iter().enumerate().take(mesh.n_faces()) {
-            let n = mesh.face(f).len() as u32;
-            if cs.levels == 0 {
-                ptex.push(Ptex::Patch(patch));
-                ptex_cage_face.push(f as u32);
-            } else if n == 4 {
-                ptex.push(Ptex::Quad { first: corner });
-                ptex_cage_face.push(f as u32);
-            } else {
-                for i in 0..n {
-                    ptex.push(Ptex::SubFace { corner: corner + i });
-                    ptex_cage_face.push(f as u32);
-                }
-            }
-            corner += n;
-        }
         Ok(LimitEvaluator {
-            patches,
-            patch_of,
-            ptex,
-            ptex_cage_face,
-            levels: cs.levels,
+            patches: cs.stencils.patches_f64(&cage.mesh.positions)?,
+            map: PtexMap::new(cage, cs),
             uv: None,
         })
+    }
+
+    /// The ptex map (where each (face, u, v) is).
+    pub fn ptex_map(&self) -> &PtexMap {
+        &self.map
+    }
+
+    /// Number of ptex faces (the valid `face` values are `0..ptex_faces()`).
+    pub fn ptex_faces(&self) -> usize {
+        self.map.ptex_faces()
     }
 
     /// Whether the cage has UVs ([`LimitEvaluator::evaluate_uv`]).
@@ -150,30 +142,57 @@ impl LimitEvaluator {
             .map(|s| [s.position.x, s.position.y])
             .collect())
     }
+}
+
+impl PtexMap {
+    /// The map of `cage`'s patches as `cs` (its stencils) lays them out.
+    pub fn new(cage: &Cage, cs: &CageStencils) -> Self {
+        let s = &cs.stencils;
+        let mesh = &cage.mesh;
+        let mut patch_of = vec![NONE; cs.quad_mesh.n_faces()];
+        for (k, &f) in s.patch_face.iter().enumerate() {
+            patch_of[f as usize] = k as u32;
+        }
+        let mut ptex = Vec::with_capacity(mesh.n_faces());
+        let mut ptex_cage_face = Vec::with_capacity(mesh.n_faces());
+        let mut corner = 0u32;
+        for (f, &patch) in patch_of.iter().enumerate().take(mesh.n_faces()) {
+            let n = mesh.face(f).len() as u32;
+            if cs.levels == 0 {
+                ptex.push(Ptex::Patch(patch));
+                ptex_cage_face.push(f as u32);
+            } else if n == 4 {
+                ptex.push(Ptex::Quad { first: corner });
+                ptex_cage_face.push(f as u32);
+            } else {
+                for i in 0..n {
+                    ptex.push(Ptex::SubFace { corner: corner + i });
+                    ptex_cage_face.push(f as u32);
+                }
+            }
+            corner += n;
+        }
+        PtexMap {
+            patch_of,
+            ptex,
+            ptex_cage_face,
+            levels: cs.levels,
+        }
+    }
 
     /// Number of ptex faces (the valid `face` values are `0..ptex_faces()`).
     pub fn ptex_faces(&self) -> usize {
         self.ptex.len()
     }
 
-    /// The surface at each `(face, u, v)`, in parallel. Errors name the first bad row.
-    pub fn evaluate(&self, at: &[(u32, f64, f64)]) -> Result<Vec<LimitSample>> {
-        self.evaluate_with(at, true)
-    }
-
-    /// [`LimitEvaluator::evaluate`] without the second derivatives (left zero): position and exact first
-    /// derivatives only, what OpenSubdiv's `EvaluateBasis` gives (measured: about a third of the time).
-    pub fn evaluate_first_order(&self, at: &[(u32, f64, f64)]) -> Result<Vec<LimitSample>> {
-        self.evaluate_with(at, false)
-    }
-
-    fn evaluate_with(&self, at: &[(u32, f64, f64)], second: bool) -> Result<Vec<LimitSample>> {
-        let out: Result<Vec<LimitSample>> = at
+    /// Every query located, in parallel; errors name the first bad row (u or v outside [0, 1] or not
+    /// finite, no such face, a hole).
+    pub fn locate_all(&self, at: &[(u32, f64, f64)]) -> Result<Vec<Located>> {
+        let out: Result<Vec<Located>> = at
             .par_iter()
             .enumerate()
-            .map(|(row, &(f, u, v))| self.sample(row, f, u, v, second))
+            .map(|(row, &(f, u, v))| self.locate(row, f, u, v))
             .collect();
-        // Rayon reports whichever failing row it met first: name the first one in order instead.
         out.map_err(|e| {
             at.iter()
                 .enumerate()
@@ -183,7 +202,7 @@ impl LimitEvaluator {
     }
 
     /// The patch, its (u, v) and the Jacobian d(u', v')/d(u, v) as [[du'/du, du'/dv], [dv'/du, dv'/dv]].
-    fn locate(&self, row: usize, f: u32, u: f64, v: f64) -> Result<(u32, f64, f64, [[f64; 2]; 2])> {
+    fn locate(&self, row: usize, f: u32, u: f64, v: f64) -> Result<Located> {
         let bad =
             |msg: String| Error::Invalid(format!("row {row} (face {f}, u {u}, v {v}): {msg}"));
         if !(0.0..=1.0).contains(&u) || !(0.0..=1.0).contains(&v) {
@@ -243,9 +262,37 @@ impl LimitEvaluator {
         // Rounding in the maps above stays inside [0, 1] (exact for dyadic steps), but clamp anyway.
         Ok((k, uu.clamp(0.0, 1.0), vv.clamp(0.0, 1.0), j))
     }
+}
+
+impl LimitEvaluator {
+    /// The surface at each `(face, u, v)`, in parallel. Errors name the first bad row.
+    pub fn evaluate(&self, at: &[(u32, f64, f64)]) -> Result<Vec<LimitSample>> {
+        self.evaluate_with(at, true)
+    }
+
+    /// [`LimitEvaluator::evaluate`] without the second derivatives (left zero): position and exact first
+    /// derivatives only, what OpenSubdiv's `EvaluateBasis` gives (measured: about a third of the time).
+    pub fn evaluate_first_order(&self, at: &[(u32, f64, f64)]) -> Result<Vec<LimitSample>> {
+        self.evaluate_with(at, false)
+    }
+
+    fn evaluate_with(&self, at: &[(u32, f64, f64)], second: bool) -> Result<Vec<LimitSample>> {
+        let out: Result<Vec<LimitSample>> = at
+            .par_iter()
+            .enumerate()
+            .map(|(row, &(f, u, v))| self.sample(row, f, u, v, second))
+            .collect();
+        // Rayon reports whichever failing row it met first: name the first one in order instead.
+        out.map_err(|e| {
+            at.iter()
+                .enumerate()
+                .find_map(|(row, &(f, u, v))| self.map.locate(row, f, u, v).err())
+                .unwrap_or(e)
+        })
+    }
 
     fn sample(&self, row: usize, f: u32, u: f64, v: f64, second: bool) -> Result<LimitSample> {
-        let (k, uu, vv, j) = self.locate(row, f, u, v)?;
+        let (k, uu, vv, j) = self.map.locate(row, f, u, v)?;
         let e = eval_generic(&self.patches[k as usize].cv, uu, vv, true, second);
         let [suu, suv, svv] = e.second;
         // P(u, v) = C(u'(u, v), v'(u, v)), J constant: first derivatives J columns, second JᵀHJ.

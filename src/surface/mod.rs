@@ -12,6 +12,6 @@ pub mod gregory_host;
 pub mod tessellate;
 
 pub use acc2::{gather_patches, CageStencils, GregoryStencils, Tangents};
-pub use evaluate::{LimitEvaluator, LimitSample};
+pub use evaluate::{LimitEvaluator, LimitSample, Located, PtexMap};
 pub use features::Features;
 pub use tessellate::{indices, tessellate, write_tessellation_obj, Tessellation};

@@ -1,0 +1,137 @@
+//! `PatchAtPass`: the Gregory surface at arbitrary (patch, u, v) points on the device (glsl/patch_at.comp):
+//! position and exact first derivatives in f32, for millions of points per dispatch chain.
+//!
+//! Invariants: the pass owns only its pipeline. The control points are the caller's (the f32 rows and their
+//! residuals of [`crate::passes::gregory_eval::ControlPoints`], 20 point indices per patch); the queries are
+//! already located (patch, local (u, v) and the Jacobian of the ptex-to-patch map, see
+//! [`crate::surface::PtexMap::locate_all`]), every patch index in range (checked here on the host).
+//! One query in, one [`PatchSample`] out, in order. Batches bind ranges of the query and sample buffers, so
+//! neither is limited by `maxStorageBufferRange`. On exit the writes are visible to transfers and shaders.
+//!
+//! Cost: one invocation per query, 20 gathered points each (the gathers dominate: the same memory-bound
+//! pattern the grid kernel avoids by staging a patch in shared memory; queries of one patch that arrive
+//! together share cache lines).
+use crate::error::{Error, Result};
+use crate::gpu::pipeline::{Binding, ComputePipeline, DescriptorSetLayoutBuilder};
+use crate::gpu::resources::compute_writes_to_readers;
+use crate::gpu::{shaders, Buffer, Context};
+use crate::passes::gregory_eval::ControlPoints;
+use ash::vk;
+
+/// One located query (`Query` in glsl/patch_at.comp).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, bytemuck::Pod, bytemuck::Zeroable)]
+pub struct PatchQuery {
+    pub patch: u32,
+    pub u: f32,
+    pub v: f32,
+    pub pad: u32,
+    /// d(u', v')/d(u, v) as [J00, J01, J10, J11].
+    pub jac: [f32; 4],
+}
+
+/// One result (`Sample` in glsl/patch_at.comp): position (w = 1) and the derivatives with respect to the
+/// ptex face's (u, v) (w = 0).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, bytemuck::Pod, bytemuck::Zeroable)]
+pub struct PatchSample {
+    pub position: [f32; 4],
+    pub du: [f32; 4],
+    pub dv: [f32; 4],
+}
+
+/// Push constants (`Push` in glsl/patch_at.comp).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, bytemuck::Pod, bytemuck::Zeroable)]
+struct Push {
+    count: u32,
+    residual_rows: u32,
+    pad: [u32; 2],
+}
+
+/// Queries per dispatch: 32 MiB of queries and 48 MiB of samples, under lavapipe's 128 MiB binding limit.
+pub const QUERIES_PER_BATCH: u64 = 1 << 20;
+
+/// The evaluation-at-points compute pass.
+pub struct PatchAtPass {
+    pipeline: ComputePipeline,
+}
+
+impl PatchAtPass {
+    /// Builds the pipeline.
+    pub fn new(ctx: &Context) -> Result<Self> {
+        let mut b = DescriptorSetLayoutBuilder::new();
+        for i in 0..4 {
+            b = b.storage_buffer(i, vk::ShaderStageFlags::COMPUTE);
+        }
+        let layout = b.build(ctx, "patch at set")?;
+        Ok(PatchAtPass {
+            pipeline: ComputePipeline::new(
+                ctx,
+                "patch at",
+                shaders::PATCH_AT_COMP,
+                vec![layout],
+                std::mem::size_of::<Push>() as u32,
+                64,
+            )?,
+        })
+    }
+
+    /// Records the evaluation of `count` queries of `queries` into `samples` (at least `count` of each).
+    #[allow(clippy::too_many_arguments)]
+    pub fn record(
+        &self,
+        ctx: &Context,
+        cmd: vk::CommandBuffer,
+        points: ControlPoints<'_>,
+        patch_points: &Buffer,
+        queries: &Buffer,
+        samples: &Buffer,
+        count: u64,
+    ) -> Result<()> {
+        let qs = std::mem::size_of::<PatchQuery>() as u64;
+        let ss = std::mem::size_of::<PatchSample>() as u64;
+        if count * qs > queries.size() || count * ss > samples.size() {
+            return Err(Error::Invalid(format!(
+                "{count} queries do not fit buffers '{}' and '{}'",
+                queries.name(),
+                samples.name()
+            )));
+        }
+        let mut first = 0u64;
+        while first < count {
+            let n = (count - first).min(QUERIES_PER_BATCH);
+            let push = Push {
+                count: n as u32,
+                residual_rows: points.residual_rows,
+                pad: [0; 2],
+            };
+            let bindings = [
+                (0, Binding::Storage(points.buffer.raw())),
+                (1, Binding::Storage(patch_points.raw())),
+                (
+                    2,
+                    Binding::StorageRange {
+                        buffer: queries.raw(),
+                        offset: first * qs,
+                        range: n * qs,
+                    },
+                ),
+                (
+                    3,
+                    Binding::StorageRange {
+                        buffer: samples.raw(),
+                        offset: first * ss,
+                        range: n * ss,
+                    },
+                ),
+            ];
+            self.pipeline
+                .bind(ctx, cmd, &bindings, bytemuck::bytes_of(&push));
+            self.pipeline.dispatch_linear(ctx, cmd, n)?;
+            first += n;
+        }
+        compute_writes_to_readers(ctx, cmd);
+        Ok(())
+    }
+}
