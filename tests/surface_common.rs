@@ -267,3 +267,41 @@ pub fn worst_matched_patch(
     }
     worst
 }
+
+/// The f64 records of fixture `tests/fixtures/surface/{name}.{ext}` (u32 count, then count × `width`
+/// little-endian f64: the oracle's --ptex and --fvar files).
+pub fn read_records(name: &str, ext: &str, width: usize) -> Vec<Vec<f64>> {
+    let path = format!(
+        "{}/tests/fixtures/surface/{name}.{ext}",
+        env!("CARGO_MANIFEST_DIR")
+    );
+    let b = std::fs::read(&path).unwrap_or_else(|e| panic!("{path}: {e}"));
+    let n = u32::from_le_bytes(b[..4].try_into().unwrap()) as usize;
+    let f: Vec<f64> = b[4..]
+        .chunks_exact(8)
+        .map(|c| f64::from_le_bytes(c.try_into().unwrap()))
+        .collect();
+    assert_eq!(f.len(), width * n, "{path}");
+    f.chunks_exact(width).map(|r| r.to_vec()).collect()
+}
+
+/// Writes rows as an (N, 3) float64 .npy.
+pub fn write_npy_f64(path: &std::path::Path, rows: &[[f64; 3]]) {
+    let mut header = format!(
+        "{{'descr': '<f8', 'fortran_order': False, 'shape': ({}, 3), }}",
+        rows.len()
+    );
+    while (10 + header.len() + 1) % 64 != 0 {
+        header.push(' ');
+    }
+    header.push('\n');
+    let mut b = b"\x93NUMPY\x01\x00".to_vec();
+    b.extend_from_slice(&(header.len() as u16).to_le_bytes());
+    b.extend_from_slice(header.as_bytes());
+    for r in rows {
+        for x in r {
+            b.extend_from_slice(&x.to_le_bytes());
+        }
+    }
+    std::fs::write(path, b).unwrap();
+}

@@ -18,18 +18,8 @@ struct Sample {
 }
 
 fn read_ptex(name: &str) -> Vec<Sample> {
-    let path = format!(
-        "{}/tests/fixtures/surface/{name}.ptex",
-        env!("CARGO_MANIFEST_DIR")
-    );
-    let b = std::fs::read(&path).unwrap_or_else(|e| panic!("{path}: {e}"));
-    let n = u32::from_le_bytes(b[..4].try_into().unwrap()) as usize;
-    let f: Vec<f64> = b[4..]
-        .chunks_exact(8)
-        .map(|c| f64::from_le_bytes(c.try_into().unwrap()))
-        .collect();
-    assert_eq!(f.len(), 13 * n, "{path}");
-    f.chunks_exact(13)
+    read_records(name, "ptex", 13)
+        .iter()
         .map(|r| Sample {
             at: (r[0] as u32, r[1], r[2]),
             p: DVec3::new(r[3], r[4], r[5]),
@@ -157,26 +147,6 @@ fn bad_rows_are_errors_naming_the_row() {
             );
         }
     }
-}
-
-fn write_npy_f64(path: &std::path::Path, rows: &[[f64; 3]]) {
-    let mut header = format!(
-        "{{'descr': '<f8', 'fortran_order': False, 'shape': ({}, 3), }}",
-        rows.len()
-    );
-    while (10 + header.len() + 1) % 64 != 0 {
-        header.push(' ');
-    }
-    header.push('\n');
-    let mut b = b"\x93NUMPY\x01\x00".to_vec();
-    b.extend_from_slice(&(header.len() as u16).to_le_bytes());
-    b.extend_from_slice(header.as_bytes());
-    for r in rows {
-        for x in r {
-            b.extend_from_slice(&x.to_le_bytes());
-        }
-    }
-    std::fs::write(path, b).unwrap();
 }
 
 #[test]

@@ -140,6 +140,23 @@ static const int GRID[4][4][2] = {
     {{15, 15}, {17, 17}, {11, 11}, {10, 10}},
 };
 
+// The ptex faces of a cage as Far numbers them (a quad one, an n-gon n), holes left out.
+static std::vector<int> ptex_faces(const Cage &cage, Far::TopologyRefiner const &r) {
+    std::vector<int> out;
+    int id = 0;
+    for (size_t f = 0; f < cage.nv.size(); ++f) {
+        int k = cage.nv[f] == 4 ? 1 : cage.nv[f];
+        for (int i = 0; i < k; ++i, ++id) if (!r.GetLevel(0).IsFaceHole((int)f)) out.push_back(id);
+    }
+    return out;
+}
+
+// The samples' generator (xorshift64*, fixed seed): uniform doubles in [0, 1).
+struct Rng {
+    uint64_t s = 0x9E3779B97F4A7C15ull;
+    double next() { s ^= s >> 12; s ^= s << 25; s ^= s >> 27; return (double)((s * 0x2545F4914F6CDD1Dull) >> 11) / 9007199254740992.0; }
+};
+
 // --ptex N FILE [--isolation L]: N random (ptex face, u, v) on the cage as given, through Far::PatchMap and
 // EvaluateBasis, with RefineAdaptive(L), L at least the largest semi-sharp sharpness rounded up, at least 1
 // with non-quad faces:
@@ -169,19 +186,11 @@ static int write_ptex_samples(const Cage &cage, int n, const char *path, int iso
     }
     if (nloc) pt->GetLocalPointStencilTable<double>()->UpdateValues(pts.data(), pts.data() + nref);
     Far::PatchMap pm(*pt);
-    // Ptex faces: a quad one, an n-gon n; holes skipped.
-    std::vector<int> ptex_face;
-    int id = 0;
-    std::vector<char> hole(cage.nv.size(), 0);
-    for (size_t f = 0; f < cage.nv.size(); ++f) hole[f] = r->GetLevel(0).IsFaceHole((int)f);
-    for (size_t f = 0; f < cage.nv.size(); ++f) {
-        int k = cage.nv[f] == 4 ? 1 : cage.nv[f];
-        for (int i = 0; i < k; ++i, ++id) if (!hole[f]) ptex_face.push_back(id);
-    }
+    std::vector<int> ptex_face = ptex_faces(cage, *r);
     std::vector<double> out;
     std::vector<double> w(20), wu(20), wv(20);
-    uint64_t rng = 0x9E3779B97F4A7C15ull;
-    auto next = [&]() { rng ^= rng >> 12; rng ^= rng << 25; rng ^= rng >> 27; return (double)((rng * 0x2545F4914F6CDD1Dull) >> 11) / 9007199254740992.0; };
+    Rng rng;
+    auto next = [&]() { return rng.next(); };
     for (int s = 0; s < n; ++s) {
         int face = ptex_face[(size_t)(next() * ptex_face.size()) % ptex_face.size()];
         double u = next(), v = next();
@@ -219,11 +228,11 @@ static int write_ptex_samples(const Cage &cage, int n, const char *path, int iso
 // then isolates face-varying features too, considerFVarChannels) under the cage's
 // `t facevaryinginterpolateboundary` (1, FVAR_LINEAR_CORNERS_ONLY, without it):
 //   u32 n; per sample f64[9]: face, u, v, P.xyz, uv, flag.
-// flag 1: the sample's face-varying patch is a Gregory basis patch with a face point whose stencil has 2
-// entries: OpenSubdiv 3.5's GregoryConverter sizes the face point between two sharp corners at 2
-// (getIrregularFacePointSize) while computeIrregularFacePoint writes the corner, both edge points and the
-// ring terms, so that row is truncated and the patch is not the one it means to build (only the UV rules that
-// sharpen spans of more than one face, 2-4, make such corners). Compare those samples' UVs loosely.
+// flag 1: the sample's face-varying patch may hold a truncated face point: OpenSubdiv 3.5's GregoryConverter
+// sizes the face point between two sharp corners at 2 (getIrregularFacePointSize) while
+// computeIrregularFacePoint writes the corner, both edge points and the ring terms, so that row is truncated
+// and the patch is not the one it means to build (only the UV rules that sharpen spans of more than one face,
+// 2-4, make such corners). Compare those samples' UVs loosely.
 static int write_fvar_samples(const Cage &cage, int n, const char *path, int isolation) {
     if (cage.uv_idx.empty()) { fprintf(stderr, "%s: the cage has no UVs\n", path); return 1; }
     int level = std::max(default_isolation(cage), isolation);
@@ -262,16 +271,11 @@ static int write_fvar_samples(const Cage &cage, int n, const char *path, int iso
     if (nloc) pt->GetLocalPointStencilTable<double>()->UpdateValues(pts.data(), pts.data() + nref);
     if (nlocfv) pt->GetLocalPointFaceVaryingStencilTable<double>(0)->UpdateValues(fv.data(), fv.data() + nfv);
     Far::PatchMap pm(*pt);
-    std::vector<int> ptex_face;
-    int id = 0;
-    for (size_t f = 0; f < cage.nv.size(); ++f) {
-        int k = cage.nv[f] == 4 ? 1 : cage.nv[f];
-        for (int i = 0; i < k; ++i, ++id) if (!r->GetLevel(0).IsFaceHole((int)f)) ptex_face.push_back(id);
-    }
+    std::vector<int> ptex_face = ptex_faces(cage, *r);
     std::vector<double> out;
     std::vector<double> w(20), wu(20), wv(20);
-    uint64_t rng = 0x9E3779B97F4A7C15ull;
-    auto next = [&]() { rng ^= rng >> 12; rng ^= rng << 25; rng ^= rng >> 27; return (double)((rng * 0x2545F4914F6CDD1Dull) >> 11) / 9007199254740992.0; };
+    Rng rng;
+    auto next = [&]() { return rng.next(); };
     for (int s = 0; s < n; ++s) {
         int face = ptex_face[(size_t)(next() * ptex_face.size()) % ptex_face.size()];
         double u = next(), v = next();
@@ -286,11 +290,18 @@ static int write_fvar_samples(const Cage &cage, int n, const char *path, int iso
         pt->EvaluateBasisFaceVarying(*h, u, v, w.data(), wu.data(), wv.data(), 0, 0, 0, 0);
         Far::ConstIndexArray cf = pt->GetPatchFVarValues(*h, 0);
         for (int k = 0; k < cf.size(); ++k) for (int c = 0; c < 2; ++c) UV[c] += w[k] * fv[cf[k]].p[c];
+        // Where the truncation can happen, decided from the refiner's topology alone (the spilled writes land
+        // on memory OpenSubdiv reads later: stencil sizes and even the face-varying patch params' regular bit
+        // change from run to run, the UVs do not): a patch of an unrefined quad whose face has two adjacent
+        // corners at UV seams or boundaries, under the rules that sharpen spans of more than one face (2-4).
+        // This over-covers: some flagged samples match.
         double flag = 0;
-        if (!pt->GetPatchFVarPatchParam(h->arrayIndex, h->patchIndex, 0).IsRegular() && cf.size() == 20) {
-            static const int FACE_POINTS[8] = {3, 4, 8, 9, 13, 14, 18, 19};
-            for (int k : FACE_POINTS)
-                if (cf[k] >= nfv && pt->GetLocalPointFaceVaryingStencilTable<double>(0)->GetStencil(cf[k] - nfv).GetSize() == 2)
+        Far::PatchParam vp = pt->GetPatchParam(*h);
+        if (cage.fvar_rule >= 2 && cage.fvar_rule <= 4 && vp.GetDepth() == 0 && cage.nv[vp.GetFaceId()] == 4) {
+            Far::TopologyLevel const &l0 = r->GetLevel(0);
+            Far::ConstIndexArray fverts = l0.GetFaceVertices(vp.GetFaceId());
+            for (int k = 0; k < 4; ++k)
+                if (!l0.DoesVertexFVarTopologyMatch(fverts[k], 0) && !l0.DoesVertexFVarTopologyMatch(fverts[(k + 1) % 4], 0))
                     flag = 1;
         }
         out.push_back(face); out.push_back(u); out.push_back(v);
