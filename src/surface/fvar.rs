@@ -24,7 +24,11 @@
 //! - Not modelled: the semi-sharp *dependent* sharpness of `CornersPlus1/2` (one of two spans semi-sharp
 //!   makes the other follow it as it decays) and Chaikin averaging across a seam (the UV cage sees only its
 //!   span's edges at a seam vertex); both need a semi-sharp crease ending at a seam.
-//! - Cost: O(corners) with one hash map of the directed edges; the stencils cost what the positions' do.
+//! - Cost: O(corners) with one hash map of the directed edges; the stencils cost what the positions' do
+//!   (the UV cage has at most one vertex per corner and the same faces). Its attacking input is a UV soup,
+//!   every face its own island (unwelded exports): a seam at every edge, four UV-cage vertices per face,
+//!   each a sharp corner, so every UV patch is the bilinear map of its face's values
+//!   (tests/surface_uv.rs, 64² faces: 2.8 ms for the UV cage against 19 ms for the positions' stencils).
 use super::acc2::{CageStencils, GregoryStencils, Tangents};
 use super::features::Features;
 use crate::error::{Error, Result};
