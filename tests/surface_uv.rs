@@ -609,3 +609,59 @@ fn a_uv_soup_is_bilinear_per_face_and_costs_what_the_positions_cost() {
         );
     }
 }
+
+#[test]
+fn adaptive_tessellation_carries_uvs_on_its_own_grids() {
+    // With per-patch screen-space levels the UV surface is evaluated on the positions' grids (their levels
+    // and snapped edge rows): one UV per vertex, and every interior grid vertex's UV is the CPU evaluator's
+    // at its (i/L_p, j/L_p).
+    use gregvox::api::tessellate::{AdaptiveView, Patches, TessellateOptions};
+    let gpu = gpu::validated_gpu();
+    let cage = load_obj_cage(model("opensubdiv/catmark_fvar_bound1.obj")).unwrap();
+    let e = LimitEvaluator::new(&cage, Tangents::OpenSubdiv).unwrap();
+    let patches = Patches::from_tagged_cage(&cage, Tangents::OpenSubdiv).unwrap();
+    let opts = TessellateOptions {
+        level: 8,
+        adaptive: Some(AdaptiveView {
+            pixels_per_segment: 12.0,
+            eye: Some([0.5, -1.0, 1.2]),
+            viewport: [320.0, 240.0],
+        }),
+        ..Default::default()
+    };
+    let mut profiler = gpu.profiler().unwrap();
+    let t = gpu.tessellate(&patches, &opts, &mut profiler).unwrap();
+    let levels = t.levels.clone().unwrap();
+    assert!(
+        levels.iter().any(|&l| l != levels[0]),
+        "levels vary: {levels:?}"
+    );
+    let uvs = t.uvs.as_ref().expect("UVs with --adaptive");
+    assert_eq!(uvs.len(), t.vertices.len());
+    let mut at = Vec::new();
+    let mut got = Vec::new();
+    let mut base = 0usize;
+    for (p, &l) in levels.iter().enumerate() {
+        let n = (l + 1) as usize;
+        for j in 1..l as usize {
+            for i in 1..l as usize {
+                at.push((p as u32, i as f64 / l as f64, j as f64 / l as f64));
+                got.push(uvs[base + j * n + i]);
+            }
+        }
+        base += n * n;
+    }
+    let cpu = e.evaluate_uv(&at).unwrap();
+    let du = uv_diag(&cage.uv.as_ref().unwrap().values);
+    let worst = got
+        .iter()
+        .zip(&cpu)
+        .map(|(g, c)| (g[0] as f64 - c[0]).hypot(g[1] as f64 - c[1]) / du)
+        .fold(0.0f64, f64::max);
+    eprintln!(
+        "adaptive UVs: {} interior vertices, {worst:.1e}·uv diag",
+        at.len()
+    );
+    assert!(!at.is_empty() && worst < 2e-6, "{worst:e}");
+    gpu.finish().unwrap();
+}

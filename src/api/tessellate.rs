@@ -187,8 +187,9 @@ pub struct Tessellation {
     /// 10⁷ units from the world origin keeps its f32 precision (a unit cube there once came out as three
     /// x values).
     pub origin: [f64; 3],
-    /// The UVs of every vertex (a cage with UVs, uniform levels), from the UV surface evaluated on the
-    /// same grids: OpenSubdiv's face-varying limit, discontinuous across seams.
+    /// The UVs of every vertex (a cage with UVs), from the UV surface evaluated on the same grids (the
+    /// uniform ones, or the adaptive levels and snapped edge rows): OpenSubdiv's face-varying limit,
+    /// discontinuous across seams.
     pub uvs: Option<Vec<[f32; 2]>>,
 }
 
@@ -566,10 +567,14 @@ impl Gpu {
             Patches::Cage {
                 topology, rest, uv, ..
             } => {
-                // UVs: the UV surface on the same uniform grids (deformation moves positions only).
-                let uvs = match uv {
-                    Some(uv) if opts.adaptive.is_none() => {
-                        let mut s = GregorySurface::new(ctx, &uv.topology, &uv.values, level)?;
+                // UVs: the UV surface on the same uniform grids (deformation moves positions only); with
+                // adaptive levels, on the positions' grids once they are known (below).
+                let mut uv_surface = match uv {
+                    Some(uv) => Some(GregorySurface::new(ctx, &uv.topology, &uv.values, level)?),
+                    None => None,
+                };
+                let uvs: Option<Vec<[f32; 2]>> = match uv_surface.as_mut() {
+                    Some(s) if opts.adaptive.is_none() => {
                         s.evaluate(ctx, None, None)?;
                         Some(
                             s.read_vertices(ctx)?
@@ -630,7 +635,20 @@ impl Gpu {
                 }
                 if opts.adaptive.is_some() {
                     let (v, l) = surface.read_adaptive_grids(ctx)?;
-                    return Ok(done(v, Some(l)));
+                    let uvs = match &uv_surface {
+                        Some(s) => Some(
+                            surface
+                                .read_adaptive_grids_of(ctx, s)?
+                                .iter()
+                                .map(|v| [v.position[0], v.position[1]])
+                                .collect(),
+                        ),
+                        None => None,
+                    };
+                    return Ok(Tessellation {
+                        uvs,
+                        ..done(v, Some(l))
+                    });
                 }
                 Ok(done(surface.read_vertices(ctx)?, None))
             }

@@ -463,6 +463,51 @@ impl GregorySurface {
         Ok((out, levels))
     }
 
+    /// Evaluates `other` — a surface of the same patch layout and level, such as a cage's UV surface — on
+    /// this surface's adaptive grids (the per-patch and per-edge levels its last update computed; the
+    /// caller waited for it) into `other`'s vertex buffer, and reads them back compacted as
+    /// [`Self::read_adaptive_grids`] does, so vertex k of both lists is the same (patch, u, v).
+    pub fn read_adaptive_grids_of(
+        &self,
+        ctx: &Context,
+        other: &GregorySurface,
+    ) -> Result<Vec<SurfaceVertex>> {
+        let a = self.adaptive_state()?;
+        if other.patch_count != self.patch_count || other.level != self.level {
+            return Err(Error::Invalid(format!(
+                "a surface of {} patches at level {} cannot be evaluated on the grids of {} patches at level {}",
+                other.patch_count, other.level, self.patch_count, self.level
+            )));
+        }
+        ctx.one_shot(|cmd| {
+            other.record_points(ctx, cmd, None, &mut None)?;
+            a.eval.record_adaptive(
+                ctx,
+                cmd,
+                other.control_points(),
+                &other.patch_points,
+                &other.patch_flags,
+                other.patch_count,
+                self.level,
+                &AdaptiveInputs {
+                    levels: &a.levels,
+                    edge_ids: &a.edge_ids,
+                    edge_levels: &a.edge_levels,
+                },
+                &other.vertices,
+            )
+        })?;
+        let levels = self.read_levels(ctx)?;
+        let all = other.read_vertices(ctx)?;
+        let slot = ((self.level + 1) * (self.level + 1)) as usize;
+        let mut out = Vec::new();
+        for (p, &l) in levels.iter().enumerate() {
+            let n = ((l + 1) * (l + 1)) as usize;
+            out.extend_from_slice(&all[p * slot..p * slot + n]);
+        }
+        Ok(out)
+    }
+
     /// Reads the per-edge adaptive levels and each patch edge's edge id back (tests).
     pub fn read_edge_levels(&self, ctx: &Context) -> Result<(Vec<u32>, Vec<u32>)> {
         let a = self.adaptive_state()?;
