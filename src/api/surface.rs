@@ -19,8 +19,10 @@
 //!   wait for it.
 use super::{to_mesh_error, Gpu};
 use crate::engine::cage::tagged_cage_topologies;
+use crate::engine::gregory::Evaluator;
 use crate::engine::gregory::GregorySurface;
 use crate::error::{Error, Result};
+use crate::geom::gregory::eval_generic;
 use crate::gpu::resources::{memory_barrier, BufferRange};
 use crate::gpu::{Buffer, MemoryLocation};
 use crate::mesh::{Cage, Mesh};
@@ -32,6 +34,7 @@ use crate::passes::surface_curvature::{SurfaceCurvaturePass, CURVATURE_STRIDE};
 use crate::surface::{PtexMap, Tangents};
 use ash::vk;
 use glam::DVec3;
+use rayon::prelude::*;
 
 impl Gpu {
     /// Builds the ACC-2 Gregory surface of a quad cage (non-quad cages are refined once, with a note) at
@@ -408,12 +411,65 @@ impl Surface<'_> {
     }
 
     /// The surface at each `(face, u, v)` (OpenSubdiv ptex faces, as [`crate::surface::LimitEvaluator`]
-    /// numbers them) on the device: position, exact first derivatives and the UVs, in f32, from the control
-    /// points the device wrote last (the rest cage, or the last `deform`/`set_cage`). The points are located
-    /// on the host (O(isolation level) each, in parallel), evaluated by one invocation each
-    /// ([`crate::passes::patch_at`]), 4 M at a time. Errors name the first bad row, before any device work.
+    /// numbers them): position, exact first derivatives and the UVs, in f32, from the control points the
+    /// device wrote last (the rest cage, or the last `deform`/`set_cage`). The points are located on the
+    /// host (O(isolation level) each, in parallel) and evaluated by the surface's evaluator: the device pass
+    /// ([`crate::passes::patch_at`], one invocation each, 4 M at a time), or on CPU devices the host
+    /// evaluation of [`Surface::evaluate_at_with`]. Errors name the first bad row, before any device work.
     pub fn evaluate_at(&self, at: &[(u32, f64, f64)]) -> Result<SurfaceSamples> {
+        self.evaluate_at_with(at, self.inner.evaluator())
+    }
+
+    /// [`Surface::evaluate_at`] by the evaluator given: [`Evaluator::Vulkan`], the device pass (every
+    /// device), or [`Evaluator::Host`], the same evaluation on the host from the mapped control points (in
+    /// f64 from the f32 rows and their residuals, every core), which only a surface whose device is a CPU
+    /// holds (the one `evaluate_at` picks there; tests compare the two).
+    pub fn evaluate_at_with(
+        &self,
+        at: &[(u32, f64, f64)],
+        evaluator: Evaluator,
+    ) -> Result<SurfaceSamples> {
         let located = self.ptex.locate_all(at)?;
+        if evaluator == Evaluator::Host {
+            let eval = |s: &GregorySurface| -> Result<Vec<[[f32; 3]; 3]>> {
+                let hp = s.host_patches()?;
+                Ok(located
+                    .par_iter()
+                    .map(|&(k, u, v, j)| {
+                        let rows = &hp.patch_points[k as usize];
+                        let cv: [DVec3; 20] = std::array::from_fn(|i| {
+                            let r = rows[i] as usize;
+                            let hi = hp.points[r];
+                            let lo = if hp.residual_rows > 0 {
+                                hp.points[hp.residual_rows as usize + r]
+                            } else {
+                                [0.0; 4]
+                            };
+                            DVec3::new(
+                                hi[0] as f64 + lo[0] as f64,
+                                hi[1] as f64 + lo[1] as f64,
+                                hi[2] as f64 + lo[2] as f64,
+                            )
+                        });
+                        let e = eval_generic(&cv, u, v, true, false);
+                        let du = e.su * j[0][0] + e.sv * j[1][0];
+                        let dv = e.su * j[0][1] + e.sv * j[1][1];
+                        [e.p, du, dv].map(|x| x.as_vec3().to_array())
+                    })
+                    .collect())
+            };
+            let pos = eval(&self.inner)?;
+            let uv = match &self.uv {
+                Some(u) => Some(eval(u)?.iter().map(|s| [s[0][0], s[0][1]]).collect()),
+                None => None,
+            };
+            return Ok(SurfaceSamples {
+                position: pos.iter().map(|s| s[0]).collect(),
+                du: pos.iter().map(|s| s[1]).collect(),
+                dv: pos.iter().map(|s| s[2]).collect(),
+                uv,
+            });
+        }
         let ctx = &self.gpu.ctx;
         let pass = match self.at_pass.get() {
             Some(p) => p,

@@ -628,6 +628,18 @@ impl GregorySurface {
         Ok(())
     }
 
+    /// The control points the device wrote last, read through their mapping (only with [`Evaluator::Host`],
+    /// whose points buffer is host-visible; the caller waited for that submission).
+    pub fn host_patches(&self) -> Result<HostPatches<'_>> {
+        if self.evaluator != Evaluator::Host {
+            return Err(Error::Invalid(
+                "the control points are mapped only on a surface created with Evaluator::Host"
+                    .into(),
+            ));
+        }
+        mapped_patches(&self.points, &self.patch_rows, &self.patch_flag_list)
+    }
+
     /// The host evaluation alone: reads the control points the device wrote last (the caller waited for
     /// that submission) and writes every vertex. Only with [`Evaluator::Host`], whose buffers are mapped;
     /// the next submission that reads the vertices sees the writes (host-coherent memory).
