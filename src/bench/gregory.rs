@@ -611,8 +611,9 @@ pub fn evaluate_at(cfg: &BenchConfig, report: &mut Report) -> anyhow::Result<()>
              Far::PatchMap::FindPatch + PatchTable::EvaluateBasis + the sums of position and both first \
              derivatives in double, on one thread and on every core (OpenMP), and Osd::OmpEvaluator::\
              EvalPatches in float (patch coordinates found before timing), the faster all-core figure \
-             kept; median of {} repeats. gregvox device = Surface::evaluate_at (host locate, upload, the \
-             patch_at pass in f32 with first derivatives, read back: the whole call). Patches: gregvox \
+             kept; median of {} repeats. gregvox device = Surface::evaluate_at_with(Vulkan) (host locate, upload, the \
+             patch_at pass in f32 with first derivatives, read back: the whole call; on CPU devices \
+             evaluate_at itself picks the host evaluation instead). Patches: gregvox \
              refines uniformly to the isolation level L, \
              OpenSubdiv adaptively (RefineAdaptive(L)). |Δ sum| = relative difference of Σ(x + y + z) of the \
              positions (the same surface).",
@@ -667,7 +668,9 @@ pub fn evaluate_at(cfg: &BenchConfig, report: &mut Report) -> anyhow::Result<()>
         anyhow::ensure!(samples_out.len() == n, "{name}: evaluation failed");
         let surface = gpu.tagged_gregory_surface(&cage, 1, Tangents::OpenSubdiv)?;
         let device = time_cpu(cfg.repeats, || {
-            surface.evaluate_at(&at).map(|s| s.position.len())
+            surface
+                .evaluate_at_with(&at, crate::engine::gregory::Evaluator::Vulkan)
+                .map(|s| s.position.len())
         });
         drop(surface);
         let sum: f64 = samples_out
