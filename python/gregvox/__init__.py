@@ -346,7 +346,7 @@ def _tags(creases: Any = None, crease_sharpness: Any = 10.0, corners: Any = None
             _sharpness("corner_sharpness", corner_sharpness, vs.size), _index_array("holes", holes, 1), boundary)
 
 
-def _uv(uvs: Any, uv_faces: Any, uv_rule: int) -> Optional[Tuple[np.ndarray, np.ndarray, int]]:
+def _uv(uvs: Any, uv_faces: Any, uv_rule: int, ptr: np.ndarray) -> Optional[Tuple[np.ndarray, np.ndarray, int]]:
     if uvs is None and uv_faces is None:
         return None
     if uvs is None or uv_faces is None:
@@ -354,7 +354,9 @@ def _uv(uvs: Any, uv_faces: Any, uv_rule: int) -> Optional[Tuple[np.ndarray, np.
     u = np.ascontiguousarray(np.asarray(uvs, dtype=np.float64))
     if u.ndim != 2 or u.shape[1] != 2:
         raise ValueError(f"uvs must have shape (k, 2), not {u.shape}")
-    _, idx = _faces(uv_faces)
+    uptr, idx = _faces(uv_faces)
+    if not np.array_equal(uptr, ptr):
+        raise ValueError("uv_faces must have one value index per corner of every face of F, face by face")
     if int(uv_rule) != uv_rule or not 0 <= uv_rule <= 5:
         raise ValueError(f"uv_rule must be 0…5 (Sdc FVarLinearInterpolation), not {uv_rule!r}")
     return u, idx, int(uv_rule)
@@ -409,7 +411,8 @@ def evaluate_at(V: Any, F: Faces, fuv: Any, *, creases: Any = None, crease_sharp
     if fuv.ndim != 2 or fuv.shape[1] != 3:
         raise ValueError(f"fuv must have shape (N, 3), not {fuv.shape}")
     tags = _tags(creases, crease_sharpness, corners, corner_sharpness, holes, boundary)
-    arrays = _gregvox.evaluate_at(*_mesh(V, F), (*tags, _isolation(isolation), _uv(uvs, uv_faces, uv_rule)),
+    V, ptr, idx = _mesh(V, F)
+    arrays = _gregvox.evaluate_at(V, ptr, idx, (*tags, _isolation(isolation), _uv(uvs, uv_faces, uv_rule, ptr)),
                                   np.ascontiguousarray(fuv), tangents)
     out = dict(zip(["position", "du", "dv", "duu", "duv", "dvv"], arrays[:6]))
     if arrays[6] is not None:
@@ -440,7 +443,8 @@ class GregorySurface:
         self.has_uv = uvs is not None
         tags = _tags(creases, crease_sharpness, corners, corner_sharpness, holes, boundary)
         self._surface = _gregvox.GregorySurface(_device(device)._device, V, ptr, idx,
-                                                (*tags, _isolation(isolation), _uv(uvs, uv_faces, uv_rule)), tangents)
+                                                (*tags, _isolation(isolation), _uv(uvs, uv_faces, uv_rule, ptr)),
+                                                tangents)
 
     @property
     def patch_count(self) -> int:

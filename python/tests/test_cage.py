@@ -123,3 +123,5 @@ def test_uvs_follow_the_surface_as_the_cli_writes_them(cli, models, tmp_path):
         gregvox.evaluate_at(V, F, fuv, **{**tags, "uv_rule": 7})
     with pytest.raises(ValueError, match="out of range"):
         gregvox.evaluate_at(V, F, fuv, **{**tags, "uvs": tags["uvs"][:3]})
+    with pytest.raises(ValueError, match="one value index per corner"):
+        gregvox.evaluate_at(V, F, fuv, **{**tags, "uv_faces": np.asarray(tags["uv_faces"])[:, :3]})
