@@ -211,6 +211,17 @@ impl Adaptive {
     }
 }
 
+/// Every patch's own (L_p+1)² grid, in patch order, from an adaptive vertex buffer of (L_max+1)² slots.
+fn compact_grids(all: &[SurfaceVertex], levels: &[u32], l_max: u32) -> Vec<SurfaceVertex> {
+    let slot = ((l_max + 1) * (l_max + 1)) as usize;
+    let mut out = Vec::new();
+    for (p, &l) in levels.iter().enumerate() {
+        let n = ((l + 1) * (l + 1)) as usize;
+        out.extend_from_slice(&all[p * slot..p * slot + n]);
+    }
+    out
+}
+
 fn vec4s(points: &[DVec3]) -> Vec<[f32; 4]> {
     points
         .iter()
@@ -453,13 +464,7 @@ impl GregorySurface {
     /// of u inner, as in uniform mode), and the levels L_p. Triangles: `compact_grid_indices(&levels)`.
     pub fn read_adaptive_grids(&self, ctx: &Context) -> Result<(Vec<SurfaceVertex>, Vec<u32>)> {
         let levels = self.read_levels(ctx)?;
-        let all = self.read_vertices(ctx)?;
-        let slot = ((self.level + 1) * (self.level + 1)) as usize;
-        let mut out = Vec::new();
-        for (p, &l) in levels.iter().enumerate() {
-            let n = ((l + 1) * (l + 1)) as usize;
-            out.extend_from_slice(&all[p * slot..p * slot + n]);
-        }
+        let out = compact_grids(&self.read_vertices(ctx)?, &levels, self.level);
         Ok((out, levels))
     }
 
@@ -498,14 +503,7 @@ impl GregorySurface {
             )
         })?;
         let levels = self.read_levels(ctx)?;
-        let all = other.read_vertices(ctx)?;
-        let slot = ((self.level + 1) * (self.level + 1)) as usize;
-        let mut out = Vec::new();
-        for (p, &l) in levels.iter().enumerate() {
-            let n = ((l + 1) * (l + 1)) as usize;
-            out.extend_from_slice(&all[p * slot..p * slot + n]);
-        }
-        Ok(out)
+        Ok(compact_grids(&other.read_vertices(ctx)?, &levels, self.level))
     }
 
     /// Reads the per-edge adaptive levels and each patch edge's edge id back (tests).
