@@ -270,11 +270,12 @@ pub fn worst_matched_patch(
 
 /// The f64 records of fixture `tests/fixtures/surface/{name}.{ext}` (u32 count, then count × `width`
 /// little-endian f64: the oracle's --ptex and --fvar files).
+/// `GREGVOX_SURFACE_FIXTURES=DIR` reads them from DIR instead (a longer run: the oracle with a larger N,
+/// see tests/oracle/build_osd.sh).
 pub fn read_records(name: &str, ext: &str, width: usize) -> Vec<Vec<f64>> {
-    let path = format!(
-        "{}/tests/fixtures/surface/{name}.{ext}",
-        env!("CARGO_MANIFEST_DIR")
-    );
+    let dir = std::env::var("GREGVOX_SURFACE_FIXTURES")
+        .unwrap_or_else(|_| format!("{}/tests/fixtures/surface", env!("CARGO_MANIFEST_DIR")));
+    let path = format!("{dir}/{name}.{ext}");
     let b = std::fs::read(&path).unwrap_or_else(|e| panic!("{path}: {e}"));
     let n = u32::from_le_bytes(b[..4].try_into().unwrap()) as usize;
     let f: Vec<f64> = b[4..]

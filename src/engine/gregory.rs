@@ -503,7 +503,11 @@ impl GregorySurface {
             )
         })?;
         let levels = self.read_levels(ctx)?;
-        Ok(compact_grids(&other.read_vertices(ctx)?, &levels, self.level))
+        Ok(compact_grids(
+            &other.read_vertices(ctx)?,
+            &levels,
+            self.level,
+        ))
     }
 
     /// Reads the per-edge adaptive levels and each patch edge's edge id back (tests).

@@ -34,7 +34,8 @@ done
 "$bin" "$osd/catmark_nonquads.obj" "$out/catmark_nonquads_r1.osd" --refine
 # Large: f32 points, no samples (keeps the fixture under 1 MB).
 "$bin" "$models/spot_quadrangulated.obj" "$out/spot_quadrangulated.osd" --f32 --limit "$out/spot_quadrangulated.limit"
-# Random (ptex face, u, v) samples through Far::PatchMap (tests/surface_evaluate.rs); raise N for a longer run.
+# Random (ptex face, u, v) samples through Far::PatchMap (tests/surface_evaluate.rs); raise N for a longer run
+# (write the files to a folder DIR of their own and run the tests with GREGVOX_SURFACE_FIXTURES=DIR).
 for c in catmark_cube catmark_torus catmark_gregory_test6 catmark_inf_crease0 catmark_edgenone catmark_hole_test1 \
          catmark_nonquads catmark_hole_test3; do
     "$bin" "$osd/$c.obj" /dev/null --ptex 1000 "$out/$c.ptex"
