@@ -230,23 +230,26 @@ fn tessellation_carries_the_uv_surface_on_every_grid_vertex() {
             .fold(0.0f64, f64::max);
         eprintln!("{rel}: device UVs vs CPU {worst:.1e}·uv diag");
         assert!(worst < 2e-6, "{rel}: {worst:e}");
-        // Welded: a vertex is its position and its UV, so seams stay apart, shared continuous edges merge.
+        // Welded: positions merge as without UVs (the mesh stays watertight), UVs are indexed on their own:
+        // one per welded vertex and side of a seam, each UV the one its grid vertex had.
         let w = t.welded();
         let by_position: std::collections::HashSet<[u32; 3]> =
             t.vertices.iter().map(|v| v.position_key()).collect();
-        let wuv = w.uvs.as_ref().unwrap();
-        assert_eq!(wuv.len(), w.positions.len());
-        assert!(w.positions.len() >= by_position.len() && w.positions.len() < t.vertices.len());
+        assert_eq!(w.positions.len(), by_position.len());
+        let (wuv, uv_tris) = w.uvs.as_ref().unwrap();
+        assert_eq!(uv_tris.len(), w.triangles.len());
+        assert!(uv_tris.iter().flatten().all(|&i| (i as usize) < wuv.len()));
+        assert!(wuv.len() >= w.positions.len() && wuv.len() < t.vertices.len());
         if rel.ends_with("catmark_cube.obj") {
-            // The cross layout has 7 seam edges: each splits L - 1 interior samples and its corners.
-            assert!(w.positions.len() > by_position.len(), "{rel}: seams split");
+            // The cross layout has 7 seam edges: their vertices carry one UV per side.
+            assert!(wuv.len() > w.positions.len(), "{rel}: seams split the UVs");
         }
         let out = std::env::temp_dir().join(format!("gregvox-uv-{}.obj", std::process::id()));
         t.write_obj(&out, true).unwrap();
         let text = std::fs::read_to_string(&out).unwrap();
         let _ = std::fs::remove_file(&out);
         let count = |p: &str| text.lines().filter(|l| l.starts_with(p)).count();
-        assert_eq!(count("vt "), count("v "));
+        assert_eq!((count("v "), count("vt ")), (w.positions.len(), wuv.len()));
         assert!(text
             .lines()
             .any(|l| l.starts_with("f ") && !l.contains("//")));

@@ -489,21 +489,27 @@ fn a_cage_with_an_unreferenced_vertex_gives_the_same_surface_as_without_it() {
     // with "stencil row 8 sums to -0, not 1".
     let dir = scratch("unreferenced");
     let cube = std::fs::read_to_string(model("opensubdiv/catmark_cube.obj")).unwrap();
-    std::fs::write(dir.join("plain.obj"), &cube).unwrap();
+    // Both without the cube's UVs (the shifted copy drops the vt indices), the positions' faces shifted by
+    // `by`.
+    let shift = |by: u32| -> String {
+        cube.lines()
+            .map(|l| match l.strip_prefix("f ") {
+                Some(f) => {
+                    let idx: Vec<String> = f
+                        .split_whitespace()
+                        .map(|t| {
+                            (t.split('/').next().unwrap().parse::<u32>().unwrap() + by).to_string()
+                        })
+                        .collect();
+                    format!("f {}\n", idx.join(" "))
+                }
+                None => format!("{l}\n"),
+            })
+            .collect()
+    };
+    std::fs::write(dir.join("plain.obj"), shift(0)).unwrap();
     // The stray vertex first (it shifts every index by one) and one far away at the end.
-    let shifted: String = cube
-        .lines()
-        .map(|l| match l.strip_prefix("f ") {
-            Some(f) => {
-                let idx: Vec<String> = f
-                    .split_whitespace()
-                    .map(|t| (t.split('/').next().unwrap().parse::<u32>().unwrap() + 1).to_string())
-                    .collect();
-                format!("f {}\n", idx.join(" "))
-            }
-            None => format!("{l}\n"),
-        })
-        .collect();
+    let shifted = shift(1);
     std::fs::write(
         dir.join("extra.obj"),
         format!("v 0.1 0.2 0.3\n{shifted}v 50 50 50\n"),

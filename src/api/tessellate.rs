@@ -228,25 +228,25 @@ impl Tessellation {
     /// corner of a cage, whose samples the evaluator makes equal bit for bit, and the snapped rows of an
     /// adaptive tessellation) merged into one, in order of first appearance, with the normalized mean of
     /// their normals; triangles that a merge collapsed (the snapped rows where an adaptive patch is finer
-    /// than its edge) dropped. A closed cage gives a closed, watertight mesh.
+    /// than its edge) dropped. A closed cage gives a closed, watertight mesh. UVs are welded on their own
+    /// (one per welded vertex and UV value, with per-triangle UV indices), so seams do not open the mesh.
     pub fn welded(&self) -> WeldedMesh {
-        let mut index: HashMap<([u32; 3], [u32; 2]), u32> =
-            HashMap::with_capacity(self.vertices.len());
+        let mut index: HashMap<[u32; 3], u32> = HashMap::with_capacity(self.vertices.len());
         let mut remap = Vec::with_capacity(self.vertices.len());
         let mut positions = Vec::new();
-        let mut uvs = Vec::new();
         let mut sums: Vec<DVec3> = Vec::new();
         let mut first_normal: Vec<[f32; 3]> = Vec::new();
+        // UVs are indexed on their own (OBJ's `f v/vt/vn`): one per (welded vertex, UV bits), so the
+        // mesh stays watertight by position while a seam keeps its two UVs.
+        let mut uv_index: HashMap<(u32, [u32; 2]), u32> = HashMap::new();
+        let mut uv_remap = Vec::new();
+        let mut uvs = Vec::new();
         for (k, v) in self.vertices.iter().enumerate() {
             let next = positions.len() as u32;
             let (position, normal) = (v.xyz(), v.normal_xyz());
-            // With UVs a vertex is its position and its UV: a seam keeps its two sides apart.
-            let uv = self.uvs.as_ref().map_or([0.0; 2], |u| u[k]);
-            let key = (v.position_key(), uv.map(f32::to_bits));
-            let id = *index.entry(key).or_insert(next);
+            let id = *index.entry(v.position_key()).or_insert(next);
             if id == next {
                 positions.push(position);
-                uvs.push(uv);
                 sums.push(DVec3::ZERO);
                 first_normal.push(normal);
             }
@@ -255,6 +255,17 @@ impl Tessellation {
                 sums[id as usize] += n;
             }
             remap.push(id);
+            if let Some(all) = &self.uvs {
+                let uv = all[k];
+                let next_uv = uvs.len() as u32;
+                let t = *uv_index
+                    .entry((id, uv.map(f32::to_bits)))
+                    .or_insert(next_uv);
+                if t == next_uv {
+                    uvs.push(uv);
+                }
+                uv_remap.push(t);
+            }
         }
         let normals = sums
             .iter()
@@ -294,6 +305,7 @@ impl Tessellation {
             base += (l + 1) * (l + 1);
         }
         let mut triangles = Vec::with_capacity(self.vertices.len() * 2);
+        let mut uv_triangles = Vec::new();
         let mut base = 0u32;
         for &l in &levels {
             let n = l + 1;
@@ -311,10 +323,13 @@ impl Tessellation {
                     } else {
                         [[a, b, c], [a, c, d]]
                     };
-                    for t in cell {
-                        let t = t.map(|k| remap[k as usize]);
+                    for c in cell {
+                        let t = c.map(|k| remap[k as usize]);
                         if t[0] != t[1] && t[1] != t[2] && t[0] != t[2] {
                             triangles.push(t);
+                            if !uv_remap.is_empty() {
+                                uv_triangles.push(c.map(|k| uv_remap[k as usize]));
+                            }
                         }
                     }
                 }
@@ -325,12 +340,12 @@ impl Tessellation {
             positions,
             normals,
             triangles,
-            uvs: self.uvs.as_ref().map(|_| uvs),
+            uvs: self.uvs.as_ref().map(|_| (uvs, uv_triangles)),
         }
     }
 
-    /// Writes OBJ atomically: `v` and `vn` (and `vt` with UVs) per vertex, 1-based `a//a` (`a/a/a`)
-    /// triangles and a header comment (with
+    /// Writes OBJ atomically: `v` and `vn` per vertex (and `vt`: welded, indexed on their own), 1-based
+    /// `a//a` (`a/t/a`) triangles and a header comment (with
     /// the per-patch levels of an adaptive tessellation in a `# levels` comment). `weld`: the
     /// [`Tessellation::welded`] mesh; otherwise one (L+1)² grid per patch in the contract order.
     /// Returns the numbers of vertices and triangles written.
@@ -395,28 +410,37 @@ impl Tessellation {
             for n in normals {
                 writeln!(w, "vn {} {} {}", n[0], n[1], n[2])?;
             }
-            let uvs = match &welded {
-                Some(m) => m.uvs.as_ref(),
+            // UVs: their own list and indices (welded), or one per vertex (unwelded).
+            let uvs: Option<&Vec<[f32; 2]>> = match &welded {
+                Some(m) => m.uvs.as_ref().map(|(u, _)| u),
                 None => self.uvs.as_ref(),
             };
             for t in uvs.into_iter().flatten() {
                 writeln!(w, "vt {} {}", t[0], t[1])?;
             }
             let with_uv = uvs.is_some();
-            let mut face = |t: [u32; 3]| {
+            let mut face = |t: [u32; 3], uv: [u32; 3]| {
                 let (a, b, c) = (t[0] + 1, t[1] + 1, t[2] + 1);
                 if with_uv {
-                    writeln!(w, "f {a}/{a}/{a} {b}/{b}/{b} {c}/{c}/{c}")
+                    let (ta, tb, tc) = (uv[0] + 1, uv[1] + 1, uv[2] + 1);
+                    writeln!(w, "f {a}/{ta}/{a} {b}/{tb}/{b} {c}/{tc}/{c}")
                 } else {
                     writeln!(w, "f {a}//{a} {b}//{b} {c}//{c}")
                 }
             };
             match &welded {
-                Some(m) => m.triangles.iter().try_for_each(|t| face(*t))?,
-                None => self
-                    .indices()
-                    .chunks_exact(3)
-                    .try_for_each(|t| face([t[0], t[1], t[2]]))?,
+                Some(m) => match &m.uvs {
+                    Some((_, uv_tris)) => m
+                        .triangles
+                        .iter()
+                        .zip(uv_tris)
+                        .try_for_each(|(t, u)| face(*t, *u))?,
+                    None => m.triangles.iter().try_for_each(|t| face(*t, *t))?,
+                },
+                None => self.indices().chunks_exact(3).try_for_each(|t| {
+                    let t = [t[0], t[1], t[2]];
+                    face(t, t)
+                })?,
             }
             Ok(())
         })?;
@@ -433,8 +457,9 @@ pub struct WeldedMesh {
     pub normals: Vec<[f32; 3]>,
     /// With the orientation of the patch grids.
     pub triangles: Vec<[u32; 3]>,
-    /// One UV per position, when the tessellation has UVs.
-    pub uvs: Option<Vec<[f32; 2]>>,
+    /// With UVs: the UVs and, per triangle, its corners' UV indices (UVs are indexed on their own, one per
+    /// welded vertex and UV value, so a seam's vertex has one UV per side while the mesh stays watertight).
+    pub uvs: Option<(Vec<[f32; 2]>, Vec<[u32; 3]>)>,
 }
 
 /// The adaptive parameters for a cage with bounding box `box_min + [0, box_size]`.
