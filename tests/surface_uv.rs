@@ -236,7 +236,8 @@ fn tessellation_carries_the_uv_surface_on_every_grid_vertex() {
         let by_position: std::collections::HashSet<[u32; 3]> =
             t.vertices.iter().map(|v| v.position_key()).collect();
         assert_eq!(w.positions.len(), by_position.len());
-        let (wuv, uv_tris) = w.uvs.as_ref().unwrap();
+        let welded_uvs = w.uvs.as_ref().unwrap();
+        let (wuv, uv_tris) = (&welded_uvs.uvs, &welded_uvs.triangles);
         assert_eq!(uv_tris.len(), w.triangles.len());
         assert!(uv_tris.iter().flatten().all(|&i| (i as usize) < wuv.len()));
         assert!(wuv.len() >= w.positions.len() && wuv.len() < t.vertices.len());

@@ -340,7 +340,10 @@ impl Tessellation {
             positions,
             normals,
             triangles,
-            uvs: self.uvs.as_ref().map(|_| (uvs, uv_triangles)),
+            uvs: self.uvs.as_ref().map(|_| WeldedUvs {
+                uvs,
+                triangles: uv_triangles,
+            }),
         }
     }
 
@@ -412,7 +415,7 @@ impl Tessellation {
             }
             // UVs: their own list and indices (welded), or one per vertex (unwelded).
             let uvs: Option<&Vec<[f32; 2]>> = match &welded {
-                Some(m) => m.uvs.as_ref().map(|(u, _)| u),
+                Some(m) => m.uvs.as_ref().map(|u| &u.uvs),
                 None => self.uvs.as_ref(),
             };
             for t in uvs.into_iter().flatten() {
@@ -430,10 +433,10 @@ impl Tessellation {
             };
             match &welded {
                 Some(m) => match &m.uvs {
-                    Some((_, uv_tris)) => m
+                    Some(u) => m
                         .triangles
                         .iter()
-                        .zip(uv_tris)
+                        .zip(&u.triangles)
                         .try_for_each(|(t, u)| face(*t, *u))?,
                     None => m.triangles.iter().try_for_each(|t| face(*t, *t))?,
                 },
@@ -457,9 +460,16 @@ pub struct WeldedMesh {
     pub normals: Vec<[f32; 3]>,
     /// With the orientation of the patch grids.
     pub triangles: Vec<[u32; 3]>,
-    /// With UVs: the UVs and, per triangle, its corners' UV indices (UVs are indexed on their own, one per
-    /// welded vertex and UV value, so a seam's vertex has one UV per side while the mesh stays watertight).
-    pub uvs: Option<(Vec<[f32; 2]>, Vec<[u32; 3]>)>,
+    /// With UVs: indexed on their own, one per welded vertex and UV value, so a seam's vertex has one UV
+    /// per side while the mesh stays watertight.
+    pub uvs: Option<WeldedUvs>,
+}
+
+/// The UVs of a [`WeldedMesh`]: the values and, per triangle, its corners' UV indices.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct WeldedUvs {
+    pub uvs: Vec<[f32; 2]>,
+    pub triangles: Vec<[u32; 3]>,
 }
 
 /// The adaptive parameters for a cage with bounding box `box_min + [0, box_size]`.
