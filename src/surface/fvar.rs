@@ -24,7 +24,7 @@
 //! - Not modelled: the semi-sharp *dependent* sharpness of `CornersPlus1/2` (one of two spans semi-sharp
 //!   makes the other follow it as it decays) and Chaikin averaging across a seam (the UV cage sees only its
 //!   span's edges at a seam vertex); both need a semi-sharp crease ending at a seam.
-//! - Cost: O(corners) with one hash map of the directed edges; the stencils cost what the positions' do
+//! - Cost: O(corners) over the cage's [`MeshMatrix`] (twins, one union–find); the stencils cost what the positions' do
 //!   (the UV cage has at most one vertex per corner and the same faces). Its attacking input is a UV soup,
 //!   every face its own island (unwelded exports): a seam at every edge, four UV-cage vertices per face,
 //!   each a sharp corner, so every UV patch is the bilinear map of its face's values
@@ -33,11 +33,10 @@ use super::acc2::{CageStencils, GregoryStencils, Tangents};
 use super::features::Features;
 use crate::error::{Error, Result};
 use crate::mesh::{
-    BoundaryInterpolation, Cage, CornerTag, Crease, FVarLinear, Mesh, MeshMatrix, SubdivTags,
+    BoundaryInterpolation, Cage, CornerTag, Crease, FVarLinear, Mesh, MeshMatrix, SubdivTags, NONE,
     SHARPNESS_INFINITE,
 };
 use glam::DVec3;
-use std::collections::HashMap;
 
 /// Union–find over corners, with path halving.
 fn find(parent: &mut [u32], mut x: u32) -> u32 {
@@ -81,21 +80,12 @@ pub fn uv_cage(cage: &Cage, levels: u32) -> Result<Option<Cage>> {
     let features = Features::from_tags(&m, &cage.tags)?;
     let (edge_s, vert_s) = features.sharpness(&m, &cage.tags);
     let rule = cage.tags.fvar_linear();
-    // Corner → face, next corner.
-    let mut corner_face = vec![0u32; n_corners];
-    let mut next = vec![0u32; n_corners];
-    for f in 0..mesh.n_faces() {
-        let (a, b) = (mesh.face_ptr[f] as usize, mesh.face_ptr[f + 1] as usize);
-        for c in a..b {
-            corner_face[c] = f as u32;
-            next[c] = if c + 1 == b { a as u32 } else { c as u32 + 1 };
-        }
-    }
-    // Directed edge (tail, head) → its corner (the tail's corner).
-    let mut directed: HashMap<(u32, u32), u32> = HashMap::with_capacity(n_corners);
-    for (c, &n) in next.iter().enumerate() {
-        directed.insert((mesh.indices[c], mesh.indices[n as usize]), c as u32);
-    }
+    // The cage's corners are the matrix's corners; a corner's outgoing half-edge and its twin come from
+    // the matrix (the twin's corner is the other face's corner at this edge's head).
+    let twin = m.twins();
+    let entry = m.corner_entries();
+    let entry_corner = &m.vertex_corners().corner;
+    let he_edge = m.half_edge_edge();
     let val = |c: u32| uv.indices[c as usize];
     let vtx = |c: u32| mesh.indices[c as usize];
     let mut parent: Vec<u32> = (0..n_corners as u32).collect();
@@ -104,44 +94,45 @@ pub fn uv_cage(cage: &Cage, levels: u32) -> Result<Option<Cage>> {
     // Continuous interior edges: (corner at a, corner at b) of one face, for the creases.
     let mut continuous: Vec<(u32, u32, f32)> = Vec::new();
     for c in 0..n_corners as u32 {
-        let cn = next[c as usize];
+        let cn = m.next(c);
         let (a, b) = (vtx(c), vtx(cn));
-        match directed.get(&(b, a)) {
-            None => {
-                boundary[a as usize] = true;
-                boundary[b as usize] = true;
-            }
-            Some(&t) => {
-                // Each undirected edge once, from its lower-numbered corner.
-                if t < c {
-                    continue;
-                }
-                let tn = next[t as usize];
-                // c: a→b in this face; t: b→a in the other, whose corner at a is tn.
-                if val(c) == val(tn) && val(cn) == val(t) {
-                    let (ra, rb) = (find(&mut parent, c), find(&mut parent, tn));
-                    parent[ra as usize] = rb;
-                    let (ra, rb) = (find(&mut parent, cn), find(&mut parent, t));
-                    parent[ra as usize] = rb;
-                    let s = m.edge_id(a, b).map_or(0.0, |e| edge_s[e]);
-                    continuous.push((c, cn, s));
-                } else {
-                    mismatch[a as usize] = true;
-                    mismatch[b as usize] = true;
-                }
-            }
+        let k = entry[c as usize] as usize;
+        if twin[k] == NONE {
+            boundary[a as usize] = true;
+            boundary[b as usize] = true;
+            continue;
+        }
+        // t: b→a in the other face; its next corner tn is that face's corner at a. Each undirected edge
+        // once, from its lower-numbered corner.
+        let t = entry_corner[twin[k] as usize];
+        if t < c {
+            continue;
+        }
+        let tn = m.next(t);
+        if val(c) == val(tn) && val(cn) == val(t) {
+            let (ra, rb) = (find(&mut parent, c), find(&mut parent, tn));
+            parent[ra as usize] = rb;
+            let (ra, rb) = (find(&mut parent, cn), find(&mut parent, t));
+            parent[ra as usize] = rb;
+            continuous.push((c, cn, edge_s[he_edge[k] as usize]));
+        } else {
+            mismatch[a as usize] = true;
+            mismatch[b as usize] = true;
         }
     }
     // Spans: number the classes in order of first corner.
     let mut span_of = vec![u32::MAX; n_corners];
-    let mut root_span: HashMap<u32, u32> = HashMap::new();
+    let mut root_span = vec![u32::MAX; n_corners];
     let mut span_value: Vec<u32> = Vec::new();
     let mut span_vertex: Vec<u32> = Vec::new();
     let mut span_faces: Vec<u32> = Vec::new();
     for c in 0..n_corners as u32 {
         let r = find(&mut parent, c);
         let next_id = span_value.len() as u32;
-        let s = *root_span.entry(r).or_insert(next_id);
+        if root_span[r as usize] == u32::MAX {
+            root_span[r as usize] = next_id;
+        }
+        let s = root_span[r as usize];
         if s == next_id {
             span_value.push(val(c));
             span_vertex.push(vtx(c));
