@@ -22,7 +22,6 @@ use crate::engine::cage::tagged_cage_topologies;
 use crate::engine::gregory::Evaluator;
 use crate::engine::gregory::GregorySurface;
 use crate::error::{Error, Result};
-use crate::geom::gregory::eval_generic;
 use crate::gpu::resources::{memory_barrier, BufferRange};
 use crate::gpu::{Buffer, MemoryLocation};
 use crate::mesh::{Cage, Mesh};
@@ -31,10 +30,9 @@ use crate::passes::cage_deform::{DeformParams, Deformation};
 use crate::passes::gregory_eval::{grid_indices, vertex_count, SurfaceVertex, MAX_LEVEL};
 use crate::passes::patch_at::{PatchAtPass, PatchQuery, PatchSample};
 use crate::passes::surface_curvature::{SurfaceCurvaturePass, CURVATURE_STRIDE};
-use crate::surface::{PtexMap, Tangents};
+use crate::surface::{gregory_host, PtexMap, Tangents};
 use ash::vk;
 use glam::DVec3;
-use rayon::prelude::*;
 
 impl Gpu {
     /// Builds the ACC-2 Gregory surface of a quad cage (non-quad cages are refined once, with a note) at
@@ -432,31 +430,7 @@ impl Surface<'_> {
         let located = self.ptex.locate_all(at)?;
         if evaluator == Evaluator::Host {
             let eval = |s: &GregorySurface| -> Result<Vec<[[f32; 3]; 3]>> {
-                let hp = s.host_patches()?;
-                Ok(located
-                    .par_iter()
-                    .map(|&(k, u, v, j)| {
-                        let rows = &hp.patch_points[k as usize];
-                        let cv: [DVec3; 20] = std::array::from_fn(|i| {
-                            let r = rows[i] as usize;
-                            let hi = hp.points[r];
-                            let lo = if hp.residual_rows > 0 {
-                                hp.points[hp.residual_rows as usize + r]
-                            } else {
-                                [0.0; 4]
-                            };
-                            DVec3::new(
-                                hi[0] as f64 + lo[0] as f64,
-                                hi[1] as f64 + lo[1] as f64,
-                                hi[2] as f64 + lo[2] as f64,
-                            )
-                        });
-                        let e = eval_generic(&cv, u, v, true, false);
-                        let du = e.su * j[0][0] + e.sv * j[1][0];
-                        let dv = e.su * j[0][1] + e.sv * j[1][1];
-                        [e.p, du, dv].map(|x| x.as_vec3().to_array())
-                    })
-                    .collect())
+                Ok(gregory_host::evaluate_at(&s.host_patches()?, &located))
             };
             let pos = eval(&self.inner)?;
             let uv = match &self.uv {
@@ -551,7 +525,7 @@ impl Surface<'_> {
         Ok(Some(
             uv.read_vertices(&self.gpu.ctx)?
                 .iter()
-                .map(|v| [v.position[0], v.position[1]])
+                .map(SurfaceVertex::uv)
                 .collect(),
         ))
     }

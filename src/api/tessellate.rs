@@ -614,7 +614,7 @@ impl Gpu {
                         Some(
                             s.read_vertices(ctx)?
                                 .iter()
-                                .map(|v| [v.position[0], v.position[1]])
+                                .map(SurfaceVertex::uv)
                                 .collect(),
                         )
                     }
@@ -675,7 +675,7 @@ impl Gpu {
                             surface
                                 .read_adaptive_grids_of(ctx, s)?
                                 .iter()
-                                .map(|v| [v.position[0], v.position[1]])
+                                .map(SurfaceVertex::uv)
                                 .collect(),
                         ),
                         None => None,

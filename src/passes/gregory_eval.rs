@@ -28,6 +28,11 @@ impl SurfaceVertex {
         [self.position[0], self.position[1], self.position[2]]
     }
 
+    /// The position's x and y: the UV of a UV surface's vertex (its points are (u, v, 0)).
+    pub fn uv(&self) -> [f32; 2] {
+        [self.position[0], self.position[1]]
+    }
+
     /// The normal's x, y, z.
     pub fn normal_xyz(&self) -> [f32; 3] {
         [self.normal[0], self.normal[1], self.normal[2]]

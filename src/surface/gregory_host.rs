@@ -67,6 +67,35 @@ pub enum HostSimd {
     Baseline,
 }
 
+/// The surface at located (patch, u, v) points ([`crate::surface::PtexMap::locate_all`]) from the points
+/// `p` holds: each point's f32 row plus its residual in f64, evaluated with exact first derivatives
+/// ([`crate::geom::gregory::eval_generic`]), the derivatives mapped back to the ptex face's (u, v) by the
+/// located Jacobian; `[position, du, dv]` per point, in f32, every core. The host counterpart of
+/// glsl/patch_at.comp (`Surface::evaluate_at` on CPU devices). Cost: 20 gathered points per query.
+pub fn evaluate_at(p: &HostPatches, located: &[crate::surface::Located]) -> Vec<[[f32; 3]; 3]> {
+    use glam::DVec3;
+    let point = |r: usize| {
+        let hi = p.points[r];
+        let lo = if p.residual_rows > 0 {
+            p.points[p.residual_rows as usize + r]
+        } else {
+            [0.0; 4]
+        };
+        DVec3::from_array([0, 1, 2].map(|k| hi[k] as f64 + lo[k] as f64))
+    };
+    located
+        .par_iter()
+        .map(|&(k, u, v, j)| {
+            let rows = &p.patch_points[k as usize];
+            let cv: [DVec3; 20] = std::array::from_fn(|i| point(rows[i] as usize));
+            let e = crate::geom::gregory::eval_generic(&cv, u, v, true, false);
+            let du = e.su * j[0][0] + e.sv * j[1][0];
+            let dv = e.su * j[0][1] + e.sv * j[1][1];
+            [e.p, du, dv].map(|x| x.as_vec3().to_array())
+        })
+        .collect()
+}
+
 /// The control points and patch layout the kernel reads, as the GPU buffers hold them.
 #[derive(Clone, Copy)]
 pub struct HostPatches<'a> {
