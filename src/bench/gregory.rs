@@ -590,6 +590,41 @@ pub fn curvature(cfg: &BenchConfig, report: &mut Report) -> anyhow::Result<()> {
     Ok(())
 }
 
+/// The UV cage's attacking input in `gregory_evaluate_at`: a generated n × n grid whose every face is its
+/// own UV island (four `vt` per face, as unwelded exports write them).
+const UV_SOUP: &str = "uv_soup_64.obj";
+
+/// An n × n grid of quads, gently curved, every face its own UV island.
+fn uv_soup_obj(n: usize) -> String {
+    use std::fmt::Write;
+    let mut s = String::new();
+    for j in 0..=n {
+        for i in 0..=n {
+            let (x, y) = (i as f64 / n as f64, j as f64 / n as f64);
+            let _ = writeln!(s, "v {x} {y} {}", 0.1 * (7.0 * x).sin() * (5.0 * y).cos());
+        }
+    }
+    let mut vt = 0;
+    for j in 0..n {
+        for i in 0..n {
+            let ids = [
+                j * (n + 1) + i,
+                j * (n + 1) + i + 1,
+                (j + 1) * (n + 1) + i + 1,
+                (j + 1) * (n + 1) + i,
+            ];
+            let mut f = String::from("f");
+            for (k, id) in ids.iter().enumerate() {
+                let _ = writeln!(s, "vt {} {}", (k & 1) as f64, (k >> 1) as f64);
+                vt += 1;
+                let _ = write!(f, " {}/{vt}", id + 1);
+            }
+            let _ = writeln!(s, "{f}");
+        }
+    }
+    s
+}
+
 /// Table `gregory_evaluate_at`: the limit surface at random (ptex face, u, v) — `gregvox evaluate`'s work,
 /// [`crate::surface::LimitEvaluator::evaluate`] on every core in f64 with first and second derivatives —
 /// beside OpenSubdiv's PatchMap + EvaluateBasis (one thread, every core) and `Osd::OmpEvaluator::EvalPatches`
@@ -613,7 +648,9 @@ pub fn evaluate_at(cfg: &BenchConfig, report: &mut Report) -> anyhow::Result<()>
              EvalPatches in float (patch coordinates found before timing), the faster all-core figure \
              kept; median of {} repeats. gregvox device = Surface::evaluate_at_with(Vulkan) (host locate, upload, the \
              patch_at pass in f32 with first derivatives, read back: the whole call; on CPU devices \
-             evaluate_at itself picks the host evaluation instead). Patches: gregvox \
+             evaluate_at itself picks the host evaluation instead). gregvox uv = \
+             LimitEvaluator::evaluate_uv on the same samples (cages with vt; uv_soup_64, generated: every \
+             face its own UV island, the UV cage's attacking input). Patches: gregvox \
              refines uniformly to the isolation level L, \
              OpenSubdiv adaptively (RefineAdaptive(L)). |Δ sum| = relative difference of Σ(x + y + z) of the \
              positions (the same surface).",
@@ -627,6 +664,7 @@ pub fn evaluate_at(cfg: &BenchConfig, report: &mut Report) -> anyhow::Result<()>
             "gregvox ms",
             "gregvox with 2nd derivatives ms",
             "gregvox device ms",
+            "gregvox uv ms",
             "OpenSubdiv 1 thread ms",
             "OpenSubdiv all cores ms",
             "speed-up vs all cores",
@@ -640,6 +678,7 @@ pub fn evaluate_at(cfg: &BenchConfig, report: &mut Report) -> anyhow::Result<()>
         &[
             "spot_quadrangulated.obj",
             "opensubdiv/catmark_cube_creases0.obj",
+            UV_SOUP,
         ]
     } else {
         &[
@@ -648,10 +687,18 @@ pub fn evaluate_at(cfg: &BenchConfig, report: &mut Report) -> anyhow::Result<()>
             "opensubdiv/catmark_cube_creases0.obj",
             "opensubdiv/catmark_chaikin0.obj",
             "opensubdiv/catmark_torus_creases0.obj",
+            "opensubdiv/catmark_fvar_bound1.obj",
+            UV_SOUP,
         ]
     };
     for name in cages {
-        let path = cfg.model(name)?;
+        let path = if *name == UV_SOUP {
+            let p = dir.join(UV_SOUP);
+            std::fs::write(&p, uv_soup_obj(64))?;
+            p
+        } else {
+            cfg.model(name)?
+        };
         let cage = load_cage_file(&path)?;
         let cs = GregoryStencils::from_cage(&cage, Tangents::OpenSubdiv)?;
         let e = LimitEvaluator::from_stencils(&cage, &cs)?;
@@ -673,6 +720,13 @@ pub fn evaluate_at(cfg: &BenchConfig, report: &mut Report) -> anyhow::Result<()>
                 .map(|s| s.position.len())
         });
         drop(surface);
+        let uv_ms: Value = if e.has_uv() {
+            num(time_cpu(cfg.repeats, || {
+                e.evaluate_uv(&at).map(|u| u.len())
+            }))
+        } else {
+            "—".into()
+        };
         let sum: f64 = samples_out
             .iter()
             .map(|s| s.position.x + s.position.y + s.position.z)
@@ -721,6 +775,7 @@ pub fn evaluate_at(cfg: &BenchConfig, report: &mut Report) -> anyhow::Result<()>
                     num(ours),
                     num(ours_second),
                     num(device),
+                    uv_ms,
                     num(single),
                     num(all),
                     speedup(Some(all), ours),
@@ -734,6 +789,7 @@ pub fn evaluate_at(cfg: &BenchConfig, report: &mut Report) -> anyhow::Result<()>
                     num(ours),
                     num(ours_second),
                     num(device),
+                    uv_ms,
                     why.clone().into(),
                     why.into(),
                     "—".into(),
