@@ -6,6 +6,7 @@ mod common;
 use common::*;
 use glam::DVec3;
 use gregvox::mesh::load_obj_cage;
+use gregvox::surface::adaptive::AdaptiveStencils;
 use gregvox::surface::fvar::uv_cage;
 use gregvox::surface::{GregoryStencils, LimitEvaluator, Tangents};
 
@@ -70,6 +71,7 @@ const SHAPES: &[(&str, &str)] = &[
     ),
     ("catmark_chaikin0", "opensubdiv/catmark_chaikin0.obj"),
     ("catmark_quadstrips", "opensubdiv/catmark_quadstrips.obj"),
+    ("catmark_car", "opensubdiv/catmark_car.obj"),
 ];
 
 fn uv_diag(values: &[[f64; 2]]) -> f64 {
@@ -83,8 +85,9 @@ fn uv_diag(values: &[[f64; 2]]) -> f64 {
 fn uv_error(name: &str, path: &str) -> (f64, f64) {
     {
         let cage = load_obj_cage(path).unwrap();
-        let cs = GregoryStencils::from_cage(&cage, Tangents::OpenSubdiv).unwrap();
-        let e = LimitEvaluator::from_stencils(&cage, &cs).unwrap();
+        // Feature-adaptive, as OpenSubdiv refines (the car is past the uniform refinement's limit).
+        let cs = AdaptiveStencils::from_cage(&cage, Tangents::OpenSubdiv).unwrap();
+        let e = LimitEvaluator::from_adaptive(&cage, &cs).unwrap();
         let uvc = uv_cage(&cage, cs.levels)
             .unwrap()
             .expect("the shape has UVs");

@@ -116,6 +116,18 @@ struct Ring {
 }
 
 impl Ring {
+    /// The placeholder of a corner whose vertex no selected patch reads.
+    fn unused(v: u32) -> Ring {
+        Ring {
+            v,
+            pts: Vec::new(),
+            boundary: false,
+            faces: 0,
+            face_in_ring: 0,
+            sharp: false,
+        }
+    }
+
     fn valence(&self) -> usize {
         self.faces + self.boundary as usize
     }
@@ -143,7 +155,7 @@ impl Ring {
 }
 
 /// Twin corner of every corner (the corner whose half-edge runs the other way), or `NONE`.
-fn twin_corners(m: &MeshMatrix) -> Vec<u32> {
+pub(crate) fn twin_corners(m: &MeshMatrix) -> Vec<u32> {
     let vc = m.vertex_corners();
     let mut entry_of_corner = vec![0u32; m.n_corners()];
     for (k, &c) in vc.corner.iter().enumerate() {
@@ -437,37 +449,77 @@ impl GregoryStencils {
     /// assert_eq!(p[6], cage.mesh.positions[6]); // the sharp corner interpolates its vertex
     /// ```
     pub fn with_features(m: &MeshMatrix, features: &Features, tangents: Tangents) -> Result<Self> {
+        Self::build(m, features, tangents, None)
+    }
+
+    /// [`GregoryStencils::with_features`] for the faces of `m` where `select` is true only (quads, not
+    /// holes), in face order: the level of a feature-adaptive refinement ([`crate::surface::adaptive`]),
+    /// whose mesh is a part of the refined cage with an incomplete fringe. Only the rings of the selected
+    /// faces' vertices are walked (they must be complete in `m`), so the fringe is never read and the
+    /// whole-cage checks (manifold, orientation) are the caller's, made on the cage. Rows of unused
+    /// vertices and corners are empty.
+    pub(crate) fn with_features_on(
+        m: &MeshMatrix,
+        features: &Features,
+        tangents: Tangents,
+        select: &[bool],
+    ) -> Result<Self> {
+        Self::build(m, features, tangents, Some(select))
+    }
+
+    fn build(
+        m: &MeshMatrix,
+        features: &Features,
+        tangents: Tangents,
+        select: Option<&[bool]>,
+    ) -> Result<Self> {
         let nf = m.n_faces();
         if nf == 0 {
             return Err(Error::Invalid(
                 "Gregory stencils: the cage has no faces".into(),
             ));
         }
-        if let Some(f) = (0..nf).find(|&f| m.face_len(f) != 4) {
+        let selected = |f: usize| select.is_none_or(|s| s[f]);
+        if let Some(f) = (0..nf).find(|&f| selected(f) && m.face_len(f) != 4) {
             return Err(Error::Invalid(format!(
                 "Gregory stencils: face {f} has {} vertices; ACC-2 needs an all-quad cage \
                  (use GregoryStencils::from_mesh to refine once)",
                 m.face_len(f)
             )));
         }
-        if let Some(msg) = manifold_error(m) {
-            return Err(Error::Invalid(msg));
-        }
-        let rep = m.report();
-        if rep.inconsistent_edges > 0 || rep.second_writes > 0 {
-            return Err(Error::Invalid(format!(
-                "Gregory stencils: the cage is not consistently oriented ({} edges used twice in the same direction)",
-                rep.inconsistent_edges
-            )));
+        if select.is_none() {
+            if let Some(msg) = manifold_error(m) {
+                return Err(Error::Invalid(msg));
+            }
+            let rep = m.report();
+            if rep.inconsistent_edges > 0 || rep.second_writes > 0 {
+                return Err(Error::Invalid(format!(
+                    "Gregory stencils: the cage is not consistently oriented ({} edges used twice in the same direction)",
+                    rep.inconsistent_edges
+                )));
+            }
         }
         let nv = m.n_verts();
         let nc = m.n_corners();
         features.check(m)?;
         let twin = twin_corners(m);
         let tags = VertexTags::new(m, &twin, features);
+        let cv = m.corner_vertex();
+        // The vertices whose rings the selected patches read (all of them without a selection).
+        let mut needed = vec![select.is_none(); nv];
+        if let Some(s) = select {
+            for f in (0..nf).filter(|&f| s[f]) {
+                for &v in m.face(f) {
+                    needed[v as usize] = true;
+                }
+            }
+        }
         let rings: Vec<Ring> = (0..nc as u32)
             .map(|c| {
-                let v = m.corner_vertex()[c as usize] as usize;
+                let v = cv[c as usize] as usize;
+                if !needed[v] {
+                    return Ok(Ring::unused(v as u32));
+                }
                 let mut r = ring_of(m, &twin, &tags.sharp_he, tags.cut(v), c)?;
                 r.sharp = tags.span_is_sharp(v, r.faces);
                 Ok(r)
@@ -477,8 +529,10 @@ impl GregoryStencils {
         // edges, and its legacy sharp-corner REGULAR patches).
         let regular: Vec<bool> = (0..nf)
             .map(|f| {
-                let span = std::array::from_fn(|i| rings[4 * f + i].faces);
-                tags.face_is_regular(m, &twin, f, span)
+                selected(f) && {
+                    let span = std::array::from_fn(|i| rings[m.face_start(f) as usize + i].faces);
+                    tags.face_is_regular(m, &twin, f, span)
+                }
             })
             .collect();
         // Boundary half-edges get an extra row for the point at their head pointing back.
@@ -493,7 +547,7 @@ impl GregoryStencils {
         let mut rows: Vec<Row> = vec![Vec::new(); nv + nc + n_back as usize];
         // P rows, one per vertex (from any of its corners).
         let mut p_done = vec![false; nv];
-        for r in &rings {
+        for r in rings.iter().filter(|r| needed[r.v as usize]) {
             if !p_done[r.v as usize] {
                 p_done[r.v as usize] = true;
                 rows[r.v as usize] = p_row(r);
@@ -502,7 +556,7 @@ impl GregoryStencils {
         // A vertex no face uses (exported OBJ files often carry some) takes part in no patch: its row is
         // the vertex itself, so every row stays an affine combination of the cage and the point is inert.
         for (v, done) in p_done.iter().enumerate() {
-            if !done {
+            if !done && select.is_none() {
                 rows[v] = vec![(v as u32, 1.0)];
             }
         }
@@ -510,11 +564,15 @@ impl GregoryStencils {
         // c = (a → b) is b's point toward a = the Em of b's corner in the same face (next(c)).
         for c in 0..nc {
             let r = &rings[c];
-            rows[nv + c] = e_row(r, r.face_in_ring, tangents);
+            if needed[r.v as usize] {
+                rows[nv + c] = e_row(r, r.face_in_ring, tangents);
+            }
             if back_row[c] != NONE {
                 let nb = m.next(c as u32) as usize;
                 let rb = &rings[nb];
-                rows[back_row[c] as usize] = e_row(rb, em_edge(rb), tangents);
+                if needed[rb.v as usize] {
+                    rows[back_row[c] as usize] = e_row(rb, em_edge(rb), tangents);
+                }
             }
         }
         let ep_of = |c: usize| (nv + c) as u32;
@@ -527,11 +585,15 @@ impl GregoryStencils {
                 back_row[p]
             }
         };
-        let cv = m.corner_vertex();
         let mut patch_points = Vec::with_capacity(nf);
         for (f, &reg) in regular.iter().enumerate() {
+            if !selected(f) {
+                // Keeps patch k at face k; the unselected entries are dropped below.
+                patch_points.push([0u32; 20]);
+                continue;
+            }
             let mut pp = [0u32; 20];
-            let base = 4 * f;
+            let base = m.face_start(f) as usize;
             for i in 0..4 {
                 let c = base + i;
                 pp[5 * i] = rings[c].v;
@@ -677,7 +739,7 @@ impl GregoryStencils {
         };
         // Holes: no patch, though their rings shaped every neighbour above.
         let patch_face: Vec<u32> = (0..nf as u32)
-            .filter(|&f| !features.hole[f as usize])
+            .filter(|&f| !features.hole[f as usize] && selected(f as usize))
             .collect();
         let (patch_points, regular) = if patch_face.len() == nf {
             (patch_points, regular)
@@ -793,48 +855,13 @@ impl GregoryStencils {
             }
             cs
         };
-        // Semi-sharp features are exact after ⌈s⌉ levels (OpenSubdiv isolates them adaptively to that
-        // level; here the whole cage is refined uniformly, which gives the same limit surface wherever
-        // OpenSubdiv's patches are exact B-splines or Gregory caps at that level).
-        let semi = cage
-            .tags
-            .creases
-            .iter()
-            .map(|c| c.sharpness)
-            .chain(cage.tags.corners.iter().map(|c| c.sharpness))
-            .filter(|&s| s > 0.0 && s < crate::mesh::SHARPNESS_INFINITE)
-            .fold(0.0f32, f32::max);
-        if features.is_none() && semi == 0.0 && cage.tags.isolation.unwrap_or(0) == 0 {
+        let Some(Isolation {
+            levels,
+            least,
+            semi,
+        }) = isolation(cage, &m, &features)?
+        else {
             return Ok(with_notes(Self::from_mesh(mesh, tangents)?));
-        }
-        if features.hole.iter().all(|&h| h) {
-            return Err(Error::Invalid(format!(
-                "Gregory stencils: every face of the cage is a hole ({} tagged{})",
-                cage.tags.holes.len(),
-                if cage.tags.boundary == crate::mesh::BoundaryInterpolation::None {
-                    ", and `t interpolateboundary 0` drops the faces at unsharpened boundaries"
-                } else {
-                    ""
-                }
-            )));
-        }
-        let all_quads = (0..m.n_faces()).all(|f| m.face_len(f) == 4);
-        let least = (semi.ceil() as u32).max(!all_quads as u32);
-        let levels = match cage.tags.isolation {
-            None => least,
-            Some(l) if l >= least => l,
-            Some(l) => {
-                return Err(Error::Invalid(format!(
-                    "--isolation {l} is below the {least} level(s) this cage needs ({})",
-                    if semi > 0.0 {
-                        format!(
-                            "semi-sharp features up to sharpness {semi} are exact after ⌈s⌉ levels"
-                        )
-                    } else {
-                        "non-quad faces need one Catmull–Clark level".to_string()
-                    }
-                )))
-            }
         };
         if levels == 0 {
             let stencils = GregoryStencils::with_features(&m, &features, tangents)?;
@@ -1012,9 +1039,74 @@ pub fn gather_patches(patch_points: &[[u32; 20]], pts: &[DVec3]) -> Vec<PatchF64
         .collect()
 }
 
+/// How deep a tagged cage is refined before its patches are built.
+pub(crate) struct Isolation {
+    /// The isolation level L.
+    pub levels: u32,
+    /// The least level the cage needs (⌈largest semi-sharp sharpness⌉, 1 for non-quad faces).
+    pub least: u32,
+    /// The largest semi-sharp sharpness (0 without semi-sharp features).
+    pub semi: f32,
+}
+
+/// The isolation level of `cage` (`m` its matrix, `features` its infinitely sharp features): `None` when
+/// the cage needs nothing but the untagged path ([`GregoryStencils::from_mesh`]). Errors when every face is
+/// a hole, or `--isolation` asks for fewer levels than the cage needs.
+pub(crate) fn isolation(
+    cage: &Cage,
+    m: &MeshMatrix,
+    features: &Features,
+) -> Result<Option<Isolation>> {
+    // Semi-sharp features are exact after ⌈s⌉ levels (OpenSubdiv isolates them to that level; its
+    // B-spline patches elsewhere are the same limit surface at any level).
+    let semi = cage
+        .tags
+        .creases
+        .iter()
+        .map(|c| c.sharpness)
+        .chain(cage.tags.corners.iter().map(|c| c.sharpness))
+        .filter(|&s| s > 0.0 && s < crate::mesh::SHARPNESS_INFINITE)
+        .fold(0.0f32, f32::max);
+    if features.is_none() && semi == 0.0 && cage.tags.isolation.unwrap_or(0) == 0 {
+        return Ok(None);
+    }
+    if features.hole.iter().all(|&h| h) {
+        return Err(Error::Invalid(format!(
+            "Gregory stencils: every face of the cage is a hole ({} tagged{})",
+            cage.tags.holes.len(),
+            if cage.tags.boundary == crate::mesh::BoundaryInterpolation::None {
+                ", and `t interpolateboundary 0` drops the faces at unsharpened boundaries"
+            } else {
+                ""
+            }
+        )));
+    }
+    let all_quads = (0..m.n_faces()).all(|f| m.face_len(f) == 4);
+    let least = (semi.ceil() as u32).max(!all_quads as u32);
+    let levels = match cage.tags.isolation {
+        None => least,
+        Some(l) if l >= least => l,
+        Some(l) => {
+            return Err(Error::Invalid(format!(
+                "--isolation {l} is below the {least} level(s) this cage needs ({})",
+                if semi > 0.0 {
+                    format!("semi-sharp features up to sharpness {semi} are exact after ⌈s⌉ levels")
+                } else {
+                    "non-quad faces need one Catmull–Clark level".to_string()
+                }
+            )))
+        }
+    };
+    Ok(Some(Isolation {
+        levels,
+        least,
+        semi,
+    }))
+}
+
 /// Why `m` is not a manifold, naming the first non-manifold edge and vertex (`None` if it is one).
 /// OpenSubdiv accepts such cages by making the edges infinitely sharp; gregvox refuses them.
-fn manifold_error(m: &MeshMatrix) -> Option<String> {
+pub(crate) fn manifold_error(m: &MeshMatrix) -> Option<String> {
     let uses = m.edge_uses();
     let bad_edges: Vec<usize> = (0..uses.len()).filter(|&e| uses[e].faces() > 2).collect();
     let bad_verts = m.non_manifold_vertices();

@@ -7,7 +7,8 @@
 //!   one ptex face, an n-gon (n ≠ 4) n of them, its sub-face i the quad at its corner i with (0, 0) at the
 //!   corner's vertex, u toward the midpoint of the next edge and v toward the midpoint of the previous one.
 //!   An all-quad cage's ptex faces are its faces.
-//! - A cage refined L times ([`GregoryStencils::from_cage`]: non-quad faces, semi-sharp features) has every
+//! - A cage refined L times ([`crate::surface::GregoryStencils::from_cage`], or only where its features
+//!   need it: [`AdaptiveStencils`]; non-quad faces, semi-sharp features) has every
 //!   face split into the quads at its corners, level after level: a quad's (u, v) picks the quadrant and is
 //!   mapped onto that child's own (u, v) by a rotation and a scale by 2, once per level, and the
 //!   derivatives are mapped back by the chain rule (the product of the levels' Jacobians), so they are the
@@ -15,23 +16,13 @@
 //! - u and v must lie in [0, 1] and be finite; the face must exist and not be a hole: anything else is an
 //!   error naming the row, never a clamp.
 //! - Cost: O(L) per query after an O(patches) build (the ptex map and the f64 points W·cage).
-use super::acc2::{CageStencils, GregoryStencils, Tangents};
+use super::acc2::{CageStencils, Tangents};
+use super::adaptive::{AdaptiveStencils, Node, PatchTree};
 use crate::error::{Error, Result};
 use crate::geom::gregory::{eval_generic, PatchF64};
 use crate::mesh::{Cage, NONE};
 use glam::DVec3;
 use rayon::prelude::*;
-
-/// A ptex face: where its patches are.
-#[derive(Debug, Clone, Copy)]
-enum Ptex {
-    /// A face of an unrefined (all-quad) cage: patch `0` (`NONE` for a hole).
-    Patch(u32),
-    /// A quad of a refined cage: its level-1 children are the quads `first..first + 4` (its corners).
-    Quad { first: u32 },
-    /// Sub-face `corner` of an n-gon of a refined cage: the level-1 quad `corner`.
-    SubFace { corner: u32 },
-}
 
 /// The surface at (face, u, v): position and exact derivatives with respect to the ptex face's (u, v).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
@@ -64,27 +55,43 @@ pub struct LimitEvaluator {
 }
 
 /// Where each ptex face's surface is: (face, u, v) → (patch, the patch's own (u, v), the Jacobian of that
-/// map). The patch layout of [`GregoryStencils::from_cage`]; shared by the CPU evaluator and the device
-/// pass ([`crate::passes::patch_at`]).
+/// map), by descending the faces' quadtrees ([`PatchTree`]): the uniform layout of
+/// [`crate::surface::GregoryStencils::from_cage`] (shared by the CPU evaluator and the device pass,
+/// [`crate::passes::patch_at`]) or the feature-adaptive one of [`AdaptiveStencils`].
 #[derive(Debug, Clone)]
 pub struct PtexMap {
-    /// Per quad of the finest level: its patch, or `NONE` (a hole).
-    patch_of: Vec<u32>,
-    ptex: Vec<Ptex>,
+    nodes: Vec<Node>,
+    /// The root node of each ptex face.
+    ptex: Vec<u32>,
     /// The cage face of each ptex face (for messages).
     ptex_cage_face: Vec<u32>,
-    /// Catmull–Clark levels between the cage and the patches.
-    levels: u32,
 }
 
 /// A located query: the patch, its own (u, v), and d(u', v')/d(u, v) as [[du'/du, du'/dv], [dv'/du, dv'/dv]].
 pub type Located = (u32, f64, f64, [[f64; 2]; 2]);
 
 impl LimitEvaluator {
-    /// Builds the stencils of `cage` (see [`GregoryStencils::from_cage`]) and its ptex map.
+    /// Builds the feature-adaptive stencils of `cage` ([`AdaptiveStencils::from_cage`]: the surface of
+    /// [`crate::surface::GregoryStencils::from_cage`]'s uniform refinement, with patches only as deep as the features need)
+    /// and its ptex map; the UV surface likewise, when the cage has UVs.
     pub fn new(cage: &Cage, tangents: Tangents) -> Result<Self> {
-        let cs = GregoryStencils::from_cage(cage, tangents)?;
-        Self::from_stencils(cage, &cs)
+        let a = AdaptiveStencils::from_cage(cage, tangents)?;
+        let mut e = Self::from_adaptive(cage, &a)?;
+        if let Some(uv_cage) = super::fvar::uv_cage(cage, a.levels)? {
+            let ua = AdaptiveStencils::from_cage(&uv_cage, Tangents::OpenSubdiv)
+                .map_err(|e| Error::Invalid(format!("UVs: {e}")))?;
+            e.uv = Some(Box::new(Self::from_adaptive(&uv_cage, &ua)?));
+        }
+        Ok(e)
+    }
+
+    /// From feature-adaptive stencils built for `cage` (positions only).
+    pub fn from_adaptive(cage: &Cage, a: &AdaptiveStencils) -> Result<Self> {
+        Ok(LimitEvaluator {
+            patches: a.stencils.patches_f64(&cage.mesh.positions)?,
+            map: PtexMap::from_tree(cage, &a.tree),
+            uv: None,
+        })
     }
 
     /// From stencils already built for `cage` (and, when the cage has UVs, the UV cage's stencils at the
@@ -145,7 +152,8 @@ impl LimitEvaluator {
 }
 
 impl PtexMap {
-    /// The map of `cage`'s patches as `cs` (its stencils) lays them out.
+    /// The map of `cage`'s patches as `cs` (its stencils) lays them out: every face split into the quads
+    /// at its corners `cs.levels` times.
     pub fn new(cage: &Cage, cs: &CageStencils) -> Self {
         let s = &cs.stencils;
         let mesh = &cage.mesh;
@@ -153,30 +161,69 @@ impl PtexMap {
         for (k, &f) in s.patch_face.iter().enumerate() {
             patch_of[f as usize] = k as u32;
         }
+        let leaf = |k: u32| {
+            if k == NONE {
+                Node::Hole
+            } else {
+                Node::Patch(k)
+            }
+        };
+        if cs.levels == 0 {
+            let nodes = patch_of.into_iter().map(leaf).collect();
+            return Self::from_tree(cage, &PatchTree { nodes });
+        }
+        // Nodes: the cage's faces, then each level's faces in order. Level 1's face c is the quad at cage
+        // corner c; below, face q's children are 4q..4q + 4.
+        let nf = mesh.n_faces() as u32;
+        let mut nodes = Vec::new();
+        let mut corner = 0u32;
+        for f in 0..nf as usize {
+            nodes.push(Node::Split { first: nf + corner });
+            corner += mesh.face(f).len() as u32;
+        }
+        let (mut offset, mut count) = (nf, corner);
+        for level in 1..=cs.levels {
+            let next = offset + count;
+            for q in 0..count {
+                nodes.push(if level == cs.levels {
+                    leaf(patch_of[q as usize])
+                } else {
+                    Node::Split {
+                        first: next + 4 * q,
+                    }
+                });
+            }
+            offset = next;
+            count *= 4;
+        }
+        Self::from_tree(cage, &PatchTree { nodes })
+    }
+
+    /// The map of a patch tree of `cage` (node `f` is cage face `f`): a quad is one ptex face, an n-gon's
+    /// sub-faces are its children.
+    pub fn from_tree(cage: &Cage, tree: &PatchTree) -> Self {
+        let mesh = &cage.mesh;
         let mut ptex = Vec::with_capacity(mesh.n_faces());
         let mut ptex_cage_face = Vec::with_capacity(mesh.n_faces());
-        let mut corner = 0u32;
-        for (f, &patch) in patch_of.iter().enumerate().take(mesh.n_faces()) {
+        for f in 0..mesh.n_faces() {
             let n = mesh.face(f).len() as u32;
-            if cs.levels == 0 {
-                ptex.push(Ptex::Patch(patch));
-                ptex_cage_face.push(f as u32);
-            } else if n == 4 {
-                ptex.push(Ptex::Quad { first: corner });
-                ptex_cage_face.push(f as u32);
-            } else {
-                for i in 0..n {
-                    ptex.push(Ptex::SubFace { corner: corner + i });
-                    ptex_cage_face.push(f as u32);
+            match tree.nodes[f] {
+                Node::Split { first } if n != 4 => {
+                    ptex.extend(first..first + n);
+                    ptex_cage_face.extend(std::iter::repeat_n(f as u32, n as usize));
+                }
+                // A quad; or an n-gon hole, whose n sub-faces are holes too.
+                _ => {
+                    let k = if n == 4 { 1 } else { n as usize };
+                    ptex.extend(std::iter::repeat_n(f as u32, k));
+                    ptex_cage_face.extend(std::iter::repeat_n(f as u32, k));
                 }
             }
-            corner += n;
         }
         PtexMap {
-            patch_of,
+            nodes: tree.nodes.clone(),
             ptex,
             ptex_cage_face,
-            levels: cs.levels,
         }
     }
 
@@ -208,7 +255,7 @@ impl PtexMap {
         if !(0.0..=1.0).contains(&u) || !(0.0..=1.0).contains(&v) {
             return Err(bad("u and v must lie in [0, 1]".into()));
         }
-        let p = *self.ptex.get(f as usize).ok_or_else(|| {
+        self.ptex.get(f as usize).ok_or_else(|| {
             bad(format!(
                 "no such face (the cage has {} ptex faces)",
                 self.ptex.len()
@@ -239,26 +286,19 @@ impl PtexMap {
             ];
             first + i
         };
-        // Patch: already a patch index (levels = 0).
-        let (mut quad, levels_left) = match p {
-            Ptex::Patch(k) => (k, 0),
-            Ptex::Quad { first } => (descend(first, &mut uu, &mut vv, &mut j), self.levels - 1),
-            Ptex::SubFace { corner } => (corner, self.levels - 1),
+        let mut node = self.ptex[f as usize];
+        let k = loop {
+            match self.nodes[node as usize] {
+                Node::Patch(k) => break k,
+                Node::Split { first } => node = descend(first, &mut uu, &mut vv, &mut j),
+                Node::Hole => {
+                    return Err(bad(format!(
+                        "cage face {} is a hole (`t hole`): it has no surface there",
+                        self.ptex_cage_face[f as usize]
+                    )))
+                }
+            }
         };
-        for _ in 0..levels_left {
-            quad = descend(4 * quad, &mut uu, &mut vv, &mut j);
-        }
-        let k = if self.levels == 0 {
-            quad
-        } else {
-            self.patch_of[quad as usize]
-        };
-        if k == NONE {
-            return Err(bad(format!(
-                "cage face {} is a hole (`t hole`): it has no surface there",
-                self.ptex_cage_face[f as usize]
-            )));
-        }
         // Rounding in the maps above stays inside [0, 1] (exact for dyadic steps), but clamp anyway.
         Ok((k, uu.clamp(0.0, 1.0), vv.clamp(0.0, 1.0), j))
     }

@@ -286,7 +286,7 @@ impl VertexTags {
     ) -> bool {
         let cv = m.corner_vertex();
         for (i, &span) in span_faces.iter().enumerate() {
-            let c = 4 * f + i;
+            let c = m.face_start(f) as usize + i;
             let v = cv[c] as usize;
             let xord = self.xordinary(v);
             let sharp_edges = self.sharp_edges[v] > 0;

@@ -4,6 +4,7 @@
 //! (see [`crate::geom::gregory`]); tessellation grids follow the contract of docs/ARCHITECTURE.md (u along
 //! v0→v1, rows of u inner, vertex `j·(L+1)+i` at (i/L, j/L)).
 pub mod acc2;
+pub mod adaptive;
 pub mod beziex;
 pub mod evaluate;
 pub mod features;

@@ -52,12 +52,18 @@ done
 for c in catmark_cube catmark_gregory_test6 catmark_tent; do
     "$bin" "$osd/$c.obj" /dev/null --ptex 300 "$out/${c}_iso2.ptex" --isolation 2
 done
+# Feature-adaptive refinement past the uniform refinement's limit (tests/surface_adaptive.rs): the car (314
+# creases of sharpness 6: RefineAdaptive(6)) and a 64² grid with a crease polyline of 9.5 and a corner of 7.25
+# (RefineAdaptive(10)), sampled everywhere and on the faces along the crease.
+"$bin" "$osd/catmark_car.obj" /dev/null --ptex 1000 "$out/catmark_car.ptex"
+"$bin" "$out/cages/grid64_crease9.obj" /dev/null --ptex 300 "$out/grid64_crease9.ptex"
+"$bin" "$out/cages/grid64_crease9.obj" /dev/null --ptex 600 "$out/grid64_crease9_near.ptex" --faces 1984 2112
 # Face-varying UVs (`vt`, `t facevaryinginterpolateboundary`, CORNERS_ONLY without the tag) through Far's
 # smooth face-varying patches at random (ptex face, u, v) (tests/surface_uv.rs).
 for c in catmark_cube catmark_torus catmark_fvar_bound0 catmark_fvar_bound1 catmark_fvar_bound2 catmark_fvar_bound3 \
          catmark_fvar_bound4 catmark_fvar_project0 catmark_cubes_infsharp catmark_cubes_semisharp catmark_xord_interior \
          catmark_xord_boundary catmark_edgenone catmark_edgecorner catmark_hole_test1 catmark_nonquads catmark_inf_crease0 \
-         catmark_gregory_test6 catmark_chaikin0 catmark_quadstrips; do
+         catmark_gregory_test6 catmark_chaikin0 catmark_quadstrips catmark_car; do
     "$bin" "$osd/$c.obj" /dev/null --fvar 300 "$out/$c.fvar"
 done
 # Every rule: the shapes above with `t facevaryinginterpolateboundary N` (N = 0, 2…5) appended (cages/fvar/).

@@ -157,6 +157,9 @@ struct Rng {
     double next() { s ^= s >> 12; s ^= s << 25; s ^= s >> 27; return (double)((s * 0x2545F4914F6CDD1Dull) >> 11) / 9007199254740992.0; }
 };
 
+// --faces A B: draw --ptex samples on ptex faces A..B-1 only (where a large cage's features are).
+static int g_face_lo = 0, g_face_hi = 1 << 30;
+
 // --ptex N FILE [--isolation L]: N random (ptex face, u, v) on the cage as given, through Far::PatchMap and
 // EvaluateBasis, with RefineAdaptive(L), L at least the largest semi-sharp sharpness rounded up, at least 1
 // with non-quad faces:
@@ -186,7 +189,9 @@ static int write_ptex_samples(const Cage &cage, int n, const char *path, int iso
     }
     if (nloc) pt->GetLocalPointStencilTable<double>()->UpdateValues(pts.data(), pts.data() + nref);
     Far::PatchMap pm(*pt);
-    std::vector<int> ptex_face = ptex_faces(cage, *r);
+    std::vector<int> ptex_face;
+    for (int f : ptex_faces(cage, *r)) if (f >= g_face_lo && f < g_face_hi) ptex_face.push_back(f);
+    if (ptex_face.empty()) { fprintf(stderr, "--faces: no ptex face in range\n"); return 1; }
     std::vector<double> out;
     std::vector<double> w(20), wu(20), wv(20);
     Rng rng;
@@ -271,7 +276,9 @@ static int write_fvar_samples(const Cage &cage, int n, const char *path, int iso
     if (nloc) pt->GetLocalPointStencilTable<double>()->UpdateValues(pts.data(), pts.data() + nref);
     if (nlocfv) pt->GetLocalPointFaceVaryingStencilTable<double>(0)->UpdateValues(fv.data(), fv.data() + nfv);
     Far::PatchMap pm(*pt);
-    std::vector<int> ptex_face = ptex_faces(cage, *r);
+    std::vector<int> ptex_face;
+    for (int f : ptex_faces(cage, *r)) if (f >= g_face_lo && f < g_face_hi) ptex_face.push_back(f);
+    if (ptex_face.empty()) { fprintf(stderr, "--faces: no ptex face in range\n"); return 1; }
     std::vector<double> out;
     std::vector<double> w(20), wu(20), wv(20);
     Rng rng;
@@ -333,6 +340,7 @@ int main(int argc, char **argv) {
         if (!strcmp(argv[i], "--ptex") && i + 2 < argc) { ptex_n = atoi(argv[++i]); ptex_path = argv[++i]; continue; }
         if (!strcmp(argv[i], "--fvar") && i + 2 < argc) { fvar_n = atoi(argv[++i]); fvar_path = argv[++i]; continue; }
         if (!strcmp(argv[i], "--isolation") && i + 1 < argc) { isolation = atoi(argv[++i]); continue; }
+        if (!strcmp(argv[i], "--faces") && i + 2 < argc) { g_face_lo = atoi(argv[++i]); g_face_hi = atoi(argv[++i]); continue; }
         if (!strcmp(argv[i], "--refine")) refine = true;
         else if (!strcmp(argv[i], "--f32")) f32 = true;
         else if (!strcmp(argv[i], "--samples")) samples = true;
