@@ -276,3 +276,55 @@ fn many_deep_features_are_refused_before_the_level_that_would_pass_the_limit() {
         .to_string();
     assert!(e.contains("feature-adaptive"), "{e}");
 }
+
+#[test]
+fn gregvox_evaluate_takes_the_car_and_tessellate_says_why_it_cannot() {
+    let dir = std::env::temp_dir().join(format!("gregvox-adaptive-cli-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let (fuv, out) = (dir.join("fuv.npy"), dir.join("p.npz"));
+    let samples = read_ptex("catmark_car");
+    let rows: Vec<[f64; 3]> = samples[..100]
+        .iter()
+        .map(|s| [s.at.0 as f64, s.at.1, s.at.2])
+        .collect();
+    write_npy_f64(&fuv, &rows);
+    let car = model("opensubdiv/catmark_car.obj");
+    let gregvox = |args: &[&std::ffi::OsStr]| {
+        std::process::Command::new(env!("CARGO_BIN_EXE_gregvox"))
+            .args(args)
+            .output()
+            .unwrap()
+    };
+    let r = gregvox(&[
+        "evaluate".as_ref(),
+        car.as_ref(),
+        "--at".as_ref(),
+        fuv.as_os_str(),
+        "--out".as_ref(),
+        out.as_os_str(),
+    ]);
+    assert!(r.status.success(), "{}", String::from_utf8_lossy(&r.stderr));
+    let p = npz_f64(&std::fs::read(&out).unwrap(), "position").unwrap();
+    let d = diag(&load_obj_cage(&car).unwrap().mesh.positions);
+    for (k, s) in samples[..100].iter().enumerate() {
+        let q = glam::DVec3::new(p[3 * k], p[3 * k + 1], p[3 * k + 2]);
+        assert!((q - s.p).length() < 1e-12 * d, "sample {k}");
+    }
+    // Tessellation keeps the uniform layout: refused by name, pointing at what works, nothing written.
+    let obj = dir.join("car.obj");
+    let r = gregvox(&[
+        "tessellate".as_ref(),
+        car.as_ref(),
+        "--level".as_ref(),
+        "2".as_ref(),
+        "--out".as_ref(),
+        obj.as_os_str(),
+    ]);
+    let err = String::from_utf8_lossy(&r.stderr);
+    assert!(
+        !r.status.success() && err.contains("t crease") && err.contains("gregvox evaluate"),
+        "{err}"
+    );
+    assert!(!obj.exists());
+    std::fs::remove_dir_all(&dir).ok();
+}

@@ -306,3 +306,26 @@ pub fn write_npy_f64(path: &std::path::Path, rows: &[[f64; 3]]) {
     }
     std::fs::write(path, b).unwrap();
 }
+
+/// The float64 data of entry `name` of a stored (uncompressed) .npz.
+pub fn npz_f64(z: &[u8], name: &str) -> Option<Vec<f64>> {
+    let key = format!("{name}.npy");
+    // The name as a whole: "uv.npy" also ends "duv.npy".
+    let at = (1..z.len().saturating_sub(key.len()))
+        .find(|&i| &z[i..i + key.len()] == key.as_bytes() && !z[i - 1].is_ascii_alphanumeric())?;
+    let magic = at + z[at..].windows(6).position(|w| w == b"\x93NUMPY")?;
+    let hlen = u16::from_le_bytes([z[magic + 8], z[magic + 9]]) as usize;
+    let header = std::str::from_utf8(&z[magic + 10..magic + 10 + hlen]).ok()?;
+    let shape = &header[header.find("'shape': (")? + 10..];
+    let dims: Vec<usize> = shape[..shape.find(')')?]
+        .split(',')
+        .filter_map(|s| s.trim().parse().ok())
+        .collect();
+    let n: usize = dims.iter().product();
+    let data = magic + 10 + hlen;
+    Some(
+        (0..n)
+            .map(|k| f64::from_le_bytes(z[data + 8 * k..data + 8 * k + 8].try_into().unwrap()))
+            .collect(),
+    )
+}

@@ -83,6 +83,23 @@ def test_evaluate_at_is_the_cli_evaluation(cli, models, tmp_path):
     np.testing.assert_allclose(fd, p["du"], atol=1e-6)
 
 
+def test_evaluate_at_refines_feature_adaptively_past_the_surfaces_limit(cli, models, tmp_path):
+    # OpenSubdiv's catmark_car: 314 creases of sharpness 6. A GregorySurface (uniform refinement, 6.4 M
+    # patches) is refused; evaluate_at refines only around the creases and equals `gregvox evaluate`.
+    cage = models / "opensubdiv" / "catmark_car.obj"
+    V, F, tags = gregvox.load_cage(cage)
+    with pytest.raises(ValueError, match="limit"):
+        gregvox.GregorySurface(V, F, **tags)
+    rng = np.random.default_rng(3)
+    fuv = np.column_stack([rng.integers(0, len(F), 200), rng.random(200), rng.random(200)]).astype(float)
+    ours = gregvox.evaluate_at(V, F, fuv, **tags)
+    np.save(tmp_path / "fuv.npy", fuv)
+    cli.run("evaluate", cage, "--at", tmp_path / "fuv.npy", "--out", tmp_path / "p.npz")
+    theirs = _read_npz(tmp_path / "p.npz")
+    np.testing.assert_array_equal(ours["position"], theirs["position"])
+    assert np.isfinite(ours["du"]).all()
+
+
 def test_bad_rows_are_value_errors(models):
     V, F, tags = gregvox.load_cage(models / "opensubdiv" / "catmark_hole_test1.obj")
     with pytest.raises(ValueError, match="row 1.*hole"):

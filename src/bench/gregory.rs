@@ -629,8 +629,9 @@ fn uv_soup_obj(n: usize) -> String {
 /// [`crate::surface::LimitEvaluator::evaluate`] on every core in f64 with first and second derivatives —
 /// beside OpenSubdiv's PatchMap + EvaluateBasis (one thread, every core) and `Osd::OmpEvaluator::EvalPatches`
 /// on the same samples (bench/peers/osd_ptex_bench.cpp), on an all-quad cage, a non-quad cage (isolation
-/// level 1) and semi-sharp cages (isolation up to 5: the uniform refinement's 4^L patches against
-/// OpenSubdiv's adaptive ones). The stencils and OpenSubdiv's tables are built before timing.
+/// level 1) and semi-sharp cages (isolation up to 6, feature-adaptive like OpenSubdiv's, with the uniform
+/// refinement's patch count beside; the car is past the uniform refinement's limit). The stencils and
+/// OpenSubdiv's tables are built before timing; the adaptive stencils' build time is a column.
 pub fn evaluate_at(cfg: &BenchConfig, report: &mut Report) -> anyhow::Result<()> {
     use crate::mesh::load_cage_file;
     use crate::surface::LimitEvaluator;
@@ -651,16 +652,20 @@ pub fn evaluate_at(cfg: &BenchConfig, report: &mut Report) -> anyhow::Result<()>
              evaluate_at itself picks the host evaluation instead). gregvox uv = \
              LimitEvaluator::evaluate_uv on the same samples (cages with vt; uv_soup_64, generated: every \
              face its own UV island, the UV cage's attacking input). Patches: gregvox \
-             refines uniformly to the isolation level L, \
-             OpenSubdiv adaptively (RefineAdaptive(L)). |Δ sum| = relative difference of Σ(x + y + z) of the \
-             positions (the same surface).",
+             refines adaptively to the isolation level L as \
+             OpenSubdiv does (RefineAdaptive(L)). |Δ sum| = relative difference of Σ(x + y + z) of the \
+             positions (the same surface). build ms = AdaptiveStencils::from_cage (gregvox evaluate's \
+             feature-adaptive refinement, stencils composed down to the cage); patches uniform = what \
+             GregoryStencils::from_cage (the tessellation and device layout) makes, refused past 2^20.",
             cfg.repeats
         ),
         &[
             "cage",
             "L",
             "patches gregvox",
+            "patches uniform",
             "patches OpenSubdiv",
+            "build ms",
             "gregvox ms",
             "gregvox with 2nd derivatives ms",
             "gregvox device ms",
@@ -688,6 +693,7 @@ pub fn evaluate_at(cfg: &BenchConfig, report: &mut Report) -> anyhow::Result<()>
             "opensubdiv/catmark_chaikin0.obj",
             "opensubdiv/catmark_torus_creases0.obj",
             "opensubdiv/catmark_fvar_bound1.obj",
+            "opensubdiv/catmark_car.obj",
             UV_SOUP,
         ]
     };
@@ -700,8 +706,16 @@ pub fn evaluate_at(cfg: &BenchConfig, report: &mut Report) -> anyhow::Result<()>
             cfg.model(name)?
         };
         let cage = load_cage_file(&path)?;
-        let cs = GregoryStencils::from_cage(&cage, Tangents::OpenSubdiv)?;
-        let e = LimitEvaluator::from_stencils(&cage, &cs)?;
+        let build_start = std::time::Instant::now();
+        let cs =
+            crate::surface::adaptive::AdaptiveStencils::from_cage(&cage, Tangents::OpenSubdiv)?;
+        let build_ms = build_start.elapsed().as_secs_f64() * 1e3;
+        let uniform: Value = match GregoryStencils::from_cage(&cage, Tangents::OpenSubdiv) {
+            Ok(u) => u.stencils.patch_points.len().into(),
+            Err(_) => "refused (> 2^20)".into(),
+        };
+        // The same stencils again, with the UV surface's when the cage has UVs.
+        let e = LimitEvaluator::new(&cage, Tangents::OpenSubdiv)?;
         let mut rng = crate::geom::random::SplitMix64(0x9e37_79b9 ^ n as u64);
         let at: Vec<(u32, f64, f64)> = (0..n)
             .map(|_| (rng.below(e.ptex_faces()) as u32, rng.unit(), rng.unit()))
@@ -713,13 +727,15 @@ pub fn evaluate_at(cfg: &BenchConfig, report: &mut Report) -> anyhow::Result<()>
             Ok(())
         });
         anyhow::ensure!(samples_out.len() == n, "{name}: evaluation failed");
-        let surface = gpu.tagged_gregory_surface(&cage, 1, Tangents::OpenSubdiv)?;
-        let device = time_cpu(cfg.repeats, || {
-            surface
-                .evaluate_at_with(&at, crate::engine::gregory::Evaluator::Vulkan)
-                .map(|s| s.position.len())
-        });
-        drop(surface);
+        // The device surface has the uniform layout: past its limit there is no device figure.
+        let device: Value = match gpu.tagged_gregory_surface(&cage, 1, Tangents::OpenSubdiv) {
+            Ok(surface) => num(time_cpu(cfg.repeats, || {
+                surface
+                    .evaluate_at_with(&at, crate::engine::gregory::Evaluator::Vulkan)
+                    .map(|s| s.position.len())
+            })),
+            Err(_) => "— (uniform layout refused)".into(),
+        };
         let uv_ms: Value = if e.has_uv() {
             num(time_cpu(cfg.repeats, || {
                 e.evaluate_uv(&at).map(|u| u.len())
@@ -759,6 +775,7 @@ pub fn evaluate_at(cfg: &BenchConfig, report: &mut Report) -> anyhow::Result<()>
             short.into(),
             cs.levels.into(),
             cs.stencils.patch_points.len().into(),
+            uniform,
         ];
         match &peer {
             Peer::Ran(v) if !v.is_empty() => {
@@ -772,9 +789,10 @@ pub fn evaluate_at(cfg: &BenchConfig, report: &mut Report) -> anyhow::Result<()>
                 let theirs = o["position_sum"].as_f64().unwrap_or(f64::NAN);
                 row.extend([
                     o["patches"].as_u64().unwrap_or(0).into(),
+                    num(build_ms),
                     num(ours),
                     num(ours_second),
-                    num(device),
+                    device,
                     uv_ms,
                     num(single),
                     num(all),
@@ -786,9 +804,10 @@ pub fn evaluate_at(cfg: &BenchConfig, report: &mut Report) -> anyhow::Result<()>
                 let why = other.status();
                 row.extend([
                     why.clone().into(),
+                    num(build_ms),
                     num(ours),
                     num(ours_second),
-                    num(device),
+                    device,
                     uv_ms,
                     why.clone().into(),
                     why.into(),

@@ -892,9 +892,10 @@ impl GregoryStencils {
                 .next()
                 .unwrap_or_default();
             return Err(Error::Invalid(format!(
-                "{tag}: semi-sharp features need {levels} levels of refinement; gregvox refines the whole \
-                 cage uniformly (OpenSubdiv isolates them adaptively), which would make {patches} patches, \
-                 past the limit of {MAX_REFINED_PATCHES}: lower the sharpness or split the cage"
+                "{tag}: semi-sharp features need {levels} levels of refinement; gregvox tessellates and draws \
+                 a uniform refinement of the whole cage, which would make {patches} patches, past the limit \
+                 of {MAX_REFINED_PATCHES} (`gregvox evaluate` and LimitEvaluator refine feature-adaptively, \
+                 as OpenSubdiv does, without it): lower the sharpness or split the cage"
             )));
         }
         if let Some(msg) = manifold_error(&m) {

@@ -86,6 +86,77 @@ struct Level {
 }
 
 impl Level {
+    /// The next level: the Catmull–Clark refinement (Sdc's crease rules) of `S`, the faces sharing a vertex
+    /// with a face of `split`, as a mesh of its own (the module doc says why its fringe is never read);
+    /// and per split face, its first child face and its child count (one quad per corner, consecutive).
+    fn refine_around(&self, split: &[u32], chaikin: bool) -> Result<(Level, Vec<(u32, u32)>)> {
+        let m = &self.m;
+        let nf = m.n_faces();
+        let vc = m.vertex_corners();
+        let cf = m.corner_face();
+        let mut in_s = vec![false; nf];
+        for &f in split {
+            for &v in m.face(f as usize) {
+                for k in vc.ptr[v as usize]..vc.ptr[v as usize + 1] {
+                    in_s[cf[vc.corner[k as usize] as usize] as usize] = true;
+                }
+            }
+        }
+        let s_faces: Vec<u32> = (0..nf as u32).filter(|&f| in_s[f as usize]).collect();
+        let mut local = vec![u32::MAX; m.n_verts()];
+        let mut verts: Vec<u32> = Vec::new();
+        let mut face_ptr = vec![0u32];
+        let mut corner_vertex = Vec::new();
+        for &f in &s_faces {
+            for &v in m.face(f as usize) {
+                if local[v as usize] == u32::MAX {
+                    local[v as usize] = verts.len() as u32;
+                    verts.push(v);
+                }
+                corner_vertex.push(local[v as usize]);
+            }
+            face_ptr.push(corner_vertex.len() as u32);
+        }
+        let sub = MeshMatrix::new(verts.len() as u32, &face_ptr, corner_vertex)?;
+        let sub_edges: Vec<f32> = (0..sub.n_edges())
+            .map(|e| {
+                let [a, b] = sub.edge_vertices(e);
+                m.edge_id(verts[a as usize], verts[b as usize])
+                    .map_or(0.0, |pe| self.edge_sharpness[pe])
+            })
+            .collect();
+        let sub_verts: Vec<f32> = verts
+            .iter()
+            .map(|&v| self.vertex_sharpness[v as usize])
+            .collect();
+        let c = catmull_clark_matrix_creased(&sub, &sub_edges, &sub_verts, chaikin);
+        // Refined face k is the quad at corner k of `sub`, a hole if its face is.
+        let hole: Vec<bool> = sub
+            .corner_face()
+            .iter()
+            .map(|&lf| self.hole[s_faces[lf as usize] as usize])
+            .collect();
+        let mut local_face = vec![u32::MAX; nf];
+        for (lf, &f) in s_faces.iter().enumerate() {
+            local_face[f as usize] = lf as u32;
+        }
+        let children = split
+            .iter()
+            .map(|&f| {
+                let lf = local_face[f as usize] as usize;
+                (sub.face_start(lf), sub.face_len(lf))
+            })
+            .collect();
+        let next = Level {
+            x: c.sub.s.matmul(&gather_rows(&self.x, &verts)),
+            m: c.sub.topology,
+            edge_sharpness: c.edge_sharpness,
+            vertex_sharpness: c.vertex_sharpness,
+            hole,
+        };
+        Ok((next, children))
+    }
+
     fn features(&self) -> Features {
         Features {
             sharp_edge: self
@@ -452,74 +523,18 @@ impl AdaptiveStencils {
             if split.is_empty() {
                 break;
             }
-            // S_d: every face sharing a vertex with a split face, in face order.
-            let vc = m.vertex_corners();
-            let cf = m.corner_face();
-            let mut in_s = vec![false; nf];
-            for &(f, _, _) in &split {
-                for &v in m.face(f as usize) {
-                    for k in vc.ptr[v as usize]..vc.ptr[v as usize + 1] {
-                        in_s[cf[vc.corner[k as usize] as usize] as usize] = true;
-                    }
-                }
-            }
-            let s_faces: Vec<u32> = (0..nf as u32).filter(|&f| in_s[f as usize]).collect();
-            let mut local = vec![u32::MAX; m.n_verts()];
-            let mut verts: Vec<u32> = Vec::new();
-            let mut face_ptr = vec![0u32];
-            let mut corner_vertex = Vec::new();
-            for &f in &s_faces {
-                for &v in m.face(f as usize) {
-                    if local[v as usize] == u32::MAX {
-                        local[v as usize] = verts.len() as u32;
-                        verts.push(v);
-                    }
-                    corner_vertex.push(local[v as usize]);
-                }
-                face_ptr.push(corner_vertex.len() as u32);
-            }
-            let sub = MeshMatrix::new(verts.len() as u32, &face_ptr, corner_vertex)?;
-            let sub_edges: Vec<f32> = (0..sub.n_edges())
-                .map(|e| {
-                    let [a, b] = sub.edge_vertices(e);
-                    m.edge_id(verts[a as usize], verts[b as usize])
-                        .map_or(0.0, |pe| level.edge_sharpness[pe])
-                })
-                .collect();
-            let sub_verts: Vec<f32> = verts
-                .iter()
-                .map(|&v| level.vertex_sharpness[v as usize])
-                .collect();
-            let c = catmull_clark_matrix_creased(&sub, &sub_edges, &sub_verts, chaikin);
-            // Refined face k is the quad at corner k of `sub`.
-            let hole: Vec<bool> = sub
-                .corner_face()
-                .iter()
-                .map(|&lf| level.hole[s_faces[lf as usize] as usize])
-                .collect();
-            let mut local_face = vec![u32::MAX; nf];
-            for (lf, &f) in s_faces.iter().enumerate() {
-                local_face[f as usize] = lf as u32;
-            }
+            let faces: Vec<u32> = split.iter().map(|s| s.0).collect();
+            let (refined, children) = level.refine_around(&faces, chaikin)?;
             let mut next = Vec::with_capacity(4 * split.len());
-            for &(f, node, base) in &split {
-                let lf = local_face[f as usize] as usize;
+            for (&(_, node, base), &(child, n)) in split.iter().zip(&children) {
                 let first = nodes.len() as u32;
-                let n = sub.face_len(lf);
                 nodes[node as usize] = Node::Split { first };
                 for i in 0..n {
                     nodes.push(Node::Hole);
-                    next.push((sub.face_start(lf) + i, first + i, base));
+                    next.push((child + i, first + i, base));
                 }
             }
-            let x = c.sub.s.matmul(&gather_rows(&level.x, &verts));
-            level = Level {
-                m: c.sub.topology,
-                x,
-                edge_sharpness: c.edge_sharpness,
-                vertex_sharpness: c.vertex_sharpness,
-                hole,
-            };
+            level = refined;
             candidates = next;
         }
         // One matrix: the levels' blocks stacked.
