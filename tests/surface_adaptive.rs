@@ -278,7 +278,7 @@ fn many_deep_features_are_refused_before_the_level_that_would_pass_the_limit() {
 }
 
 #[test]
-fn gregvox_evaluate_takes_the_car_and_tessellate_says_why_it_cannot() {
+fn gregvox_evaluate_takes_a_cage_past_the_uniform_limit() {
     let dir = std::env::temp_dir().join(format!("gregvox-adaptive-cli-{}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
     let (fuv, out) = (dir.join("fuv.npy"), dir.join("p.npz"));
@@ -310,21 +310,74 @@ fn gregvox_evaluate_takes_the_car_and_tessellate_says_why_it_cannot() {
         let q = glam::DVec3::new(p[3 * k], p[3 * k + 1], p[3 * k + 2]);
         assert!((q - s.p).length() < 1e-12 * d, "sample {k}");
     }
-    // Tessellation keeps the uniform layout: refused by name, pointing at what works, nothing written.
-    let obj = dir.join("car.obj");
-    let r = gregvox(&[
-        "tessellate".as_ref(),
-        car.as_ref(),
-        "--level".as_ref(),
-        "2".as_ref(),
-        "--out".as_ref(),
-        obj.as_os_str(),
-    ]);
-    let err = String::from_utf8_lossy(&r.stderr);
-    assert!(
-        !r.status.success() && err.contains("t crease") && err.contains("gregvox evaluate"),
-        "{err}"
-    );
-    assert!(!obj.exists());
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+#[test]
+fn a_cage_past_the_uniform_limit_tessellates_per_ptex_face_crack_free() {
+    // The car: 136 k patches of depths 0–6 side by side. One grid per ptex face, evaluated through the
+    // quadtrees: the welded mesh has the cage's own topology (its boundary edges × the level, its
+    // components and Euler characteristic; no crack, no non-manifold or flipped edge), and every grid vertex
+    // is the limit surface at its (face, u, v).
+    let dir = std::env::temp_dir().join(format!("gregvox-adaptive-tess-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let car = model("opensubdiv/catmark_car.obj");
+    let level = 4;
+    let tess = |out: &std::path::Path, extra: &[&str]| {
+        let r = std::process::Command::new(env!("CARGO_BIN_EXE_gregvox"))
+            .arg("tessellate")
+            .arg(&car)
+            .args(["--level", &level.to_string(), "--out"])
+            .arg(out)
+            .args(extra)
+            .output()
+            .unwrap();
+        (
+            r.status.success(),
+            String::from_utf8_lossy(&r.stderr).into_owned(),
+        )
+    };
+    let welded = dir.join("car.obj");
+    let (ok, err) = tess(&welded, &[]);
+    assert!(ok && err.contains("per ptex face"), "{err}");
+    let cage = load_obj_cage(&car).unwrap();
+    let before = gregvox::mesh::MeshMatrix::from_mesh(&cage.mesh).report();
+    let after =
+        gregvox::mesh::MeshMatrix::from_mesh(&gregvox::mesh::load_obj(&welded).unwrap()).report();
+    assert_eq!(after.boundary_edges, level * before.boundary_edges);
+    assert_eq!((after.non_manifold_edges, after.inconsistent_edges), (0, 0));
+    assert_eq!(after.euler_characteristic, before.euler_characteristic);
+    assert!(std::fs::read_to_string(&welded).unwrap().contains("\nvt "));
+    // The grids, unwelded: vertex (i, j) of grid g is the surface at (g, i/L, j/L).
+    let grids = dir.join("grids.obj");
+    let (ok, err) = tess(&grids, &["--no-weld"]);
+    assert!(ok, "{err}");
+    let v: Vec<glam::DVec3> = std::fs::read_to_string(&grids)
+        .unwrap()
+        .lines()
+        .filter_map(|l| l.strip_prefix("v "))
+        .map(|l| {
+            let x: Vec<f64> = l.split_whitespace().map(|t| t.parse().unwrap()).collect();
+            glam::DVec3::new(x[0], x[1], x[2])
+        })
+        .collect();
+    let n = (level + 1) * (level + 1);
+    assert_eq!(v.len(), cage.mesh.n_faces() * n);
+    let e = LimitEvaluator::new(&cage, Tangents::OpenSubdiv).unwrap();
+    let d = diag(&cage.mesh.positions);
+    for g in (0..cage.mesh.n_faces()).step_by(37) {
+        for k in [0, 7, n - 1] {
+            let (i, j) = (k % (level + 1), k / (level + 1));
+            let at = (g as u32, i as f64 / level as f64, j as f64 / level as f64);
+            let p = e.evaluate(&[at]).unwrap()[0].position;
+            assert!(
+                (v[g * n + k] - p).length() < 1e-6 * d,
+                "grid {g} vertex {k}"
+            );
+        }
+    }
+    // What needs the uniform layout says so.
+    let (ok, err) = tess(&dir.join("a.obj"), &["--adaptive", "8"]);
+    assert!(!ok && err.contains("uniform patch layout"), "{err}");
     std::fs::remove_dir_all(&dir).ok();
 }

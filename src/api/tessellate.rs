@@ -38,6 +38,14 @@ pub enum Patches {
     },
     /// Beziex patches (the "Beziex patch 2019" format).
     Beziex(Vec<BeziexPatch>),
+    /// A cage whose uniform refinement would pass [`crate::surface::acc2::MAX_REFINED_PATCHES`] (semi-sharp
+    /// features on a large cage): its feature-adaptive patches, tessellated per ptex face on the host
+    /// ([`crate::surface::ptex_grid`]: crack-free where patches of different depths meet).
+    Ptex {
+        cage: Box<Cage>,
+        evaluator: Box<crate::surface::LimitEvaluator>,
+        note: Option<String>,
+    },
 }
 
 impl Patches {
@@ -48,10 +56,31 @@ impl Patches {
 
     /// The Gregory patches of a tagged cage (creases, corners, holes, boundary rule).
     pub fn from_tagged_cage(cage: &Cage, tangents: Tangents) -> Result<Patches> {
-        let t = tagged_cage_topologies(cage, tangents, true).map_err(|e| match e {
+        let as_mesh_error = |e| match e {
             Error::Invalid(msg) => Error::Mesh(msg),
             e => e,
-        })?;
+        };
+        let uniform = crate::surface::acc2::uniform_patch_count(cage).map_err(as_mesh_error)?;
+        if uniform > crate::surface::acc2::MAX_REFINED_PATCHES {
+            let a = crate::surface::adaptive::AdaptiveStencils::from_cage(cage, tangents)
+                .map_err(as_mesh_error)?;
+            let evaluator =
+                crate::surface::LimitEvaluator::new(cage, tangents).map_err(as_mesh_error)?;
+            let note = format!(
+                "the cage's uniform refinement to level {} would make {uniform} patches, past {}: \
+                 tessellated per ptex face (one grid a face, evaluated on the host) over its {} \
+                 feature-adaptive patches",
+                a.levels,
+                crate::surface::acc2::MAX_REFINED_PATCHES,
+                a.stencils.patch_points.len()
+            );
+            return Ok(Patches::Ptex {
+                cage: Box::new(cage.clone()),
+                evaluator: Box::new(evaluator),
+                note: Some(note),
+            });
+        }
+        let t = tagged_cage_topologies(cage, tangents, true).map_err(as_mesh_error)?;
         Ok(Patches::Cage {
             topology: t.topology,
             rest: t.rest,
@@ -74,13 +103,14 @@ impl Patches {
         match self {
             Patches::Cage { topology, .. } => topology.patch_points.len() as u32,
             Patches::Beziex(p) => p.len() as u32,
+            Patches::Ptex { evaluator, .. } => evaluator.ptex_faces() as u32,
         }
     }
 
     /// What was done to the input before building patches, if anything.
     pub fn note(&self) -> Option<&str> {
         match self {
-            Patches::Cage { note, .. } => note.as_deref(),
+            Patches::Cage { note, .. } | Patches::Ptex { note, .. } => note.as_deref(),
             Patches::Beziex(_) => None,
         }
     }
@@ -96,6 +126,12 @@ impl Patches {
         match self {
             Patches::Cage { rest, .. } => {
                 for p in rest {
+                    lo = lo.min(*p);
+                    hi = hi.max(*p);
+                }
+            }
+            Patches::Ptex { cage, .. } => {
+                for p in &cage.mesh.positions {
                     lo = lo.min(*p);
                     hi = hi.max(*p);
                 }
@@ -206,7 +242,7 @@ impl Tessellation {
     /// for adaptive grids, whose edges the uniform matcher does not pair).
     pub fn max_normal_jump(&self, patches: &Patches) -> f64 {
         match (patches, &self.levels) {
-            (_, Some(_)) => f64::NAN,
+            (_, Some(_)) | (Patches::Ptex { .. }, _) => f64::NAN,
             (Patches::Beziex(_), None) => max_jump_coincident(&self.vertices, self.level),
             (Patches::Cage { .. }, None) => self.cage_jumps(patches).map_or(f64::NAN, |j| j.worst),
         }
@@ -561,6 +597,15 @@ fn check(patches: &Patches, opts: &TessellateOptions) -> Result<()> {
             )));
         }
     }
+    if let Patches::Ptex { .. } = patches {
+        if opts.deform.is_some() || opts.adaptive.is_some() || opts.path == EvalPath::Vertex {
+            return Err(Error::Mesh(
+                "--deform, --adaptive and --path vertex work on the uniform patch layout; this cage is past \
+                 its limit and is tessellated per ptex face"
+                    .into(),
+            ));
+        }
+    }
     if let Patches::Beziex(_) = patches {
         if opts.deform.is_some() {
             return Err(Error::Mesh(
@@ -599,6 +644,35 @@ impl Gpu {
         };
         let shift = |p: DVec3| p - DVec3::from(origin);
         match patches {
+            Patches::Ptex {
+                cage, evaluator, ..
+            } => {
+                let g = crate::surface::ptex_grid::ptex_grids(cage, evaluator, level)?;
+                let vertices = g
+                    .positions
+                    .iter()
+                    .zip(&g.normals)
+                    .map(|(&p, n)| {
+                        let p = shift(p);
+                        SurfaceVertex {
+                            position: [p.x as f32, p.y as f32, p.z as f32, 1.0],
+                            normal: [n.x as f32, n.y as f32, n.z as f32, 0.0],
+                        }
+                    })
+                    .collect();
+                let top = g.levels.iter().copied().max().unwrap_or(level);
+                let uniform = g.levels.iter().all(|&l| l == top);
+                Ok(Tessellation {
+                    vertices,
+                    patches: g.levels.len() as u32,
+                    level: top,
+                    levels: (!uniform).then_some(g.levels),
+                    origin,
+                    uvs: g
+                        .uvs
+                        .map(|u| u.iter().map(|t| [t[0] as f32, t[1] as f32]).collect()),
+                })
+            }
             Patches::Cage {
                 topology, rest, uv, ..
             } => {

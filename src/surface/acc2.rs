@@ -895,7 +895,8 @@ impl GregoryStencils {
                 "{tag}: semi-sharp features need {levels} levels of refinement; gregvox tessellates and draws \
                  a uniform refinement of the whole cage, which would make {patches} patches, past the limit \
                  of {MAX_REFINED_PATCHES} (`gregvox evaluate` and LimitEvaluator refine feature-adaptively, \
-                 as OpenSubdiv does, without it): lower the sharpness or split the cage"
+                 as OpenSubdiv does, and `gregvox tessellate` grids its ptex faces over those patches): \
+                 lower the sharpness or split the cage"
             )));
         }
         if let Some(msg) = manifold_error(&m) {
@@ -1038,6 +1039,20 @@ pub fn gather_patches(patch_points: &[[u32; 20]], pts: &[DVec3]) -> Vec<PatchF64
             cv: std::array::from_fn(|j| pts[pp[j] as usize]),
         })
         .collect()
+}
+
+/// How many patches [`GregoryStencils::from_cage`]'s uniform refinement makes of `cage` (checked before any
+/// refinement: past [`MAX_REFINED_PATCHES`] it refuses). Errors: the tags' errors, as `from_cage`.
+pub fn uniform_patch_count(cage: &Cage) -> Result<u64> {
+    let m = MeshMatrix::from_mesh(&cage.mesh);
+    let features = Features::from_tags(&m, &cage.tags)?;
+    let all_quads = (0..m.n_faces()).all(|f| m.face_len(f) == 4);
+    let levels = isolation(cage, &m, &features)?.map_or(!all_quads as u32, |i| i.levels);
+    Ok(if levels == 0 {
+        m.n_faces() as u64
+    } else {
+        (m.n_corners() as u64) << (2 * (levels.min(31) - 1))
+    })
 }
 
 /// How deep a tagged cage is refined before its patches are built.

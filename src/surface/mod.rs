@@ -10,6 +10,7 @@ pub mod evaluate;
 pub mod features;
 pub mod fvar;
 pub mod gregory_host;
+pub mod ptex_grid;
 pub mod tessellate;
 
 pub use acc2::{gather_patches, CageStencils, GregoryStencils, Tangents};
