@@ -848,6 +848,12 @@ impl GregorySurface {
                 gpu.tessellate(&patches, &opts, &mut profiler)
             })
             .map_err(to_py)?;
+        if t.levels.is_some() {
+            return Err(bad(
+                "this surface's grids have levels of their own (a cage with non-quad faces past the \
+                 uniform refinement's limit, gridded per ptex face): use gregvox tessellate",
+            ));
+        }
         let n = (level + 1) as usize;
         let shape = [t.patches as usize, n, n, 3];
         let o = t.origin;
@@ -889,7 +895,11 @@ impl GregorySurface {
             .lock()
             .map_err(|_| PyRuntimeError::new_err("the surface is in use"))?;
         let Patches::Cage { rest, .. } = &mut *patches else {
-            return Err(bad("not a cage"));
+            return Err(bad(
+                "set_cage: this surface is not a uniform Gregory cage (a Beziex model, or a cage past the \
+                 uniform refinement's limit, tessellated per ptex face on the host): build a new \
+                 GregorySurface from the moved V",
+            ));
         };
         if shape[1] != 3 || shape[0] != rest.len() {
             return Err(bad(format!(

@@ -84,12 +84,19 @@ def test_evaluate_at_is_the_cli_evaluation(cli, models, tmp_path):
 
 
 def test_evaluate_at_refines_feature_adaptively_past_the_surfaces_limit(cli, models, tmp_path):
-    # OpenSubdiv's catmark_car: 314 creases of sharpness 6. A GregorySurface (uniform refinement, 6.4 M
-    # patches) is refused; evaluate_at refines only around the creases and equals `gregvox evaluate`.
+    # OpenSubdiv's catmark_car: 314 creases of sharpness 6, whose uniform refinement would make 6.4 M
+    # patches. evaluate_at refines only around the creases and equals `gregvox evaluate`; a GregorySurface
+    # grids every ptex face over those patches, as `gregvox tessellate` does.
     cage = models / "opensubdiv" / "catmark_car.obj"
     V, F, tags = gregvox.load_cage(cage)
-    with pytest.raises(ValueError, match="limit"):
-        gregvox.GregorySurface(V, F, **tags)
+    s = gregvox.GregorySurface(V, F, **tags)
+    assert s.patch_count == len(F)
+    P, _ = s.evaluate(2)
+    cli.run("tessellate", cage, "--level", 2, "--no-weld", "--out", tmp_path / "car.obj")
+    v, _, _ = read_obj(tmp_path / "car.obj")
+    np.testing.assert_array_equal(P.reshape(-1, 3), v.astype(np.float32))
+    with pytest.raises(ValueError, match="per ptex face"):
+        s.set_cage(V)
     rng = np.random.default_rng(3)
     fuv = np.column_stack([rng.integers(0, len(F), 200), rng.random(200), rng.random(200)]).astype(float)
     ours = gregvox.evaluate_at(V, F, fuv, **tags)
