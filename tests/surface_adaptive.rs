@@ -381,3 +381,45 @@ fn a_cage_past_the_uniform_limit_tessellates_per_ptex_face_crack_free() {
     assert!(!ok && err.contains("uniform patch layout"), "{err}");
     std::fs::remove_dir_all(&dir).ok();
 }
+
+#[test]
+fn ptex_grids_weld_like_the_uniform_tessellation_on_quads_n_gons_and_holes() {
+    // --isolation 10 puts these cages past the uniform limit (ptex grids, level 4 a cage edge); the
+    // uniform path at --isolation 1 and level 2 a refined patch has 4 segments a cage edge too. The welded
+    // meshes must have the same vertices, triangles, boundary edges and Euler characteristic: the n-gons'
+    // spokes and centres, the cage's edges and vertices and the holes' rims all weld as the uniform
+    // layout's shared rows make them weld.
+    let dir = std::env::temp_dir().join(format!("gregvox-ptex-weld-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    for name in ["catmark_cube", "catmark_nonquads", "catmark_hole_test3"] {
+        let cage = model(&format!("opensubdiv/{name}.obj"));
+        let topology = |iso: &str, level: &str| {
+            let out = dir.join(format!("{name}_{iso}.obj"));
+            let r = std::process::Command::new(env!("CARGO_BIN_EXE_gregvox"))
+                .arg("tessellate")
+                .arg(&cage)
+                .args(["--isolation", iso, "--level", level, "--out"])
+                .arg(&out)
+                .output()
+                .unwrap();
+            let err = String::from_utf8_lossy(&r.stderr).into_owned();
+            assert!(r.status.success(), "{err}");
+            let mesh = gregvox::mesh::load_obj(&out).unwrap();
+            let rep = gregvox::mesh::MeshMatrix::from_mesh(&mesh).report();
+            let counts = (
+                mesh.positions.len(),
+                mesh.n_faces(),
+                rep.boundary_edges,
+                rep.non_manifold_edges + rep.inconsistent_edges,
+                rep.euler_characteristic,
+            );
+            (err.contains("per ptex face"), counts)
+        };
+        let (ptex, a) = topology("10", "4");
+        let (uniform, b) = topology("1", "2");
+        assert!(ptex && !uniform, "{name}");
+        assert_eq!(a, b, "{name}");
+        assert_eq!(a.3, 0, "{name}");
+    }
+    std::fs::remove_dir_all(&dir).ok();
+}
