@@ -488,16 +488,7 @@ impl GregoryStencils {
             )));
         }
         if select.is_none() {
-            if let Some(msg) = manifold_error(m) {
-                return Err(Error::Invalid(msg));
-            }
-            let rep = m.report();
-            if rep.inconsistent_edges > 0 || rep.second_writes > 0 {
-                return Err(Error::Invalid(format!(
-                    "Gregory stencils: the cage is not consistently oriented ({} edges used twice in the same direction)",
-                    rep.inconsistent_edges
-                )));
-            }
+            check_manifold_and_oriented(m)?;
         }
         let nv = m.n_verts();
         let nc = m.n_corners();
@@ -836,16 +827,7 @@ impl GregoryStencils {
     /// ```
     pub fn from_cage(cage: &Cage, tangents: Tangents) -> Result<CageStencils> {
         let mesh = &cage.mesh;
-        if let Some(msg) = cage.tags.unsupported(mesh) {
-            return Err(Error::Invalid(msg));
-        }
-        if mesh.n_faces() == 0 {
-            return Err(Error::Invalid(
-                "Gregory stencils: the cage has no faces".into(),
-            ));
-        }
-        let m = MeshMatrix::from_mesh(mesh);
-        let features = Features::from_tags(&m, &cage.tags)?;
+        let (m, features) = cage_features(cage)?;
         let notes = cage.tags.notes();
         let with_notes = |mut cs: CageStencils| {
             if !notes.is_empty() {
@@ -1041,11 +1023,41 @@ pub fn gather_patches(patch_points: &[[u32; 20]], pts: &[DVec3]) -> Vec<PatchF64
         .collect()
 }
 
+/// The matrix and infinitely sharp features of a tagged cage, after the checks every stencil builder makes
+/// first: tags gregvox cannot honour, a cage with no faces.
+pub(crate) fn cage_features(cage: &Cage) -> Result<(MeshMatrix, Features)> {
+    if let Some(msg) = cage.tags.unsupported(&cage.mesh) {
+        return Err(Error::Invalid(msg));
+    }
+    if cage.mesh.n_faces() == 0 {
+        return Err(Error::Invalid(
+            "Gregory stencils: the cage has no faces".into(),
+        ));
+    }
+    let m = MeshMatrix::from_mesh(&cage.mesh);
+    let features = Features::from_tags(&m, &cage.tags)?;
+    Ok((m, features))
+}
+
+/// Errors unless `m` is a manifold, consistently oriented cage (naming the first offending edge).
+pub(crate) fn check_manifold_and_oriented(m: &MeshMatrix) -> Result<()> {
+    if let Some(msg) = manifold_error(m) {
+        return Err(Error::Invalid(msg));
+    }
+    let rep = m.report();
+    if rep.inconsistent_edges > 0 || rep.second_writes > 0 {
+        return Err(Error::Invalid(format!(
+            "Gregory stencils: the cage is not consistently oriented ({} edges used twice in the same direction)",
+            rep.inconsistent_edges
+        )));
+    }
+    Ok(())
+}
+
 /// How many patches [`GregoryStencils::from_cage`]'s uniform refinement makes of `cage` (checked before any
 /// refinement: past [`MAX_REFINED_PATCHES`] it refuses). Errors: the tags' errors, as `from_cage`.
 pub fn uniform_patch_count(cage: &Cage) -> Result<u64> {
-    let m = MeshMatrix::from_mesh(&cage.mesh);
-    let features = Features::from_tags(&m, &cage.tags)?;
+    let (m, features) = cage_features(cage)?;
     let all_quads = (0..m.n_faces()).all(|f| m.face_len(f) == 4);
     let levels = isolation(cage, &m, &features)?.map_or(!all_quads as u32, |i| i.levels);
     Ok(if levels == 0 {

@@ -33,7 +33,9 @@
 //!   Attacking input: a 64² grid whose every interior edge is a crease of 9.5 grows by ~2× per level
 //!   everywhere and is refused past [`MAX_ADAPTIVE_PATCHES`] (patches made plus the next level's faces)
 //!   before that level is built: after ~4–11 s and a 2 GB peak (tests/surface_adaptive.rs).
-use super::acc2::{isolation, manifold_error, twin_corners, GregoryStencils, Tangents};
+use super::acc2::{
+    cage_features, check_manifold_and_oriented, isolation, twin_corners, GregoryStencils, Tangents,
+};
 use super::features::Features;
 use crate::error::{Error, Result};
 use crate::mesh::{
@@ -400,30 +402,11 @@ impl AdaptiveStencils {
     /// assert_eq!(*a.depth.iter().max().unwrap(), 3);
     /// ```
     pub fn from_cage(cage: &Cage, tangents: Tangents) -> Result<AdaptiveStencils> {
-        let mesh = &cage.mesh;
-        if let Some(msg) = cage.tags.unsupported(mesh) {
-            return Err(Error::Invalid(msg));
-        }
-        if mesh.n_faces() == 0 {
-            return Err(Error::Invalid(
-                "Gregory stencils: the cage has no faces".into(),
-            ));
-        }
-        let m = MeshMatrix::from_mesh(mesh);
-        let features = Features::from_tags(&m, &cage.tags)?;
+        let (m, features) = cage_features(cage)?;
         // Without tags a non-quad cage is refined once (GregoryStencils::from_mesh).
         let all_quads = (0..m.n_faces()).all(|f| m.face_len(f) == 4);
         let levels = isolation(cage, &m, &features)?.map_or(!all_quads as u32, |i| i.levels);
-        if let Some(msg) = manifold_error(&m) {
-            return Err(Error::Invalid(msg));
-        }
-        let rep = m.report();
-        if rep.inconsistent_edges > 0 || rep.second_writes > 0 {
-            return Err(Error::Invalid(format!(
-                "Gregory stencils: the cage is not consistently oriented ({} edges used twice in the same direction)",
-                rep.inconsistent_edges
-            )));
-        }
+        check_manifold_and_oriented(&m)?;
         let (edge_sharpness, vertex_sharpness) = features.sharpness(&m, &cage.tags);
         let nv = m.n_verts();
         let nf0 = m.n_faces();
