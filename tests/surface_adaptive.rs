@@ -236,18 +236,7 @@ fn many_deep_features_are_refused_before_the_level_that_would_pass_the_limit() {
     // The attacking input: a 64² grid whose every interior edge is a crease of 9.5 (10 levels everywhere:
     // ~4·10⁹ patches). Refused by name, quickly.
     let n = 64;
-    let mut text = String::new();
-    for j in 0..=n {
-        for i in 0..=n {
-            text += &format!("v {i} {j} 0\n");
-        }
-    }
-    for j in 0..n {
-        for i in 0..n {
-            let a = j * (n + 1) + i + 1;
-            text += &format!("f {a} {} {} {}\n", a + 1, a + n + 2, a + n + 1);
-        }
-    }
+    let mut text = grid_obj(n);
     for j in 1..n {
         for i in 0..n {
             let a = j * (n + 1) + i;

@@ -329,3 +329,20 @@ pub fn npz_f64(z: &[u8], name: &str) -> Option<Vec<f64>> {
             .collect(),
     )
 }
+
+/// An n × n grid of unit quads in the z = 0 plane as OBJ text (vertex (i, j) is 1-based j·(n + 1) + i + 1).
+pub fn grid_obj(n: usize) -> String {
+    let mut text = String::new();
+    for j in 0..=n {
+        for i in 0..=n {
+            text += &format!("v {i} {j} 0\n");
+        }
+    }
+    for j in 0..n {
+        for i in 0..n {
+            let a = j * (n + 1) + i + 1;
+            text += &format!("f {a} {} {} {}\n", a + 1, a + n + 2, a + n + 1);
+        }
+    }
+    text
+}

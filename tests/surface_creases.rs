@@ -321,19 +321,7 @@ fn an_untagged_cage_builds_the_same_stencils_either_way() {
 #[test]
 fn a_semi_sharp_feature_that_would_refine_past_the_limit_is_refused_before_any_work() {
     // A 64×64 grid with one crease of sharpness 9.5: ten uniform levels would make 4096·4⁹ ≈ 10⁹ patches.
-    let n = 64;
-    let mut text = String::new();
-    for j in 0..=n {
-        for i in 0..=n {
-            text += &format!("v {i} {j} 0\n");
-        }
-    }
-    for j in 0..n {
-        for i in 0..n {
-            let a = j * (n + 1) + i + 1;
-            text += &format!("f {a} {} {} {}\n", a + 1, a + n + 2, a + n + 1);
-        }
-    }
+    let mut text = grid_obj(64);
     text += "t crease 2/1/0 70 71 9.5\n";
     let cage = parse_obj_cage(&text, "grid.obj").unwrap();
     let t0 = std::time::Instant::now();
