@@ -20,8 +20,9 @@
 //! `.vox` counts each model row's solid voxels by popcounts, then writes their 4-byte records found by
 //! `trailing_zeros` (32 at once for a full word). Memory is the output's bytes plus one copy of the packed
 //! grid. The worst case is binvox on noise (a run every voxel or two: two bytes per run, output up to
-//! twice the voxel count): at 1024³ hashed noise (970 MB of runs) it went from 1844 ms to 893 ms
-//! (1.2 G voxels/s; about a third of it the transpose and a third the output's fresh pages), and `.vox`
+//! twice the voxel count): at 1024³ hashed noise (970 MB of runs) it went from 1844 ms to 893–1107 ms
+//! (1.2–0.97 G voxels/s in two runs on this shared machine; about a third of it the transpose and a third
+//! the output's fresh pages, which huge pages would cut), and `.vox`
 //! at 256³ from 68/101 ms (ball/noise) to 7/11 ms, 2 threads, `gregvox bench --suite writers`, which
 //! measures a 1024³ ball and 1024³ hashed noise in every format.
 //!
