@@ -412,3 +412,38 @@ fn ptex_grids_weld_like_the_uniform_tessellation_on_quads_n_gons_and_holes() {
     }
     std::fs::remove_dir_all(&dir).ok();
 }
+
+#[test]
+fn a_huge_polygon_past_the_uniform_limit_is_refused_by_its_valence_before_any_work() {
+    // A 100-gon at --isolation 10: past the uniform limit, so tessellate takes the ptex-grid path; its
+    // centre would have valence 100, past what Gregory patches support. Refused naming the face.
+    let dir = std::env::temp_dir().join(format!("gregvox-ptex-ngon-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let n = 100;
+    let mut text = String::new();
+    for k in 0..n {
+        let a = std::f64::consts::TAU * k as f64 / n as f64;
+        text += &format!("v {} {} 0\n", a.cos(), a.sin());
+    }
+    text += "f";
+    for k in 1..=n {
+        text += &format!(" {k}");
+    }
+    text += "\n";
+    let (cage, out) = (dir.join("ngon.obj"), dir.join("out.obj"));
+    std::fs::write(&cage, text).unwrap();
+    let r = std::process::Command::new(env!("CARGO_BIN_EXE_gregvox"))
+        .arg("tessellate")
+        .arg(&cage)
+        .args(["--isolation", "10", "--level", "2", "--out"])
+        .arg(&out)
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&r.stderr);
+    assert!(
+        !r.status.success() && err.contains("100 vertices") && err.contains("valence"),
+        "{err}"
+    );
+    assert!(!out.exists());
+    std::fs::remove_dir_all(&dir).ok();
+}

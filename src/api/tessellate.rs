@@ -62,10 +62,12 @@ impl Patches {
         };
         let uniform = crate::surface::acc2::uniform_patch_count(cage).map_err(as_mesh_error)?;
         if uniform > crate::surface::acc2::MAX_REFINED_PATCHES {
+            crate::engine::cage::check_cage_valence(&cage.mesh).map_err(as_mesh_error)?;
             let a = crate::surface::adaptive::AdaptiveStencils::from_cage(cage, tangents)
                 .map_err(as_mesh_error)?;
-            let evaluator =
-                crate::surface::LimitEvaluator::new(cage, tangents).map_err(as_mesh_error)?;
+            let evaluator = crate::surface::LimitEvaluator::from_adaptive(cage, &a)
+                .and_then(|e| e.with_uv(cage, a.levels))
+                .map_err(as_mesh_error)?;
             let note = format!(
                 "the cage's uniform refinement to level {} would make {uniform} patches, past {}: \
                  tessellated per ptex face (one grid a face, evaluated on the host) over its {} \

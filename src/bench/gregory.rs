@@ -594,6 +594,33 @@ pub fn curvature(cfg: &BenchConfig, report: &mut Report) -> anyhow::Result<()> {
 /// own UV island (four `vt` per face, as unwelded exports write them).
 const UV_SOUP: &str = "uv_soup_64.obj";
 
+/// Feature-adaptive refinement's attacking input in `gregory_evaluate_at`: an n × n grid whose every interior
+/// edge is a crease of 9.5 (every face isolated to level 10), timed until it is refused.
+const CREASE_ATTACK: &str = "creases_everywhere_64.obj";
+
+fn creases_everywhere_obj(n: usize) -> String {
+    use std::fmt::Write;
+    let mut s = String::new();
+    for j in 0..=n {
+        for i in 0..=n {
+            let _ = writeln!(s, "v {i} {j} 0");
+        }
+    }
+    for j in 0..n {
+        for i in 0..n {
+            let a = j * (n + 1) + i + 1;
+            let _ = writeln!(s, "f {a} {} {} {}", a + 1, a + n + 2, a + n + 1);
+        }
+    }
+    for j in 1..n {
+        for i in 0..n {
+            let a = j * (n + 1) + i;
+            let _ = writeln!(s, "t crease 2/1/0 {a} {} 9.5", a + 1);
+        }
+    }
+    s
+}
+
 /// An n × n grid of quads, gently curved, every face its own UV island.
 fn uv_soup_obj(n: usize) -> String {
     use std::fmt::Write;
@@ -656,7 +683,9 @@ pub fn evaluate_at(cfg: &BenchConfig, report: &mut Report) -> anyhow::Result<()>
              OpenSubdiv does (RefineAdaptive(L)). |Δ sum| = relative difference of Σ(x + y + z) of the \
              positions (the same surface). build ms = AdaptiveStencils::from_cage (gregvox evaluate's \
              feature-adaptive refinement, stencils composed down to the cage); patches uniform = what \
-             GregoryStencils::from_cage (the tessellation and device layout) makes, refused past 2^20.",
+             GregoryStencils::from_cage (the tessellation and device layout) makes, refused past 2^20. \
+             creases_everywhere_64 (generated, full runs only): every interior edge of a 64² grid a crease of \
+             9.5, feature-adaptive refinement's attacking input; build ms = the time to refuse it.",
             cfg.repeats
         ),
         &[
@@ -695,27 +724,52 @@ pub fn evaluate_at(cfg: &BenchConfig, report: &mut Report) -> anyhow::Result<()>
             "opensubdiv/catmark_fvar_bound1.obj",
             "opensubdiv/catmark_car.obj",
             UV_SOUP,
+            CREASE_ATTACK,
         ]
     };
     for name in cages {
-        let path = if *name == UV_SOUP {
-            let p = dir.join(UV_SOUP);
-            std::fs::write(&p, uv_soup_obj(64))?;
-            p
-        } else {
-            cfg.model(name)?
+        let path = match *name {
+            UV_SOUP | CREASE_ATTACK => {
+                let p = dir.join(name);
+                let text = if *name == UV_SOUP {
+                    uv_soup_obj(64)
+                } else {
+                    creases_everywhere_obj(64)
+                };
+                std::fs::write(&p, text)?;
+                p
+            }
+            _ => cfg.model(name)?,
         };
         let cage = load_cage_file(&path)?;
         let build_start = std::time::Instant::now();
-        let cs =
-            crate::surface::adaptive::AdaptiveStencils::from_cage(&cage, Tangents::OpenSubdiv)?;
+        let built =
+            crate::surface::adaptive::AdaptiveStencils::from_cage(&cage, Tangents::OpenSubdiv);
         let build_ms = build_start.elapsed().as_secs_f64() * 1e3;
+        let cs = match built {
+            Ok(cs) => cs,
+            Err(e) if *name == CREASE_ATTACK => {
+                // The attack's figure is the time to refuse it (past MAX_ADAPTIVE_PATCHES).
+                anyhow::ensure!(e.to_string().contains("limit"), "{name}: {e}");
+                let mut row: Vec<Value> = vec![
+                    name.trim_end_matches(".obj").into(),
+                    10.into(),
+                    "refused".into(),
+                    "refused (> 2^20)".into(),
+                    "—".into(),
+                    num(build_ms),
+                ];
+                row.resize(t.columns.len(), "—".into());
+                t.push(row);
+                continue;
+            }
+            Err(e) => return Err(e.into()),
+        };
         let uniform: Value = match GregoryStencils::from_cage(&cage, Tangents::OpenSubdiv) {
             Ok(u) => u.stencils.patch_points.len().into(),
             Err(_) => "refused (> 2^20)".into(),
         };
-        // The same stencils again, with the UV surface's when the cage has UVs.
-        let e = LimitEvaluator::new(&cage, Tangents::OpenSubdiv)?;
+        let e = LimitEvaluator::from_adaptive(&cage, &cs)?.with_uv(&cage, cs.levels)?;
         let mut rng = crate::geom::random::SplitMix64(0x9e37_79b9 ^ n as u64);
         let at: Vec<(u32, f64, f64)> = (0..n)
             .map(|_| (rng.below(e.ptex_faces()) as u32, rng.unit(), rng.unit()))

@@ -856,7 +856,7 @@ impl GregoryStencils {
         }
         // Uniform refinement multiplies the patches by 4 per level: refuse before allocating what a deep
         // semi-sharp feature on a large cage would need.
-        let patches = (m.n_corners() as u64) << (2 * (levels - 1));
+        let patches = uniform_patches(&m, levels);
         if patches > MAX_REFINED_PATCHES {
             let tag = cage
                 .tags
@@ -1060,11 +1060,16 @@ pub fn uniform_patch_count(cage: &Cage) -> Result<u64> {
     let (m, features) = cage_features(cage)?;
     let all_quads = (0..m.n_faces()).all(|f| m.face_len(f) == 4);
     let levels = isolation(cage, &m, &features)?.map_or(!all_quads as u32, |i| i.levels);
-    Ok(if levels == 0 {
+    Ok(uniform_patches(&m, levels))
+}
+
+/// The quads of `m` refined uniformly `levels` times (every face splits into its corners' quads).
+fn uniform_patches(m: &MeshMatrix, levels: u32) -> u64 {
+    if levels == 0 {
         m.n_faces() as u64
     } else {
         (m.n_corners() as u64) << (2 * (levels.min(31) - 1))
-    })
+    }
 }
 
 /// How deep a tagged cage is refined before its patches are built.

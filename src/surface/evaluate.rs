@@ -76,13 +76,18 @@ impl LimitEvaluator {
     /// and its ptex map; the UV surface likewise, when the cage has UVs.
     pub fn new(cage: &Cage, tangents: Tangents) -> Result<Self> {
         let a = AdaptiveStencils::from_cage(cage, tangents)?;
-        let mut e = Self::from_adaptive(cage, &a)?;
-        if let Some(uv_cage) = super::fvar::uv_cage(cage, a.levels)? {
+        Self::from_adaptive(cage, &a)?.with_uv(cage, a.levels)
+    }
+
+    /// This evaluator with the UV surface of `cage` beside it (its UV cage refined feature-adaptively at
+    /// the positions' isolation level `levels`, OpenSubdiv's tangent masks); unchanged without UVs.
+    pub fn with_uv(mut self, cage: &Cage, levels: u32) -> Result<Self> {
+        if let Some(uv_cage) = super::fvar::uv_cage(cage, levels)? {
             let ua = AdaptiveStencils::from_cage(&uv_cage, Tangents::OpenSubdiv)
                 .map_err(|e| Error::Invalid(format!("UVs: {e}")))?;
-            e.uv = Some(Box::new(Self::from_adaptive(&uv_cage, &ua)?));
+            self.uv = Some(Box::new(Self::from_adaptive(&uv_cage, &ua)?));
         }
-        Ok(e)
+        Ok(self)
     }
 
     /// From feature-adaptive stencils built for `cage` (positions only).
@@ -230,6 +235,18 @@ impl PtexMap {
     /// Number of ptex faces (the valid `face` values are `0..ptex_faces()`).
     pub fn ptex_faces(&self) -> usize {
         self.ptex.len()
+    }
+
+    /// Whether ptex face `f` is a hole (no surface). A hole's children are holes, so its first leaf says.
+    pub fn is_hole(&self, f: u32) -> bool {
+        let mut node = self.ptex[f as usize];
+        loop {
+            match self.nodes[node as usize] {
+                Node::Patch(_) => return false,
+                Node::Hole => return true,
+                Node::Split { first } => node = first,
+            }
+        }
     }
 
     /// Every query located, in parallel; errors name the first bad row (u or v outside [0, 1] or not
