@@ -628,3 +628,214 @@ fn batch_writes_every_voxelize_format_openvdb_and_boundary_meshes_included() {
     }
     cleanup(&data);
 }
+
+/// FNV-1a of `bytes` (the per-model seed of a query batch: seed ⊕ FNV-1a of the relative path).
+fn fnv1a(bytes: &[u8]) -> u64 {
+    bytes.iter().fold(0xcbf2_9ce4_8422_2325u64, |h, &b| {
+        (h ^ b as u64).wrapping_mul(0x0100_0000_01b3)
+    })
+}
+
+#[test]
+fn a_query_batch_writes_each_models_npz_as_gregvox_query_does_with_the_models_own_seed() {
+    let (data, broken) = dataset("query", 3);
+    let d = data.to_str().unwrap();
+    let out = data.with_extension("qout");
+    let report = data.with_extension("q.jsonl");
+    let (o, r) = (out.to_str().unwrap(), report.to_str().unwrap());
+    let spec = "uniform:1500,near:0.02:1500";
+    let run = gregvox(
+        &[
+            "batch",
+            d,
+            "--query",
+            spec,
+            "--what",
+            "winding,occupancy,sdf",
+            "--seed",
+            "7",
+            "--out-dir",
+            o,
+            "--report",
+            r,
+        ],
+        &[],
+    );
+    assert!(!run.status.success(), "the broken models fail the batch");
+    let lines = report_lines(&report);
+    assert_eq!(lines.len(), 9, "{lines:?}");
+    for l in &lines {
+        let input = l["input"].as_str().unwrap();
+        if broken.iter().any(|b| input.ends_with(b.as_str())) {
+            assert_eq!(l["status"], "failed", "{l}");
+            assert!(l["error"].as_str().unwrap().contains(input), "{l}");
+            continue;
+        }
+        assert_eq!(l["status"], "done", "{l}");
+        assert_eq!(l["points"], 3000, "{l}");
+        let relative = Path::new(input).strip_prefix(&data).unwrap();
+        let seed = 7 ^ fnv1a(relative.to_string_lossy().as_bytes());
+        assert_eq!(l["seed"].as_u64(), Some(seed), "{l}");
+        let npz = PathBuf::from(l["output"].as_str().unwrap());
+        assert_eq!(npz, out.join(relative).with_extension("npz"));
+        let bytes = std::fs::read(&npz).unwrap();
+        for name in ["points.npy", "winding.npy", "occupancy.npy", "sdf.npy"] {
+            assert!(
+                bytes.windows(name.len()).any(|w| w == name.as_bytes()),
+                "{name} in {npz:?}"
+            );
+        }
+        // The same model alone, with its seed: the same file, byte for byte.
+        if input.ends_with("spot.obj") || input.ends_with("cube001.STL") {
+            let single = data.with_extension("single.npz");
+            let seed = seed.to_string();
+            let alone = gregvox(
+                &[
+                    "query",
+                    input,
+                    "--sample",
+                    spec,
+                    "--what",
+                    "winding,occupancy,sdf",
+                    "--seed",
+                    &seed,
+                    "--out",
+                    single.to_str().unwrap(),
+                ],
+                &[],
+            );
+            assert!(alone.status.success(), "{alone:?}");
+            assert!(std::fs::read(&single).unwrap() == bytes, "{input}");
+        }
+    }
+    // Two shards make the same files; a second run skips every model that was done.
+    let sharded = data.with_extension("qshards");
+    for shard in ["0/2", "1/2"] {
+        gregvox(
+            &[
+                "batch",
+                d,
+                "--query",
+                spec,
+                "--what",
+                "winding,occupancy,sdf",
+                "--seed",
+                "7",
+                "--out-dir",
+                sharded.to_str().unwrap(),
+                "--shard",
+                shard,
+            ],
+            &[],
+        );
+    }
+    let mut whole = tree(&out);
+    whole.retain(|k, _| k.ends_with(".npz"));
+    assert_eq!(whole.len(), 6);
+    assert_eq!(tree(&sharded), whole);
+    let again = data.with_extension("q2.jsonl");
+    gregvox(
+        &[
+            "batch",
+            d,
+            "--query",
+            spec,
+            "--what",
+            "winding,occupancy,sdf",
+            "--seed",
+            "7",
+            "--out-dir",
+            o,
+            "--report",
+            again.to_str().unwrap(),
+        ],
+        &[],
+    );
+    let lines = report_lines(&again);
+    assert_eq!(
+        lines.iter().filter(|l| l["status"] == "skipped").count(),
+        6,
+        "{lines:?}"
+    );
+    cleanup(&data);
+}
+
+#[test]
+fn a_query_batch_takes_given_points_and_refuses_what_it_cannot_do_before_reading_a_model() {
+    let (data, _) = dataset("qpoints", 1);
+    let d = data.to_str().unwrap();
+    // Given points: an (N, 3) float64 .npy of 4 points, the same for every model.
+    let points = data.with_extension("p.npy");
+    let mut npy = b"\x93NUMPY\x01\x00".to_vec();
+    let mut header = "{'descr': '<f8', 'fortran_order': False, 'shape': (4, 3), }".to_string();
+    while (10 + header.len() + 1) % 64 != 0 {
+        header.push(' ');
+    }
+    header.push('\n');
+    npy.extend_from_slice(&(header.len() as u16).to_le_bytes());
+    npy.extend_from_slice(header.as_bytes());
+    for x in [
+        0.5f64, 0.5, 0.5, 9.0, 9.0, 9.0, 0.1, 0.2, 0.3, -4.0, 0.0, 0.0,
+    ] {
+        npy.extend_from_slice(&x.to_le_bytes());
+    }
+    std::fs::write(&points, npy).unwrap();
+    let out = data.with_extension("pout");
+    let run = gregvox(
+        &[
+            "batch",
+            &format!("{d}/gen"),
+            "--query-points",
+            points.to_str().unwrap(),
+            "--out-dir",
+            out.to_str().unwrap(),
+        ],
+        &[],
+    );
+    assert!(run.status.success(), "{run:?}");
+    let files = tree(&out);
+    assert_eq!(files.len(), 1, "{:?}", files.keys());
+    let (name, bytes) = files.iter().next().unwrap();
+    assert_eq!(name, "cube000.npz");
+    // winding and occupancy (the default with given points), no drawn points.
+    for (member, present) in [
+        ("winding.npy", true),
+        ("occupancy.npy", true),
+        ("points.npy", false),
+    ] {
+        assert_eq!(
+            bytes.windows(member.len()).any(|w| w == member.as_bytes()),
+            present,
+            "{member}"
+        );
+    }
+    let o = out.to_str().unwrap();
+    for (extra, says) in [
+        (
+            vec!["--query", "uniform:10", "--what", "colour"],
+            "--what colour",
+        ),
+        (
+            vec!["--query", "uniform:10", "--closest"],
+            "--closest needs sdf or udf",
+        ),
+        (vec!["--query", "sideways:10"], "--sample sideways:10"),
+        (vec!["--what", "sdf", "--res", "8"], "need --query"),
+        (
+            vec!["--query", "uniform:10", "--name", "{stem}_{res}.npz"],
+            "no grid",
+        ),
+        (vec![], "give the grid size"),
+    ] {
+        let mut a = vec!["batch", d, "--out-dir", o];
+        a.extend_from_slice(&extra);
+        let run = gregvox(&a, &[]);
+        let err = String::from_utf8_lossy(&run.stderr);
+        assert!(
+            !run.status.success() && err.contains(says),
+            "{extra:?}: {err}"
+        );
+    }
+    assert_eq!(tree(&out).len(), 1, "nothing more written");
+    cleanup(&data);
+}

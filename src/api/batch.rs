@@ -2,6 +2,8 @@
 //! globs and manifests into one sorted list; [`Shard`] takes every N-th of it; [`OutputNames`] names each
 //! model's output; [`run_batch`] voxelizes the list with one [`Gpu`] (or the CPU), loading models on worker
 //! threads ahead of the device and writing outputs behind it, and reports one [`ModelRecord`] a model.
+//! With [`BatchOptions::query`] the same pipeline answers a point query on each model instead
+//! ([`QueryJob::for_model`](super::query::QueryJob::for_model): its own seed) and writes its `.npz`.
 //!
 //! Invariants:
 //! - The input list is sorted by path (bytes) and has no duplicates, so every process of a sharded run
@@ -360,6 +362,15 @@ pub struct ModelRecord {
     pub layers: Option<u32>,
     pub solid_voxels: Option<u64>,
     pub method: Option<Method>,
+    /// Points queried (`--query`).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub points: Option<usize>,
+    /// Points found inside (`--query` with occupancy).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub inside_points: Option<u64>,
+    /// The seed the model's points were drawn with (`--query` with samplers; see `QueryJob::for_model`).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub seed: Option<u64>,
     /// The model's own work: loading, voxelizing and writing it (not the time it spent queued between
     /// them, behind other models).
     pub seconds: f64,
@@ -389,6 +400,9 @@ impl ModelRecord {
             layers: None,
             solid_voxels: None,
             method: None,
+            points: None,
+            inside_points: None,
+            seed: None,
             seconds: 0.0,
             rss_mib: None,
         }
@@ -400,6 +414,9 @@ impl ModelRecord {
 pub struct BatchOptions {
     /// Applied to every model.
     pub voxelize: VoxelizeOptions,
+    /// Query points instead of voxelizing: each model's job is this one's
+    /// [`QueryJob::for_model`](super::query::QueryJob::for_model), written as an `.npz`.
+    pub query: Option<super::query::QueryJob>,
     /// `None`: voxelize without writing (a dry run, or timing).
     pub names: Option<OutputNames>,
     pub save: SaveOptions,
@@ -454,10 +471,16 @@ struct Loaded {
     load_seconds: f64,
 }
 
-/// A grid waiting for its writer.
+/// What a model made: a grid, or a query's arrays.
+enum Product {
+    Grid(Box<Voxelization>),
+    Query(super::query::QueryOutput),
+}
+
+/// A grid (or a query's arrays) waiting for its writer.
 struct Finished {
     index: usize,
-    result: Result<Voxelization>,
+    result: Result<Product>,
     output: Option<PathBuf>,
     /// Seconds of the model's own work so far (load and voxelization).
     work_seconds: f64,
@@ -566,7 +589,31 @@ pub fn run_batch(
                             format!("{path}: {msg}")
                         });
                     }
-                    Ok(v) => {
+                    Ok(Product::Query(q)) => {
+                        rec.points = Some(q.points);
+                        rec.inside_points = q.inside;
+                        rec.seed = opts
+                            .query
+                            .as_ref()
+                            .and_then(|j| j.for_model(&input.relative).seed());
+                        if let Some(out) = &job.output {
+                            let written = guarded(&input.path, || {
+                                if let Some(parent) = out.parent() {
+                                    std::fs::create_dir_all(parent)
+                                        .map_err(|e| Error::io(parent, e))?;
+                                }
+                                crate::npy::write_npz(out, &q.arrays)
+                            });
+                            match written {
+                                Ok(()) => rec.output = Some(out.display().to_string()),
+                                Err(e) => {
+                                    rec.status = ModelStatus::Failed;
+                                    rec.error = Some(e.to_string());
+                                }
+                            }
+                        }
+                    }
+                    Ok(Product::Grid(v)) => {
                         let r = &v.report;
                         rec.triangles = Some(r.triangles);
                         rec.watertight = Some(r.closed);
@@ -624,6 +671,29 @@ pub fn run_batch(
                     output: None,
                     work_seconds: loaded.load_seconds,
                 },
+                Ok(mesh) if opts.query.is_some() => {
+                    let output = planned_output(loaded.index, 0);
+                    let working = Instant::now();
+                    let deadline = opts.timeout.map(|seconds| Deadline {
+                        at: working
+                            + std::time::Duration::from_secs_f64(
+                                (seconds - loaded.load_seconds).max(0.0),
+                            ),
+                        seconds,
+                    });
+                    let job = opts.query.as_ref().map(|q| q.for_model(&input.relative));
+                    let result = guarded(&input.path, || {
+                        checkpoint(&deadline, "after loading")?;
+                        let job = job.as_ref().expect("a query batch");
+                        job.run(&mesh, &deadline).map(Product::Query)
+                    });
+                    Finished {
+                        index: loaded.index,
+                        result,
+                        output,
+                        work_seconds: loaded.load_seconds + working.elapsed().as_secs_f64(),
+                    }
+                }
                 Ok(mesh) => {
                     let frame = super::grid_frame(&mesh, &opts.voxelize);
                     let res = frame
@@ -657,6 +727,7 @@ pub fn run_batch(
                             (Some(g), _) => g.voxelize(&mesh, &model_opts),
                             (None, _) => voxelize(&mesh, &model_opts),
                         }
+                        .map(|v| Product::Grid(Box::new(v)))
                     });
                     Finished {
                         index: loaded.index,

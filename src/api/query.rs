@@ -636,3 +636,246 @@ impl MeshQuery {
         Ok(out)
     }
 }
+
+/// What a [`QueryJob`] computes at its points (the `--what` names).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum QueryWhat {
+    /// `winding`: float64.
+    Winding,
+    /// `occupancy`: bool (packed bits with [`QueryJob::compact`]).
+    Occupancy,
+    /// `sdf`: float32, signed as [`QueryOptions::sdf_sign`].
+    Sdf,
+    /// `udf`: float32.
+    Udf,
+}
+
+impl QueryWhat {
+    /// The array's name in the `.npz`, and the `--what` word.
+    pub fn name(self) -> &'static str {
+        match self {
+            QueryWhat::Winding => "winding",
+            QueryWhat::Occupancy => "occupancy",
+            QueryWhat::Sdf => "sdf",
+            QueryWhat::Udf => "udf",
+        }
+    }
+
+    /// Parses `--what` words (`winding`, `occupancy`, `sdf`, `udf`; any order, no repeats needed).
+    pub fn parse_list<S: AsRef<str>>(words: &[S]) -> Result<Vec<QueryWhat>> {
+        words
+            .iter()
+            .map(|w| match w.as_ref().trim() {
+                "winding" => Ok(QueryWhat::Winding),
+                "occupancy" => Ok(QueryWhat::Occupancy),
+                "sdf" => Ok(QueryWhat::Sdf),
+                "udf" => Ok(QueryWhat::Udf),
+                other => Err(Error::Invalid(format!(
+                    "--what {other}: expected winding, occupancy, sdf or udf"
+                ))),
+            })
+            .collect()
+    }
+}
+
+/// Where a [`QueryJob`]'s points come from.
+#[derive(Clone, Debug)]
+pub enum QueryPoints {
+    /// The same points for every model (world coordinates).
+    Given(std::sync::Arc<Vec<[f64; 3]>>),
+    /// Drawn from each model ([`MeshQuery::sample`]).
+    Sample {
+        specs: Vec<SampleSpec>,
+        pad: f64,
+        seed: u64,
+    },
+}
+
+/// One model's query, as `gregvox query` and `gregvox batch --query` run it: prepare the mesh, take or draw
+/// the points, compute what is asked, and return the arrays of the `.npz` in their order (`surface_points`
+/// and `surface_normals` when a surface sampler is asked, `points` when the points were drawn, then each
+/// name asked, then `face`, `closest` and `barycentric` with [`QueryJob::closest`]).
+#[derive(Clone, Debug)]
+pub struct QueryJob {
+    pub what: Vec<QueryWhat>,
+    pub points: QueryPoints,
+    /// The Occupancy Networks layout: occupancy as packed bits (uint8) and drawn points as float16.
+    pub compact: bool,
+    /// Also the nearest triangle, closest point and barycentric coordinates (needs sdf or udf).
+    pub closest: bool,
+    pub opts: QueryOptions,
+}
+
+/// What [`QueryJob::run`] made.
+pub struct QueryOutput {
+    /// The `.npz` arrays, in order.
+    pub arrays: Vec<(&'static str, crate::npy::Array)>,
+    /// Points queried.
+    pub points: usize,
+    /// Points found inside, when occupancy was asked.
+    pub inside: Option<u64>,
+    /// Seconds preparing the mesh (trees and indices).
+    pub prepare_seconds: f64,
+}
+
+/// A 64-bit FNV-1a hash (the per-model seed of [`QueryJob::for_model`]).
+fn fnv1a(bytes: &[u8]) -> u64 {
+    bytes.iter().fold(0xcbf2_9ce4_8422_2325u64, |h, &b| {
+        (h ^ b as u64).wrapping_mul(0x0100_0000_01b3)
+    })
+}
+
+impl QueryJob {
+    /// Checks the job before any model is read: something to compute, `closest` with a distance.
+    pub fn check(&self) -> Result<()> {
+        if self.what.is_empty() {
+            return Err(Error::Invalid("--what: nothing to compute".into()));
+        }
+        if self.closest
+            && !self
+                .what
+                .iter()
+                .any(|w| matches!(w, QueryWhat::Sdf | QueryWhat::Udf))
+        {
+            return Err(Error::Invalid(
+                "--closest needs sdf or udf in --what".into(),
+            ));
+        }
+        if let QueryPoints::Sample { pad, .. } = self.points {
+            if !(pad.is_finite() && pad >= 0.0) {
+                return Err(Error::Invalid(format!("--pad must be ≥ 0, not {pad}")));
+            }
+        }
+        Ok(())
+    }
+
+    /// The job for the model at `relative` (its path below the batch's input folder): drawn points take the
+    /// seed `seed ⊕ FNV-1a(relative path)`, so models get independent samples, and a model gets the same
+    /// ones however the list is sharded or resumed. Given points are kept.
+    pub fn for_model(&self, relative: &std::path::Path) -> QueryJob {
+        let mut job = self.clone();
+        if let QueryPoints::Sample { seed, .. } = &mut job.points {
+            *seed ^= fnv1a(relative.to_string_lossy().as_bytes());
+        }
+        job
+    }
+
+    /// The seed the points are drawn with (`None` for given points).
+    pub fn seed(&self) -> Option<u64> {
+        match self.points {
+            QueryPoints::Sample { seed, .. } => Some(seed),
+            QueryPoints::Given(_) => None,
+        }
+    }
+
+    /// Runs the job on `mesh`. `deadline` is checked after the preparation and between the queries.
+    pub fn run(&self, mesh: &Mesh, deadline: &Option<super::Deadline>) -> Result<QueryOutput> {
+        use crate::engine::voxelize::checkpoint;
+        use crate::npy::Array;
+        self.check()?;
+        let want = |w: QueryWhat| self.what.contains(&w);
+        let f32_rows =
+            |v: &[[f64; 3]]| -> Vec<[f32; 3]> { v.iter().map(|p| p.map(|x| x as f32)).collect() };
+        let start = std::time::Instant::now();
+        // Unsigned distances alone need no winding number: no weld, caps or crossing index.
+        let q = if self.what.iter().all(|&w| w == QueryWhat::Udf) {
+            MeshQuery::distances_only(mesh, &self.opts)?
+        } else {
+            MeshQuery::new(mesh, &self.opts)?
+        };
+        let prepare_seconds = start.elapsed().as_secs_f64();
+        checkpoint(deadline, "after preparing the mesh")?;
+        let mut arrays: Vec<(&'static str, Array)> = Vec::new();
+        let drawn;
+        let points: &[[f64; 3]] = match &self.points {
+            QueryPoints::Given(p) => p,
+            QueryPoints::Sample { specs, pad, seed } => {
+                let s = q.sample(specs, *pad, *seed)?;
+                if !s.surface_points.is_empty() {
+                    arrays.push((
+                        "surface_points",
+                        Array::points_f32(&f32_rows(&s.surface_points)),
+                    ));
+                    arrays.push((
+                        "surface_normals",
+                        Array::points_f32(&f32_rows(&s.surface_normals)),
+                    ));
+                }
+                let p32 = f32_rows(&s.points);
+                let written = if self.compact {
+                    Array::points_f16(&p32)
+                } else {
+                    Array::points_f32(&p32)
+                };
+                // The points as written are the points queried (f32 or f16 rounding included), so the
+                // answers describe the file's points exactly.
+                drawn = if self.compact {
+                    written
+                        .data
+                        .chunks(6)
+                        .map(|c| {
+                            std::array::from_fn(|k| {
+                                half::f16::from_le_bytes([c[2 * k], c[2 * k + 1]]).to_f64()
+                            })
+                        })
+                        .collect()
+                } else {
+                    p32.iter().map(|p| p.map(f64::from)).collect::<Vec<_>>()
+                };
+                arrays.push(("points", written));
+                checkpoint(deadline, "after drawing the points")?;
+                &drawn
+            }
+        };
+        let mut inside = None;
+        if want(QueryWhat::Winding) || want(QueryWhat::Occupancy) {
+            let (w, occ) = if want(QueryWhat::Winding) {
+                q.winding_and_occupancy(points)?
+            } else {
+                (Vec::new(), q.occupancy(points)?)
+            };
+            if want(QueryWhat::Winding) {
+                arrays.push(("winding", Array::f64s(&w)));
+            }
+            if want(QueryWhat::Occupancy) {
+                inside = Some(occ.iter().filter(|&&o| o).count() as u64);
+                arrays.push((
+                    "occupancy",
+                    if self.compact {
+                        Array::packed_bits(&occ)
+                    } else {
+                        Array::bools(&occ)
+                    },
+                ));
+            }
+            checkpoint(deadline, "after the winding numbers")?;
+        }
+        let mut closest: Option<Distances> = None;
+        for (what, signed) in [(QueryWhat::Sdf, true), (QueryWhat::Udf, false)] {
+            if !want(what) {
+                continue;
+            }
+            let d = if signed {
+                q.signed_distance(points)?
+            } else {
+                q.unsigned_distance(points)?
+            };
+            arrays.push((what.name(), Array::f32s(&d.distance)));
+            closest.get_or_insert(d);
+            checkpoint(deadline, "after the distances")?;
+        }
+        if self.closest {
+            if let Some(d) = closest {
+                arrays.push(("face", Array::u32s(&d.face)));
+                arrays.push(("closest", Array::points_f32(&f32_rows(&d.closest))));
+                arrays.push(("barycentric", Array::points_f32(&f32_rows(&d.barycentric))));
+            }
+        }
+        Ok(QueryOutput {
+            arrays,
+            points: points.len(),
+            inside,
+            prepare_seconds,
+        })
+    }
+}

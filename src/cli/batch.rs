@@ -1,4 +1,5 @@
-//! `gregvox batch INPUT… --res R --out-dir D [--format F | --name TEMPLATE] [--shard I/N] [--report FILE]`:
+//! `gregvox batch INPUT… --res R --out-dir D [--format F | --name TEMPLATE] [--shard I/N] [--report FILE]`,
+//! or `gregvox batch INPUT… --query SPECS [--what …] --out-dir D …` (point queries, one `.npz` a model):
 //! argument parsing and printing over `api::batch` (which holds the policy: the sorted input list,
 //! sharding, resume, output names, the loader → device → writer pipeline).
 use super::voxelize::GridArgs;
@@ -6,6 +7,7 @@ use crate::api::batch::{
     append_record, batch_device, collect_inputs, run_batch, BatchOptions, ModelStatus, OutputNames,
     Shard,
 };
+use crate::api::query::{QueryJob, QueryPoints, QueryWhat, SampleSpec};
 use crate::api::SaveOptions;
 use crate::voxel::export::check_format;
 use anyhow::{bail, Context};
@@ -16,6 +18,8 @@ use std::sync::Arc;
 
 /// Arguments of `gregvox batch`.
 #[derive(Debug, Args)]
+// A query batch has no grid: the grid size is asked for in `run` when there is no --query.
+#[command(mut_group("size", |g| g.required(false)))]
 pub struct BatchArgs {
     /// Mesh files, folders (searched recursively for .obj .stl .ply .off .gltf .glb), glob patterns
     /// (quoted: 'data/**/*.obj') or manifests (.txt/.lst: one path a line; .csv: a `path` column; .jsonl: a
@@ -55,11 +59,81 @@ pub struct BatchArgs {
     /// Print the summary as JSON.
     #[arg(long)]
     pub json: bool,
+    /// Query points instead of voxelizing, one .npz a model: the samplers of `gregvox query --sample`
+    /// (uniform:N, near:SIGMA:N, surface:N), drawn for each model with the seed --seed ⊕ FNV-1a of its
+    /// relative path (independent between models, the same however the list is sharded or resumed).
+    #[arg(long, value_name = "SPECS", conflicts_with = "query_points")]
+    pub query: Option<String>,
+    /// Query these points (an (N, 3) float32/float64 .npy, world coordinates) on every model instead of
+    /// voxelizing.
+    #[arg(long, value_name = "P.npy")]
+    pub query_points: Option<PathBuf>,
+    /// With --query/--query-points: what to compute, comma-separated: winding, occupancy, sdf, udf
+    /// (default: occupancy with --query, winding,occupancy with --query-points).
+    #[arg(long, value_delimiter = ',')]
+    pub what: Vec<String>,
+    /// With --query: padding of the uniform sampler's box, a fraction of its size on each side.
+    #[arg(long, default_value_t = 0.1)]
+    pub query_pad: f64,
+    /// With --query: the seed the per-model seeds are made from.
+    #[arg(long, default_value_t = 0)]
+    pub seed: u64,
+    /// With --query: the Occupancy Networks layout (occupancy as packed bits, points as float16).
+    #[arg(long)]
+    pub compact: bool,
+    /// With --query: also `face`, `closest` and `barycentric` (needs sdf or udf).
+    #[arg(long)]
+    pub closest: bool,
+    /// With --query: the sign of sdf.
+    #[arg(long, value_enum, default_value = "inside-negative")]
+    pub sdf_sign: super::query::SdfSignArg,
+    /// With --query: the largest error of a winding number in `winding`.
+    #[arg(long, default_value_t = 1e-6)]
+    pub tolerance: f64,
+}
+
+/// The query job of `--query`/`--query-points`, if any.
+fn query_job(args: &BatchArgs) -> anyhow::Result<Option<QueryJob>> {
+    let points = match (&args.query, &args.query_points) {
+        (Some(specs), _) => QueryPoints::Sample {
+            specs: SampleSpec::parse_list(specs)?,
+            pad: args.query_pad,
+            seed: args.seed,
+        },
+        (None, Some(p)) => QueryPoints::Given(Arc::new(crate::npy::read_points(p)?)),
+        (None, None) => {
+            if !args.what.is_empty() || args.compact || args.closest {
+                bail!("--what, --compact and --closest need --query or --query-points");
+            }
+            return Ok(None);
+        }
+    };
+    let what = if args.what.is_empty() {
+        match points {
+            QueryPoints::Sample { .. } => vec![QueryWhat::Occupancy],
+            QueryPoints::Given(_) => vec![QueryWhat::Winding, QueryWhat::Occupancy],
+        }
+    } else {
+        QueryWhat::parse_list(&args.what)?
+    };
+    let job = QueryJob {
+        what,
+        points,
+        compact: args.compact,
+        closest: args.closest,
+        opts: super::query::query_options(args.grid.rule, args.sdf_sign, args.tolerance)?,
+    };
+    job.check()?;
+    Ok(Some(job))
 }
 
 /// Runs `gregvox batch`; fails (after finishing the list) when any model failed.
 pub fn run(args: &BatchArgs) -> anyhow::Result<()> {
-    let voxelize = args.grid.options()?;
+    let query = query_job(args)?;
+    let voxelize = match &query {
+        Some(_) => crate::api::VoxelizeOptions::default(),
+        None => args.grid.options()?,
+    };
     if let Some(t) = args.timeout_per_model {
         if !(t.is_finite() && t > 0.0) {
             bail!("--timeout-per-model {t}: give a number of seconds > 0");
@@ -69,12 +143,24 @@ pub fn run(args: &BatchArgs) -> anyhow::Result<()> {
         (Some(dir), name) => Some(OutputNames {
             dir: dir.clone(),
             template: name.clone(),
-            format: args.format.clone(),
+            // A query writes its arrays: always an .npz.
+            format: if query.is_some() {
+                "npz".into()
+            } else {
+                args.format.clone()
+            },
         }),
         (None, Some(_)) => bail!("--name needs --out-dir"),
         (None, None) => None,
     };
-    if let Some(n) = &names {
+    if let (Some(n), Some(_)) = (&names, &query) {
+        if let Some(t) = &n.template {
+            if !t.ends_with(".npz") || t.contains("{res}") {
+                bail!("--name {t}: a query batch writes .npz files and has no grid ({{res}})");
+            }
+        }
+        crate::io::check_output_folder(&n.dir)?;
+    } else if let Some(n) = &names {
         let probe = crate::api::GridFrame::cubic(1, [0.0; 3], 1.0);
         let example = match &n.template {
             Some(t) => PathBuf::from(t.replace(['{', '}'], "")),
@@ -112,7 +198,12 @@ pub fn run(args: &BatchArgs) -> anyhow::Result<()> {
             eprintln!("gregvox batch: stopping after the models in flight (Ctrl-C again to kill)");
         });
     }
-    let gpu = batch_device(args.grid.method)?;
+    // Queries run on the CPU's cores: no device to make.
+    let gpu = if query.is_some() {
+        None
+    } else {
+        batch_device(args.grid.method)?
+    };
     let workers = args.workers.unwrap_or_else(|| {
         std::thread::available_parallelism()
             .map(|n| n.get())
@@ -121,6 +212,7 @@ pub fn run(args: &BatchArgs) -> anyhow::Result<()> {
     });
     let opts = BatchOptions {
         voxelize,
+        query,
         names,
         save: SaveOptions {
             npy_packed: args.grid.npy_packed,

@@ -1,8 +1,8 @@
 //! `gregvox query`: winding numbers, occupancy and distances at given or sampled points, into an `.npz`
 //! (a thin client of `api::query`).
-use crate::api::query::{Distances, MeshQuery, QueryOptions, SampleSpec, SdfSign};
+use crate::api::query::{QueryJob, QueryOptions, QueryPoints, QueryWhat, SampleSpec, SdfSign};
 use crate::api::{load_mesh, FillRule};
-use crate::npy::{write_npz, Array};
+use crate::npy::write_npz;
 use crate::voxel::gwn::Inside;
 use clap::{Args, ValueEnum};
 use std::path::PathBuf;
@@ -67,27 +67,77 @@ pub struct QueryArgs {
     pub json: bool,
 }
 
-fn f32_rows(v: &[[f64; 3]]) -> Vec<[f32; 3]> {
-    v.iter().map(|p| p.map(|x| x as f32)).collect()
-}
-
 /// Runs `gregvox query`.
 pub fn run(args: &QueryArgs) -> anyhow::Result<()> {
-    let what: Vec<String> = if args.what.is_empty() {
+    let what = if args.what.is_empty() {
         if args.sample.is_some() {
-            vec!["occupancy".into()]
+            vec![QueryWhat::Occupancy]
         } else {
-            vec!["winding".into(), "occupancy".into()]
+            vec![QueryWhat::Winding, QueryWhat::Occupancy]
         }
     } else {
-        args.what.iter().map(|s| s.trim().to_string()).collect()
+        QueryWhat::parse_list(&args.what)?
     };
-    for w in &what {
-        if !["winding", "occupancy", "sdf", "udf"].contains(&w.as_str()) {
-            anyhow::bail!("--what {w}: expected winding, occupancy, sdf or udf");
-        }
+    let points = match (&args.points, &args.sample) {
+        (Some(p), _) => QueryPoints::Given(std::sync::Arc::new(crate::npy::read_points(p)?)),
+        (None, Some(specs)) => QueryPoints::Sample {
+            specs: SampleSpec::parse_list(specs)?,
+            pad: args.pad,
+            seed: args.seed,
+        },
+        (None, None) => unreachable!("clap requires --points or --sample"),
+    };
+    let job = QueryJob {
+        what,
+        points,
+        compact: args.compact,
+        closest: args.closest,
+        opts: query_options(args.rule, args.sdf_sign, args.tolerance)?,
+    };
+    job.check()?;
+    if args.out.extension().and_then(|e| e.to_str()) != Some("npz") {
+        anyhow::bail!("{}: the output must be an .npz", args.out.display());
     }
-    let inside = match args.rule {
+    crate::io::check_output(&args.out)?;
+    let mesh = load_mesh(&args.input)?;
+    let start = Instant::now();
+    let out = job
+        .run(&mesh, &None)
+        .map_err(|e| e.for_input(&args.input))?;
+    let seconds = start.elapsed().as_secs_f64();
+    write_npz(&args.out, &out.arrays)?;
+    let names: Vec<&str> = out.arrays.iter().map(|(n, _)| *n).collect();
+    if args.json {
+        let j = serde_json::json!({
+            "input": args.input.display().to_string(),
+            "points": out.points,
+            "arrays": names,
+            "prepare_seconds": out.prepare_seconds,
+            "seconds": seconds,
+            "out": args.out.display().to_string(),
+        });
+        crate::cli::print_out(&format!("{j}\n"))?;
+    } else {
+        crate::cli::print_out(&format!(
+            "{} points of {}: {} in {:.3} s (preparing {:.3} s) → {}\n",
+            out.points,
+            args.input.display(),
+            names.join(", "),
+            seconds,
+            out.prepare_seconds,
+            args.out.display()
+        ))?;
+    }
+    Ok(())
+}
+
+/// The query options of `--rule`, `--sdf-sign` and `--tolerance` (shared with `gregvox batch --query`).
+pub fn query_options(
+    rule: FillRule,
+    sdf_sign: SdfSignArg,
+    tolerance: f64,
+) -> anyhow::Result<QueryOptions> {
+    let inside = match rule {
         FillRule::Gwn => Inside::Magnitude,
         FillRule::GwnPositive => Inside::Positive,
         r => anyhow::bail!(
@@ -96,146 +146,13 @@ pub fn run(args: &QueryArgs) -> anyhow::Result<()> {
                 .map_or("?".into(), |v| v.get_name().to_string())
         ),
     };
-    let specs = args
-        .sample
-        .as_deref()
-        .map(SampleSpec::parse_list)
-        .transpose()?;
-    if args.out.extension().and_then(|e| e.to_str()) != Some("npz") {
-        anyhow::bail!("{}: the output must be an .npz", args.out.display());
-    }
-    crate::io::check_output(&args.out)?;
-    let points_in = args
-        .points
-        .as_ref()
-        .map(|p| crate::npy::read_points(p))
-        .transpose()?;
-    let mesh = load_mesh(&args.input)?;
-    let start = Instant::now();
-    let opts = QueryOptions {
+    Ok(QueryOptions {
         inside,
-        sdf_sign: match args.sdf_sign {
+        sdf_sign: match sdf_sign {
             SdfSignArg::InsideNegative => SdfSign::InsideNegative,
             SdfSignArg::InsidePositive => SdfSign::InsidePositive,
         },
-        tolerance: args.tolerance,
+        tolerance,
         ..QueryOptions::default()
-    };
-    // Unsigned distances alone need no winding number: no weld, caps or crossing index.
-    let only_udf = what.iter().all(|w| w == "udf");
-    let q = if only_udf {
-        MeshQuery::distances_only(&mesh, &opts)
-    } else {
-        MeshQuery::new(&mesh, &opts)
-    }
-    .map_err(|e| e.for_input(&args.input))?;
-    let prepared = start.elapsed().as_secs_f64();
-    let mut arrays: Vec<(&str, Array)> = Vec::new();
-    let points = match (points_in, &specs) {
-        (Some(p), _) => p,
-        (None, Some(specs)) => {
-            let s = q.sample(specs, args.pad, args.seed)?;
-            if !s.surface_points.is_empty() {
-                arrays.push((
-                    "surface_points",
-                    Array::points_f32(&f32_rows(&s.surface_points)),
-                ));
-                arrays.push((
-                    "surface_normals",
-                    Array::points_f32(&f32_rows(&s.surface_normals)),
-                ));
-            }
-            let p32 = f32_rows(&s.points);
-            let written = if args.compact {
-                Array::points_f16(&p32)
-            } else {
-                Array::points_f32(&p32)
-            };
-            // The points as written are the points queried (f32 or f16 rounding included), so the
-            // answers describe the file's points exactly.
-            let queried = if args.compact {
-                written
-                    .data
-                    .chunks(6)
-                    .map(|c| {
-                        std::array::from_fn(|k| {
-                            half::f16::from_le_bytes([c[2 * k], c[2 * k + 1]]).to_f64()
-                        })
-                    })
-                    .collect()
-            } else {
-                p32.iter().map(|p| p.map(f64::from)).collect()
-            };
-            arrays.push(("points", written));
-            queried
-        }
-        (None, None) => unreachable!("clap requires --points or --sample"),
-    };
-    let want = |name: &str| what.iter().any(|w| w == name);
-    if want("winding") || want("occupancy") {
-        let (w, occ) = if want("winding") {
-            q.winding_and_occupancy(&points)?
-        } else {
-            (Vec::new(), q.occupancy(&points)?)
-        };
-        if want("winding") {
-            arrays.push(("winding", Array::f64s(&w)));
-        }
-        if want("occupancy") {
-            arrays.push((
-                "occupancy",
-                if args.compact {
-                    Array::packed_bits(&occ)
-                } else {
-                    Array::bools(&occ)
-                },
-            ));
-        }
-    }
-    let mut closest: Option<Distances> = None;
-    for (name, signed) in [("sdf", true), ("udf", false)] {
-        if !want(name) {
-            continue;
-        }
-        let d = if signed {
-            q.signed_distance(&points)?
-        } else {
-            q.unsigned_distance(&points)?
-        };
-        arrays.push((name, Array::f32s(&d.distance)));
-        closest.get_or_insert(d);
-    }
-    if args.closest {
-        let Some(d) = closest else {
-            anyhow::bail!("--closest needs sdf or udf in --what");
-        };
-        arrays.push(("face", Array::u32s(&d.face)));
-        arrays.push(("closest", Array::points_f32(&f32_rows(&d.closest))));
-        arrays.push(("barycentric", Array::points_f32(&f32_rows(&d.barycentric))));
-    }
-    let seconds = start.elapsed().as_secs_f64();
-    write_npz(&args.out, &arrays)?;
-    let names: Vec<&str> = arrays.iter().map(|(n, _)| *n).collect();
-    if args.json {
-        let j = serde_json::json!({
-            "input": args.input.display().to_string(),
-            "points": points.len(),
-            "arrays": names,
-            "prepare_seconds": prepared,
-            "seconds": seconds,
-            "out": args.out.display().to_string(),
-        });
-        crate::cli::print_out(&format!("{j}\n"))?;
-    } else {
-        crate::cli::print_out(&format!(
-            "{} points of {}: {} in {:.3} s (preparing {:.3} s) → {}\n",
-            points.len(),
-            args.input.display(),
-            names.join(", "),
-            seconds,
-            prepared,
-            args.out.display()
-        ))?;
-    }
-    Ok(())
+    })
 }
