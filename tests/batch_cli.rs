@@ -644,23 +644,21 @@ fn a_query_batch_writes_each_models_npz_as_gregvox_query_does_with_the_models_ow
     let report = data.with_extension("q.jsonl");
     let (o, r) = (out.to_str().unwrap(), report.to_str().unwrap());
     let spec = "uniform:1500,near:0.02:1500";
-    let run = gregvox(
-        &[
+    // The batch of this test: the samplers, three arrays, seed 7.
+    let batch = |out: &str, extra: &[&str]| {
+        let mut a = vec![
             "batch",
             d,
             "--query",
             spec,
             "--what",
             "winding,occupancy,sdf",
-            "--seed",
-            "7",
-            "--out-dir",
-            o,
-            "--report",
-            r,
-        ],
-        &[],
-    );
+        ];
+        a.extend_from_slice(&["--seed", "7", "--out-dir", out]);
+        a.extend_from_slice(extra);
+        gregvox(&a, &[])
+    };
+    let run = batch(o, &["--report", r]);
     assert!(!run.status.success(), "the broken models fail the batch");
     let lines = report_lines(&report);
     assert_eq!(lines.len(), 9, "{lines:?}");
@@ -711,46 +709,14 @@ fn a_query_batch_writes_each_models_npz_as_gregvox_query_does_with_the_models_ow
     // Two shards make the same files; a second run skips every model that was done.
     let sharded = data.with_extension("qshards");
     for shard in ["0/2", "1/2"] {
-        gregvox(
-            &[
-                "batch",
-                d,
-                "--query",
-                spec,
-                "--what",
-                "winding,occupancy,sdf",
-                "--seed",
-                "7",
-                "--out-dir",
-                sharded.to_str().unwrap(),
-                "--shard",
-                shard,
-            ],
-            &[],
-        );
+        batch(sharded.to_str().unwrap(), &["--shard", shard]);
     }
     let mut whole = tree(&out);
     whole.retain(|k, _| k.ends_with(".npz"));
     assert_eq!(whole.len(), 6);
     assert_eq!(tree(&sharded), whole);
     let again = data.with_extension("q2.jsonl");
-    gregvox(
-        &[
-            "batch",
-            d,
-            "--query",
-            spec,
-            "--what",
-            "winding,occupancy,sdf",
-            "--seed",
-            "7",
-            "--out-dir",
-            o,
-            "--report",
-            again.to_str().unwrap(),
-        ],
-        &[],
-    );
+    batch(o, &["--report", again.to_str().unwrap()]);
     let lines = report_lines(&again);
     assert_eq!(
         lines.iter().filter(|l| l["status"] == "skipped").count(),
