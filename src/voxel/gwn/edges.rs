@@ -88,6 +88,80 @@ impl EdgeTree {
     }
 }
 
+impl EdgeTree {
+    /// A linear model of the caps' solid angle over the ball (c, r), which must meet no cap triangle:
+    /// `(g, b)` with |Ω(p) − Ω(c) − g·(p − c)| ≤ b for every p in the ball. g sums the exact Biot–Savart
+    /// gradients at c of the edges near the ball; b bounds what that leaves: r·|e|/(d_e − r)² for the far
+    /// edges (their whole variation, nodes whose bound is at most `eps` taken whole), and for the near ones
+    /// r²·|e|/(d_e − r)³ (½r² times the bound 2|e|/d³ on the derivative of an edge's field) plus the
+    /// rounding of their gradient. `None` when an edge comes within `r`.
+    pub fn linear(
+        &self,
+        c: [f64; 3],
+        r: f64,
+        eps: f64,
+        stack: &mut Vec<u32>,
+    ) -> Option<([f64; 3], f64)> {
+        let (mut g, mut b) = ([0.0f64; 3], 0.0f64);
+        if self.nodes.is_empty() {
+            return Some((g, b));
+        }
+        stack.clear();
+        stack.push(0);
+        while let Some(i) = stack.pop() {
+            let node = &self.nodes[i as usize];
+            let gap = (norm(sub(c, node.centre)) - r - node.radius) * (1.0 - 1e-12);
+            if gap > 0.0 {
+                let far = r * node.length / (gap * gap);
+                if far <= eps {
+                    b += far;
+                    continue;
+                }
+            }
+            if node.count == 0 {
+                stack.push(node.first);
+                stack.push(node.first + 1);
+                continue;
+            }
+            for s in &self.segments[node.first as usize..(node.first + node.count) as usize] {
+                let d = (segment_distance2(c, s[0], s[1]).sqrt() - r) * (1.0 - 1e-12);
+                if d <= 0.0 {
+                    return None;
+                }
+                let len = norm(sub(s[1], s[0])) * (1.0 + 1e-12);
+                let ge = segment_field(c, s[0], s[1]);
+                for k in 0..3 {
+                    g[k] += ge[k];
+                }
+                b += r * r * len / (d * d * d) + r * 1e-10 * norm(ge);
+            }
+        }
+        // The sums' own rounding.
+        b += r * 1e-12 * (norm(g) + b);
+        Some((g, b * (1.0 + 1e-12)))
+    }
+}
+
+/// The gradient at `p` of the solid angle a straight edge `a → b` contributes (the Biot–Savart field of the
+/// segment, in the stable form (r₁ × r₂)(|r₁| + |r₂|) / (|r₁||r₂|(|r₁||r₂| + r₁·r₂)), r₁,₂ = the ends − p,
+/// oriented as the caps' rims are).
+#[inline]
+pub fn segment_field(p: [f64; 3], a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
+    let (r1, r2) = (sub(a, p), sub(b, p));
+    let (l1, l2) = (norm(r1), norm(r2));
+    let x = [
+        r1[1] * r2[2] - r1[2] * r2[1],
+        r1[2] * r2[0] - r1[0] * r2[2],
+        r1[0] * r2[1] - r1[1] * r2[0],
+    ];
+    let dot = r1[0] * r2[0] + r1[1] * r2[1] + r1[2] * r2[2];
+    let k = (l1 + l2) / (l1 * l2 * (l1 * l2 + dot));
+    [SIGN * k * x[0], SIGN * k * x[1], SIGN * k * x[2]]
+}
+
+/// The orientation of [`segment_field`] relative to the caps' rims (checked against finite differences).
+const SIGN: f64 = 1.0;
+
 fn build(nodes: &mut Vec<Node>, segs: &mut [[[f64; 3]; 2]], at: usize, start: usize, end: usize) {
     let (mut lo, mut hi) = ([f64::INFINITY; 3], [f64::NEG_INFINITY; 3]);
     let mut length = 0.0;
@@ -169,6 +243,34 @@ mod tests {
         }
         // Far from the rim the bound is small although the disk fills half the sky.
         assert!(r * g < 0.6 && at_c.abs() > 5.0, "{} {at_c}", r * g);
+        // The linear model: the gradient at c is the finite difference's, and the model holds over the ball.
+        let (grad, bound) = tree.linear(c, r, 0.0, &mut Vec::new()).unwrap();
+        let h = 1e-6;
+        for k in 0..3 {
+            let (mut up, mut down) = (c, c);
+            up[k] += h;
+            down[k] -= h;
+            let fd = (omega(up) - omega(down)) / (2.0 * h);
+            assert!(
+                (fd - grad[k]).abs() < 1e-6 * (1.0 + fd.abs()),
+                "{k}: {fd} {grad:?}"
+            );
+        }
+        for q in [
+            [0.15, 0.2, 0.1],
+            [0.1, 0.15, 0.1],
+            [0.1, 0.2, 0.06],
+            [0.07, 0.23, 0.13],
+        ] {
+            let d: [f64; 3] = std::array::from_fn(|k| q[k] - c[k]);
+            let model = at_c + (0..3).map(|k| grad[k] * d[k]).sum::<f64>();
+            assert!((omega(q) - model).abs() <= bound, "{q:?}");
+        }
+        // Tighter than the gradient bound, which moves by r·|∇| whatever the direction.
+        assert!(bound < 0.2 * r * g, "{bound} {}", r * g);
+        assert!(tree
+            .linear([1.0, 0.0, 0.01], 0.05, 0.0, &mut Vec::new())
+            .is_none());
         // And infinite when the ball reaches the rim.
         assert!(tree
             .gradient([1.0, 0.0, 0.01], 0.05, 0.0, &mut Vec::new())
