@@ -73,7 +73,7 @@ pub const LARGE_ACCEPT: Accept = Accept {
     theta: 0.5,
     eps: 3e-2,
 };
-/// The large caps' value at a cell centre for its linear model ([`Fractional::large_linear`]).
+/// The large caps' value at a cell centre for their linear model (`Fractional::large_linear`).
 pub const TIGHT_ACCEPT: Accept = Accept {
     theta: 0.3,
     eps: 1e-4,
