@@ -52,13 +52,21 @@ impl EdgeTree {
             + self.segments.len() * std::mem::size_of::<[[f64; 3]; 2]>()) as u64
     }
 
-    /// An upper bound on Σ_e |e| / d_e(q)² over every q within `r` of `c` (∞ when an edge comes within
-    /// `r`). Nodes whose bound is at most `eps` are not opened.
-    pub fn gradient(&self, c: [f64; 3], r: f64, eps: f64, stack: &mut Vec<u32>) -> f64 {
+    /// Walks the nodes round the ball (c, r): a node clear of the ball whose length / gap² is at most `eps`
+    /// adds that to the sum returned; the segments of the others go to `segment(s, d)`, d their distance from
+    /// the ball (rounded down). `None` as soon as a segment comes within `r`.
+    fn walk(
+        &self,
+        c: [f64; 3],
+        r: f64,
+        eps: f64,
+        stack: &mut Vec<u32>,
+        mut segment: impl FnMut(&[[f64; 3]; 2], f64),
+    ) -> Option<f64> {
+        let mut far = 0.0;
         if self.nodes.is_empty() {
-            return 0.0;
+            return Some(far);
         }
-        let mut sum = 0.0;
         stack.clear();
         stack.push(0);
         while let Some(i) = stack.pop() {
@@ -67,28 +75,36 @@ impl EdgeTree {
             if gap > 0.0 {
                 let b = node.length / (gap * gap);
                 if b <= eps {
-                    sum += b;
+                    far += b;
                     continue;
                 }
             }
-            if node.count > 0 {
-                for s in &self.segments[node.first as usize..(node.first + node.count) as usize] {
-                    let d = (segment_distance2(c, s[0], s[1]).sqrt() - r) * (1.0 - 1e-12);
-                    if d <= 0.0 {
-                        return f64::INFINITY;
-                    }
-                    sum += norm(sub(s[1], s[0])) * (1.0 + 1e-12) / (d * d);
-                }
-            } else {
+            if node.count == 0 {
                 stack.push(node.first);
                 stack.push(node.first + 1);
+                continue;
+            }
+            for s in &self.segments[node.first as usize..(node.first + node.count) as usize] {
+                let d = (segment_distance2(c, s[0], s[1]).sqrt() - r) * (1.0 - 1e-12);
+                if d <= 0.0 {
+                    return None;
+                }
+                segment(s, d);
             }
         }
-        sum
+        Some(far)
     }
-}
 
-impl EdgeTree {
+    /// An upper bound on Σ_e |e| / d_e(q)² over every q within `r` of `c` (∞ when an edge comes within
+    /// `r`). Nodes whose bound is at most `eps` are not opened.
+    pub fn gradient(&self, c: [f64; 3], r: f64, eps: f64, stack: &mut Vec<u32>) -> f64 {
+        let mut near = 0.0;
+        let far = self.walk(c, r, eps, stack, |s, d| {
+            near += norm(sub(s[1], s[0])) * (1.0 + 1e-12) / (d * d);
+        });
+        far.map_or(f64::INFINITY, |f| f + near)
+    }
+
     /// A linear model of the caps' solid angle over the ball (c, r), which must meet no cap triangle:
     /// `(g, b)` with |Ω(p) − Ω(c) − g·(p − c)| ≤ b for every p in the ball. g sums the exact Biot–Savart
     /// gradients at c of the edges near the ball; b bounds what that leaves: r·|e|/(d_e − r)² for the far
@@ -103,39 +119,15 @@ impl EdgeTree {
         stack: &mut Vec<u32>,
     ) -> Option<([f64; 3], f64)> {
         let (mut g, mut b) = ([0.0f64; 3], 0.0f64);
-        if self.nodes.is_empty() {
-            return Some((g, b));
-        }
-        stack.clear();
-        stack.push(0);
-        while let Some(i) = stack.pop() {
-            let node = &self.nodes[i as usize];
-            let gap = (norm(sub(c, node.centre)) - r - node.radius) * (1.0 - 1e-12);
-            if gap > 0.0 {
-                let far = r * node.length / (gap * gap);
-                if far <= eps {
-                    b += far;
-                    continue;
-                }
+        let far = self.walk(c, r, eps / r, stack, |s, d| {
+            let len = norm(sub(s[1], s[0])) * (1.0 + 1e-12);
+            let ge = segment_field(c, s[0], s[1]);
+            for k in 0..3 {
+                g[k] += ge[k];
             }
-            if node.count == 0 {
-                stack.push(node.first);
-                stack.push(node.first + 1);
-                continue;
-            }
-            for s in &self.segments[node.first as usize..(node.first + node.count) as usize] {
-                let d = (segment_distance2(c, s[0], s[1]).sqrt() - r) * (1.0 - 1e-12);
-                if d <= 0.0 {
-                    return None;
-                }
-                let len = norm(sub(s[1], s[0])) * (1.0 + 1e-12);
-                let ge = segment_field(c, s[0], s[1]);
-                for k in 0..3 {
-                    g[k] += ge[k];
-                }
-                b += r * r * len / (d * d * d) + r * 1e-10 * norm(ge);
-            }
-        }
+            b += r * r * len / (d * d * d) + r * 1e-10 * norm(ge);
+        })?;
+        b += r * far;
         // The sums' own rounding.
         b += r * 1e-12 * (norm(g) + b);
         Some((g, b * (1.0 + 1e-12)))
