@@ -462,6 +462,29 @@ fn guarded<T>(input: &Path, f: impl FnOnce() -> Result<T>) -> Result<T> {
     }
 }
 
+/// Writes a model's output `out` with `write` (its folder made first, a panic turned into an error naming
+/// `input`), and records the output or the failure in `rec`.
+fn write_output(
+    input: &Path,
+    out: &Path,
+    rec: &mut ModelRecord,
+    write: impl FnOnce() -> Result<()>,
+) {
+    let written = guarded(input, || {
+        if let Some(parent) = out.parent() {
+            std::fs::create_dir_all(parent).map_err(|e| Error::io(parent, e))?;
+        }
+        write()
+    });
+    match written {
+        Ok(()) => rec.output = Some(out.display().to_string()),
+        Err(e) => {
+            rec.status = ModelStatus::Failed;
+            rec.error = Some(e.to_string());
+        }
+    }
+}
+
 /// A model loaded and waiting for the device, or found complete without loading (`skipped`).
 struct Loaded {
     index: usize,
@@ -525,6 +548,13 @@ pub fn run_batch(
     // Resume: what is complete is skipped before anything is loaded.
     let planned_output =
         |i: usize, res: u32| opts.names.as_ref().map(|n| n.output(&inputs[i], i, res));
+    // The limit covers a model's own work: what its load took, then its voxelization or query.
+    let model_deadline = |working: Instant, load_seconds: f64| {
+        opts.timeout.map(|seconds| Deadline {
+            at: working + std::time::Duration::from_secs_f64((seconds - load_seconds).max(0.0)),
+            seconds,
+        })
+    };
     let next = AtomicUsize::new(0);
     let (load_tx, load_rx) = mpsc::sync_channel::<Loaded>(queue);
     let (write_tx, write_rx) = mpsc::sync_channel::<Finished>(queue);
@@ -592,25 +622,11 @@ pub fn run_batch(
                     Ok(Product::Query(q)) => {
                         rec.points = Some(q.points);
                         rec.inside_points = q.inside;
-                        rec.seed = opts
-                            .query
-                            .as_ref()
-                            .and_then(|j| j.for_model(&input.relative).seed());
+                        rec.seed = q.seed;
                         if let Some(out) = &job.output {
-                            let written = guarded(&input.path, || {
-                                if let Some(parent) = out.parent() {
-                                    std::fs::create_dir_all(parent)
-                                        .map_err(|e| Error::io(parent, e))?;
-                                }
+                            write_output(&input.path, out, &mut rec, || {
                                 crate::npy::write_npz(out, &q.arrays)
                             });
-                            match written {
-                                Ok(()) => rec.output = Some(out.display().to_string()),
-                                Err(e) => {
-                                    rec.status = ModelStatus::Failed;
-                                    rec.error = Some(e.to_string());
-                                }
-                            }
                         }
                     }
                     Ok(Product::Grid(v)) => {
@@ -622,20 +638,9 @@ pub fn run_batch(
                         rec.solid_voxels = Some(v.grid.count());
                         rec.method = Some(r.method);
                         if let Some(out) = &job.output {
-                            let written = guarded(&input.path, || {
-                                if let Some(parent) = out.parent() {
-                                    std::fs::create_dir_all(parent)
-                                        .map_err(|e| Error::io(parent, e))?;
-                                }
+                            write_output(&input.path, out, &mut rec, || {
                                 v.grid.save_with(out, save)
                             });
-                            match written {
-                                Ok(()) => rec.output = Some(out.display().to_string()),
-                                Err(e) => {
-                                    rec.status = ModelStatus::Failed;
-                                    rec.error = Some(e.to_string());
-                                }
-                            }
                         }
                     }
                 }
@@ -674,13 +679,7 @@ pub fn run_batch(
                 Ok(mesh) if opts.query.is_some() => {
                     let output = planned_output(loaded.index, 0);
                     let working = Instant::now();
-                    let deadline = opts.timeout.map(|seconds| Deadline {
-                        at: working
-                            + std::time::Duration::from_secs_f64(
-                                (seconds - loaded.load_seconds).max(0.0),
-                            ),
-                        seconds,
-                    });
+                    let deadline = model_deadline(working, loaded.load_seconds);
                     let job = opts.query.as_ref().map(|q| q.for_model(&input.relative));
                     let result = guarded(&input.path, || {
                         checkpoint(&deadline, "after loading")?;
@@ -709,14 +708,7 @@ pub fn run_batch(
                     }
                     let working = Instant::now();
                     let mut model_opts = opts.voxelize.clone();
-                    // The limit covers the model's own work: what its load took, then its voxelization.
-                    model_opts.deadline = opts.timeout.map(|seconds| Deadline {
-                        at: working
-                            + std::time::Duration::from_secs_f64(
-                                (seconds - loaded.load_seconds).max(0.0),
-                            ),
-                        seconds,
-                    });
+                    model_opts.deadline = model_deadline(working, loaded.load_seconds);
                     let result = guarded(&input.path, || {
                         checkpoint(&model_opts.deadline, "after loading")?;
                         frame?;

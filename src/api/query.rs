@@ -691,6 +691,17 @@ pub enum QueryPoints {
     },
 }
 
+impl QueryPoints {
+    /// What is computed when nothing is asked: occupancy at drawn points (the dataset recipes' label), the
+    /// winding number and occupancy at given ones.
+    pub fn default_what(&self) -> Vec<QueryWhat> {
+        match self {
+            QueryPoints::Sample { .. } => vec![QueryWhat::Occupancy],
+            QueryPoints::Given(_) => vec![QueryWhat::Winding, QueryWhat::Occupancy],
+        }
+    }
+}
+
 /// One model's query, as `gregvox query` and `gregvox batch --query` run it: prepare the mesh, take or draw
 /// the points, compute what is asked, and return the arrays of the `.npz` in their order (`surface_points`
 /// and `surface_normals` when a surface sampler is asked, `points` when the points were drawn, then each
@@ -716,6 +727,8 @@ pub struct QueryOutput {
     pub inside: Option<u64>,
     /// Seconds preparing the mesh (trees and indices).
     pub prepare_seconds: f64,
+    /// The seed the points were drawn with (`None` for given points).
+    pub seed: Option<u64>,
 }
 
 /// A 64-bit FNV-1a hash (the per-model seed of [`QueryJob::for_model`]).
@@ -876,6 +889,7 @@ impl QueryJob {
             points: points.len(),
             inside,
             prepare_seconds,
+            seed: self.seed(),
         })
     }
 }

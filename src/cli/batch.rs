@@ -109,10 +109,7 @@ fn query_job(args: &BatchArgs) -> anyhow::Result<Option<QueryJob>> {
         }
     };
     let what = if args.what.is_empty() {
-        match points {
-            QueryPoints::Sample { .. } => vec![QueryWhat::Occupancy],
-            QueryPoints::Given(_) => vec![QueryWhat::Winding, QueryWhat::Occupancy],
-        }
+        points.default_what()
     } else {
         QueryWhat::parse_list(&args.what)?
     };

@@ -69,15 +69,6 @@ pub struct QueryArgs {
 
 /// Runs `gregvox query`.
 pub fn run(args: &QueryArgs) -> anyhow::Result<()> {
-    let what = if args.what.is_empty() {
-        if args.sample.is_some() {
-            vec![QueryWhat::Occupancy]
-        } else {
-            vec![QueryWhat::Winding, QueryWhat::Occupancy]
-        }
-    } else {
-        QueryWhat::parse_list(&args.what)?
-    };
     let points = match (&args.points, &args.sample) {
         (Some(p), _) => QueryPoints::Given(std::sync::Arc::new(crate::npy::read_points(p)?)),
         (None, Some(specs)) => QueryPoints::Sample {
@@ -86,6 +77,11 @@ pub fn run(args: &QueryArgs) -> anyhow::Result<()> {
             seed: args.seed,
         },
         (None, None) => unreachable!("clap requires --points or --sample"),
+    };
+    let what = if args.what.is_empty() {
+        points.default_what()
+    } else {
+        QueryWhat::parse_list(&args.what)?
     };
     let job = QueryJob {
         what,

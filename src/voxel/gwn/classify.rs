@@ -669,7 +669,8 @@ impl Walk<'_> {
             });
             (order, sum)
         };
-        let all = list(false);
+        // The whole list only for the voxels the model leaves open (none, in the middle of a wide cap).
+        let all = std::cell::OnceCell::new();
         let small = large_model.map(|_| list(true));
         // A voxel from the far fields `(far, far_err)` and the kept nodes `order`.
         let at_voxel = |q: [f64; 3],
@@ -732,7 +733,7 @@ impl Walk<'_> {
                             small_far + local[1].value_at(q),
                             local[0].err + local[1].err,
                         );
-                        at_voxel(q, far, &all)
+                        at_voxel(q, far, all.get_or_init(|| list(false)))
                     });
                     match answer {
                         Some(0) => {}
