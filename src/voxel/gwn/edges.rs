@@ -9,9 +9,10 @@
 //! [`EdgeTree::linear`] goes one order further for the classifier's boxes: the exact gradient of the near
 //! edges at the centre, and a bound on the rest over the ball (the far edges' whole variation, the near
 //! edges' r²·|e|/(d − r)³). Cost of either query: the nodes whose bound exceeds `eps`, O(log E) plus the
-//! edges near the ball; the worst case is a ball close to a long rim of many edges, which the classifier
-//! meets only near large caps (`tests/voxel_gwn.rs` runs a 10⁵-edge open tube; the bench's `gwn_worst`
-//! half a million).
+//! edges near the ball; the worst case is a ball close to a long rim of many edges (the gradient bound meets
+//! it in `tests/voxel_gwn.rs`'s 10⁵-edge open tube and the bench's `gwn_worst`; the classifier makes the
+//! linear model only for at most `classify::LINEAR_MAX_TRIANGLES` large-cap triangles, so its rims are
+//! short).
 //!
 //! Invariants: segments are reordered so each leaf owns a contiguous range; children of an inner node are
 //! `first` and `first + 1`; every bound is an upper bound (distances rounded down).
