@@ -4,7 +4,9 @@
 //! not within 1e-6 of ½, and distances equal the brute-force minimum over every triangle; on the bunny
 //! with its five holes, the bunny with a third of its triangles removed (thousands of holes), an unwelded
 //! noisy soup and a closed sphere (integer winding numbers). Points on the surface and bad input are
-//! defined too.
+//! defined too. At scale, against libigl itself: 10⁶ uniform and 10⁶ near-surface points of the bunny, the
+//! bunny with 5 % of its triangles removed and the soup, drawn as `tests/oracle/gen_query.py` draws them
+//! (fixtures in `tests/fixtures/query/`): occupancy at every point, winding numbers at every 500th.
 mod common;
 
 use common::model;
@@ -14,7 +16,8 @@ use gregvox::mesh::load_mesh_file;
 use gregvox::voxel::gwn::kernel::{triangle_distance, winding_sum};
 use gregvox::voxel::gwn::Inside;
 use gregvox::voxel::mesh::TriMesh;
-use gregvox::voxel::stress::{obj_text, soup, with_holes, SplitMix64};
+use gregvox::voxel::stress::{fnv1a, obj_text, polygon_prism, soup, suite, with_holes, SplitMix64};
+use std::io::Read;
 
 fn mesh_of(t: &TriMesh) -> Mesh {
     gregvox::mesh::parse_obj(&obj_text(t), "case.obj").unwrap()
@@ -141,6 +144,56 @@ fn check_case(name: &str, t: &TriMesh, n: usize) {
     );
 }
 
+/// `n` points uniform in the box of the vertices the faces use, padded by 10 % per side, then `n` near the
+/// surface: a random triangle, a uniform point of it, moved per axis by (u₁ + u₂ + u₃ − 1.5)·1 % of the box.
+/// The same float64 operations in the same order as `tests/oracle/gen_query.py`, so the same bits.
+fn dataset_points(t: &TriMesh, n: usize, seed: u64) -> Vec<[f64; 3]> {
+    let mut lo = [f64::INFINITY; 3];
+    let mut hi = [f64::NEG_INFINITY; 3];
+    for &v in t.triangles.iter().flatten() {
+        let p = t.positions[v as usize];
+        for a in 0..3 {
+            lo[a] = lo[a].min(p[a] as f64);
+            hi[a] = hi[a].max(p[a] as f64);
+        }
+    }
+    let size: [f64; 3] = std::array::from_fn(|a| hi[a] - lo[a]);
+    let mut rng = SplitMix64(seed);
+    let mut out = Vec::with_capacity(2 * n);
+    for _ in 0..n {
+        let u = [rng.unit(), rng.unit(), rng.unit()];
+        out.push(std::array::from_fn(|a| {
+            (lo[a] - 0.1 * size[a]) + (1.2 * size[a]) * u[a]
+        }));
+    }
+    for _ in 0..n {
+        let tri = t.triangles[rng.below(t.triangles.len())];
+        let (u, v) = (rng.unit(), rng.unit());
+        let (u, v) = if u + v > 1.0 {
+            (1.0 - u, 1.0 - v)
+        } else {
+            (u, v)
+        };
+        let c = |k: usize, a: usize| t.positions[tri[k] as usize][a] as f64;
+        let mut p = [0.0; 3];
+        for (a, pa) in p.iter_mut().enumerate() {
+            let s = (rng.unit() + rng.unit() + rng.unit() - 1.5) * 0.01 * size[a];
+            *pa = c(0, a) + u * (c(1, a) - c(0, a)) + v * (c(2, a) - c(0, a)) + s;
+        }
+        out.push(p);
+    }
+    out
+}
+
+/// FNV-1a of the first and last 10,000 points' float64 bytes (little-endian): what the fixture records.
+fn points_digest(points: &[[f64; 3]]) -> String {
+    let ends = points[..10_000]
+        .iter()
+        .chain(&points[points.len() - 10_000..]);
+    let bytes: Vec<u8> = ends.flatten().flat_map(|x| x.to_le_bytes()).collect();
+    format!("{:016x}", fnv1a(&bytes))
+}
+
 fn bunny() -> TriMesh {
     TriMesh::fan(&load_mesh_file(model("stanford-bunny.obj")).unwrap())
 }
@@ -162,19 +215,7 @@ fn a_prism_with_huge_polygon_caps_matches_the_plain_sum() {
     // Two 4,000-gons fanned from one vertex: 3,998 long slivers per cap meeting at a point, the attack on
     // the crossing index's buckets (every cell crossed by slivers) and on the distance tree's boxes. Open
     // on one side panel: the fractional term is a cap across it.
-    let n = 4000u32;
-    let mut positions = Vec::new();
-    for z in [0.0f32, 1.0] {
-        for i in 0..n {
-            let t = std::f32::consts::TAU * i as f32 / n as f32;
-            positions.push([t.cos(), t.sin(), z]);
-        }
-    }
-    let mut faces: Vec<Vec<u32>> = vec![(0..n).rev().collect(), (n..2 * n).collect()];
-    for i in 1..n {
-        faces.push(vec![i - 1, i, n + i, n + i - 1]);
-    }
-    let prism = TriMesh::from_polygons(positions, &faces).unwrap();
+    let prism = polygon_prism(4000);
     check_case("prism_4000_gon_caps", &prism, 150);
 }
 
@@ -264,4 +305,104 @@ fn bad_points_and_empty_meshes_are_refused_with_one_message() {
         ..QueryOptions::default()
     };
     assert!(MeshQuery::new(&mesh_of(&cube), &bad).is_err());
+}
+
+/// The oracle of `tests/oracle/gen_query.py`: at 10⁶ uniform and 10⁶ near-surface points of the bunny (five
+/// holes), the bunny with 5 % of its triangles removed (about 3,000 holes) and the unwelded noisy soup,
+/// occupancy equals |w| ≥ ½ of libigl's exact winding number at every point whose exact |w| is not within 1e-6
+/// of ½, and the winding numbers at every 500th point equal libigl's within 1e-6.
+#[test]
+fn a_million_uniform_and_a_million_near_points_per_mesh_match_libigls_exact_winding_number() {
+    let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/fixtures/query");
+    let index: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(dir.join("index.json")).unwrap()).unwrap();
+    let n = index["points"].as_u64().unwrap() as usize;
+    let seed = index["seed"].as_u64().unwrap();
+    let stride = index["stride"].as_u64().unwrap() as usize;
+    let b = bunny();
+    let teapot = TriMesh::fan(&load_mesh_file(model("teapot.obj")).unwrap());
+    let cases = suite(&b, &teapot);
+    for case in index["cases"].as_array().unwrap() {
+        let name = case["model"].as_str().unwrap();
+        let t = if name == "stanford-bunny" {
+            let bytes = std::fs::read(model("stanford-bunny.obj")).unwrap();
+            assert_eq!(
+                format!("{:016x}", fnv1a(&bytes)),
+                case["fnv1a"].as_str().unwrap()
+            );
+            b.clone()
+        } else {
+            let t = cases.iter().find(|c| c.name == name).unwrap().mesh.clone();
+            assert_eq!(
+                format!("{:016x}", fnv1a(obj_text(&t).as_bytes())),
+                case["fnv1a"].as_str().unwrap(),
+                "{name}: the generator no longer makes the mesh the oracle saw (rerun gen_query.py)"
+            );
+            t
+        };
+        let points = dataset_points(&t, n, seed);
+        assert_eq!(
+            points_digest(&points),
+            case["points_fnv1a"].as_str().unwrap(),
+            "{name}: the points differ from the oracle's"
+        );
+        let mut blob = Vec::new();
+        flate2::read::ZlibDecoder::new(
+            std::fs::File::open(dir.join(case["file"].as_str().unwrap())).unwrap(),
+        )
+        .read_to_end(&mut blob)
+        .unwrap();
+        let (bits, values) = blob.split_at((2 * n).div_ceil(8));
+        let want_w: Vec<f64> = values
+            .chunks_exact(8)
+            .map(|c| f64::from_le_bytes(c.try_into().unwrap()))
+            .collect();
+        assert_eq!(want_w.len(), (2 * n).div_ceil(stride));
+        let near_half: Vec<usize> = case["near_half"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|x| x.as_u64().unwrap() as usize)
+            .collect();
+        let q = MeshQuery::new(&mesh_of(&t), &QueryOptions::default()).unwrap();
+        let occ = q.occupancy(&points).unwrap();
+        let mut wrong = Vec::new();
+        for (i, &o) in occ.iter().enumerate() {
+            let want = bits[i / 8] >> (i % 8) & 1 == 1;
+            if o != want && near_half.binary_search(&i).is_err() {
+                wrong.push(i);
+            }
+        }
+        assert!(
+            wrong.is_empty(),
+            "{name}: {} of {} points differ from libigl's exact occupancy (first {:?})",
+            wrong.len(),
+            occ.len(),
+            &wrong[..wrong.len().min(5)]
+        );
+        let inside = occ.iter().filter(|&&o| o).count();
+        let want_inside =
+            case["inside_uniform"].as_u64().unwrap() + case["inside_near"].as_u64().unwrap();
+        assert!(
+            (inside as u64).abs_diff(want_inside) <= near_half.len() as u64,
+            "{name}: {inside} inside, the oracle {want_inside}"
+        );
+        let strided: Vec<[f64; 3]> = points.iter().step_by(stride).copied().collect();
+        let w = q.winding_numbers(&strided).unwrap();
+        let worst = w
+            .iter()
+            .zip(&want_w)
+            .map(|(a, b)| (a - b).abs())
+            .fold(0.0f64, f64::max);
+        assert!(
+            worst <= 1e-6,
+            "{name}: winding numbers {worst:.2e} from libigl's exact ones"
+        );
+        eprintln!(
+            "{name}: {} points, {inside} inside, {} within 1e-6 of ½, winding numbers at {} points within {worst:.1e}",
+            points.len(),
+            near_half.len(),
+            strided.len()
+        );
+    }
 }

@@ -2,7 +2,9 @@
 //! occupancy and winding numbers against `igl.fast_winding_number` (approximate), signed distance against
 //! `igl.signed_distance` with its fast-winding-number sign, unsigned distance against
 //! `igl.point_mesh_squared_distance`; on the bunny (five holes), the bunny with a third of its triangles
-//! removed (thousands of holes), the unwelded noisy soup and a closed model.
+//! removed (thousands of holes), the unwelded noisy soup, a closed model and a prism whose caps are two
+//! 4,000-gons (7,996 slivers meeting at two points, one side panel open: the attack on the crossing index,
+//! the distance tree and the caps).
 //!
 //! Invariants: the points are uniform in the box padded by 10 % and near the surface (area-weighted
 //! samples moved by normal offsets of σ = 1 % of the box's longest side), seeded, written once as float64
@@ -15,7 +17,7 @@ use crate::api::query::{MeshQuery, QueryOptions, SampleSpec};
 use crate::api::Mesh;
 use crate::mesh::load_mesh_file;
 use crate::voxel::mesh::TriMesh;
-use crate::voxel::stress::{obj_text, soup, with_holes};
+use crate::voxel::stress::{obj_text, polygon_prism, soup, with_holes};
 use serde_json::Value;
 use std::time::Instant;
 
@@ -44,6 +46,12 @@ pub fn run(cfg: &BenchConfig, report: &mut Report) -> anyhow::Result<()> {
         (
             "spot (closed)",
             TriMesh::fan(&load_mesh_file(cfg.model("spot.obj")?)?),
+        ),
+        // The worst case for the crossing index and the distance tree: 2 × 3,998 slivers meeting at a
+        // point, and a cap across the open panel.
+        (
+            "prism of two 4,000-gons, one panel open",
+            polygon_prism(4000),
         ),
     ];
     let dir = std::env::temp_dir().join(format!("gregvox-bench-query-{}", std::process::id()));

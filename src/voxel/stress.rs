@@ -101,6 +101,27 @@ pub fn open_tube(segments: usize) -> TriMesh {
     out
 }
 
+/// A prism over a regular `n`-gon (unit circumradius, height 1), its two caps one polygon each (fanned from
+/// one vertex into n − 2 long slivers meeting at a point) and its side panels quads, one panel left out: an
+/// open mesh whose fractional term is a cap across that panel. The attack on the crossing index's buckets
+/// (every cell crossed by slivers), on the distance tree's boxes and on the queries near the caps
+/// (`tests/query_points.rs`, the query bench).
+pub fn polygon_prism(n: u32) -> TriMesh {
+    let n = n.max(3);
+    let mut positions = Vec::new();
+    for z in [0.0f32, 1.0] {
+        for i in 0..n {
+            let t = std::f32::consts::TAU * i as f32 / n as f32;
+            positions.push([t.cos(), t.sin(), z]);
+        }
+    }
+    let mut faces: Vec<Vec<u32>> = vec![(0..n).rev().collect(), (n..2 * n).collect()];
+    for i in 1..n {
+        faces.push(vec![i - 1, i, n + i, n + i - 1]);
+    }
+    TriMesh::from_polygons(positions, &faces).expect("a prism's polygons are valid")
+}
+
 /// `count` overlapping open spherical shells in the unit cube: each a zone of a sphere from its pole down to
 /// a random polar angle (54° to 126°), at a random centre, radius (0.015 to 0.05) and axis, outward,
 /// `rings`×`segments` quads.
