@@ -18,8 +18,17 @@
 //! 4.5θ³·2πσ·ln(D_max/D_min) steradians over a surface a fraction σ of which is cap, so separating a margin
 //! of 0.01–0.1 needs θ near 0.1–0.2 and thousands of shares per voxel. The refinement order is not the
 //! limit: a max-heap opening the worst share first (or the worst half of the error per round) made the
-//! same decisions 10–20 % slower than opening the worst quarter per round. Higher-order expansions (error
-//! ∝ θ^(p+1)) are what would cut it.
+//! same decisions 10–20 % slower than opening the worst quarter per round.
+//!
+//! Higher-order expansions were measured too (2026-12-06, an experiment not merged: Cartesian Taylor
+//! coefficients of 1/|y| by their recurrence, and the moments folded into traceless form so a point costs
+//! one polynomial in y/|y|, both checked against the exact sums with rigorous tails A/D²·Σ_(n≥p+2) n·tⁿ⁻¹).
+//! An order-4 value cost 3–4× the hand-written order-2 one (about 200 against 50 ns), while at a fixed error
+//! it accepts nodes only about (θ₂/θ₄)² ≈ 0.44× as many: break-even for decisions whose margins are
+//! 0.01–0.5, and slower as wired (direct 1.7 → 3.0 s, labelling 7.7 → 10.2 s on a third of the bunny removed
+//! at 192³, the same grids). They pay only for tight values (winding numbers within 1e-6, where order 2
+//! needs θ ≈ 0.01); what would cut the decisions is a cheaper far field per voxel (shared local expansions
+//! of higher order, as a fast multipole method's), not a costlier one per node.
 use super::classify::{Fractional, Limits, Scratches, SLACK};
 use super::crossing::Crossings;
 use super::kernel::FOUR_PI;
