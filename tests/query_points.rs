@@ -30,47 +30,10 @@ fn triangles(t: &TriMesh) -> Vec<[[f64; 3]; 3]> {
         .collect()
 }
 
-/// `n` uniform points in the box padded by 10 %, and `n` near the surface (vertices moved by Gaussian-ish
-/// offsets of 1 % of the box).
-fn points(t: &TriMesh, n: usize, seed: u64) -> Vec<[f64; 3]> {
-    let mut lo = [f64::INFINITY; 3];
-    let mut hi = [f64::NEG_INFINITY; 3];
-    for p in &t.positions {
-        for a in 0..3 {
-            lo[a] = lo[a].min(p[a] as f64);
-            hi[a] = hi[a].max(p[a] as f64);
-        }
-    }
-    let size: [f64; 3] = std::array::from_fn(|a| hi[a] - lo[a]);
-    let mut rng = SplitMix64(seed);
-    let mut out = Vec::new();
-    for _ in 0..n {
-        out.push(std::array::from_fn(|a| {
-            lo[a] - 0.1 * size[a] + 1.2 * size[a] * rng.unit()
-        }));
-    }
-    for _ in 0..n {
-        let tri = t.triangles[rng.below(t.triangles.len())];
-        let (u, v) = (rng.unit(), rng.unit());
-        let (u, v) = if u + v > 1.0 {
-            (1.0 - u, 1.0 - v)
-        } else {
-            (u, v)
-        };
-        let p = |k: usize| tri[k];
-        out.push(std::array::from_fn(|a| {
-            let c = |k: usize| t.positions[p(k) as usize][a] as f64;
-            let s = (rng.unit() + rng.unit() + rng.unit() - 1.5) * 0.01 * size[a];
-            c(0) + u * (c(1) - c(0)) + v * (c(2) - c(0)) + s
-        }));
-    }
-    out
-}
-
 fn check_case(name: &str, t: &TriMesh, n: usize) {
     let mesh = mesh_of(t);
     let q = MeshQuery::new(&mesh, &QueryOptions::default()).unwrap();
-    let pts = points(t, n, 7);
+    let pts = dataset_points(t, n, 7);
     let (w, occ) = q.winding_and_occupancy(&pts).unwrap();
     // The reference: the plain sum over the cleaned triangles (the same hygiene; these meshes have no
     // duplicates, so it is every triangle).
