@@ -772,7 +772,7 @@ impl Walk<'_> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::voxel::gwn::{local_triangles, Proxy};
+    use crate::voxel::gwn::{local_triangles, FractionalField, Proxy};
     use crate::voxel::mesh::TriMesh;
 
     /// The fractional term of a sphere with a ring of triangles removed, in a 32³ grid round it.
@@ -837,13 +837,6 @@ mod tests {
         assert_eq!(label(w(0.0), w(0.5)), None);
         assert_eq!(label(f64::NEG_INFINITY, 0.0), None);
     }
-}
-
-#[cfg(test)]
-mod linear_tests {
-    use super::*;
-    use crate::voxel::gwn::{FractionalField, Proxy};
-    use crate::voxel::mesh::TriMesh;
 
     #[test]
     fn the_large_caps_linear_model_holds_over_a_cell() {

@@ -17,7 +17,7 @@
 //! Invariants: segments are reordered so each leaf owns a contiguous range; children of an inner node are
 //! `first` and `first + 1`; every bound is an upper bound (distances rounded down).
 use super::kernel::{norm, segment_distance2};
-use crate::voxel::surface::sub;
+use crate::voxel::surface::{cross, dot, sub};
 
 /// Segments per leaf at most.
 pub const LEAF: usize = 8;
@@ -142,25 +142,16 @@ impl EdgeTree {
     }
 }
 
-/// The gradient at `p` of the solid angle a straight edge `a → b` contributes (the Biot–Savart field of the
-/// segment, in the stable form (r₁ × r₂)(|r₁| + |r₂|) / (|r₁||r₂|(|r₁||r₂| + r₁·r₂)), r₁,₂ = the ends − p,
-/// oriented as the caps' rims are).
+/// The gradient at `p` of the solid angle a straight edge `a → b` contributes, oriented as the caps' rims
+/// are (checked against finite differences): the Biot–Savart field of the segment, in the stable form
+/// (r₁ × r₂)(|r₁| + |r₂|) / (|r₁||r₂|(|r₁||r₂| + r₁·r₂)), r₁,₂ = the ends − p.
 #[inline]
 pub fn segment_field(p: [f64; 3], a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
     let (r1, r2) = (sub(a, p), sub(b, p));
     let (l1, l2) = (norm(r1), norm(r2));
-    let x = [
-        r1[1] * r2[2] - r1[2] * r2[1],
-        r1[2] * r2[0] - r1[0] * r2[2],
-        r1[0] * r2[1] - r1[1] * r2[0],
-    ];
-    let dot = r1[0] * r2[0] + r1[1] * r2[1] + r1[2] * r2[2];
-    let k = (l1 + l2) / (l1 * l2 * (l1 * l2 + dot));
-    [SIGN * k * x[0], SIGN * k * x[1], SIGN * k * x[2]]
+    let k = (l1 + l2) / (l1 * l2 * (l1 * l2 + dot(r1, r2)));
+    cross(r1, r2).map(|x| k * x)
 }
-
-/// The orientation of [`segment_field`] relative to the caps' rims (checked against finite differences).
-const SIGN: f64 = 1.0;
 
 fn build(nodes: &mut Vec<Node>, segs: &mut [[[f64; 3]; 2]], at: usize, start: usize, end: usize) {
     let (mut lo, mut hi) = ([f64::INFINITY; 3], [f64::NEG_INFINITY; 3]);
