@@ -64,7 +64,11 @@
 //! every cost ties (the scrambled tie-break keeps them parallel: a tessellated box goes from 8,064 to 806
 //! triangles in 28 passes, against 199 with ties broken by index) and a high-valence fan (a 4,000-gon's
 //! fan vertex: its checks cost d² and only one of its edges collapses a pass; measured in
-//! `tests/mesh_simplify.rs`). Passes are capped at [`MAX_PASSES`].
+//! `tests/mesh_simplify.rs`). Passes are capped at [`MAX_PASSES`]. A deep reduction ends in many small
+//! passes (a 1 % target: 30–60 of them), so loops over fewer than [`PARALLEL_MIN`] items run on the calling
+//! thread: waking the pool for each round of each pass cost more than the work (`examples/simplify_profile.rs`
+//! over the bench's meshes: system time, mostly the pool's yields, 3.3–3.7 s → 0.6–0.9 s of 13–16 s of CPU;
+//! the same triangles). `GREGVOX_SIMPLIFY_TIMES=1` prints the stages' times and each pass's counts.
 use glam::DVec3;
 use rayon::prelude::*;
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
@@ -83,6 +87,24 @@ pub const SLACK: f32 = 1.5;
 pub const MAX_ROUNDS: usize = 16;
 /// Vertices per block of the parallel loops (fixed, so results do not depend on the thread count).
 const BLOCK: usize = 2048;
+/// The stages `GREGVOX_SIMPLIFY_TIMES` reports, in order.
+const STAGES: [&str; 12] = [
+    "input",
+    "adjacency",
+    "locks",
+    "quadrics",
+    "normals",
+    "setup",
+    "pass adjacency (and the last pass's compaction)",
+    "pass candidates",
+    "pass selection",
+    "pass independent sets",
+    "pass collapses",
+    "the last pass's tail",
+];
+/// Loops over fewer items than this run on the calling thread (the late passes of a deep reduction are
+/// many and small: waking the pool cost more than their work).
+pub const PARALLEL_MIN: usize = 4096;
 
 /// Where the merged vertex of a collapse goes.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
@@ -267,63 +289,71 @@ impl Adjacency {
         let mut nb = vec![0u32; total];
         let mut nb_faces = vec![0u8; total];
         let mut nb_len = vec![0u32; n];
+        let mut border = vec![false; n];
         {
             let starts: Vec<usize> = (0..n.div_ceil(BLOCK))
                 .map(|b| 2 * vf_ptr[b * BLOCK] as usize)
                 .collect();
             let nb_blocks = split_at_offsets(&mut nb, &starts);
             let nbf_blocks = split_at_offsets(&mut nb_faces, &starts);
-            nb_blocks
-                .into_par_iter()
-                .zip(nbf_blocks)
-                .zip(nb_len.par_chunks_mut(BLOCK))
-                .enumerate()
-                .for_each(|(b, ((nbs, nbfs), lens))| {
-                    let base = 2 * vf_ptr[b * BLOCK] as usize;
-                    let mut scratch: Vec<u32> = Vec::new();
-                    for (i, len) in lens.iter_mut().enumerate() {
-                        let v = (b * BLOCK + i) as u32;
-                        let (s, e) = (vf_ptr[v as usize] as usize, vf_ptr[v as usize + 1] as usize);
-                        scratch.clear();
-                        for &f in &vf[s..e] {
-                            for &u in &tri[f as usize] {
-                                if u != v {
-                                    scratch.push(u);
-                                }
+            // One block: a vertex's distinct neighbours (sorted), each edge's face count, and whether the
+            // vertex has a boundary edge.
+            let block = |(b, ((nbs, nbfs), (lens, borders))): (
+                usize,
+                ((&mut [u32], &mut [u8]), (&mut [u32], &mut [bool])),
+            )| {
+                let base = 2 * vf_ptr[b * BLOCK] as usize;
+                let mut scratch: Vec<u32> = Vec::new();
+                for (i, (len, on_border)) in lens.iter_mut().zip(borders.iter_mut()).enumerate() {
+                    let v = (b * BLOCK + i) as u32;
+                    let (s, e) = (vf_ptr[v as usize] as usize, vf_ptr[v as usize + 1] as usize);
+                    scratch.clear();
+                    for &f in &vf[s..e] {
+                        for &u in &tri[f as usize] {
+                            if u != v {
+                                scratch.push(u);
                             }
                         }
-                        scratch.sort_unstable();
-                        let out = 2 * s - base;
-                        let mut k = 0usize;
-                        let mut j = 0usize;
-                        while j < scratch.len() {
-                            let u = scratch[j];
-                            let mut c = 0usize;
-                            while j < scratch.len() && scratch[j] == u {
-                                c += 1;
-                                j += 1;
-                            }
-                            nbs[out + k] = u;
-                            nbfs[out + k] = c.min(255) as u8;
-                            k += 1;
-                        }
-                        *len = k as u32;
                     }
-                });
+                    scratch.sort_unstable();
+                    let out = 2 * s - base;
+                    let mut k = 0usize;
+                    let mut j = 0usize;
+                    while j < scratch.len() {
+                        let u = scratch[j];
+                        let mut c = 0usize;
+                        while j < scratch.len() && scratch[j] == u {
+                            c += 1;
+                            j += 1;
+                        }
+                        nbs[out + k] = u;
+                        nbfs[out + k] = c.min(255) as u8;
+                        *on_border |= c == 1;
+                        k += 1;
+                    }
+                    *len = k as u32;
+                }
+            };
+            let blocks: Vec<_> = nb_blocks
+                .into_iter()
+                .zip(nbf_blocks)
+                .zip(nb_len.chunks_mut(BLOCK).zip(border.chunks_mut(BLOCK)))
+                .enumerate()
+                .collect();
+            if n >= PARALLEL_MIN {
+                blocks.into_par_iter().for_each(block);
+            } else {
+                blocks.into_iter().for_each(block);
+            }
         }
-        let mut adj = Adjacency {
+        Adjacency {
             vf_ptr,
             vf,
             nb,
             nb_faces,
             nb_len,
-            border: Vec::new(),
-        };
-        adj.border = (0..n as u32)
-            .into_par_iter()
-            .map(|v| adj.neighbours(v).1.contains(&1))
-            .collect();
-        adj
+            border,
+        }
     }
     fn faces(&self, v: u32) -> &[u32] {
         &self.vf[self.vf_ptr[v as usize] as usize..self.vf_ptr[v as usize + 1] as usize]
@@ -398,23 +428,49 @@ struct State<'a> {
 
 /// Whether the fan of triangles around `v` is one disc or half-disc, consistently oriented.
 fn fan_is_manifold(v: u32, faces: &[u32], tri: &[[u32; 3]]) -> bool {
+    // Most fans are small: sorted on the stack, no allocation per vertex.
+    const SMALL: usize = 32;
+    if faces.len() <= SMALL {
+        let mut pn = [(0u32, 0u32); SMALL];
+        let mut nexts = [0u32; SMALL];
+        fan_chain(
+            v,
+            faces,
+            tri,
+            &mut pn[..faces.len()],
+            &mut nexts[..faces.len()],
+        )
+    } else {
+        let mut pn = vec![(0u32, 0u32); faces.len()];
+        let mut nexts = vec![0u32; faces.len()];
+        fan_chain(v, faces, tri, &mut pn, &mut nexts)
+    }
+}
+
+/// [`fan_is_manifold`] with its scratch (`pn` and `nexts` as long as `faces`).
+fn fan_chain(
+    v: u32,
+    faces: &[u32],
+    tri: &[[u32; 3]],
+    pn: &mut [(u32, u32)],
+    nexts: &mut [u32],
+) -> bool {
     // (previous, next) corner of v in every face; the fan is one chain when following next → previous
     // visits every face once. Sorted lookups: O(d log d) for a vertex of d faces (a huge polygon's fan
     // vertex has all of them).
-    let mut pn: Vec<(u32, u32)> = faces
-        .iter()
-        .map(|&f| {
-            let t = tri[f as usize];
-            let k = t.iter().position(|&x| x == v).unwrap_or(0);
-            (t[(k + 2) % 3], t[(k + 1) % 3])
-        })
-        .collect();
+    for (slot, &f) in pn.iter_mut().zip(faces) {
+        let t = tri[f as usize];
+        let k = t.iter().position(|&x| x == v).unwrap_or(0);
+        *slot = (t[(k + 2) % 3], t[(k + 1) % 3]);
+    }
     let n = pn.len();
     if n <= 1 {
         return true;
     }
     pn.sort_unstable();
-    let mut nexts: Vec<u32> = pn.iter().map(|p| p.1).collect();
+    for (x, p) in nexts.iter_mut().zip(pn.iter()) {
+        *x = p.1;
+    }
     nexts.sort_unstable();
     // Each corner may appear at most once as a "next" and once as a "prev".
     if nexts.windows(2).any(|w| w[0] == w[1]) || pn.windows(2).any(|w| w[0].0 == w[1].0) {
@@ -721,13 +777,25 @@ pub fn simplify(positions: &[DVec3], triangles: &[[u32; 3]], opts: &SimplifyOpti
         .filter(|t| t[0] != t[1] && t[1] != t[2] && t[0] != t[2])
         .collect();
     let degenerate_input = triangles.len() - tri.len();
+    // `GREGVOX_SIMPLIFY_TIMES=1`: the stages' times (summed over the passes) and each pass's counts on
+    // stderr, as `GREGVOX_GWN_TIMES` does for the winding number.
+    let timing = std::env::var_os("GREGVOX_SIMPLIFY_TIMES").is_some();
+    let mut tm = [0f64; STAGES.len()];
+    let mut clock = std::time::Instant::now();
+    let mut lap = |k: usize, tm: &mut [f64; STAGES.len()]| {
+        let now = std::time::Instant::now();
+        tm[k] += (now - clock).as_secs_f64() * 1e3;
+        clock = now;
+    };
     let mut pruned_triangles = 0;
     if opts.prune > 0.0 {
         let before = tri.len();
         tri = prune_small_pieces(positions, tri, opts.prune);
         pruned_triangles = before - tri.len();
     }
+    lap(0, &mut tm);
     let adj = Adjacency::build(n, &tri);
+    lap(1, &mut tm);
     // Locks: seams (bit-identical positions of distinct referenced vertices), non-manifold fans,
     // optionally the border.
     let mut flags = vec![0u8; n];
@@ -754,7 +822,9 @@ pub fn simplify(positions: &[DVec3], triangles: &[[u32; 3]], opts: &SimplifyOpti
     let locked_vertices = (0..n)
         .filter(|&v| referenced[v] && flags[v] & LOCKED != 0)
         .count();
+    lap(2, &mut tm);
     let quad = initial_quadrics(positions, &tri, &adj);
+    lap(3, &mut tm);
     let normal: Vec<DVec3> = (0..n as u32)
         .into_par_iter()
         .map(|v| {
@@ -767,6 +837,7 @@ pub fn simplify(positions: &[DVec3], triangles: &[[u32; 3]], opts: &SimplifyOpti
                 .sum()
         })
         .collect();
+    lap(4, &mut tm);
     let mut st = State {
         pos: positions.to_vec(),
         quad,
@@ -785,6 +856,7 @@ pub fn simplify(positions: &[DVec3], triangles: &[[u32; 3]], opts: &SimplifyOpti
     let (mut error2, mut collapses, mut passes) = (0.0f64, 0usize, 0usize);
     let mut adj = Some(adj);
     let mut cache: Option<Cache> = None;
+    lap(5, &mut tm);
     // Vertices removed since the arrays were last compacted (the unreferenced input ones count too).
     let mut dead = referenced.iter().filter(|&&r| !r).count();
     while st.tri.len() > opts.target_faces && passes < MAX_PASSES {
@@ -792,13 +864,20 @@ pub fn simplify(positions: &[DVec3], triangles: &[[u32; 3]], opts: &SimplifyOpti
             .take()
             .unwrap_or_else(|| Adjacency::build(st.pos.len(), &st.tri));
         passes += 1;
+        lap(6, &mut tm);
         let nv = st.pos.len();
         let blocks = nv.div_ceil(BLOCK);
-        let cands: Vec<Candidate> = (0..blocks)
-            .into_par_iter()
-            .map(|b| st.candidates(&a, b, bound, cache.as_ref()))
-            .collect::<Vec<_>>()
-            .concat();
+        let block_candidates = |b: usize| st.candidates(&a, b, bound, cache.as_ref());
+        let cands: Vec<Candidate> = if nv >= PARALLEL_MIN {
+            (0..blocks)
+                .into_par_iter()
+                .map(block_candidates)
+                .collect::<Vec<_>>()
+                .concat()
+        } else {
+            (0..blocks).flat_map(block_candidates).collect()
+        };
+        lap(7, &mut tm);
         if cands.is_empty() {
             break;
         }
@@ -827,6 +906,7 @@ pub fn simplify(positions: &[DVec3], triangles: &[[u32; 3]], opts: &SimplifyOpti
             let mut active: Vec<u32> = (0..cands.len() as u32)
                 .filter(|&i| keys[i as usize] <= limit)
                 .collect();
+            lap(8, &mut tm);
             let chosen = independent_collapses(
                 &st,
                 &a,
@@ -836,11 +916,20 @@ pub fn simplify(positions: &[DVec3], triangles: &[[u32; 3]], opts: &SimplifyOpti
                 limit_cost.min(bound),
                 want,
             );
+            lap(9, &mut tm);
             if !chosen.is_empty() || take == cands.len() {
                 break chosen;
             }
             take = (take * 4).min(cands.len());
         };
+        if timing {
+            eprintln!(
+                "simplify pass {passes}: {} triangles, {} candidates, {take} considered, {} chosen",
+                st.tri.len(),
+                cands.len(),
+                chosen.len()
+            );
+        }
         // Past the target, only the cheapest collapses of this pass are made (in key order).
         let mut removed = 0usize;
         let cut = chosen
@@ -873,17 +962,19 @@ pub fn simplify(positions: &[DVec3], triangles: &[[u32; 3]], opts: &SimplifyOpti
         let Adjacency { border, .. } = a;
         let allow = opts.allow_topology;
         // B' = K·B: one gather of the index buffer; triangles that lost a corner go.
-        st.tri = st
-            .tri
-            .par_iter()
-            .filter_map(|t| {
-                let u = t.map(|x| remap[x as usize]);
-                (u[0] != u[1] && u[1] != u[2] && u[0] != u[2]).then_some(u)
-            })
-            .collect();
+        let gather = |t: &[u32; 3]| {
+            let u = t.map(|x| remap[x as usize]);
+            (u[0] != u[1] && u[1] != u[2] && u[0] != u[2]).then_some(u)
+        };
+        st.tri = if st.tri.len() >= PARALLEL_MIN {
+            st.tri.par_iter().filter_map(gather).collect()
+        } else {
+            st.tri.iter().filter_map(gather).collect()
+        };
         if allow {
             dedup_triangles(&mut st.tri);
         }
+        lap(10, &mut tm);
         // Compact the vertex arrays once half of them are gone, so a pass costs the live mesh only.
         dead += chosen.len();
         if dead * 2 > nv {
@@ -907,7 +998,16 @@ pub fn simplify(positions: &[DVec3], triangles: &[[u32; 3]], opts: &SimplifyOpti
             });
         }
     }
+    lap(11, &mut tm);
     compact(&mut st, &mut ids);
+    if timing {
+        let stages: Vec<String> = STAGES
+            .iter()
+            .zip(tm)
+            .map(|(n, t)| format!("{n} {t:.1}"))
+            .collect();
+        eprintln!("simplify ms: {} ({passes} passes)", stages.join(", "));
+    }
     Simplified {
         positions: st.pos,
         triangles: st.tri,
@@ -956,12 +1056,19 @@ fn independent_collapses(
         if active.is_empty() || removed >= faces {
             break;
         }
-        active.par_iter().for_each(|&i| {
+        // Small rounds run on this thread: waking the pool costs more than they do.
+        let par = active.len() >= PARALLEL_MIN;
+        let least = |&i: &u32| {
             let c = &cands[i as usize];
             let k = keys[i as usize];
             m1[c.a as usize].fetch_min(k, Ordering::Relaxed);
             m1[c.b as usize].fetch_min(k, Ordering::Relaxed);
-        });
+        };
+        if par {
+            active.par_iter().for_each(least);
+        } else {
+            active.iter().for_each(least);
+        }
         let m2 = |v: u32| {
             let (nbs, _) = adj.neighbours(v);
             nbs.iter()
@@ -969,24 +1076,23 @@ fn independent_collapses(
                     m.min(m1[u as usize].load(Ordering::Relaxed))
                 })
         };
-        let minima: Vec<u32> = active
-            .par_iter()
-            .copied()
-            .filter(|&i| {
-                let c = &cands[i as usize];
-                let k = keys[i as usize];
-                // The least at both ends first (cheap), then over the closed one-rings.
-                m1[c.a as usize].load(Ordering::Relaxed) == k
-                    && m1[c.b as usize].load(Ordering::Relaxed) == k
-                    && m2(c.a) == k
-                    && m2(c.b) == k
-            })
-            .collect();
-        let valid: Vec<(u32, Option<Collapse>)> = minima
-            .par_iter()
-            .map(|&i| (i, st.validate(adj, &cands[i as usize], bound)))
-            .collect();
-        for (i, v) in valid {
+        // The local minima, each checked for validity.
+        let minimum = |&i: &u32| -> Option<(u32, Option<Collapse>)> {
+            let c = &cands[i as usize];
+            let k = keys[i as usize];
+            // The least at both ends first (cheap), then over the closed one-rings.
+            (m1[c.a as usize].load(Ordering::Relaxed) == k
+                && m1[c.b as usize].load(Ordering::Relaxed) == k
+                && m2(c.a) == k
+                && m2(c.b) == k)
+                .then(|| (i, st.validate(adj, c, bound)))
+        };
+        let minima: Vec<(u32, Option<Collapse>)> = if par {
+            active.par_iter().filter_map(minimum).collect()
+        } else {
+            active.iter().filter_map(minimum).collect()
+        };
+        for &(i, v) in &minima {
             let Some(col) = v else { continue };
             let c = &cands[i as usize];
             for e in [c.a, c.b] {
@@ -998,15 +1104,18 @@ fn independent_collapses(
             chosen.push((keys[i as usize], col, c.faces));
             removed += c.faces as usize;
         }
-        active.par_iter().for_each(|&i| {
+        // Minima leave (valid or not), and so do the edges the chosen ones blocked; m1 is reset for the
+        // next round on the way (`active` and `minima` are both in increasing order).
+        let mut next_minimum = minima.iter().map(|m| m.0).peekable();
+        active.retain(|&i| {
             let c = &cands[i as usize];
             m1[c.a as usize].store(u64::MAX, Ordering::Relaxed);
             m1[c.b as usize].store(u64::MAX, Ordering::Relaxed);
-        });
-        active.retain(|&i| {
-            let c = &cands[i as usize];
-            minima.binary_search(&i).is_err()
-                && !blocked[c.a as usize].load(Ordering::Relaxed)
+            if next_minimum.peek() == Some(&i) {
+                next_minimum.next();
+                return false;
+            }
+            !blocked[c.a as usize].load(Ordering::Relaxed)
                 && !blocked[c.b as usize].load(Ordering::Relaxed)
         });
     }
