@@ -298,10 +298,7 @@ impl Adjacency {
             let nbf_blocks = split_at_offsets(&mut nb_faces, &starts);
             // One block: a vertex's distinct neighbours (sorted), each edge's face count, and whether the
             // vertex has a boundary edge.
-            let block = |(b, ((nbs, nbfs), (lens, borders))): (
-                usize,
-                ((&mut [u32], &mut [u8]), (&mut [u32], &mut [bool])),
-            )| {
+            let block = |(b, ((nbs, nbfs), (lens, borders))): (usize, BlockSlices)| {
                 let base = 2 * vf_ptr[b * BLOCK] as usize;
                 let mut scratch: Vec<u32> = Vec::new();
                 for (i, (len, on_border)) in lens.iter_mut().zip(borders.iter_mut()).enumerate() {
@@ -367,6 +364,12 @@ impl Adjacency {
         self.border[v as usize]
     }
 }
+
+/// One block of [`Adjacency::build`]'s outputs: neighbours, their face counts, lengths and border flags.
+type BlockSlices<'a> = (
+    (&'a mut [u32], &'a mut [u8]),
+    (&'a mut [u32], &'a mut [bool]),
+);
 
 /// Splits `data` at the given increasing offsets (the first is the start of the first piece).
 fn split_at_offsets<'a, T>(data: &'a mut [T], starts: &[usize]) -> Vec<&'a mut [T]> {

@@ -16,7 +16,7 @@
 //!    T' − T + Q_ab + Q_bc + Q_ca is closed (Q_uv the quad u, v, v', u'), so its winding number vanishes
 //!    outside the hull of T ∪ T' (within τ of T). Hence w_M = w_{M'} + w_Q there, and X = C' ∪ (−Q):
 //!    w_M = n_{M'∪C'} − w_X. The ribbons are thin (width ≤ the weld's largest move), so the tree bounds them
-//!    by their width mass ([`super::tree`]). Quads whose corners did not move vanish.
+//!    by their widths ([`super::tree`]). Quads whose corners did not move vanish.
 //!
 //! Invariants: the weld moves no vertex farther than 2τ ([`Proxy::max_shift`]); M ∪ X is a closed chain
 //! exactly (as positions), so the exact crossing count of `super::crossing` applies to it; with τ = 0 and no

@@ -31,7 +31,8 @@
 //! # The bound
 //! Every interval is rigorous (`tree` module docs): a node of X contributes its order-2 expansion with the
 //! Legendre-tail truncation bound A/D²·[4.5t³/(1−t) + t⁴/(1−t)²] (t = ρ/D) plus r·2A/g³ over a ball of radius
-//! r, or ± min(A/d², W/d) (W = Σ 2π·width: thin ribbons stay cheap), and exact leaf triangles carry their
+//! r, or ± min(A/d², 4W/d) (W = Σ of the altitudes on the longest edges: thin ribbons stay cheap), and exact
+//! leaf triangles carry their
 //! rounding bound. A decision is taken from an interval only when it lies strictly on one side of ½ (of a
 //! half-integer for the labels), so every voxel gets exactly the answer of the exact winding number (up to
 //! the f64 rounding of the plain sum where the interval could not separate it from ½).
@@ -43,7 +44,7 @@
 //! - the solid pass: as the winding rule (O(V/32 + crossings));
 //! - labelling: B traversals of O(log X + nodes near the box); B is the number of boxes w_X comes within
 //!   the bounds' width of a half-integer: boxes near the caps (whose size is that of the holes, not their
-//!   number) and, for a soup welded by τ, the cells the ribbons cross (bounded there by their width mass,
+//!   number) and, for a soup welded by τ, the cells the ribbons cross (bounded there by their widths,
 //!   then voxel by voxel on the cell's near list);
 //! - direct: Z · (a bucket of the crossing index + one traversal); the plain O(T) sum only for the few
 //!   voxels whose |w| is within the bounds' error of ½.

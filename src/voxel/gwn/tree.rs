@@ -15,8 +15,9 @@
 //!   x = S(l) + s·u, (q − x)·e = l₀ − l exactly and the rest of q − x is at least a = D − w long (D the
 //!   distance from q to the spine's line), so |q − x|² ≥ (l − l₀)² + a². If q projects inside the spine,
 //!   the spine distance is D and ∫ w dl/((l − l₀)² + a²) ≤ πw/a = πw/d (d = spine distance − w). If it
-//!   projects a length ε beyond an end, the integral is at most (w/a)(π/2 − φ) with tan φ = ε/a, while
-//!   d ≤ √(a² + ε²) = a/cos φ, and π/2 − φ ≤ π·cos φ (cos is above its chord on [0, π/2]): again ≤ πw/d.
+//!   projects a length ε beyond an end and a > 0, the integral is at most (w/a)(π/2 − φ) with tan φ = ε/a,
+//!   while d ≤ √(a² + ε²) = a/cos φ, and π/2 − φ ≤ π·cos φ (cos is above its chord on [0, π/2]): again
+//!   ≤ πw/d. If a ≤ 0 there (D ≤ w), |q − x| ≥ |l − l₀| ≥ ε gives at most w/ε, and d = √(D² + ε²) − w ≤ ε.
 //!   Where d falls below the distance ν guaranteed by the caller, the node form 4w/ν applies instead.
 //! - **expansion**: the order-2 Taylor expansion of the double-layer kernel about x̄ (Barnes & Jacobson's
 //!   dipole, quadrupole and octupole terms), evaluated at c. The kernel is −n̂·∇_δ of 1/|u − δ| (u = q − x̄,
@@ -155,25 +156,24 @@ impl TreeTriangle {
         self.width_bound(self.spine_distance(ball.c) - self.width - ball.r, ball.nu)
     }
 
-    /// min(A/d², πw/s) when the spine distance less the width, `s`, is at least ν; else min(A/d², 4w/d)
-    /// with d = max(s, ν) (the module docs prove both).
+    /// min(A/d², 4w/d, πw/s) with d = max(s, ν), s the spine distance less the width (πw/s only where
+    /// s > 0; the module docs prove each).
     #[inline]
     fn width_bound(&self, s: f64, nu: f64) -> f64 {
-        let (d, thin) = if s >= nu {
-            (s, std::f64::consts::PI)
-        } else {
-            (nu, 4.0)
-        };
+        let d = s.max(nu);
         if d <= 0.0 {
             return f64::INFINITY;
         }
         let d = d * (1.0 - 1e-12);
-        (self.area / (d * d)).min(thin * self.width / d)
+        let mut b = (self.area / (d * d)).min(4.0 * self.width / d);
+        if s > 0.0 {
+            b = b.min(std::f64::consts::PI * self.width / (s * (1.0 - 1e-12)));
+        }
+        b
     }
 
-    /// A bound on |Ω| at `q` for a query point at least `nu` from the triangle: min(A/d², πw/d) with d the
-    /// distance to the spine less the width (the triangle lies within `width` of its spine), or
-    /// min(A/ν², 4w/ν) when that is less than ν.
+    /// A bound on |Ω| at `q` for a query point at least `nu` from the triangle: min(A/d², 4w/d, πw/s), s the
+    /// distance to the spine less the width (the triangle lies within `width` of its spine), d = max(s, ν).
     #[inline]
     pub fn bound(&self, q: [f64; 3], nu: f64) -> f64 {
         self.width_bound(self.spine_distance(q) - self.width, nu)
@@ -300,12 +300,20 @@ impl Tree {
         let leaf = leaf.max(1);
         let mut nodes = vec![Node::default(); node_count(items.len(), leaf)];
         let (root, rest) = nodes.split_first_mut().expect("one node at least");
-        build_into(corners, &mut items, 0, root, rest, 1, leaf);
-        // The triangles in leaf order.
-        let tris: Vec<TreeTriangle> = items
-            .par_iter()
-            .map(|it| TreeTriangle::new(corners[it.index as usize]))
-            .collect();
+        // The triangles in leaf order, each made once, by the leaf that holds it.
+        let mut tris: Vec<TreeTriangle> = Vec::with_capacity(items.len());
+        build_into(
+            corners,
+            &mut items,
+            &mut tris.spare_capacity_mut()[..corners.len()],
+            0,
+            root,
+            rest,
+            1,
+            leaf,
+        );
+        // SAFETY: the leaves partition 0..len and each wrote every slot of its range (`build_into`).
+        unsafe { tris.set_len(corners.len()) };
         Tree {
             nodes,
             triangles: tris,
@@ -330,7 +338,7 @@ impl Tree {
             + (2 * (n as u64).div_ceil(half) + 1) * std::mem::size_of::<Node>() as u64
     }
 
-    /// The bound-only share of `node` at a ball `gap` away (at least `nu`): ± min(A/d², W/d).
+    /// The bound-only share of `node` at a ball `gap` away (at least `nu`): ± min(A/d², 4W/d).
     #[inline]
     pub fn node_bound(node: &Node, gap: f64, nu: f64) -> f64 {
         let dlo = gap.max(nu) * (1.0 - 1e-12);
@@ -1063,13 +1071,16 @@ fn node_count(n: usize, leaf: usize) -> usize {
 const PARALLEL_BUILD: usize = 4096;
 
 /// Builds the subtree over `items` (reordered; they start at `offset` in the whole list, which leaves
-/// index) into `root` and `rest` (its other nodes, which start at index `rest_base`): an inner node's
+/// index; `out`, as long as `items`, receives their triangles in leaf order, every slot written) into `root`
+/// and `rest` (its other nodes, which start at index `rest_base`): an inner node's
 /// children are `rest[0]` and `rest[1]`, then come the left child's other nodes, then the right child's.
 /// Median split of the centroids along the longest axis of their box; the layout does not depend on the
 /// number of threads (large halves are built in parallel into their own ranges).
+#[allow(clippy::too_many_arguments)]
 fn build_into(
     corners: &[[[f64; 3]; 3]],
     items: &mut [Item],
+    out: &mut [std::mem::MaybeUninit<TreeTriangle>],
     offset: usize,
     root: &mut Node,
     rest: &mut [Node],
@@ -1087,12 +1098,13 @@ fn build_into(
             ..Node::default()
         };
         let mut radius = 0.0f64;
-        for item in items.iter() {
+        for (item, slot) in items.iter().zip(out.iter_mut()) {
             let t = TreeTriangle::new(corners[item.index as usize]);
             for v in [t.a, t.b, t.c] {
                 radius = radius.max(norm(sub(v, centre)));
             }
             add_triangle(&mut node, &t);
+            slot.write(t);
         }
         node.radius = radius * (1.0 + 1e-12);
         *root = node;
@@ -1108,6 +1120,7 @@ fn build_into(
             .then(p.index.cmp(&q.index))
     });
     let (left, right) = items.split_at_mut(mid);
+    let (out_left, out_right) = out.split_at_mut(mid);
     let (children, below) = rest.split_at_mut(2);
     let (l, r) = children.split_at_mut(1);
     let (left_rest, right_rest) = below.split_at_mut(node_count(mid, leaf) - 1);
@@ -1116,6 +1129,7 @@ fn build_into(
         build_into(
             corners,
             left,
+            out_left,
             offset,
             &mut l[0],
             left_rest,
@@ -1127,6 +1141,7 @@ fn build_into(
         build_into(
             corners,
             right,
+            out_right,
             offset + mid,
             &mut r[0],
             right_rest,
@@ -1180,7 +1195,7 @@ fn bounds(items: &[Item]) -> ([f64; 3], [f64; 3], [f64; 3], [f64; 3]) {
     (lo, hi, clo, chi)
 }
 
-/// Adds triangle `t`'s area, width mass and moments about `node.centre`.
+/// Adds triangle `t`'s area, width and moments about `node.centre`.
 // Tensor components are indexed as in the formulas.
 #[allow(clippy::needless_range_loop)]
 fn add_triangle(node: &mut Node, t: &TreeTriangle) {
@@ -1654,12 +1669,13 @@ mod tests {
         let mut worst = 0.0f64;
         let mut thin_worst = 0.0f64;
         for _ in 0..4000 {
-            // A ribbon: a long edge and an apex a hair off it (anywhere along it, even past the ends).
+            // A ribbon: a long edge and an apex a hair off it, anywhere along it or a little past an end (then
+            // another edge is the longest).
             let a = [next(), next(), next()];
             let e = [next() - 0.5, next() - 0.5, next() - 0.5];
             let b = std::array::from_fn(|k| a[k] + e[k]);
             let h = 10f64.powf(-1.0 - 6.0 * next());
-            let along = next();
+            let along = 1.4 * next() - 0.2;
             let side = cross(e, [next() - 0.5, next() - 0.5, next() - 0.5]);
             let side = side.map(|x| x / norm(side));
             let c: [f64; 3] = std::array::from_fn(|k| a[k] + along * e[k] + h * side[k]);
@@ -1683,6 +1699,20 @@ mod tests {
                     }
                     let ball = Ball { c: q, r: 0.0, nu };
                     assert!(omega <= t.bound_over(&ball));
+                }
+                // Over a ball holding q: its centre moved by up to r, ν what the whole ball keeps.
+                for f in [0.3, 0.9] {
+                    let r = f * true_d;
+                    let off = [next() - 0.5, next() - 0.5, next() - 0.5];
+                    let off = off.map(|x| x / norm(off) * r * next());
+                    let c: [f64; 3] = std::array::from_fn(|k| q[k] + off[k]);
+                    let centre_d = triangle_distance(c, tri[0], tri[1], tri[2]);
+                    let nu = ((centre_d - r) * (1.0 - 1e-9)).max(0.0);
+                    let b = t.bound_over(&Ball { c, r, nu });
+                    assert!(
+                        omega <= b,
+                        "{tri:?}, ball {c:?} r {r} holding {q:?}: {omega} > {b}"
+                    );
                 }
                 // The node form: only the distance is known.
                 let leaf = Node {
