@@ -1248,16 +1248,20 @@ mod tests {
     use super::*;
     use crate::voxel::gwn::kernel::{solid_angle, winding_sum, FOUR_PI};
 
-    /// A seeded soup of `n` triangles of size about `size` in the unit cube.
-    fn soup(n: usize, size: f64, seed: u64) -> Vec<[[f64; 3]; 3]> {
-        let mut s = seed;
-        let mut next = move || {
+    /// Seeded uniform numbers in [0, 1) (SplitMix64).
+    fn uniform(mut s: u64) -> impl FnMut() -> f64 {
+        move || {
             s = s.wrapping_add(0x9e37_79b9_7f4a_7c15);
             let mut z = s;
             z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
             z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
             ((z ^ (z >> 31)) >> 11) as f64 / (1u64 << 53) as f64
-        };
+        }
+    }
+
+    /// A seeded soup of `n` triangles of size about `size` in the unit cube.
+    fn soup(n: usize, size: f64, seed: u64) -> Vec<[[f64; 3]; 3]> {
+        let mut next = uniform(seed);
         (0..n)
             .map(|_| {
                 let c = [next(), next(), next()];
@@ -1658,14 +1662,7 @@ mod tests {
     /// form is used) or below it; the node form over a leaf of them.
     #[test]
     fn the_width_bounds_hold_at_the_points_that_attack_them() {
-        let mut s = 7u64;
-        let mut next = move || {
-            s = s.wrapping_add(0x9e37_79b9_7f4a_7c15);
-            let mut z = s;
-            z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
-            z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
-            ((z ^ (z >> 31)) >> 11) as f64 / (1u64 << 53) as f64
-        };
+        let mut next = uniform(7);
         let mut worst = 0.0f64;
         let mut thin_worst = 0.0f64;
         for _ in 0..4000 {
