@@ -1036,7 +1036,7 @@ fn scramble(mut x: u32) -> u32 {
     x
 }
 
-/// Picks non-interfering collapses among the `active` candidates (indices, in increasing key order):
+/// Picks non-interfering collapses among the `active` candidates (indices into `cands`, increasing):
 /// rounds of local minima (an edge whose key is the least over the edges touching its endpoints' closed
 /// one-rings), each checked for validity; a valid one blocks its closed one-rings for the rest of the
 /// pass, an invalid one leaves. Stops when `faces` triangles would be removed, nothing is active, or after
