@@ -5,10 +5,9 @@
 //! ```text
 //! cargo run --release --example simplify_profile -- DIR [--repeat N]
 //! ```
-use gregvox::api::{load_mesh, simplify, SimplifyOptions};
-use gregvox::bench::simplify::{cad_block, voxel_surface};
+use gregvox::api::load_mesh;
+use gregvox::bench::simplify::{cad_block, timed_simplify, voxel_surface};
 use gregvox::voxel::mesh::TriMesh;
-use std::time::Instant;
 
 fn main() -> anyhow::Result<()> {
     let args: Vec<String> = std::env::args().skip(1).collect();
@@ -28,27 +27,10 @@ fn main() -> anyhow::Result<()> {
     for (name, mesh) in &cases {
         gregvox::mesh::write_obj(dir.join(format!("{name}.obj")), mesh)?;
         for ratio in [0.5, 0.1, 0.01] {
-            let opts = SimplifyOptions {
-                ratio: Some(ratio),
-                ..Default::default()
-            };
-            let mut times = Vec::new();
-            let mut last = None;
-            for _ in 0..repeat {
-                let t = Instant::now();
-                let s = simplify(mesh, &opts)?;
-                times.push(t.elapsed().as_secs_f64() * 1e3);
-                last = Some(s);
-            }
-            times.sort_by(f64::total_cmp);
-            let s = last.expect("one run");
+            let (ms, s) = timed_simplify(mesh, ratio, repeat)?;
             println!(
-                "{name} {ratio}: {:.1} ms (min {:.1}), faces {}, passes {}, error {:.3e}",
-                times[times.len() / 2],
-                times[0],
-                s.report.faces,
-                s.report.passes,
-                s.report.relative_error
+                "{name} {ratio}: {ms:.1} ms (median of {repeat}), faces {}, passes {}, error {:.3e}",
+                s.report.faces, s.report.passes, s.report.relative_error
             );
         }
     }

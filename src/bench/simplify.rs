@@ -177,6 +177,27 @@ pub fn voxel_surface(tri: &TriMesh, res: u32) -> Mesh {
     Mesh::from_polygons(positions, &faces).expect("a valid voxel surface")
 }
 
+/// `repeats` (at least one) `api::simplify` calls reducing `mesh` to `ratio` with the default options: the
+/// median wall time in ms and the last output (the bench's gregvox column; `examples/simplify_profile.rs`).
+pub fn timed_simplify(
+    mesh: &Mesh,
+    ratio: f64,
+    repeats: usize,
+) -> anyhow::Result<(f64, crate::api::SimplifiedMesh)> {
+    let opts = SimplifyOptions {
+        ratio: Some(ratio),
+        ..Default::default()
+    };
+    let mut times = Vec::new();
+    let mut out = None;
+    for _ in 0..repeats.max(1) {
+        let t0 = Instant::now();
+        out = Some(simplify(mesh, &opts)?);
+        times.push(t0.elapsed().as_secs_f64() * 1e3);
+    }
+    Ok((median(&times), out.expect("one repeat")))
+}
+
 /// Runs the suite.
 pub fn run(cfg: &BenchConfig, report: &mut Report) -> anyhow::Result<()> {
     let repeats = if cfg.quick { 1 } else { 3 };
@@ -277,18 +298,7 @@ pub fn run(cfg: &BenchConfig, report: &mut Report) -> anyhow::Result<()> {
         let mut outputs = Vec::new();
         let mut ours = Vec::new();
         for &r in ratios {
-            let opts = SimplifyOptions {
-                ratio: Some(r),
-                ..Default::default()
-            };
-            let mut times = Vec::new();
-            let mut out = None;
-            for _ in 0..repeats {
-                let t0 = Instant::now();
-                out = Some(simplify(mesh, &opts)?);
-                times.push(t0.elapsed().as_secs_f64() * 1e3);
-            }
-            let out = out.expect("one repeat");
+            let (ms, out) = timed_simplify(mesh, r, repeats)?;
             let path = dir.join(format!("gregvox_{r}.obj"));
             write_obj(&path, &out.mesh)?;
             outputs.push(path.display().to_string());
@@ -299,7 +309,7 @@ pub fn run(cfg: &BenchConfig, report: &mut Report) -> anyhow::Result<()> {
                     .to_string(),
             );
             outputs.push(dir.join(format!("pyfqmr_{r}.obj")).display().to_string());
-            ours.push((median(&times), out.report.faces));
+            ours.push((ms, out.report.faces));
         }
         // Quality of every output that exists, in one run of the oracle script.
         let present: Vec<String> = outputs

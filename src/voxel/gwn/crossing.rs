@@ -198,8 +198,8 @@ impl Crossings {
         let permute = |p: [f64; 3]| [p[(axis + 1) % 3], p[(axis + 2) % 3], p[axis]];
         let mut triangles = given;
         triangles.par_iter_mut().for_each(|t| *t = t.map(permute));
-        // Orientations by the exact predicate (its slow path is common on a soup's thin ribbons: on every
-        // thread), then the box of the indexed triangles.
+        // Orientations by the exact predicate, on every thread (its slow path is common on a soup's thin
+        // ribbons), then the box of the indexed triangles.
         let sigma: Vec<i8> = triangles
             .par_iter()
             .map(|t| {
@@ -210,32 +210,17 @@ impl Crossings {
                 sign(orient2d(c(0), c(1), c(2)))
             })
             .collect();
-        let empty = ([f64::INFINITY; 2], [f64::NEG_INFINITY; 2]);
-        let (lo, hi) = triangles
-            .par_iter()
-            .zip(&sigma)
-            .filter(|(_, &s)| s != 0 || flats)
-            .fold(
-                || empty,
-                |(mut lo, mut hi), (t, _)| {
-                    for v in t {
-                        for k in 0..2 {
-                            lo[k] = lo[k].min(v[k]);
-                            hi[k] = hi[k].max(v[k]);
-                        }
+        let (mut lo, mut hi) = ([f64::INFINITY; 2], [f64::NEG_INFINITY; 2]);
+        for (t, &s) in triangles.iter().zip(&sigma) {
+            if s != 0 || flats {
+                for v in t {
+                    for k in 0..2 {
+                        lo[k] = lo[k].min(v[k]);
+                        hi[k] = hi[k].max(v[k]);
                     }
-                    (lo, hi)
-                },
-            )
-            .reduce(
-                || empty,
-                |a, b| {
-                    (
-                        [a.0[0].min(b.0[0]), a.0[1].min(b.0[1])],
-                        [a.1[0].max(b.1[0]), a.1[1].max(b.1[1])],
-                    )
-                },
-            );
+                }
+            }
+        }
         let indexed: Vec<bool> = sigma.iter().map(|&s| s != 0 || flats).collect();
         let counted = indexed.iter().filter(|&&x| x).count();
         let mut c = Crossings {

@@ -8,8 +8,9 @@
 //! rigorous (the node's solid angle at every point of the ball lies in the interval):
 //! - **bound**: |Ω_N| ≤ min(A/d², 4W/d), d a lower bound on the distance from the ball to the triangles
 //!   (|n̂·(x−q)|/|x−q|³ ≤ 1/d² per unit area; a triangle has at most w of area per unit length of its spine,
-//!   below, and |q − x| ≥ max(d, |l − l₀|), so ∫ w dl / max(d², (l − l₀)²) ≤ 4w/d). The second form keeps long thin triangles (the ribbons of a
-//!   welded soup, `super::cap`) cheap however close they come. Its proof: both angles at the ends of the
+//!   below, and |q − x| ≥ max(d, |l − l₀|), so ∫ w dl / max(d², (l − l₀)²) ≤ 4w/d). The second form keeps
+//!   long thin triangles (the ribbons of a welded soup, `super::cap`) cheap however close they come. A single
+//!   triangle is also bounded by πw/s, s = its spine distance less w, wherever s > 0. Its proof: both angles at the ends of the
 //!   longest edge (the spine, direction e) are acute, so the triangle is {S(l) + s·u : l ∈ [0, L],
 //!   0 ≤ s ≤ w(l) ≤ w} (u ⊥ e in its plane, w the altitude): at most w of area per unit of l. For a point
 //!   x = S(l) + s·u, (q − x)·e = l₀ − l exactly and the rest of q − x is at least a = D − w long (D the
@@ -18,7 +19,7 @@
 //!   projects a length ε beyond an end and a > 0, the integral is at most (w/a)(π/2 − φ) with tan φ = ε/a,
 //!   while d ≤ √(a² + ε²) = a/cos φ, and π/2 − φ ≤ π·cos φ (cos is above its chord on [0, π/2]): again
 //!   ≤ πw/d. If a ≤ 0 there (D ≤ w), |q − x| ≥ |l − l₀| ≥ ε gives at most w/ε, and d = √(D² + ε²) − w ≤ ε.
-//!   Where d falls below the distance ν guaranteed by the caller, the node form 4w/ν applies instead.
+//!   Each triangle takes the least of A/d², 4w/d and πw/s, d = max(s, ν) (ν the caller's guaranteed distance).
 //! - **expansion**: the order-2 Taylor expansion of the double-layer kernel about x̄ (Barnes & Jacobson's
 //!   dipole, quadrupole and octupole terms), evaluated at c. The kernel is −n̂·∇_δ of 1/|u − δ| (u = q − x̄,
 //!   δ = x − x̄, |δ| ≤ ρ, |u| = D), whose degree-n Taylor term is Dⁿφ(u)[δ…δ]/n! up to sign (φ = 1/|u|,
