@@ -354,7 +354,8 @@ fn edges_at(m: &MeshMatrix) -> Vec<Vec<u32>> {
 fn gather_rows(x: &SparseMatrix<f64>, rows: &[u32]) -> SparseMatrix<f64> {
     let mut row_ptr = Vec::with_capacity(rows.len() + 1);
     row_ptr.push(0u32);
-    let (mut col, mut val) = (Vec::new(), Vec::new());
+    let nnz: usize = rows.iter().map(|&r| x.row(r as usize).0.len()).sum();
+    let (mut col, mut val) = (Vec::with_capacity(nnz), Vec::with_capacity(nnz));
     for &r in rows {
         let (c, v) = x.row(r as usize);
         col.extend_from_slice(c);
@@ -444,12 +445,6 @@ impl AdaptiveStencils {
                     && m.face_len(f) == 4
                     && !m.face(f).iter().any(|&v| touches_nonquad[v as usize]);
             }
-            let built =
-                GregoryStencils::with_features_on(m, &level.features(), tangents, &eligible)?;
-            let mut patch_of = vec![u32::MAX; nf];
-            for (k, &f) in built.patch_face.iter().enumerate() {
-                patch_of[f as usize] = k as u32;
-            }
             let edges = edges_at(m);
             let cand_faces: Vec<u32> = candidates.iter().map(|c| c.0).collect();
             let tags = vertex_tags(&level, &cand_faces, &edges, &touches_nonquad);
@@ -470,6 +465,18 @@ impl AdaptiveStencils {
                 } else {
                     leaves.push((f, node, base));
                 }
+            }
+            // Patches for the leaves alone: a face split here has its patches at the levels below (about
+            // half of each level's candidates on a creased cage).
+            let mut is_leaf = vec![false; nf];
+            for &(f, _, _) in &leaves {
+                is_leaf[f as usize] = true;
+            }
+            let built =
+                GregoryStencils::with_features_on(m, &level.features(), tangents, &is_leaf)?;
+            let mut patch_of = vec![u32::MAX; nf];
+            for (k, &f) in built.patch_face.iter().enumerate() {
+                patch_of[f as usize] = k as u32;
             }
             // The leaves' patches: their rows (only those they reference), composed down to the cage.
             let mut row_new = vec![u32::MAX; built.w.n_rows as usize];
@@ -521,12 +528,16 @@ impl AdaptiveStencils {
             candidates = next;
         }
         // One matrix: the levels' blocks stacked.
+        // Sized once (the car's is 16 M entries, 200 MB, which growing by doubling copied twice over).
+        let nnz: usize = blocks.iter().map(|b| b.col.len()).sum();
+        let mut row_ptr = Vec::with_capacity(n_rows as usize + 1);
+        row_ptr.push(0u32);
         let mut w = SparseMatrix {
             n_rows,
             n_cols: nv as u32,
-            row_ptr: vec![0u32],
-            col: Vec::new(),
-            val: Vec::new(),
+            row_ptr,
+            col: Vec::with_capacity(nnz),
+            val: Vec::with_capacity(nnz),
         };
         for b in blocks {
             let base = *w.row_ptr.last().expect("row_ptr starts at 0");
