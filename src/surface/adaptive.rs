@@ -13,7 +13,8 @@
 //!   is a **leaf**: a B-spline patch at level d, whose surface
 //!   equals its descendants' (B-spline refinement is exact), so the surface is that of the uniform
 //!   refinement to L (tested point for point). At level L every face left is a patch (Gregory end caps at
-//!   the irregular ones). Holes are never split and have no patch.
+//!   the irregular ones). Holes are never split and have no patch. A level's Gregory stencils are built for
+//!   its leaves alone (a split face's patch would be discarded: about half the candidates on a creased cage).
 //! - Level d + 1 refines only `S_d`, the faces sharing a vertex with a split face, with Sdc's rules
 //!   ([`crate::mesh::catmull_clark_matrix_creased`]). The refined part has a fringe whose points are wrong
 //!   (their rings are cut), but no point a patch or a further level reads lies there: the children of a
@@ -28,8 +29,9 @@
 //!   edges·2^L), against the uniform refinement's O(corners·4^L). Each face's rows are composed down to
 //!   the cage (a level-L vertex depends on a bounded neighbourhood of cage vertices: tens of entries).
 //!   Measured (release, 2 cores): OpenSubdiv's `catmark_car` (1,575 quads, 314 creases of sharpness 6)
-//!   at L = 6 makes 136 k patches in ~2 s and 0.57 GB, where the uniform refinement would make 6.4 M;
-//!   a 64² grid with a crease polyline of 9.5 at L = 10 makes 275 k patches in ~4 s (uniform: 4·10⁹).
+//!   at L = 6 makes 136 k patches in ~1.4 s and 0.58 GB (~2 s while split faces' patches were built
+//!   too), where the uniform refinement would make 6.4 M; a 64² grid with a crease polyline of 9.5 at
+//!   L = 10 makes 275 k patches in ~4 s (uniform: 4·10⁹).
 //!   Attacking input: a 64² grid whose every interior edge is a crease of 9.5 grows by ~2× per level
 //!   everywhere and is refused past [`MAX_ADAPTIVE_PATCHES`] (patches made plus the next level's faces)
 //!   before that level is built: after ~4–11 s and a 2 GB peak (tests/surface_adaptive.rs).

@@ -10,8 +10,8 @@
 //!   (|n̂·(x−q)|/|x−q|³ ≤ 1/d² per unit area; a triangle has at most w of area per unit length of its spine,
 //!   below, and |q − x| ≥ max(d, |l − l₀|), so ∫ w dl / max(d², (l − l₀)²) ≤ 4w/d). The second form keeps
 //!   long thin triangles (the ribbons of a welded soup, `super::cap`) cheap however close they come. A single
-//!   triangle is also bounded by πw/s, s = its spine distance less w, wherever s > 0. Its proof: both angles at the ends of the
-//!   longest edge (the spine, direction e) are acute, so the triangle is {S(l) + s·u : l ∈ [0, L],
+//!   triangle is also bounded by πw/s, s = its spine distance less w, wherever s > 0. Its proof: both
+//!   angles at the ends of the longest edge (the spine, direction e) are acute, so the triangle is {S(l) + s·u : l ∈ [0, L],
 //!   0 ≤ s ≤ w(l) ≤ w} (u ⊥ e in its plane, w the altitude): at most w of area per unit of l. For a point
 //!   x = S(l) + s·u, (q − x)·e = l₀ − l exactly and the rest of q − x is at least a = D − w long (D the
 //!   distance from q to the spine's line), so |q − x|² ≥ (l − l₀)² + a². If q projects inside the spine,
