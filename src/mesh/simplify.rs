@@ -53,22 +53,26 @@
 //!   collapse makes.
 //!
 //! # Cost model
-//! A pass is O(F + V) for the adjacency and the gather, O(E) for the costs (only the edges around the
-//! last pass's survivors are costed again) and the rounds, and O(E'·d) for the checks of the local
-//! minima (d the valence). Each valid collapse blocks about 10 vertices, so a pass collapses up to about
-//! 8 % of the vertices: a reduction to 50 % takes ~7 passes and to 1 % ~40 over a shrinking mesh
-//! (measured on the bunny). The worst cases: a mesh where most edges are invalid (locked seams, unwelded
-//! soups: every vertex on a border of its own lone triangle — nothing is a candidate, one pass and out),
-//! rounds of invalid local minima (a chain where each round finds the next: capped at [`MAX_ROUNDS`] a
-//! pass, when every considered edge is invalid the pass considers four times as many), flat regions where
-//! every cost ties (the scrambled tie-break keeps them parallel: a tessellated box goes from 8,064 to 806
-//! triangles in 28 passes, against 199 with ties broken by index) and a high-valence fan (a 4,000-gon's
-//! fan vertex: its checks cost d² and only one of its edges collapses a pass; measured in
-//! `tests/mesh_simplify.rs`). Passes are capped at [`MAX_PASSES`]. A deep reduction ends in many small
-//! passes (a 1 % target: 30–60 of them), so loops over fewer than [`PARALLEL_MIN`] items run on the calling
-//! thread: waking the pool for each round of each pass cost more than the work (`examples/simplify_profile.rs`
-//! over the bench's meshes: system time, mostly the pool's yields, 3.3–3.7 s → 0.6–0.9 s of 13–16 s of CPU;
-//! the same triangles). `GREGVOX_SIMPLIFY_TIMES=1` prints the stages' times and each pass's counts.
+//! A pass is O(F + V) for the adjacency and the gather, O(E) for the costs (only the edges around the last
+//! pass's survivors are costed again, across the vertex arrays' compactions too) and the rounds, and O(E'·d)
+//! for the checks of the local minima (d the valence). Each valid collapse blocks about 10 vertices, so a
+//! pass collapses up to about 8 % of the vertices: a reduction to 50 % takes ~7 passes and to 1 % ~40 over a
+//! shrinking mesh (measured on the bunny). The worst cases: a mesh where most edges are invalid (locked
+//! seams, unwelded soups: every vertex on a border of its own lone triangle — nothing is a candidate, one
+//! pass and out), rounds of invalid local minima (a chain where each round finds the next: capped at
+//! [`MAX_ROUNDS`] a pass, when every considered edge is invalid the pass considers four times as many), flat
+//! regions where every cost ties (the scrambled tie-break keeps them parallel: a tessellated box goes from
+//! 8,064 to 806 triangles in 28 passes, against 199 with ties broken by index) and a high-valence fan (a
+//! 4,000-gon's fan vertex: its checks cost d² and only one of its edges collapses a pass; measured in
+//! `tests/mesh_simplify.rs`). Passes are capped at [`MAX_PASSES`]. A deep reduction ends in many small passes
+//! (a 1 % target: 30–60 of them), so loops over fewer than [`PARALLEL_MIN`] items run on the calling thread:
+//! waking the pool for each round of each pass cost more than the work (`examples/simplify_profile.rs` over
+//! the bench's meshes: system time, mostly the pool's yields, 3.3–3.7 s → 0.6–0.9 s of 13–16 s of CPU; the
+//! same triangles). `GREGVOX_SIMPLIFY_TIMES=1` prints the stages' times and each pass's counts. Every
+//! stage is bound by memory latency, so the order of work matters: the rounds check their local minima in
+//! memory order, and a check made in key order instead (a random part of the mesh each time) costs about
+//! ten times as much (0.3 µs against ~3 µs on the CAD block of the bench; `docs/dev-mesh.md` has this and
+//! the other measured alternatives).
 use glam::DVec3;
 use rayon::prelude::*;
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
@@ -927,10 +931,12 @@ pub fn simplify(positions: &[DVec3], triangles: &[[u32; 3]], opts: &SimplifyOpti
         };
         if timing {
             eprintln!(
-                "simplify pass {passes}: {} triangles, {} candidates, {take} considered, {} chosen",
+                "simplify pass {passes}: {} triangles, {} candidates, {take} considered, {} chosen, \
+                 error up to {:.3e}",
                 st.tri.len(),
                 cands.len(),
-                chosen.len()
+                chosen.len(),
+                chosen.iter().map(|c| c.1.cost).fold(0.0, f64::max).sqrt()
             );
         }
         // Past the target, only the cheapest collapses of this pass are made (in key order).
@@ -980,12 +986,29 @@ pub fn simplify(positions: &[DVec3], triangles: &[[u32; 3]], opts: &SimplifyOpti
         lap(10, &mut tm);
         // Compact the vertex arrays once half of them are gone, so a pass costs the live mesh only.
         dead += chosen.len();
+        let (mut cands, mut dirty, mut border, mut nv) = (cands, dirty, border, nv);
         if dead * 2 > nv {
-            compact(&mut st, &mut ids);
+            let new_id = compact(&mut st, &mut ids);
             dead = 0;
-            cache = None; // the ids changed
-        } else if !allow {
-            // (With `allow_topology` duplicates are removed, which changes edges far from the survivors.)
+            // The renumbering keeps the order, so the candidates, sorted by (a, b), stay sorted.
+            cands.retain_mut(|c| {
+                let (a, b) = (new_id[c.a as usize], new_id[c.b as usize]);
+                (c.a, c.b) = (a, b);
+                a != u32::MAX && b != u32::MAX
+            });
+            let keep = |v: &[bool]| -> Vec<bool> {
+                v.iter()
+                    .zip(&new_id)
+                    .filter(|(_, &k)| k != u32::MAX)
+                    .map(|(&x, _)| x)
+                    .collect()
+            };
+            dirty = keep(&dirty);
+            border = keep(&border);
+            nv = st.pos.len();
+        }
+        // (With `allow_topology` duplicates are removed, which changes edges far from the survivors.)
+        cache = (!allow).then(|| {
             let mut ptr = vec![0u32; nv + 1];
             for c in &cands {
                 ptr[c.a as usize + 1] += 1;
@@ -993,16 +1016,16 @@ pub fn simplify(positions: &[DVec3], triangles: &[[u32; 3]], opts: &SimplifyOpti
             for v in 0..nv {
                 ptr[v + 1] += ptr[v];
             }
-            cache = Some(Cache {
+            Cache {
                 cands,
                 ptr,
                 dirty,
                 border,
-            });
-        }
+            }
+        });
     }
     lap(11, &mut tm);
-    compact(&mut st, &mut ids);
+    let _ = compact(&mut st, &mut ids);
     if timing {
         let stages: Vec<String> = STAGES
             .iter()
@@ -1127,8 +1150,9 @@ fn independent_collapses(
 }
 
 /// Renumbers the referenced vertices in order and drops the others (between passes, and at the end:
-/// the output keeps the referenced vertices in the order of their input ids).
-fn compact(st: &mut State, ids: &mut Vec<u32>) {
+/// the output keeps the referenced vertices in the order of their input ids). Returns every old id's
+/// new one (`u32::MAX` for the dropped).
+fn compact(st: &mut State, ids: &mut Vec<u32>) -> Vec<u32> {
     let n = st.pos.len();
     let mut used = vec![false; n];
     for t in &st.tri {
@@ -1159,6 +1183,7 @@ fn compact(st: &mut State, ids: &mut Vec<u32>) {
     for t in st.tri.iter_mut() {
         *t = t.map(|v| new_id[v as usize]);
     }
+    new_id
 }
 
 /// Removes triangles over the same three vertices as an earlier one (any orientation).
