@@ -131,7 +131,12 @@ fn assert_topology_kept(name: &str, input: &Mesh, output: &Mesh) {
         "{name}: Euler characteristic"
     );
     assert_eq!(b.face_components, a.face_components, "{name}: pieces");
-    assert_eq!(b.boundary_loops, a.boundary_loops, "{name}: boundary loops");
+    // Where boundary loops touch at a pinched vertex, the tracer's loops depend on the order of the
+    // vertex's corners (it may walk two loops as one figure eight), so the count is compared only
+    // where no vertex is pinched.
+    if a.non_manifold_vertices == 0 {
+        assert_eq!(b.boundary_loops, a.boundary_loops, "{name}: boundary loops");
+    }
 }
 
 fn of_trimesh(t: &gregvox::voxel::mesh::TriMesh) -> Mesh {
@@ -375,7 +380,7 @@ fn borders_stay_on_their_vertices_and_lock_border_keeps_every_one() {
 }
 
 #[test]
-fn attribute_seams_and_non_manifold_parts_are_untouched() {
+fn attribute_seams_reduce_without_tearing_and_non_manifold_parts_are_untouched() {
     // A sphere cut along a meridian into a mesh whose seam vertices are duplicated (as a UV seam is
     // written): two vertex ids at one position along the cut.
     let s = gregvox::voxel::mesh::TriMesh::sphere([0.0; 3], 1.0, 24, 48, false);
@@ -412,17 +417,53 @@ fn attribute_seams_and_non_manifold_parts_are_untouched() {
         .collect();
     let seamed = Mesh::from_polygons(positions.clone(), &faces).unwrap();
     let out = reduce(&seamed, ratio(0.1));
-    assert!(out.report.locked_vertices >= 2 * twin.len());
-    for (&a, &b) in &twin {
-        for v in [a, b] {
-            assert!(out.source_vertex.contains(&v), "seam vertex {v} removed");
-            let k = out.source_vertex.iter().position(|&s| s == v).unwrap();
+    // The seam reduces, both sides together, and stays closed: every boundary edge of the output (the
+    // sphere has no other boundary) has a twin at the same two positions the other way round, and no
+    // seam vertex moved.
+    assert!(
+        out.report.faces <= seamed.n_faces() / 10 + 2,
+        "{:?}",
+        out.report
+    );
+    let key = |p: DVec3| p.to_array().map(f64::to_bits);
+    let mut uses = std::collections::HashMap::new();
+    for t in out.mesh.indices.chunks(3) {
+        for k in 0..3 {
+            let (u, v) = (t[k], t[(k + 1) % 3]);
+            *uses.entry((u.min(v), u.max(v))).or_insert(0) += 1;
+        }
+    }
+    let mut border = std::collections::HashSet::new();
+    for t in out.mesh.indices.chunks(3) {
+        for k in 0..3 {
+            let (u, v) = (t[k], t[(k + 1) % 3]);
+            if uses[&(u.min(v), u.max(v))] == 1 {
+                border.insert((
+                    key(out.mesh.positions[u as usize]),
+                    key(out.mesh.positions[v as usize]),
+                ));
+            }
+        }
+    }
+    assert!(!border.is_empty());
+    for &(p, q) in &border {
+        assert!(border.contains(&(q, p)), "the seam was torn");
+    }
+    let seam_in = 2 * twin.len();
+    let mut seam_out = 0;
+    for (k, &v) in out.source_vertex.iter().enumerate() {
+        if twin.contains_key(&v) || twin.values().any(|&t| t == v) {
+            seam_out += 1;
             assert_eq!(
                 out.mesh.positions[k], positions[v as usize],
                 "seam vertex {v} moved"
             );
         }
     }
+    assert!(
+        seam_out < seam_in / 2,
+        "the seam did not reduce: {seam_out} of {seam_in}"
+    );
     // Three spheres side by side, rotated copies of one another: three pieces, kept.
     let mut t = gregvox::voxel::mesh::TriMesh::default();
     for k in 0..3 {

@@ -153,9 +153,11 @@ fn weld_lets_an_unwelded_mesh_reduce() {
         let j: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
         j["levels"][0]["faces"].as_u64().unwrap()
     };
-    // The teapot's patches repeat their border vertices: seams, locked, unless welded.
+    // The teapot's patches repeat their border vertices: seams, which reduce two sides at a time, but
+    // where three or more patches meet the copies are locked and hold the reduction above the target,
+    // unless welded.
     let (plain, welded) = (run(&[]), run(&["--weld", "1e-6"]));
-    assert!(plain > 6320 / 10 && welded <= 6320 / 20, "{plain} {welded}");
+    assert!(plain > 6320 / 20 && welded <= 6320 / 20, "{plain} {welded}");
 }
 
 #[test]

@@ -592,7 +592,8 @@ def simplify(
     ``error`` a fraction of the bounding-box diagonal. ``placement``: "optimal" (the quadric's minimum) or
     "keep" (an endpoint). The topology is kept (manifold stays manifold, closed stays closed, the Euler
     characteristic and the pieces stay) unless ``allow_topology``; no triangle flips; borders move only
-    along themselves (``lock_border``: not at all); vertices sharing a position (attribute seams) stay;
+    along themselves (``lock_border``: not at all); attribute seams (two vertices at one position) reduce
+    both sides together and stay closed, and where three or more copies meet they stay;
     ``prune`` removes pieces smaller than that fraction of the diagonal. The GIL is released while it runs.
 
     >>> V = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1]], float)

@@ -39,7 +39,8 @@ pub struct SimplifyArgs {
     #[arg(long, value_name = "K")]
     pub lod: Option<usize>,
     /// Weld vertices closer than this (per-axis distance) first: coincident vertices of an unwelded
-    /// mesh count as attribute seams and are locked otherwise.
+    /// mesh count as attribute seams otherwise (reduced two sides at a time; locked where three or more
+    /// copies meet).
     #[arg(long, value_name = "TOL")]
     pub weld: Option<f64>,
     /// The output mesh: .obj, .ply, .stl or .glb.

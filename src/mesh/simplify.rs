@@ -39,9 +39,13 @@
 //!   triangle the smallest open one).
 //! - Boundaries: a boundary vertex is only ever kept (its position unchanged) or removed along a boundary
 //!   edge onto its neighbour, so a border stays on its own input vertices; `lock_border` pins them all.
-//! - Seams: vertices that share a position bit for bit with another vertex (attribute seams as exporters
-//!   write them) and every vertex of a non-manifold or inconsistently oriented fan are locked: never
-//!   removed nor moved, so seams and non-manifold parts come out untouched (weld first to reduce them).
+//! - Seams: two vertices that share a position bit for bit (an attribute seam as exporters write it)
+//!   are twins when their fans are half-discs whose boundary neighbours pair up by position; a seam
+//!   vertex goes only along the seam and only with its twin (the twin edge's collapse made in the same
+//!   pass, onto the same point, both checked), so a seam reduces and stays closed. Vertices sharing their
+//!   position with two or more others (seam ends, corners where several seams meet), pairs that do not
+//!   match, and every vertex of a non-manifold or inconsistently oriented fan are locked: never removed
+//!   nor moved (weld first to reduce them).
 //! - No flips: a collapse is rejected when a triangle it moves turns by more than acos([`MAX_TURN_COS`]),
 //!   becomes degenerate, or faces against the input's area-weighted normal summed over the input
 //!   vertices its corners stand for (so turns that are small one collapse at a time cannot add up to a
@@ -256,6 +260,8 @@ impl Quadric {
 
 /// Vertex flags.
 const LOCKED: u8 = 1;
+/// No twin: the vertex is not on a seam.
+const NO_TWIN: u32 = u32::MAX;
 
 /// The per-pass adjacency: vertex → faces, vertex → distinct neighbours with the edge's face count.
 struct Adjacency {
@@ -398,6 +404,18 @@ struct Candidate {
     b: u32,
     faces: u8,
     cost: f64,
+    /// On a seam: the twin edge (at a's position, at b's), collapsed together with this one; else
+    /// `NO_TWIN` twice.
+    twin: [u32; 2],
+}
+
+impl Candidate {
+    /// The vertices the collapse moves or removes: the edge's ends, and on a seam its twin's.
+    fn touched(&self) -> impl Iterator<Item = u32> + '_ {
+        [self.a, self.b]
+            .into_iter()
+            .chain(self.twin.into_iter().filter(|&v| v != NO_TWIN))
+    }
 }
 
 /// The last pass's candidates, for the edges whose endpoints it left alone.
@@ -419,6 +437,8 @@ struct Collapse {
     remove: u32,
     to: DVec3,
     cost: f64,
+    /// On a seam, the twin collapse made with it: (remove, keep) on the other side, moving nothing.
+    twin: Option<[u32; 2]>,
 }
 
 /// The simplifier's state between passes.
@@ -429,6 +449,8 @@ struct State<'a> {
     /// orientation of the original surface that a moved triangle must keep facing.
     normal: Vec<DVec3>,
     flags: Vec<u8>,
+    /// A seam vertex's twin: the vertex at the same position on the seam's other side (`NO_TWIN` else).
+    twin: Vec<u32>,
     tri: Vec<[u32; 3]>,
     opts: &'a SimplifyOptions,
 }
@@ -530,14 +552,25 @@ impl State<'_> {
                 if u < a {
                     continue;
                 }
-                if let (true, Some(c)) = (a_clean && clean(u), cache) {
+                let twin = if nbf[k] == 1 {
+                    self.twin_edge(adj, a, u)
+                } else {
+                    [NO_TWIN; 2]
+                };
+                let seam = twin[0] != NO_TWIN;
+                // A seam pair is one candidate, kept on the side whose edge has the smaller vertex id.
+                if seam && a > twin[0].min(twin[1]) {
+                    continue;
+                }
+                // (A seam edge's cost depends on its twins too, which the cache does not follow.)
+                if let (true, false, Some(c)) = (a_clean && clean(u), seam, cache) {
                     let owned = &c.cands[c.ptr[v] as usize..c.ptr[v + 1] as usize];
                     if let Ok(i) = owned.binary_search_by_key(&u, |x| x.b) {
                         out.push(owned[i]);
                     }
                     continue;
                 }
-                let opts = self.options(adj, a, u, nbf[k]);
+                let opts = self.options(adj, a, u, nbf[k], twin);
                 let best = opts
                     .iter()
                     .flatten()
@@ -549,6 +582,7 @@ impl State<'_> {
                         b: u,
                         faces: nbf[k],
                         cost: best,
+                        twin,
                     });
                 }
             }
@@ -556,8 +590,39 @@ impl State<'_> {
         out
     }
 
-    /// The placements edge (a, b) with `faces` triangles on it may take (at most two), with their costs.
-    fn options(&self, adj: &Adjacency, a: u32, b: u32, faces: u8) -> [Option<Collapse>; 2] {
+    /// The twin of boundary edge (a, b) when an endpoint is a seam vertex: the boundary edge on the seam's
+    /// other side at the same two positions (`NO_TWIN` twice when neither endpoint is on a seam, and
+    /// `NO_TWIN` in place of an endpoint that has no counterpart there).
+    fn twin_edge(&self, adj: &Adjacency, a: u32, b: u32) -> [u32; 2] {
+        let (ta, tb) = (self.twin[a as usize], self.twin[b as usize]);
+        // The boundary neighbour of `s` at `other`'s position.
+        let at = |s: u32, other: u32| {
+            let (nbs, nbf) = adj.neighbours(s);
+            let p = self.pos[other as usize];
+            nbs.iter()
+                .zip(nbf)
+                .find(|(&u, &f)| f == 1 && self.pos[u as usize] == p)
+                .map_or(NO_TWIN, |(&u, _)| u)
+        };
+        if ta != NO_TWIN {
+            [ta, at(ta, b)]
+        } else if tb != NO_TWIN {
+            [at(tb, a), tb]
+        } else {
+            [NO_TWIN; 2]
+        }
+    }
+
+    /// The placements edge (a, b) with `faces` triangles on it may take (at most two), with their costs;
+    /// on a seam, `twin` is its twin edge (see [`Candidate::twin`]), and both collapse together.
+    fn options(
+        &self,
+        adj: &Adjacency,
+        a: u32,
+        b: u32,
+        faces: u8,
+        twin: [u32; 2],
+    ) -> [Option<Collapse>; 2] {
         let none = [None, None];
         let (fa, fb) = (self.flags[a as usize], self.flags[b as usize]);
         if (fa & LOCKED != 0 && fb & LOCKED != 0) || faces == 0 || faces > 2 {
@@ -572,11 +637,27 @@ impl State<'_> {
         // The error of a placement is the larger of the two endpoints' own (each one's planes, each
         // normalised by its own weight): the sum's normalisation would let a light vertex (a spike of one
         // triangle) vanish into a heavy one at a diluted cost.
-        let cost = |p: DVec3| qa.cost(p).max(qb.cost(p));
+        // On a seam the other side's planes count too (its twin vertices stand at the same points).
+        let [ta, tb] = twin;
+        let seam = ta != NO_TWIN && tb != NO_TWIN;
+        let cost = |p: DVec3| {
+            let c = qa.cost(p).max(qb.cost(p));
+            if seam {
+                c.max(self.quad[ta as usize].cost(p))
+                    .max(self.quad[tb as usize].cost(p))
+            } else {
+                c
+            }
+        };
         let (pa, pb) = (self.pos[a as usize], self.pos[b as usize]);
-        // A locked vertex never goes; on an interior edge a boundary vertex stays where it is.
-        let can_remove_a = fa & LOCKED == 0 && (border_edge || !ba);
-        let can_remove_b = fb & LOCKED == 0 && (border_edge || !bb);
+        // A locked vertex never goes; on an interior edge a boundary vertex stays where it is; a seam
+        // vertex goes only along its seam, with its twin, and on a seam only seam vertices go.
+        let on_seam = |v: u32| self.twin[v as usize] != NO_TWIN;
+        if border_edge && !seam && (on_seam(a) || on_seam(b)) {
+            return none; // a seam edge without its twin: it would tear the seam
+        }
+        let can_remove_a = fa & LOCKED == 0 && (border_edge || !ba) && on_seam(a) == seam;
+        let can_remove_b = fb & LOCKED == 0 && (border_edge || !bb) && on_seam(b) == seam;
         // Boundary edges collapse onto an endpoint: the border stays on its own vertices.
         if self.opts.placement == Placement::Optimal && can_remove_a && can_remove_b && !border_edge
         {
@@ -587,6 +668,7 @@ impl State<'_> {
                     remove: b,
                     to,
                     cost: cost(to),
+                    twin: None,
                 }),
                 None,
             ];
@@ -598,6 +680,7 @@ impl State<'_> {
                 remove: b,
                 to: pa,
                 cost: cost(pa),
+                twin: seam.then_some([tb, ta]),
             });
         }
         if can_remove_a {
@@ -606,6 +689,7 @@ impl State<'_> {
                 remove: a,
                 to: pb,
                 cost: cost(pb),
+                twin: seam.then_some([ta, tb]),
             });
         }
         out
@@ -617,7 +701,19 @@ impl State<'_> {
         if !self.opts.allow_topology && !self.link_ok(adj, c.a, c.b, border_edge) {
             return None;
         }
-        let mut opts = self.options(adj, c.a, c.b, c.faces);
+        let seam = c.twin[0] != NO_TWIN;
+        if seam {
+            // The two halves of a seam collapse must be as far apart as two collapses of one pass (no
+            // vertex within one edge of both), and the twin must keep the topology too.
+            let [ta, tb] = c.twin;
+            if tb == NO_TWIN || !self.apart(adj, [c.a, c.b], [ta, tb]) {
+                return None;
+            }
+            if !self.opts.allow_topology && !self.link_ok(adj, ta, tb, true) {
+                return None;
+            }
+        }
+        let mut opts = self.options(adj, c.a, c.b, c.faces, c.twin);
         // Cheaper direction first (None last).
         opts.sort_by(|x, y| match (x, y) {
             (Some(x), Some(y)) => x.cost.total_cmp(&y.cost),
@@ -633,7 +729,30 @@ impl State<'_> {
                 let moved_keep = self.pos[o.keep as usize] != o.to;
                 self.no_flips(adj, o.remove, o.keep, o.to)
                     && (!moved_keep || self.no_flips(adj, o.keep, o.remove, o.to))
+                    && o.twin.is_none_or(|[r, k]| self.no_flips(adj, r, k, o.to))
             })
+    }
+
+    /// Whether no vertex is within one edge of both `x` and `y` (their closed one-rings are disjoint).
+    fn apart(&self, adj: &Adjacency, x: [u32; 2], y: [u32; 2]) -> bool {
+        let ring = |e: [u32; 2]| {
+            let mut r: Vec<u32> = e
+                .iter()
+                .flat_map(|&v| adj.neighbours(v).0.iter().copied().chain([v]))
+                .collect();
+            r.sort_unstable();
+            r
+        };
+        let (rx, ry) = (ring(x), ring(y));
+        let (mut i, mut j) = (0, 0);
+        while i < rx.len() && j < ry.len() {
+            match rx[i].cmp(&ry[j]) {
+                std::cmp::Ordering::Less => i += 1,
+                std::cmp::Ordering::Greater => j += 1,
+                std::cmp::Ordering::Equal => return false,
+            }
+        }
+        true
     }
 
     /// The link condition Lk(a) ∩ Lk(b) = Lk(ab) (vertices and edges, with a dummy vertex joined to the
@@ -803,29 +922,25 @@ pub fn simplify(positions: &[DVec3], triangles: &[[u32; 3]], opts: &SimplifyOpti
     lap(0, &mut tm);
     let adj = Adjacency::build(n, &tri);
     lap(1, &mut tm);
-    // Locks: seams (bit-identical positions of distinct referenced vertices), non-manifold fans,
-    // optionally the border.
+    // Locks: non-manifold fans, vertices sharing their position with more than one other, seam vertices
+    // whose seam does not pair up (see `seam_twins`), and optionally the border.
     let mut flags = vec![0u8; n];
     let referenced: Vec<bool> = (0..n).map(|v| adj.vf_ptr[v] < adj.vf_ptr[v + 1]).collect();
-    let mut order: Vec<u32> = (0..n as u32).filter(|&v| referenced[v as usize]).collect();
-    let key = |v: u32| positions[v as usize].to_array().map(f64::to_bits);
-    order.par_sort_unstable_by_key(|&v| (key(v), v));
-    for w in order.windows(2) {
-        if key(w[0]) == key(w[1]) {
-            flags[w[0] as usize] |= LOCKED;
-            flags[w[1] as usize] |= LOCKED;
-        }
-    }
     flags.par_iter_mut().enumerate().for_each(|(v, fl)| {
         let v = v as u32;
         let (_, nbf) = adj.neighbours(v);
         if nbf.iter().any(|&c| c > 2) || !fan_is_manifold(v, adj.faces(v), &tri) {
             *fl |= LOCKED;
         }
-        if opts.lock_border && adj.is_border(v) {
-            *fl |= LOCKED;
-        }
     });
+    let twin = seam_twins(positions, &adj, &referenced, &mut flags);
+    if opts.lock_border {
+        for v in 0..n {
+            if adj.is_border(v as u32) && twin[v] == NO_TWIN {
+                flags[v] |= LOCKED;
+            }
+        }
+    }
     let locked_vertices = (0..n)
         .filter(|&v| referenced[v] && flags[v] & LOCKED != 0)
         .count();
@@ -850,6 +965,7 @@ pub fn simplify(positions: &[DVec3], triangles: &[[u32; 3]], opts: &SimplifyOpti
         quad,
         normal,
         flags,
+        twin,
         tri,
         opts,
     };
@@ -956,18 +1072,24 @@ pub fn simplify(positions: &[DVec3], triangles: &[[u32; 3]], opts: &SimplifyOpti
         // K: remove → keep; the survivors move and take the sum of the quadrics.
         let mut remap: Vec<u32> = (0..nv as u32).collect();
         let mut dirty = vec![false; nv];
+        let mut removed_vertices = 0;
         for (_, c, _) in &chosen {
-            remap[c.remove as usize] = c.keep;
-            dirty[c.keep as usize] = true;
-            dirty[c.remove as usize] = true;
-            st.pos[c.keep as usize] = c.to;
-            let qr = st.quad[c.remove as usize];
-            st.quad[c.keep as usize].add(&qr);
-            let nr = st.normal[c.remove as usize];
-            st.normal[c.keep as usize] += nr;
+            // A seam collapse and its twin: the same merge on both sides, onto the same point.
+            let twin = c.twin.map(|[r, k]| (r, k));
+            for (remove, keep) in [(c.remove, c.keep)].into_iter().chain(twin) {
+                remap[remove as usize] = keep;
+                dirty[keep as usize] = true;
+                dirty[remove as usize] = true;
+                st.pos[keep as usize] = c.to;
+                let qr = st.quad[remove as usize];
+                st.quad[keep as usize].add(&qr);
+                let nr = st.normal[remove as usize];
+                st.normal[keep as usize] += nr;
+                removed_vertices += 1;
+            }
             error2 = error2.max(c.cost);
         }
-        collapses += chosen.len();
+        collapses += removed_vertices;
         let Adjacency { border, .. } = a;
         let allow = opts.allow_topology;
         // B' = K·B: one gather of the index buffer; triangles that lost a corner go.
@@ -985,7 +1107,7 @@ pub fn simplify(positions: &[DVec3], triangles: &[[u32; 3]], opts: &SimplifyOpti
         }
         lap(10, &mut tm);
         // Compact the vertex arrays once half of them are gone, so a pass costs the live mesh only.
-        dead += chosen.len();
+        dead += removed_vertices;
         let (mut cands, mut dirty, mut border, mut nv) = (cands, dirty, border, nv);
         if dead * 2 > nv {
             let new_id = compact(&mut st, &mut ids);
@@ -1087,8 +1209,9 @@ fn independent_collapses(
         let least = |&i: &u32| {
             let c = &cands[i as usize];
             let k = keys[i as usize];
-            m1[c.a as usize].fetch_min(k, Ordering::Relaxed);
-            m1[c.b as usize].fetch_min(k, Ordering::Relaxed);
+            for v in c.touched() {
+                m1[v as usize].fetch_min(k, Ordering::Relaxed);
+            }
         };
         if par {
             active.par_iter().for_each(least);
@@ -1106,12 +1229,11 @@ fn independent_collapses(
         let minimum = |&i: &u32| -> Option<(u32, Option<Collapse>)> {
             let c = &cands[i as usize];
             let k = keys[i as usize];
-            // The least at both ends first (cheap), then over the closed one-rings.
-            (m1[c.a as usize].load(Ordering::Relaxed) == k
-                && m1[c.b as usize].load(Ordering::Relaxed) == k
-                && m2(c.a) == k
-                && m2(c.b) == k)
-                .then(|| (i, st.validate(adj, c, bound)))
+            // The least at every end first (cheap), then over the closed one-rings.
+            (c.touched()
+                .all(|v| m1[v as usize].load(Ordering::Relaxed) == k)
+                && c.touched().all(|v| m2(v) == k))
+            .then(|| (i, st.validate(adj, c, bound)))
         };
         let minima: Vec<(u32, Option<Collapse>)> = if par {
             active.par_iter().filter_map(minimum).collect()
@@ -1121,28 +1243,31 @@ fn independent_collapses(
         for &(i, v) in &minima {
             let Some(col) = v else { continue };
             let c = &cands[i as usize];
-            for e in [c.a, c.b] {
+            for e in c.touched() {
                 blocked[e as usize].store(true, Ordering::Relaxed);
                 for &u in adj.neighbours(e).0 {
                     blocked[u as usize].store(true, Ordering::Relaxed);
                 }
             }
-            chosen.push((keys[i as usize], col, c.faces));
-            removed += c.faces as usize;
+            // (A seam pair removes a triangle on each side.)
+            let faces = c.faces * if col.twin.is_some() { 2 } else { 1 };
+            chosen.push((keys[i as usize], col, faces));
+            removed += faces as usize;
         }
         // Minima leave (valid or not), and so do the edges the chosen ones blocked; m1 is reset for the
         // next round on the way (`active` and `minima` are both in increasing order).
         let mut next_minimum = minima.iter().map(|m| m.0).peekable();
         active.retain(|&i| {
             let c = &cands[i as usize];
-            m1[c.a as usize].store(u64::MAX, Ordering::Relaxed);
-            m1[c.b as usize].store(u64::MAX, Ordering::Relaxed);
+            for v in c.touched() {
+                m1[v as usize].store(u64::MAX, Ordering::Relaxed);
+            }
             if next_minimum.peek() == Some(&i) {
                 next_minimum.next();
                 return false;
             }
-            !blocked[c.a as usize].load(Ordering::Relaxed)
-                && !blocked[c.b as usize].load(Ordering::Relaxed)
+            !c.touched()
+                .any(|v| blocked[v as usize].load(Ordering::Relaxed))
         });
     }
     chosen.sort_unstable_by_key(|c| c.0);
@@ -1179,6 +1304,16 @@ fn compact(st: &mut State, ids: &mut Vec<u32>) -> Vec<u32> {
     st.quad = kept(&st.quad, &used);
     st.normal = kept(&st.normal, &used);
     st.flags = kept(&st.flags, &used);
+    st.twin = kept(&st.twin, &used)
+        .into_iter()
+        .map(|t| {
+            if t == NO_TWIN {
+                NO_TWIN
+            } else {
+                new_id[t as usize]
+            }
+        })
+        .collect();
     *ids = kept(ids, &used);
     for t in st.tri.iter_mut() {
         *t = t.map(|v| new_id[v as usize]);
@@ -1250,6 +1385,71 @@ fn initial_quadrics(pos: &[DVec3], tri: &[[u32; 3]], adj: &Adjacency) -> Vec<Qua
             q
         })
         .collect()
+}
+
+/// The seams: pairs of vertices at the same position (bit for bit) whose fans are half-discs meeting along
+/// the seam, each vertex's two boundary neighbours at the positions of its twin's two. A pair collapses
+/// only together with its twin edge (both sides of the seam at once, onto the same position), so the seam
+/// stays closed. Vertices sharing their position with two or more others (seam ends, corners where
+/// several seams meet) and pairs that do not match are locked. Returns every vertex's twin.
+fn seam_twins(pos: &[DVec3], adj: &Adjacency, referenced: &[bool], flags: &mut [u8]) -> Vec<u32> {
+    let n = pos.len();
+    let key = |v: u32| pos[v as usize].to_array().map(f64::to_bits);
+    let mut order: Vec<u32> = (0..n as u32).filter(|&v| referenced[v as usize]).collect();
+    order.par_sort_unstable_by_key(|&v| (key(v), v));
+    let mut twin = vec![NO_TWIN; n];
+    let mut i = 0;
+    while i < order.len() {
+        let mut j = i + 1;
+        while j < order.len() && key(order[j]) == key(order[i]) {
+            j += 1;
+        }
+        match j - i {
+            1 => {}
+            2 => {
+                twin[order[i] as usize] = order[i + 1];
+                twin[order[i + 1] as usize] = order[i];
+            }
+            _ => {
+                for &v in &order[i..j] {
+                    flags[v as usize] |= LOCKED;
+                }
+            }
+        }
+        i = j;
+    }
+    // The boundary neighbours' positions, sorted: a seam pair's must be the same.
+    let border_keys = |v: u32| -> Option<[[u64; 3]; 2]> {
+        let (nbs, nbf) = adj.neighbours(v);
+        let mut found = nbs
+            .iter()
+            .zip(nbf)
+            .filter(|(_, &f)| f == 1)
+            .map(|(&u, _)| key(u));
+        let (x, y) = (found.next()?, found.next()?);
+        found
+            .next()
+            .is_none()
+            .then(|| if x <= y { [x, y] } else { [y, x] })
+    };
+    for v in 0..n as u32 {
+        let w = twin[v as usize];
+        if w == NO_TWIN || w < v {
+            continue;
+        }
+        let paired = flags[v as usize] & LOCKED == 0
+            && flags[w as usize] & LOCKED == 0
+            && !adj.neighbours(v).0.contains(&w)
+            && border_keys(v).is_some()
+            && border_keys(v) == border_keys(w);
+        if !paired {
+            twin[v as usize] = NO_TWIN;
+            twin[w as usize] = NO_TWIN;
+            flags[v as usize] |= LOCKED;
+            flags[w as usize] |= LOCKED;
+        }
+    }
+    twin
 }
 
 /// Drops the vertex-connected pieces whose bounding-box diagonal is at most `fraction` of the mesh's.
