@@ -12,7 +12,7 @@
 //! regions and sharp creases); a gregvox voxel surface (the bunny voxelized at 96³ by the CPU scanline,
 //! every exposed voxel face two triangles: staircases, and non-manifold edges where voxels touch along
 //! an edge only, which gregvox locks); the Utah teapot (unwelded along its patches' boundaries: 662
-//! vertices share a position, locked as seams by gregvox, collapsed along by meshoptimizer); and the
+//! vertices share a position, seams that both reducers collapse along, both sides together); and the
 //! attacks: one 100,000-gon (a fan vertex of valence
 //! 100,000; 20,000 with `--quick`) and the bunny as an unwelded noisy soup (every triangle its own
 //! piece: nothing may collapse, and finding that out must be cheap).
@@ -225,10 +225,11 @@ pub fn run(cfg: &BenchConfig, report: &mut Report) -> anyhow::Result<()> {
             "bunny voxel surface 96³",
             voxel_surface(&TriMesh::fan(&bunny), 96),
         ));
-        // Unwelded along its Bézier patches' boundaries: 662 vertices share a position with another, which
-        // gregvox locks as attribute seams (meshoptimizer collapses along them, both sides together).
+        // Unwelded along its Bézier patches' boundaries: 662 vertices share a position with another. gregvox
+        // reduces such seams both sides together and locks the 192 copies where three or more patches meet;
+        // meshoptimizer collapses along seams too.
         cases.push((
-            "teapot (patch seams: 662 locked vertices)",
+            "teapot (unwelded patches: seams)",
             load_mesh_file(cfg.model("teapot.obj")?)?,
         ));
         cases.push(("one 100,000-gon (fan)", disc(100_000)));

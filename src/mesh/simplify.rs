@@ -260,6 +260,8 @@ impl Quadric {
 
 /// Vertex flags.
 const LOCKED: u8 = 1;
+/// Vertex flag: the vertex has a twin across a seam (see `seam_twins`).
+const SEAM: u8 = 2;
 /// No twin: the vertex is not on a seam.
 const NO_TWIN: u32 = u32::MAX;
 
@@ -404,18 +406,9 @@ struct Candidate {
     b: u32,
     faces: u8,
     cost: f64,
-    /// On a seam: the twin edge (at a's position, at b's), collapsed together with this one; else
-    /// `NO_TWIN` twice.
-    twin: [u32; 2],
-}
-
-impl Candidate {
-    /// The vertices the collapse moves or removes: the edge's ends, and on a seam its twin's.
-    fn touched(&self) -> impl Iterator<Item = u32> + '_ {
-        [self.a, self.b]
-            .into_iter()
-            .chain(self.twin.into_iter().filter(|&v| v != NO_TWIN))
-    }
+    /// On a seam: collapsed together with its twin edge (`State::twin_edge`, found again when needed:
+    /// seam edges are few, and a wider candidate slows every pass).
+    seam: bool,
 }
 
 /// The last pass's candidates, for the edges whose endpoints it left alone.
@@ -552,7 +545,8 @@ impl State<'_> {
                 if u < a {
                     continue;
                 }
-                let twin = if nbf[k] == 1 {
+                let on_seam = (self.flags[v] | self.flags[u as usize]) & SEAM != 0;
+                let twin = if nbf[k] == 1 && on_seam {
                     self.twin_edge(adj, a, u)
                 } else {
                     [NO_TWIN; 2]
@@ -582,7 +576,7 @@ impl State<'_> {
                         b: u,
                         faces: nbf[k],
                         cost: best,
-                        twin,
+                        seam,
                     });
                 }
             }
@@ -652,12 +646,12 @@ impl State<'_> {
         let (pa, pb) = (self.pos[a as usize], self.pos[b as usize]);
         // A locked vertex never goes; on an interior edge a boundary vertex stays where it is; a seam
         // vertex goes only along its seam, with its twin, and on a seam only seam vertices go.
-        let on_seam = |v: u32| self.twin[v as usize] != NO_TWIN;
-        if border_edge && !seam && (on_seam(a) || on_seam(b)) {
+        let (sa, sb) = (fa & SEAM != 0, fb & SEAM != 0);
+        if border_edge && !seam && (sa || sb) {
             return none; // a seam edge without its twin: it would tear the seam
         }
-        let can_remove_a = fa & LOCKED == 0 && (border_edge || !ba) && on_seam(a) == seam;
-        let can_remove_b = fb & LOCKED == 0 && (border_edge || !bb) && on_seam(b) == seam;
+        let can_remove_a = fa & LOCKED == 0 && (border_edge || !ba) && sa == seam;
+        let can_remove_b = fb & LOCKED == 0 && (border_edge || !bb) && sb == seam;
         // Boundary edges collapse onto an endpoint: the border stays on its own vertices.
         if self.opts.placement == Placement::Optimal && can_remove_a && can_remove_b && !border_edge
         {
@@ -701,19 +695,23 @@ impl State<'_> {
         if !self.opts.allow_topology && !self.link_ok(adj, c.a, c.b, border_edge) {
             return None;
         }
-        let seam = c.twin[0] != NO_TWIN;
-        if seam {
+        let twin = if c.seam {
+            self.twin_edge(adj, c.a, c.b)
+        } else {
+            [NO_TWIN; 2]
+        };
+        if c.seam {
             // The two halves of a seam collapse must be as far apart as two collapses of one pass (no
             // vertex within one edge of both), and the twin must keep the topology too.
-            let [ta, tb] = c.twin;
-            if tb == NO_TWIN || !self.apart(adj, [c.a, c.b], [ta, tb]) {
+            let [ta, tb] = twin;
+            if ta == NO_TWIN || tb == NO_TWIN || !self.apart(adj, [c.a, c.b], [ta, tb]) {
                 return None;
             }
             if !self.opts.allow_topology && !self.link_ok(adj, ta, tb, true) {
                 return None;
             }
         }
-        let mut opts = self.options(adj, c.a, c.b, c.faces, c.twin);
+        let mut opts = self.options(adj, c.a, c.b, c.faces, twin);
         // Cheaper direction first (None last).
         opts.sort_by(|x, y| match (x, y) {
             (Some(x), Some(y)) => x.cost.total_cmp(&y.cost),
@@ -731,6 +729,17 @@ impl State<'_> {
                     && (!moved_keep || self.no_flips(adj, o.keep, o.remove, o.to))
                     && o.twin.is_none_or(|[r, k]| self.no_flips(adj, r, k, o.to))
             })
+    }
+
+    /// The vertices a candidate's collapse moves or removes: the edge's ends, and on a seam its twin's.
+    #[inline]
+    fn touched(&self, adj: &Adjacency, c: &Candidate) -> ([u32; 4], usize) {
+        if !c.seam {
+            return ([c.a, c.b, NO_TWIN, NO_TWIN], 2);
+        }
+        let [ta, tb] = self.twin_edge(adj, c.a, c.b);
+        let n = if ta != NO_TWIN && tb != NO_TWIN { 4 } else { 2 };
+        ([c.a, c.b, ta, tb], n)
     }
 
     /// Whether no vertex is within one edge of both `x` and `y` (their closed one-rings are disjoint).
@@ -1209,7 +1218,8 @@ fn independent_collapses(
         let least = |&i: &u32| {
             let c = &cands[i as usize];
             let k = keys[i as usize];
-            for v in c.touched() {
+            let (t, n) = st.touched(adj, c);
+            for &v in &t[..n] {
                 m1[v as usize].fetch_min(k, Ordering::Relaxed);
             }
         };
@@ -1230,9 +1240,11 @@ fn independent_collapses(
             let c = &cands[i as usize];
             let k = keys[i as usize];
             // The least at every end first (cheap), then over the closed one-rings.
-            (c.touched()
-                .all(|v| m1[v as usize].load(Ordering::Relaxed) == k)
-                && c.touched().all(|v| m2(v) == k))
+            let (t, n) = st.touched(adj, c);
+            (t[..n]
+                .iter()
+                .all(|&v| m1[v as usize].load(Ordering::Relaxed) == k)
+                && t[..n].iter().all(|&v| m2(v) == k))
             .then(|| (i, st.validate(adj, c, bound)))
         };
         let minima: Vec<(u32, Option<Collapse>)> = if par {
@@ -1243,7 +1255,8 @@ fn independent_collapses(
         for &(i, v) in &minima {
             let Some(col) = v else { continue };
             let c = &cands[i as usize];
-            for e in c.touched() {
+            let (t, n) = st.touched(adj, c);
+            for &e in &t[..n] {
                 blocked[e as usize].store(true, Ordering::Relaxed);
                 for &u in adj.neighbours(e).0 {
                     blocked[u as usize].store(true, Ordering::Relaxed);
@@ -1259,15 +1272,17 @@ fn independent_collapses(
         let mut next_minimum = minima.iter().map(|m| m.0).peekable();
         active.retain(|&i| {
             let c = &cands[i as usize];
-            for v in c.touched() {
+            let (t, n) = st.touched(adj, c);
+            for &v in &t[..n] {
                 m1[v as usize].store(u64::MAX, Ordering::Relaxed);
             }
             if next_minimum.peek() == Some(&i) {
                 next_minimum.next();
                 return false;
             }
-            !c.touched()
-                .any(|v| blocked[v as usize].load(Ordering::Relaxed))
+            !t[..n]
+                .iter()
+                .any(|&v| blocked[v as usize].load(Ordering::Relaxed))
         });
     }
     chosen.sort_unstable_by_key(|c| c.0);
@@ -1447,6 +1462,11 @@ fn seam_twins(pos: &[DVec3], adj: &Adjacency, referenced: &[bool], flags: &mut [
             twin[w as usize] = NO_TWIN;
             flags[v as usize] |= LOCKED;
             flags[w as usize] |= LOCKED;
+        }
+    }
+    for (fl, &t) in flags.iter_mut().zip(&twin) {
+        if t != NO_TWIN {
+            *fl |= SEAM;
         }
     }
     twin
