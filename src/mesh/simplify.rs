@@ -3,9 +3,17 @@
 //! applies them as `B' = K·B`, one gather of the index buffer.
 //!
 //! # Algorithm
-//! - Quadrics (Garland–Heckbert): each triangle's plane quadric weighted by its area, summed at its
-//!   corners; each boundary edge adds the quadric of the plane through it perpendicular to its triangle,
-//!   weighted by its squared length × [`BOUNDARY_WEIGHT`]. A collapse adds the two quadrics. Q(p) / w (w
+//! - Quadrics (Garland–Heckbert): each triangle's plane quadric weighted by the square root of its area
+//!   (a length, so a few large triangles do not outweigh the small ones round a silhouette or a small
+//!   feature), summed at its corners; each boundary edge adds the quadric of the plane through it
+//!   perpendicular to its triangle, weighted by its length × [`BOUNDARY_WEIGHT`], and its triangle's own
+//!   plane at the same weight without counting it in the normalisation (so a border vertex resists
+//!   leaving the surface as well as leaving the border, in both directions of its edges; meshoptimizer's
+//!   weights and mix). A seam edge is not a border of the surface, only of its attributes: it gets
+//!   [`SEAM_WEIGHT`] instead, which keeps the seam's line without making it costlier than the surface
+//!   round it (with the border's weight the teapot's patch seams held their vertices and the
+//!   patches between them paid: 2.6 % Hausdorff at 10 % against meshoptimizer's 0.79 %; now 0.76 %).
+//!   A collapse adds the two quadrics. Q(p) / w (w
 //!   the summed weights) is a mean squared distance to the planes a vertex stands for; the cost of
 //!   placing a collapse at p is the larger of its two endpoints' (each normalised by its own weight: with
 //!   the sum's weight, a light vertex — a spike of one triangle — would vanish into a heavy one at a
@@ -83,8 +91,10 @@ use glam::DVec3;
 use rayon::prelude::*;
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 
-/// Weight of a boundary edge's perpendicular plane, per squared edge length.
+/// Weight of a boundary edge's perpendicular plane (and of its triangle's plane), per unit of edge length.
 pub const BOUNDARY_WEIGHT: f64 = 10.0;
+/// [`BOUNDARY_WEIGHT`] for a seam edge (each side's; see the module docs).
+pub const SEAM_WEIGHT: f64 = 0.5;
 /// A moved triangle must keep its normal within acos(0.2) ≈ 78° of where it was.
 pub const MAX_TURN_COS: f64 = 0.2;
 /// Passes stop after this many (the reduction reached so far is returned).
@@ -703,10 +713,11 @@ impl State<'_> {
             [NO_TWIN; 2]
         };
         if c.seam {
-            // The two halves of a seam collapse must be as far apart as two collapses of one pass (no
-            // vertex within one edge of both), and the twin must keep the topology too.
+            // The two halves of a seam collapse must be checkable one at a time (see
+            // `halves_independent`), and the twin must keep the topology too.
             let [ta, tb] = twin;
-            if ta == NO_TWIN || tb == NO_TWIN || !self.apart(adj, [c.a, c.b], [ta, tb]) {
+            if ta == NO_TWIN || tb == NO_TWIN || !self.halves_independent(adj, [c.a, c.b], [ta, tb])
+            {
                 return None;
             }
             if !self.opts.allow_topology && !self.link_ok(adj, ta, tb, true) {
@@ -744,26 +755,30 @@ impl State<'_> {
         ([c.a, c.b, ta, tb], n)
     }
 
-    /// Whether no vertex is within one edge of both `x` and `y` (their closed one-rings are disjoint).
-    fn apart(&self, adj: &Adjacency, x: [u32; 2], y: [u32; 2]) -> bool {
-        let ring = |e: [u32; 2]| {
-            let mut r: Vec<u32> = e
+    /// Whether the two halves of a seam collapse, the boundary edges `x` and `y`, can be checked and made
+    /// one after the other with the checks each passed alone: no vertex of one half is a neighbour of the
+    /// other (so no triangle is moved by both, and neither half's link changes under the other), and
+    /// neither half's opposite vertex (the third corner of its one triangle, which loses an edge) is a
+    /// neighbour of the other half (so no vertex loses an edge to both). A shared neighbour elsewhere only
+    /// sees two of its edges renamed. Closed one-rings kept wholly apart, the earlier rule, refused 90 %
+    /// of the teapot's late seam candidates: where a patch has shrunk to a strip, its two seams share
+    /// neighbours.
+    fn halves_independent(&self, adj: &Adjacency, x: [u32; 2], y: [u32; 2]) -> bool {
+        let opposite = |e: [u32; 2]| {
+            adj.faces(e[0])
                 .iter()
-                .flat_map(|&v| adj.neighbours(v).0.iter().copied().chain([v]))
-                .collect();
-            r.sort_unstable();
-            r
+                .map(|&f| self.tri[f as usize])
+                .find(|t| t.contains(&e[1]))
+                .and_then(|t| t.into_iter().find(|&v| v != e[0] && v != e[1]))
         };
-        let (rx, ry) = (ring(x), ring(y));
-        let (mut i, mut j) = (0, 0);
-        while i < rx.len() && j < ry.len() {
-            match rx[i].cmp(&ry[j]) {
-                std::cmp::Ordering::Less => i += 1,
-                std::cmp::Ordering::Greater => j += 1,
-                std::cmp::Ordering::Equal => return false,
-            }
-        }
-        true
+        let (Some(ox), Some(oy)) = (opposite(x), opposite(y)) else {
+            return false;
+        };
+        let touches = |e: [u32; 2], others: [u32; 3]| {
+            e.iter()
+                .any(|&v| adj.neighbours(v).0.iter().any(|u| others.contains(u)))
+        };
+        !touches(x, [y[0], y[1], oy]) && !touches(y, [x[0], x[1], ox])
     }
 
     /// The link condition Lk(a) ∩ Lk(b) = Lk(ab) (vertices and edges, with a dummy vertex joined to the
@@ -956,7 +971,7 @@ pub fn simplify(positions: &[DVec3], triangles: &[[u32; 3]], opts: &SimplifyOpti
         .filter(|&v| referenced[v] && flags[v] & LOCKED != 0)
         .count();
     lap(2, &mut tm);
-    let quad = initial_quadrics(positions, &tri, &adj);
+    let quad = initial_quadrics(positions, &tri, &adj, &twin);
     lap(3, &mut tm);
     let normal: Vec<DVec3> = (0..n as u32)
         .into_par_iter()
@@ -1348,9 +1363,14 @@ fn dedup_triangles(tri: &mut Vec<[u32; 3]>) {
     });
 }
 
-/// Area-weighted plane quadrics at every corner, plus boundary-edge quadrics; summed per vertex over its
-/// faces in face order (deterministic).
-fn initial_quadrics(pos: &[DVec3], tri: &[[u32; 3]], adj: &Adjacency) -> Vec<Quadric> {
+/// Plane quadrics at every corner (weighted by √area), plus boundary-edge quadrics (seam edges — both
+/// ends with a twin — at [`SEAM_WEIGHT`]); summed per vertex over its faces in face order (deterministic).
+fn initial_quadrics(
+    pos: &[DVec3],
+    tri: &[[u32; 3]],
+    adj: &Adjacency,
+    twin: &[u32],
+) -> Vec<Quadric> {
     let face_q: Vec<Quadric> = tri
         .par_iter()
         .map(|t| {
@@ -1361,7 +1381,7 @@ fn initial_quadrics(pos: &[DVec3], tri: &[[u32; 3]], adj: &Adjacency) -> Vec<Qua
                 return Quadric::default();
             }
             let u = n / l;
-            Quadric::plane(u, -u.dot(p[0]), 0.5 * l)
+            Quadric::plane(u, -u.dot(p[0]), (0.5 * l).sqrt())
         })
         .collect();
     (0..pos.len() as u32)
@@ -1393,11 +1413,16 @@ fn initial_quadrics(pos: &[DVec3], tri: &[[u32; 3]], adj: &Adjacency) -> Vec<Qua
                     continue;
                 }
                 let m = m / l;
-                q.add(&Quadric::plane(
-                    m,
-                    -m.dot(pos[v as usize]),
-                    BOUNDARY_WEIGHT * e.length_squared(),
-                ));
+                let seam = twin[v as usize] != NO_TWIN && twin[u as usize] != NO_TWIN;
+                let weight = if seam { SEAM_WEIGHT } else { BOUNDARY_WEIGHT } * e.length();
+                let origin = pos[v as usize];
+                q.add(&Quadric::plane(m, -m.dot(origin), weight));
+                // The triangle's plane, counted in the sum but not in the normalisation: moving off the
+                // surface at a border (or a seam) costs the edge's weight too.
+                let face = n / n.length();
+                let mut along = Quadric::plane(face, -face.dot(origin), weight);
+                along.w = 0.0;
+                q.add(&along);
             }
             q
         })
