@@ -77,6 +77,35 @@ fn bunny_has_five_boundary_loops_of_sizes_22_39_40_42_80() {
 }
 
 #[test]
+fn loops_that_touch_at_pinched_vertices_are_counted_apart() {
+    // The teapot is unwelded along its patches: 38 vertices where two boundary loops touch. Following
+    // each loop through its own wedge gives 25 loops (counted independently with a half-edge walk in
+    // Python: trimesh's faces, the next boundary half-edge found by turning round the head vertex);
+    // taking the first free boundary half-edge at a vertex walked some pairs as figure eights (20).
+    let (_, m) = load("teapot");
+    let loops = m.boundary_loops();
+    let mut sizes: Vec<usize> = loops.iter().map(|l| l.len()).collect();
+    sizes.sort_unstable();
+    assert_eq!(
+        sizes,
+        vec![
+            4, 4, 12, 18, 20, 30, 30, 30, 30, 30, 30, 30, 30, 40, 40, 40, 40, 40, 48, 48, 50, 98,
+            98, 98, 98
+        ]
+    );
+    assert_eq!(sizes.iter().sum::<usize>(), m.boundary_half_edges().len());
+    // Every loop is a closed chain of boundary half-edges (a loop may pass a vertex twice, through two
+    // of its wedges: the teapot's loop of 50 does).
+    for lp in &loops {
+        for (k, &a) in lp.iter().enumerate() {
+            let b = lp[(k + 1) % lp.len()];
+            let e = m.find(a, b);
+            assert!(e != gregvox::mesh::NONE && m.twins()[e as usize] == gregvox::mesh::NONE);
+        }
+    }
+}
+
+#[test]
 fn cow_has_exactly_one_pinched_vertex_253_and_chi_one() {
     let (_, m) = load("cow");
     let igl = summary()["meshes"]["cow"]["non_manifold_vertices"].clone();

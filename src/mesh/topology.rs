@@ -158,18 +158,46 @@ impl MeshMatrix {
             .collect()
     }
 
-    /// Boundary loops as vertex lists, each following its half-edges (face on the left). At a vertex with
-    /// several outgoing boundary half-edges the first unused one in E order is taken.
+    /// Boundary loops as vertex lists, each following its half-edges (face on the left). From each
+    /// boundary half-edge i → j the loop goes on along the next boundary half-edge of the same wedge at j
+    /// (turning round j through the faces across j's interior edges), so loops that touch at a pinched
+    /// vertex are walked as separate loops rather than as one figure eight. Where that turn cannot be
+    /// made (a non-manifold edge in the way), the first unused boundary half-edge out of j in E order is
+    /// taken.
     ///
     /// ```
     /// # use gregvox::mesh::MeshMatrix;
     /// let m = MeshMatrix::new(4, &[0, 3, 6], vec![0, 1, 2, 2, 1, 3]).unwrap();
     /// assert_eq!(m.boundary_loops(), vec![vec![0, 1, 3, 2]]);
+    /// // Two triangles touching at vertex 0 only: two loops through it, not one of six edges.
+    /// let bowtie = MeshMatrix::new(5, &[0, 3, 6], vec![0, 1, 2, 0, 3, 4]).unwrap();
+    /// assert_eq!(bowtie.boundary_loops().len(), 2);
     /// ```
     pub fn boundary_loops(&self) -> Vec<Vec<u32>> {
         let twins = self.twins();
         let col = &self.half_edge_face().col;
-        let ptr = &self.vertex_corners().ptr;
+        let vc = self.vertex_corners();
+        let ptr = &vc.ptr;
+        let mut entry_of_corner = vec![NONE; self.n_corners()];
+        for (k, &c) in vc.corner.iter().enumerate() {
+            entry_of_corner[c as usize] = k as u32;
+        }
+        // The boundary half-edge that follows entry `k` (i → j) in its wedge at j, if the turn round j
+        // reaches one: from the face of `k`, the half-edge out of j, then across each interior edge to
+        // the next face's half-edge out of j. At most the valence of j turns (a non-manifold edge's twin
+        // pairing could cycle).
+        let turn = |k: usize| -> Option<usize> {
+            let j = col[k] as usize;
+            let mut h = entry_of_corner[self.next(vc.corner[k]) as usize] as usize;
+            for _ in 0..=(ptr[j + 1] - ptr[j]) {
+                let t = twins[h];
+                if t == NONE {
+                    return Some(h);
+                }
+                h = entry_of_corner[self.next(vc.corner[t as usize]) as usize] as usize;
+            }
+            None
+        };
         let mut used = vec![false; self.n_corners()];
         let mut loops = Vec::new();
         for start in 0..self.n_corners() {
@@ -182,9 +210,13 @@ impl MeshMatrix {
                 used[k] = true;
                 lp.push(self.entry_row(k as u32));
                 let j = col[k] as usize;
-                let next = (ptr[j]..ptr[j + 1])
-                    .map(|x| x as usize)
-                    .find(|&x| twins[x] == NONE && !used[x]);
+                // A used half-edge next in the wedge closes the loop (it is where the loop began).
+                let next = match turn(k) {
+                    Some(h) => (!used[h]).then_some(h),
+                    None => (ptr[j]..ptr[j + 1])
+                        .map(|x| x as usize)
+                        .find(|&x| twins[x] == NONE && !used[x]),
+                };
                 match next {
                     Some(n) => k = n,
                     None => break,

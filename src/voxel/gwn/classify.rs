@@ -565,9 +565,9 @@ impl Walk<'_> {
             }
             let separated = gap > 0.0 && node.radius + ball.r <= p.theta * d;
             if !thin && separated && ball.r <= p.spread * gap {
-                match tree.local_share(i, ball) {
-                    Some(share) if share.err < bound => local[part].add(&share),
-                    _ => local[part].err += bound,
+                match tree.local_share_below(i, ball, bound) {
+                    Some(share) => local[part].add(&share),
+                    None => local[part].err += bound,
                 }
                 continue;
             }

@@ -967,6 +967,12 @@ impl Tree {
     /// remainder r³/6 · 24A/g⁵ (‖D⁴φ‖ = 24/d⁵). `None` unless the node lies outside the ball (g > 0) with
     /// t = ρ/D < 0.9.
     pub fn local_share(&self, i: u32, ball: &Ball) -> Option<LocalShare> {
+        self.local_share_below(i, ball, f64::INFINITY)
+    }
+
+    /// [`Tree::local_share`], or `None` without evaluating the expansion when its error would not be
+    /// below `limit` (the caller then takes the node's bound instead: the expansion is most of the cost).
+    pub fn local_share_below(&self, i: u32, ball: &Ball, limit: f64) -> Option<LocalShare> {
         let node = &self.nodes[i as usize];
         let d = norm(sub(ball.c, node.centre));
         let gap = (d - ball.r - node.radius) * (1.0 - 1e-12);
@@ -974,7 +980,6 @@ impl Tree {
         if gap <= 0.0 || t >= 0.9 {
             return None;
         }
-        let (value, gradient, hessian) = expand_hess(node, ball.c, d);
         let one = 1.0 - t;
         let (t3, a) = (t * t * t, node.area);
         let value_tail = a / (d * d) * (4.0 * t3 / one + t3 * t / (one * one));
@@ -995,6 +1000,10 @@ impl Tree {
         let rounding = 1e-12 * a / (near * near) * (1.0 + q + q * q);
         let err = (value_tail + r * grad_tail + 0.5 * r * r * hess_tail + remainder + rounding)
             * (1.0 + 1e-9);
+        if err >= limit {
+            return None;
+        }
+        let (value, gradient, hessian) = expand_hess(node, ball.c, d);
         Some(LocalShare {
             value,
             gradient,
