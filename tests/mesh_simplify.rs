@@ -426,26 +426,7 @@ fn attribute_seams_reduce_without_tearing_and_non_manifold_parts_are_untouched()
         "{:?}",
         out.report
     );
-    let key = |p: DVec3| p.to_array().map(f64::to_bits);
-    let mut uses = std::collections::HashMap::new();
-    for t in out.mesh.indices.chunks(3) {
-        for k in 0..3 {
-            let (u, v) = (t[k], t[(k + 1) % 3]);
-            *uses.entry((u.min(v), u.max(v))).or_insert(0) += 1;
-        }
-    }
-    let mut border = std::collections::HashSet::new();
-    for t in out.mesh.indices.chunks(3) {
-        for k in 0..3 {
-            let (u, v) = (t[k], t[(k + 1) % 3]);
-            if uses[&(u.min(v), u.max(v))] == 1 {
-                border.insert((
-                    key(out.mesh.positions[u as usize]),
-                    key(out.mesh.positions[v as usize]),
-                ));
-            }
-        }
-    }
+    let border: std::collections::HashSet<_> = border_edges(&out.mesh).into_iter().collect();
     assert!(!border.is_empty());
     for &(p, q) in &border {
         assert!(border.contains(&(q, p)), "the seam was torn");
@@ -740,29 +721,32 @@ fn allow_topology_reduces_past_the_topological_minimum_without_degenerate_triang
     }
 }
 
+/// The boundary edges of a triangle mesh (edges of one triangle), as position pairs (bits) in the
+/// triangle's direction.
+fn border_edges(m: &Mesh) -> Vec<([u64; 3], [u64; 3])> {
+    let key = |p: DVec3| p.to_array().map(f64::to_bits);
+    let mut uses = std::collections::HashMap::new();
+    for t in m.indices.chunks(3) {
+        for k in 0..3 {
+            let (u, v) = (t[k], t[(k + 1) % 3]);
+            *uses.entry((u.min(v), u.max(v))).or_insert(0) += 1;
+        }
+    }
+    let mut out = Vec::new();
+    for t in m.indices.chunks(3) {
+        for k in 0..3 {
+            let (u, v) = (t[k], t[(k + 1) % 3]);
+            if uses[&(u.min(v), u.max(v))] == 1 {
+                out.push((key(m.positions[u as usize]), key(m.positions[v as usize])));
+            }
+        }
+    }
+    out
+}
+
 /// Output boundary edges (as position pairs) with no reversed edge at the same positions whose ends are
 /// not both positions of the input's own borders (edges without such a twin): a torn seam shows up here.
 fn torn_seam_edges(input: &Mesh, output: &Mesh) -> usize {
-    let key = |p: DVec3| p.to_array().map(f64::to_bits);
-    let border_edges = |m: &Mesh| -> Vec<([u64; 3], [u64; 3])> {
-        let mut uses = std::collections::HashMap::new();
-        for t in m.indices.chunks(3) {
-            for k in 0..3 {
-                let (u, v) = (t[k], t[(k + 1) % 3]);
-                *uses.entry((u.min(v), u.max(v))).or_insert(0) += 1;
-            }
-        }
-        let mut out = Vec::new();
-        for t in m.indices.chunks(3) {
-            for k in 0..3 {
-                let (u, v) = (t[k], t[(k + 1) % 3]);
-                if uses[&(u.min(v), u.max(v))] == 1 {
-                    out.push((key(m.positions[u as usize]), key(m.positions[v as usize])));
-                }
-            }
-        }
-        out
-    };
     let unmatched = |edges: &[([u64; 3], [u64; 3])]| -> Vec<([u64; 3], [u64; 3])> {
         let set: std::collections::HashSet<_> = edges.iter().copied().collect();
         edges
