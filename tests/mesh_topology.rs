@@ -106,6 +106,27 @@ fn loops_that_touch_at_pinched_vertices_are_counted_apart() {
 }
 
 #[test]
+fn a_star_touching_at_one_apex_and_a_huge_fan_give_their_own_loops() {
+    // 10,000 triangles sharing only vertex 0: 10,000 loops of three through one pinched vertex.
+    let n = 10_000u32;
+    let star: Vec<u32> = (0..n).flat_map(|k| [0, 1 + 2 * k, 2 + 2 * k]).collect();
+    let ptr: Vec<u32> = (0..=n).map(|k| 3 * k).collect();
+    let m = MeshMatrix::new(1 + 2 * n, &ptr, star).unwrap();
+    let loops = m.boundary_loops();
+    assert_eq!(loops.len(), n as usize);
+    assert!(loops.iter().all(|l| l.len() == 3 && l.contains(&0)));
+    // A 100,000-gon as a fan from vertex 0: one loop through every vertex, the fan vertex's wedge of
+    // 99,998 faces walked once.
+    let g = 100_000u32;
+    let fan: Vec<u32> = (1..g - 1).flat_map(|k| [0, k, k + 1]).collect();
+    let ptr: Vec<u32> = (0..g - 1).map(|k| 3 * k).collect();
+    let m = MeshMatrix::new(g, &ptr, fan).unwrap();
+    let loops = m.boundary_loops();
+    assert_eq!(loops.len(), 1);
+    assert_eq!(loops[0].len(), g as usize);
+}
+
+#[test]
 fn cow_has_exactly_one_pinched_vertex_253_and_chi_one() {
     let (_, m) = load("cow");
     let igl = summary()["meshes"]["cow"]["non_manifold_vertices"].clone();

@@ -165,6 +165,11 @@ impl MeshMatrix {
     /// made (a non-manifold edge in the way), the first unused boundary half-edge out of j in E order is
     /// taken.
     ///
+    /// Cost: O(corners). Each boundary half-edge's turn walks the faces of one wedge, and each wedge is
+    /// entered by one boundary half-edge, so a 100,000-gon's fan vertex (one wedge of 99,998 faces) is
+    /// walked once; the fallback scans one row of E. The attacks, a star of triangles touching only at
+    /// their apex and a fan-triangulated 100,000-gon, are in `tests/mesh_topology.rs`.
+    ///
     /// ```
     /// # use gregvox::mesh::MeshMatrix;
     /// let m = MeshMatrix::new(4, &[0, 3, 6], vec![0, 1, 2, 2, 1, 3]).unwrap();
