@@ -10,13 +10,13 @@
 layout(local_size_x = 64) in;
 layout(std430, set = 0, binding = 0) readonly buffer Points { vec4 points[]; };
 layout(std430, set = 0, binding = 1) readonly buffer PatchPoints { uint patch_points[]; };
-struct Query {
-    uint patch_index;
-    float u;
-    float v;
-    uint pad;
-    vec4 jac;   // J00, J01, J10, J11
-};
+layout(push_constant) uniform Push {
+    uint count;          // queries in this dispatch
+    uint residual_rows;  // rows of f32 points before their residuals (0: none)
+    uint pad0;
+    uint pad1;
+} pc;
+#include "patch_query.glsl"
 layout(std430, set = 0, binding = 2) readonly buffer Queries { Query queries[]; };
 struct Sample {
     vec4 position;
@@ -24,31 +24,15 @@ struct Sample {
     vec4 dv;
 };
 layout(std430, set = 0, binding = 3) writeonly buffer Samples { Sample samples[]; };
-layout(push_constant) uniform Push {
-    uint count;          // queries in this dispatch
-    uint residual_rows;  // rows of f32 points before their residuals (0: none)
-    uint pad0;
-    uint pad1;
-} pc;
 
 void main() {
     uint q = linear_invocation();
     if (q >= pc.count) return;
     Query x = queries[q];
-    uint base = 20u * x.patch_index;
-    vec3 hi0 = points[patch_points[base]].xyz;
-    vec3 lo0 = pc.residual_rows > 0u ? points[pc.residual_rows + patch_points[base]].xyz : vec3(0.0);
-    vec3 local[20];
-    for (int k = 0; k < 20; ++k) {
-        uint r = patch_points[base + uint(k)];
-        vec3 lo = pc.residual_rows > 0u ? points[pc.residual_rows + r].xyz : vec3(0.0);
-        // Differences of the f32 rows first (exact for nearby points), then of the residuals.
-        local[k] = (points[r].xyz - hi0) + (lo - lo0);
-    }
     vec3 p, su, sv, net[16];
-    gregory_eval_local(local, vec3(0.0), x.u, x.v, p, su, sv, net);
+    patch_query_eval(x, p, su, sv, net);
     Sample s;
-    s.position = vec4((p + lo0) + hi0, 1.0);
+    s.position = vec4(p, 1.0);
     s.du = vec4(su * x.jac.x + sv * x.jac.z, 0.0);
     s.dv = vec4(su * x.jac.y + sv * x.jac.w, 0.0);
     samples[q] = s;

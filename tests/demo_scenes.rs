@@ -672,3 +672,32 @@ fn bad_scene_input_gives_one_clear_message_and_a_failing_exit() {
     }
     let _ = std::fs::remove_dir_all(&parent);
 }
+
+#[test]
+fn a_cage_past_the_uniform_refinement_limit_renders_in_the_cage_and_voxels_scenes() {
+    // OpenSubdiv's catmark_car (RefineAdaptive(6): 136,419 patches; 6.45 M uniform, past the limit) is drawn
+    // from its ptex layout: one grid per ptex face on the device, deformed every frame.
+    let car = concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/assets/models/opensubdiv/catmark_car.obj"
+    );
+    with_gpu(|ctx| {
+        for (scene, extra) in [
+            ("cage", &["--deform", "twist"][..]),
+            ("voxels", &["--voxel-res", "32", "--deform", "twist"][..]),
+        ] {
+            let mut args = vec![
+                "--scene", scene, "--model", car, "--size", "192x108", "--level", "2",
+            ];
+            args.extend_from_slice(extra);
+            let (w, _h, frames) = render(ctx, &args, 3);
+            let v = variance(&frames[1], w, 0, w);
+            let changed = changed_pixels(&frames[0], &frames[1]);
+            eprintln!(
+                "car in {scene}: luma variance {v:.0}, {changed} pixels changed between frames"
+            );
+            assert!(v > 50.0, "{scene}: blank frame (variance {v})");
+            assert!(changed > 0, "{scene}: the deformed car did not move");
+        }
+    });
+}

@@ -1149,7 +1149,7 @@ impl Gpu {
                 .then(|| "auto: a Gregory surface is voxelized on the GPU by depth peeling".into()),
             frame: grid.frame,
             fill: Fill::Solid,
-            triangles: 2 * surface.patch_count() as usize * (level * level) as usize,
+            triangles: surface.engine().index_count() as usize / 3,
             removed: CleanReport::default(),
             closed: topo_report.closed,
             boundary_edges: topo_report.boundary_edges,

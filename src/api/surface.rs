@@ -18,7 +18,7 @@
 //!   constructors and the immediate updates (`deform`, `set_cage`) submit one-shot work on the queue and
 //!   wait for it.
 use super::{to_mesh_error, Gpu};
-use crate::engine::cage::tagged_cage_topologies;
+use crate::engine::cage::{surface_topologies, CageTopologies, Layout};
 use crate::engine::gregory::Evaluator;
 use crate::engine::gregory::GregorySurface;
 use crate::error::{Error, Result};
@@ -30,7 +30,8 @@ use crate::passes::cage_deform::{DeformParams, Deformation};
 use crate::passes::gregory_eval::{grid_indices, vertex_count, SurfaceVertex, MAX_LEVEL};
 use crate::passes::patch_at::{PatchAtPass, PatchQuery, PatchSample};
 use crate::passes::surface_curvature::{SurfaceCurvaturePass, CURVATURE_STRIDE};
-use crate::surface::{gregory_host, PtexMap, Tangents};
+use crate::surface::ptex_grid::grid_plan;
+use crate::surface::{gregory_host, LimitEvaluator, PtexMap, Tangents};
 use ash::vk;
 use glam::DVec3;
 
@@ -65,25 +66,38 @@ impl Gpu {
                 "--level {level} is out of range: the tessellation level must be between 1 and {MAX_LEVEL}"
             )));
         }
-        let t = tagged_cage_topologies(cage, tangents, true).map_err(to_mesh_error)?;
-        let inner = GregorySurface::new(&self.ctx, &t.topology, &t.rest, level)?;
-        let uv = match &t.uv {
-            Some(uv) => Some(GregorySurface::new(
+        let t = surface_topologies(cage, tangents, true).map_err(to_mesh_error)?;
+        let inner = t.gregory_surface(&self.ctx, level)?;
+        let CageTopologies {
+            rest,
+            note,
+            ptex,
+            mut layout,
+            uv,
+            ..
+        } = t;
+        let uv = match (uv, &mut layout) {
+            (Some(uv), _) => Some(Uv::Patches(Box::new(GregorySurface::new(
                 &self.ctx,
                 &uv.topology,
                 &uv.values,
                 level,
-            )?),
-            None => None,
+            )?))),
+            (None, Layout::Ptex { uv, cage }) => match uv.take() {
+                Some(e) => Some(Uv::ptex(&self.ctx, cage, &ptex, e, level)?),
+                None => None,
+            },
+            _ => None,
         };
         let mut surface = Surface {
             gpu: self,
             inner,
-            rest: t.rest,
-            note: t.note,
+            rest,
+            note,
             curvature: None,
             uv,
-            ptex: t.ptex,
+            ptex,
+            layout,
             at_pass: std::cell::OnceCell::new(),
         };
         surface.evaluate(None)?;
@@ -170,7 +184,10 @@ impl SurfaceBuffers {
 
 /// A Gregory surface on the GPU: one bicubic Gregory patch per cage quad, evaluated into a device-local
 /// vertex buffer on a (level+1)² grid per patch (vertex `j·(L+1)+i` at (i/L, j/L), u along the face's
-/// first edge).
+/// first edge). A cage whose uniform refinement would pass [`crate::surface::acc2::MAX_REFINED_PATCHES`]
+/// (semi-sharp creases on a large cage) gets OpenSubdiv's feature-adaptive patches instead, tessellated
+/// with one grid per ptex face (`level` segments per cage edge, [`Surface::ptex_levels`]), crack-free
+/// where patches of different depths meet; its note says so.
 pub struct Surface<'g> {
     gpu: &'g Gpu,
     inner: GregorySurface,
@@ -178,11 +195,12 @@ pub struct Surface<'g> {
     note: Option<String>,
     /// The curvature stream `record` also writes, once [`Surface::enable_curvature`] was called.
     curvature: Option<Curvature>,
-    /// The UV surface (a cage with UVs): the same patches and grids, its vertices' positions (u, v, 0).
-    /// UVs do not move with the cage, so it is evaluated once per level.
-    uv: Option<GregorySurface>,
+    /// The UVs (a cage with UVs). They do not move with the cage, so they are evaluated once per level.
+    uv: Option<Uv>,
     /// Where each (ptex face, u, v) is among the patches ([`Surface::evaluate_at`]).
     ptex: PtexMap,
+    /// The vertex layout: one grid per patch, or per ptex face over feature-adaptive patches.
+    layout: Layout,
     /// The evaluation-at-points pass, built on the first [`Surface::evaluate_at`].
     at_pass: std::cell::OnceCell<PatchAtPass>,
 }
@@ -208,6 +226,60 @@ struct Curvature {
     buffer: Buffer,
 }
 
+/// The UVs at `at` from the host's UV evaluator (f64, rounded to f32).
+fn ptex_uvs(evaluator: &LimitEvaluator, at: &[(u32, f64, f64)]) -> Result<Vec<[f32; 2]>> {
+    Ok(evaluator
+        .evaluate_uv(at)?
+        .iter()
+        .map(|t| [t[0] as f32, t[1] as f32])
+        .collect())
+}
+
+/// A surface's UVs.
+enum Uv {
+    /// The UV surface on the same patches and grids: its vertices' positions are (u, v, 0).
+    Patches(Box<GregorySurface>),
+    /// The ptex layout's: the host's UV evaluator, and its values at the grid points (u, v, 0, 1 as
+    /// vertices, for renderers), uploaded once per level.
+    Ptex {
+        evaluator: Box<LimitEvaluator>,
+        values: Vec<[f32; 2]>,
+        buffer: Buffer,
+    },
+}
+
+impl Uv {
+    /// The ptex layout's UVs at the grid points of `level` (`map`: the positions' ptex map, which makes
+    /// the grids).
+    fn ptex(
+        ctx: &crate::gpu::Context,
+        cage: &Cage,
+        map: &PtexMap,
+        evaluator: Box<LimitEvaluator>,
+        level: u32,
+    ) -> Result<Uv> {
+        let plan = grid_plan(cage, map, level)?;
+        let values = ptex_uvs(&evaluator, &plan.at)?;
+        let vertices: Vec<SurfaceVertex> = values
+            .iter()
+            .map(|t| SurfaceVertex {
+                position: [t[0], t[1], 0.0, 1.0],
+                normal: [0.0, 0.0, 1.0, 0.0],
+            })
+            .collect();
+        let buffer = ctx.upload_buffer(
+            "surface uvs (ptex grids)",
+            bytemuck::cast_slice(&vertices),
+            vk::BufferUsageFlags::STORAGE_BUFFER | vk::BufferUsageFlags::VERTEX_BUFFER,
+        )?;
+        Ok(Uv::Ptex {
+            evaluator,
+            values,
+            buffer,
+        })
+    }
+}
+
 impl Surface<'_> {
     /// The buffers to draw from (valid until the next `set_level`).
     pub fn buffers(&self) -> SurfaceBuffers {
@@ -218,7 +290,10 @@ impl Surface<'_> {
             indices: e.indices().raw(),
             index_count: e.index_count(),
             curvature: self.curvature.as_ref().map(|c| c.buffer.raw()),
-            uvs: self.uv.as_ref().map(|u| u.vertices().raw()),
+            uvs: self.uv.as_ref().map(|u| match u {
+                Uv::Patches(s) => s.vertices().raw(),
+                Uv::Ptex { buffer, .. } => buffer.raw(),
+            }),
             indirect: e.adaptive_draw().map(|(indices, commands)| IndirectDraws {
                 indices: indices.raw(),
                 commands: commands.raw(),
@@ -229,8 +304,7 @@ impl Surface<'_> {
 
     /// Bytes of vertices an update writes (what a [`VertexTarget`] must hold).
     pub fn vertex_bytes(&self) -> u64 {
-        vertex_count(self.inner.patch_count(), self.inner.level())
-            * SurfaceBuffers::VERTEX_STRIDE as u64
+        self.inner.vertex_count() * SurfaceBuffers::VERTEX_STRIDE as u64
     }
 
     /// The deformation parameters of `update`, checked.
@@ -346,6 +420,13 @@ impl Surface<'_> {
     /// vertex of the uniform grids, for curvature shading), rebuilt by `set_level`. Builds the pass and
     /// the buffer; submits nothing.
     pub fn enable_curvature(&mut self) -> Result<()> {
+        if self.inner.ptex_levels().is_some() {
+            return Err(Error::Invalid(
+                "curvature shading works on one grid per patch; this surface is tessellated per ptex face \
+                 over feature-adaptive patches"
+                    .into(),
+            ));
+        }
         let ctx = &self.gpu.ctx;
         let n = vertex_count(self.inner.patch_count(), self.inner.level());
         self.curvature = Some(Curvature {
@@ -391,8 +472,18 @@ impl Surface<'_> {
     /// Switches the tessellation level (1–64) and re-evaluates the rest cage (and the UVs).
     pub fn set_level(&mut self, level: u32) -> Result<()> {
         self.inner.set_level(&self.gpu.ctx, level)?;
-        if let Some(uv) = self.uv.as_mut() {
-            uv.set_level(&self.gpu.ctx, level)?;
+        match self.uv.take() {
+            Some(Uv::Patches(mut uv)) => {
+                uv.set_level(&self.gpu.ctx, level)?;
+                self.uv = Some(Uv::Patches(uv));
+            }
+            Some(Uv::Ptex { evaluator, .. }) => {
+                let Layout::Ptex { cage, .. } = &self.layout else {
+                    unreachable!("ptex UVs belong to the ptex layout");
+                };
+                self.uv = Some(Uv::ptex(&self.gpu.ctx, cage, &self.ptex, evaluator, level)?);
+            }
+            None => {}
         }
         if self.curvature.is_some() {
             self.enable_curvature()?;
@@ -403,7 +494,8 @@ impl Surface<'_> {
 
     fn evaluate_uv(&mut self) -> Result<()> {
         match self.uv.as_mut() {
-            Some(uv) => uv.evaluate(&self.gpu.ctx, None, None),
+            Some(Uv::Patches(uv)) => uv.evaluate(&self.gpu.ctx, None, None),
+            Some(Uv::Ptex { .. }) => Ok(()),
             None => Ok(()),
         }
     }
@@ -434,7 +526,8 @@ impl Surface<'_> {
             };
             let pos = eval(&self.inner)?;
             let uv = match &self.uv {
-                Some(u) => Some(eval(u)?.iter().map(|s| [s[0][0], s[0][1]]).collect()),
+                Some(Uv::Patches(u)) => Some(eval(u)?.iter().map(|s| [s[0][0], s[0][1]]).collect()),
+                Some(Uv::Ptex { evaluator, .. }) => Some(ptex_uvs(evaluator, at)?),
                 None => None,
             };
             return Ok(SurfaceSamples {
@@ -499,14 +592,17 @@ impl Surface<'_> {
                 out.du.push([s.du[0], s.du[1], s.du[2]]);
                 out.dv.push([s.dv[0], s.dv[1], s.dv[2]]);
             }
-            if let (Some(uv), Some(list)) = (&self.uv, out.uv.as_mut()) {
+            if let (Some(Uv::Patches(uv)), Some(list)) = (&self.uv, out.uv.as_mut()) {
                 list.extend(run(uv)?.iter().map(|s| [s.position[0], s.position[1]]));
             }
+        }
+        if let Some(Uv::Ptex { evaluator, .. }) = &self.uv {
+            out.uv = Some(ptex_uvs(evaluator, at)?);
         }
         Ok(out)
     }
 
-    /// Reads the evaluated positions and unit normals back, patch after patch.
+    /// Reads the evaluated positions and unit normals back, grid after grid (patches, or ptex faces).
     pub fn read_vertices(&self) -> Result<Vec<SurfaceVertex>> {
         self.inner.read_vertices(&self.gpu.ctx)
     }
@@ -519,20 +615,32 @@ impl Surface<'_> {
     /// Reads the UV of every vertex back, in the order of [`Surface::read_vertices`] (uniform grids of the
     /// current level): OpenSubdiv's face-varying limit ([`crate::surface::fvar`]). `None` without UVs.
     pub fn read_uvs(&self) -> Result<Option<Vec<[f32; 2]>>> {
-        let Some(uv) = &self.uv else {
-            return Ok(None);
-        };
-        Ok(Some(
-            uv.read_vertices(&self.gpu.ctx)?
-                .iter()
-                .map(SurfaceVertex::uv)
-                .collect(),
-        ))
+        match &self.uv {
+            None => Ok(None),
+            Some(Uv::Patches(uv)) => Ok(Some(
+                uv.read_vertices(&self.gpu.ctx)?
+                    .iter()
+                    .map(SurfaceVertex::uv)
+                    .collect(),
+            )),
+            Some(Uv::Ptex { values, .. }) => Ok(Some(values.clone())),
+        }
     }
 
-    /// Triangles of the uniform grids (two per grid cell, counter-clockwise seen from the normal side).
+    /// Triangles of the grids (two per grid cell, counter-clockwise seen from the normal side): one grid
+    /// per patch, or per ptex face in the ptex layout ([`Surface::ptex_levels`]).
     pub fn indices(&self) -> Vec<u32> {
-        grid_indices(self.inner.patch_count(), self.inner.level())
+        match self.inner.ptex_levels() {
+            Some(levels) => crate::passes::adaptive_levels::compact_grid_indices(levels),
+            None => grid_indices(self.inner.patch_count(), self.inner.level()),
+        }
+    }
+
+    /// Per ptex grid, its level, when the surface is tessellated per ptex face over feature-adaptive
+    /// patches (a cage whose uniform refinement would pass
+    /// [`crate::surface::acc2::MAX_REFINED_PATCHES`]); `None` for one grid per patch.
+    pub fn ptex_levels(&self) -> Option<&[u32]> {
+        self.inner.ptex_levels()
     }
 
     /// The tessellation level.

@@ -2,9 +2,9 @@
 //! the cage itself kept for drawing and dragging its vertices.
 use super::scene::{CageScene, Scene};
 use super::DemoArgs;
-use crate::engine::cage::{builtin_cage, cage_topology, load_cage};
-use crate::engine::gregory::GregorySurface;
+use crate::engine::cage::{builtin_cage, load_cage, tagged_cage_topologies};
 use crate::gpu::Context;
+use crate::mesh::Cage;
 use crate::passes::draw::ColorTarget;
 use crate::surface::Tangents;
 
@@ -15,35 +15,38 @@ pub fn build(
     format: impl Into<ColorTarget>,
 ) -> anyhow::Result<Box<dyn Scene>> {
     let format: ColorTarget = format.into();
-    let (mesh, topo, cage, note, name, uv) = match &args.model {
+    let (mesh, t, name) = match &args.model {
         Some(path) => {
-            let (m, t, c, n, uv) = load_cage(path)?;
-            (
-                m,
-                t,
-                c,
-                n,
-                path.file_name()
-                    .map(|f| f.to_string_lossy().into_owned())
-                    .unwrap_or_default(),
-                uv,
-            )
+            let (m, t) = load_cage(path)?;
+            let name = path
+                .file_name()
+                .map(|f| f.to_string_lossy().into_owned())
+                .unwrap_or_default();
+            (m, t, name)
         }
         None => {
             let mesh = builtin_cage(4, 2, 2);
-            let (t, c, n) = cage_topology(&mesh, Tangents::OpenSubdiv)?;
-            (mesh, t, c, n, "built-in box cage".to_string(), None)
+            let t = tagged_cage_topologies(&Cage::from(mesh.clone()), Tangents::OpenSubdiv, false)?;
+            (mesh, t, "built-in box cage".to_string())
         }
     };
-    if let Some(n) = note {
+    if let Some(n) = &t.note {
         eprintln!("gregvox demo: {n}");
     }
-    let surface = GregorySurface::new(ctx, &topo, &cage, args.level.unwrap_or(8))?;
+    let surface = t.gregory_surface(ctx, args.level.unwrap_or(8))?;
+    let uv = t.uv;
     let mut scene = CageScene::new(ctx, format, surface, mesh, args.deform, name)?;
     if let Some(uv) = uv {
         // The checker shading reads the cage's own UVs (OpenSubdiv's face-varying surface) when it has them.
         scene.set_uvs(ctx, uv)?;
     }
     scene.adaptive = args.adaptive;
+    if scene.adaptive.is_some() && scene.is_ptex() {
+        eprintln!(
+            "gregvox demo: --adaptive needs one grid per patch; this cage is tessellated per ptex face, \
+             uniformly"
+        );
+        scene.adaptive = None;
+    }
     Ok(Box::new(scene))
 }

@@ -877,6 +877,22 @@ fn cross_marks(
 }
 
 impl CageScene {
+    /// Whether the surface is tessellated per ptex face (feature-adaptive patches).
+    pub fn is_ptex(&self) -> bool {
+        self.surface.ptex_levels().is_some()
+    }
+}
+
+/// The patches whose grids the curvature buffer must hold: none in the ptex layout, which has no curvature.
+fn curvature_patches(surface: &GregorySurface) -> u32 {
+    if surface.ptex_levels().is_some() {
+        1
+    } else {
+        surface.patch_count()
+    }
+}
+
+impl CageScene {
     /// Wraps a built surface.
     pub fn new(
         ctx: &Context,
@@ -913,7 +929,7 @@ impl CageScene {
             ground_z: lo.z - 0.35 * size.max_element(),
         };
         let mut look = SurfaceLook::new(ctx, format, stage)?;
-        look.resize(ctx, surface.patch_count(), surface.level())?;
+        look.resize(ctx, curvature_patches(&surface), surface.level())?;
         Ok(CageScene {
             surface,
             uv: None,
@@ -962,9 +978,10 @@ impl CageScene {
 
 impl Scene for CageScene {
     fn name(&self) -> String {
-        let level = match self.adaptive {
-            Some(px) => format!("adaptive ≤ {} at {px} px", self.surface.level()),
-            None => format!("level {}", self.surface.level()),
+        let level = match (self.adaptive, self.surface.ptex_levels()) {
+            (Some(px), _) => format!("adaptive ≤ {} at {px} px", self.surface.level()),
+            (None, Some(_)) => format!("level {} per ptex face", self.surface.level()),
+            (None, None) => format!("level {}", self.surface.level()),
         };
         format!(
             "{} ({} patches, {level}, {:?})",
@@ -1029,7 +1046,8 @@ impl Scene for CageScene {
             indices,
             index_count: self.surface.index_count(),
             level: self.surface.level(),
-            patches: Some(PatchSource {
+            // The ptex layout's grids are not patch grids: no curvature, no vertex pull (Phong instead).
+            patches: self.surface.ptex_levels().is_none().then(|| PatchSource {
                 points: self.surface.control_points(),
                 patch_points: self.surface.patch_points(),
                 patch_count: self.surface.patch_count(),
@@ -1090,6 +1108,13 @@ impl Scene for CageScene {
 
     fn key(&mut self, ctx: &Context, key: &str) -> anyhow::Result<bool> {
         if key.eq_ignore_ascii_case("a") {
+            if self.surface.ptex_levels().is_some() {
+                eprintln!(
+                    "gregvox demo: screen-space adaptive tessellation needs one grid per patch; this cage \
+                     is tessellated per ptex face"
+                );
+                return Ok(false);
+            }
             // The parameters are refreshed from the camera every frame; switching off keeps the buffers.
             self.adaptive = match self.adaptive {
                 Some(_) => {
@@ -1132,7 +1157,7 @@ impl Scene for CageScene {
             uv.evaluate(ctx, None, None)?;
         }
         self.look
-            .resize(ctx, self.surface.patch_count(), self.surface.level())?;
+            .resize(ctx, curvature_patches(&self.surface), self.surface.level())?;
         Ok(true)
     }
 }

@@ -11,10 +11,11 @@
 //! completed (the renderer waited for it in `begin_frame`).
 use super::scene::{draw_surface, FrameTargets, Orbit, Scene, ViewState, DEPTH_FORMAT};
 use super::DemoArgs;
-use crate::engine::cage::{builtin_cage, cage_topology, load_cage_topology};
+use crate::engine::cage::{builtin_cage, load_cage_topology, tagged_cage_topologies};
 use crate::engine::gregory::{GregorySurface, SurfaceBounds};
 use crate::engine::voxelize::{PeelVoxelizer, ResidentVoxelizer};
 use crate::gpu::{Buffer, Context, Image, MemoryLocation, Profiler};
+use crate::mesh::Cage;
 use crate::passes::cage_deform::{DeformParams, Deformation};
 use crate::passes::draw::ColorTarget;
 use crate::passes::peel::PeelGeometry;
@@ -377,24 +378,26 @@ pub fn build(
     format: impl Into<ColorTarget>,
 ) -> anyhow::Result<Box<dyn Scene>> {
     let format: ColorTarget = format.into();
-    let (topo, cage, note, name) = match &args.model {
+    let (t, name) = match &args.model {
         Some(path) => {
-            let (t, c, n) = load_cage_topology(path)?;
+            let t = load_cage_topology(path)?;
             let name = path
                 .file_name()
                 .map(|f| f.to_string_lossy().into_owned())
                 .unwrap_or_default();
-            (t, c, n, name)
+            (t, name)
         }
         None => {
-            let (t, c, n) = cage_topology(&builtin_cage(4, 2, 2), Tangents::OpenSubdiv)?;
-            (t, c, n, "built-in box cage".to_string())
+            let cage = Cage::from(builtin_cage(4, 2, 2));
+            let t = tagged_cage_topologies(&cage, Tangents::OpenSubdiv, false)?;
+            (t, "built-in box cage".to_string())
         }
     };
-    if let Some(n) = note {
+    if let Some(n) = &t.note {
         eprintln!("gregvox demo: {n}");
     }
-    let surface = GregorySurface::new(ctx, &topo, &cage, args.level.unwrap_or(8))
+    let surface = t
+        .gregory_surface(ctx, args.level.unwrap_or(8))
         .context("building the voxels scene's Gregory surface")?;
     Ok(Box::new(VoxelsScene::new(
         ctx,

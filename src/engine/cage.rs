@@ -1,56 +1,50 @@
 //! Quad cages for the Gregory pipeline: loading one as GPU Gregory topology (with the valence limit and one
 //! Catmull–Clark step for non-quad cages), a built-in box cage, and measuring normal jumps across shared
 //! patch edges of an evaluated grid.
-use crate::engine::gregory::{canonical_edge_flags, GregoryTopology, SingularPoint};
+use crate::engine::gregory::{
+    canonical_edge_flags, GregorySurface, GregoryTopology, SingularPoint,
+};
 use crate::mesh::{load_cage_file, Cage, Mesh};
 use crate::passes::gregory_eval::SurfaceVertex;
+use crate::surface::adaptive::AdaptiveStencils;
 use crate::surface::{CageStencils, GregoryStencils, PtexMap, Tangents};
 use glam::{DVec3, Vec3};
 use std::collections::HashMap;
 use std::path::Path;
 
-/// Loads a quad cage (any mesh file format) and builds its ACC-2 topology (refining non-quad cages once, with a
-/// note), for viewing: a cage far from the world origin ([`crate::geom::is_far`]) comes back moved to its
-/// box's minimum corner (in f64), so its f32 GPU surface keeps the precision of one at the origin.
-pub fn load_cage_topology(
-    path: &Path,
-) -> crate::Result<(GregoryTopology, Vec<DVec3>, Option<String>)> {
-    let (_, topo, rest, note, _) = load_cage(path)?;
-    Ok((topo, rest, note))
+/// Loads a quad cage (any mesh file format) and builds its patches for a device surface
+/// ([`surface_topologies`]: refining non-quad cages once, with a note; feature-adaptive patches in the ptex
+/// layout past the uniform limit), for viewing: a cage far from the world origin ([`crate::geom::is_far`])
+/// comes back moved to its box's minimum corner (in f64), so its f32 GPU surface keeps the precision of one
+/// at the origin.
+pub fn load_cage_topology(path: &Path) -> crate::Result<CageTopologies> {
+    Ok(load_cage(path)?.1)
 }
 
 /// [`load_cage_topology`] that also returns the cage as loaded, its positions moved as the rest positions
-/// are (the demo draws and edits it), and its UV layout when it has UVs.
-#[allow(clippy::type_complexity)]
-pub fn load_cage(
-    path: &Path,
-) -> crate::Result<(
-    Mesh,
-    GregoryTopology,
-    Vec<DVec3>,
-    Option<String>,
-    Option<UvTopology>,
-)> {
+/// are (the demo draws and edits it). The UV layout is in the topologies when the cage has UVs.
+pub fn load_cage(path: &Path) -> crate::Result<(Mesh, CageTopologies)> {
     let cage = load_cage_file(path)?;
-    let t = tagged_cage_topologies(&cage, Tangents::OpenSubdiv, true).map_err(|e| match e {
+    let mut t = surface_topologies(&cage, Tangents::OpenSubdiv, true).map_err(|e| match e {
         crate::Error::Invalid(msg) => crate::Error::parse(path, msg),
         e => e,
     })?;
-    let (topo, mut rest, note) = (t.topology, t.rest, t.note);
-    let lo = rest
+    let lo = t
+        .rest
         .iter()
         .fold(DVec3::splat(f64::INFINITY), |a, p| a.min(*p));
-    let hi = rest
+    let hi = t
+        .rest
         .iter()
         .fold(DVec3::splat(f64::NEG_INFINITY), |a, p| a.max(*p));
     if crate::geom::is_far(lo.to_array(), hi.to_array()) {
-        for p in &mut rest {
+        for p in &mut t.rest {
             *p -= lo;
         }
     }
     let mut mesh = cage.mesh;
-    mesh.positions.clone_from(&rest);
-    Ok((mesh, topo, rest, note, t.uv))
+    mesh.positions.clone_from(&t.rest);
+    Ok((mesh, t))
 }
 
 /// Largest vertex valence (and polygon size: an n-gon refined once makes a valence-n vertex) accepted for
@@ -124,6 +118,88 @@ pub struct CageTopologies {
     pub uv: Option<UvTopology>,
     /// Where each ptex face (face, u, v) is among the patches (both layouts).
     pub ptex: PtexMap,
+    /// How a device surface lays its vertices out over these patches.
+    pub layout: Layout,
+}
+
+/// How a device surface ([`GregorySurface`]) tessellates a cage's patches.
+pub enum Layout {
+    /// One `(level + 1)²` grid per patch: the uniform refinement, every patch at the same depth.
+    Patches,
+    /// One grid per ptex face over the feature-adaptive patches ([`GregorySurface::new_ptex`]), when the
+    /// uniform refinement would pass [`crate::surface::acc2::MAX_REFINED_PATCHES`]: the cage (its faces
+    /// make the grids) and, when it has UVs, their evaluator (the host evaluates UVs once: they do not
+    /// deform).
+    Ptex {
+        cage: Box<Cage>,
+        uv: Option<Box<crate::surface::LimitEvaluator>>,
+    },
+}
+
+impl CageTopologies {
+    /// The device surface of these patches at `level`, in their layout.
+    pub fn gregory_surface(
+        &self,
+        ctx: &crate::gpu::Context,
+        level: u32,
+    ) -> crate::Result<GregorySurface> {
+        match &self.layout {
+            Layout::Patches => GregorySurface::new(ctx, &self.topology, &self.rest, level),
+            Layout::Ptex { cage, .. } => {
+                let mut cage = (**cage).clone();
+                cage.mesh.positions.clone_from(&self.rest);
+                GregorySurface::new_ptex(ctx, &self.topology, &cage, self.ptex.clone(), level)
+            }
+        }
+    }
+}
+
+/// [`tagged_cage_topologies`] for a device surface: past the uniform refinement's limit
+/// ([`crate::surface::acc2::MAX_REFINED_PATCHES`]: semi-sharp features on a large cage), the
+/// feature-adaptive patches of [`AdaptiveStencils::from_cage`] in the [`Layout::Ptex`] layout, with a note
+/// saying so, instead of an error.
+pub fn surface_topologies(
+    cage: &Cage,
+    tangents: Tangents,
+    uvs: bool,
+) -> crate::Result<CageTopologies> {
+    use crate::surface::acc2::{uniform_patch_count, MAX_REFINED_PATCHES};
+    let uniform = uniform_patch_count(cage)?;
+    if uniform <= MAX_REFINED_PATCHES {
+        return tagged_cage_topologies(cage, tangents, uvs);
+    }
+    check_cage_valence(&cage.mesh)?;
+    let a = AdaptiveStencils::from_cage(cage, tangents)?;
+    let n = a.stencils.patch_points.len();
+    let uv = if uvs {
+        let e = crate::surface::LimitEvaluator::from_adaptive(cage, &a)?.with_uv(cage, a.levels)?;
+        e.has_uv().then(|| Box::new(e))
+    } else {
+        None
+    };
+    let note = format!(
+        "the cage's uniform refinement to level {} would make {uniform} patches, past {MAX_REFINED_PATCHES}: \
+         its {n} feature-adaptive patches are tessellated per ptex face (one grid a face, level segments \
+         per cage edge)",
+        a.levels
+    );
+    Ok(CageTopologies {
+        ptex: PtexMap::from_tree(cage, &a.tree),
+        topology: GregoryTopology {
+            w: a.stencils.w,
+            patch_points: a.stencils.patch_points,
+            // The ptex layout evaluates its grid points by query: no patch edge is evaluated canonically.
+            patch_flags: vec![0; n],
+            singular: Vec::new(),
+        },
+        rest: cage.mesh.positions.clone(),
+        note: Some(note),
+        uv: None,
+        layout: Layout::Ptex {
+            cage: Box::new(cage.clone()),
+            uv,
+        },
+    })
 }
 
 fn topology_of(cs: CageStencils) -> GregoryTopology {
@@ -172,6 +248,7 @@ pub fn tagged_cage_topologies(
         note,
         uv,
         ptex,
+        layout: Layout::Patches,
     })
 }
 

@@ -21,6 +21,14 @@
 //!   bits, the shader's arithmetic. Adaptive mode always evaluates on the device.
 //! - [`GregorySurface::curvature`] follows the same choice: the host curvature kernel on CPU devices, the
 //!   curvature pass elsewhere, both from the points the device wrote last.
+//! - Ptex layout ([`GregorySurface::new_ptex`]: patches of different depths side by side, the feature-adaptive
+//!   layout of [`crate::surface::adaptive`]): the vertex buffer holds one grid per ptex face
+//!   ([`crate::surface::ptex_grid::grid_plan`]: `(level + 1)²` vertices a quad, `(level/2 + 1)²` a sub-face
+//!   of an n-gon, grid after grid), evaluated by the patch-at pass from queries located once on the host
+//!   (patch, local (u, v)); every grid point two faces share carries the first face's query, so both
+//!   vertices have the same bits and the mesh closes. W·cage and deformation are the patch layout's.
+//!   It is always evaluated on the device; adaptive mode, curvature and the host kernels, which read patch
+//!   grids, refuse it by name.
 use crate::error::{Error, Result};
 use crate::gpu::profiler::scoped;
 use crate::gpu::resources::{compute_writes_to_host, memory_barrier, record_update, BufferRange};
@@ -35,9 +43,12 @@ use crate::passes::gregory_eval::{
     grid_indices, vertex_count, AdaptiveInputs, ControlPoints, GregoryEvalPass, SurfaceVertex,
     MAX_LEVEL,
 };
+use crate::passes::patch_at::{PatchAtPass, PatchQuery};
 use crate::passes::spmv::{GpuSparse, SpmvPass};
 use crate::passes::surface_curvature::{SurfaceCurvaturePass, CURVATURE_STRIDE};
 use crate::surface::gregory_host::{self, HostPatches, HostSimd, HostVertex};
+use crate::surface::ptex_grid::{grid_plan, grid_point_count};
+use crate::surface::PtexMap;
 use ash::vk;
 use glam::DVec3;
 
@@ -135,6 +146,90 @@ pub struct GregorySurface {
     /// The canonical-edge flags, kept for the host evaluator.
     patch_flag_list: Vec<u32>,
     evaluator: Evaluator,
+    /// The ptex layout, when the surface has one (see the module invariants).
+    ptex: Option<PtexLayout>,
+}
+
+/// The ptex layout's host side and buffers: where each grid point is, how to grid another level.
+struct PtexLayout {
+    pass: PatchAtPass,
+    /// The cage (its faces and holes make the grids).
+    cage: crate::mesh::Cage,
+    map: PtexMap,
+    /// One located query per vertex.
+    queries: Buffer,
+    /// Per grid: its level.
+    levels: Vec<u32>,
+    vertex_count: u64,
+}
+
+impl PtexLayout {
+    /// The queries, vertex buffer and index buffer of the grids at `level`.
+    fn buffers(
+        ctx: &Context,
+        cage: &crate::mesh::Cage,
+        map: &PtexMap,
+        level: u32,
+        location: MemoryLocation,
+    ) -> Result<(Buffer, Buffer, Buffer, Vec<u32>)> {
+        // Refused before the host lists a single point: the grid points' count is known from the faces.
+        let points = grid_point_count(cage, level);
+        let bytes = points.saturating_mul(std::mem::size_of::<SurfaceVertex>() as u64);
+        if points > u32::MAX as u64 || bytes > ctx.info.max_memory_allocation_size {
+            return Err(Error::Limit {
+                what: format!(
+                    "{points} grid vertices at level {level} ({} MiB)",
+                    bytes >> 20
+                ),
+                detail: format!(
+                    "one vertex buffer of at most {} MiB and u32 indices (lower the level)",
+                    ctx.info.max_memory_allocation_size >> 20
+                ),
+            });
+        }
+        let plan = grid_plan(cage, map, level)?;
+        if plan.at.is_empty() {
+            return Err(Error::Invalid(
+                "no ptex face to tessellate: every face is a hole".into(),
+            ));
+        }
+        let located = map.locate_all(&plan.unique)?;
+        let queries: Vec<PatchQuery> = plan
+            .slot
+            .iter()
+            .map(|&k| {
+                let (patch, u, v, j) = located[k as usize];
+                PatchQuery {
+                    patch,
+                    u: u as f32,
+                    v: v as f32,
+                    pad: 0,
+                    jac: [j[0][0], j[0][1], j[1][0], j[1][1]].map(|x| x as f32),
+                }
+            })
+            .collect();
+        let queries = ctx.upload_buffer(
+            "ptex grid queries",
+            bytemuck::cast_slice(&queries),
+            vk::BufferUsageFlags::STORAGE_BUFFER,
+        )?;
+        let vertices = ctx.create_buffer(
+            "gregory vertices (ptex grids)",
+            plan.at.len() as u64 * std::mem::size_of::<SurfaceVertex>() as u64,
+            vk::BufferUsageFlags::STORAGE_BUFFER
+                | vk::BufferUsageFlags::VERTEX_BUFFER
+                | vk::BufferUsageFlags::TRANSFER_SRC,
+            location,
+        )?;
+        let indices = ctx.upload_buffer(
+            "gregory indices (ptex grids)",
+            bytemuck::cast_slice(&crate::passes::adaptive_levels::compact_grid_indices(
+                &plan.levels,
+            )),
+            vk::BufferUsageFlags::INDEX_BUFFER | vk::BufferUsageFlags::STORAGE_BUFFER,
+        )?;
+        Ok((queries, vertices, indices, plan.levels))
+    }
 }
 
 /// The adaptive mode's passes and buffers (created by `set_adaptive`, kept when it is switched off).
@@ -244,6 +339,38 @@ impl GregorySurface {
         level: u32,
         evaluator: Evaluator,
     ) -> Result<Self> {
+        Self::build(ctx, topo, cage, level, evaluator, None)
+    }
+
+    /// A surface in the ptex layout (see the module invariants): `topo` the patches of any depths (the
+    /// feature-adaptive stencils of [`crate::surface::adaptive::AdaptiveStencils`]), `map` where each
+    /// (ptex face, u, v) lies among them, `tagged` the cage they were built from, `level` the segments of
+    /// every cage edge. Evaluated on the device.
+    pub fn new_ptex(
+        ctx: &Context,
+        topo: &GregoryTopology,
+        tagged: &crate::mesh::Cage,
+        map: PtexMap,
+        level: u32,
+    ) -> Result<Self> {
+        Self::build(
+            ctx,
+            topo,
+            &tagged.mesh.positions,
+            level,
+            Evaluator::Vulkan,
+            Some((tagged.clone(), map)),
+        )
+    }
+
+    fn build(
+        ctx: &Context,
+        topo: &GregoryTopology,
+        cage: &[DVec3],
+        level: u32,
+        evaluator: Evaluator,
+        ptex: Option<(crate::mesh::Cage, PtexMap)>,
+    ) -> Result<Self> {
         if topo.patch_points.is_empty() {
             return Err(Error::Invalid("no patches to evaluate".into()));
         }
@@ -296,8 +423,26 @@ impl GregorySurface {
         }
         let storage = vk::BufferUsageFlags::STORAGE_BUFFER;
         let rw = storage | vk::BufferUsageFlags::TRANSFER_SRC | vk::BufferUsageFlags::TRANSFER_DST;
-        let (vertices, indices) =
-            Self::level_buffers(ctx, topo.patch_points.len() as u32, level, evaluator)?;
+        let (vertices, indices, ptex) = match ptex {
+            None => {
+                let (v, i) =
+                    Self::level_buffers(ctx, topo.patch_points.len() as u32, level, evaluator)?;
+                (v, i, None)
+            }
+            Some((tagged, map)) => {
+                let (queries, v, i, levels) =
+                    PtexLayout::buffers(ctx, &tagged, &map, level, evaluator.write_location())?;
+                let layout = PtexLayout {
+                    pass: PatchAtPass::new_vertices(ctx)?,
+                    cage: tagged,
+                    map,
+                    queries,
+                    vertex_count: levels.iter().map(|&l| (l as u64 + 1).pow(2)).sum(),
+                    levels,
+                };
+                (v, i, Some(layout))
+            }
+        };
         Ok(GregorySurface {
             spmv: SpmvPass::new_affine_split(ctx)?,
             eval: GregoryEvalPass::new(ctx)?,
@@ -334,6 +479,7 @@ impl GregorySurface {
             patch_rows: topo.patch_points.clone(),
             patch_flag_list: topo.patch_flags.clone(),
             evaluator,
+            ptex,
         })
     }
 
@@ -411,6 +557,17 @@ impl GregorySurface {
         if level == self.level {
             return Ok(());
         }
+        if let Some(p) = self.ptex.as_mut() {
+            let (queries, vertices, indices, levels) =
+                PtexLayout::buffers(ctx, &p.cage, &p.map, level, self.evaluator.write_location())?;
+            p.queries = queries;
+            p.vertex_count = levels.iter().map(|&l| (l as u64 + 1).pow(2)).sum();
+            p.levels = levels;
+            self.level = level;
+            self.vertices = vertices;
+            self.indices = indices;
+            return Ok(());
+        }
         let (vertices, indices) =
             Self::level_buffers(ctx, self.patch_count, level, self.evaluator)?;
         if let Some(a) = self.adaptive.as_mut() {
@@ -431,6 +588,13 @@ impl GregorySurface {
     pub fn set_adaptive(&mut self, ctx: &Context, params: Option<AdaptiveParams>) -> Result<()> {
         if let Some(p) = &params {
             p.validate()?;
+            if self.ptex.is_some() {
+                return Err(Error::Invalid(
+                    "screen-space adaptive tessellation works on the uniform patch layout; this surface is \
+                     tessellated per ptex face over feature-adaptive patches"
+                        .into(),
+                ));
+            }
         }
         if params.is_some() && self.adaptive.is_none() {
             self.adaptive = Some(Adaptive::new(ctx, &self.patch_rows, self.level)?);
@@ -566,7 +730,26 @@ impl GregorySurface {
 
     /// Number of indices of the current level.
     pub fn index_count(&self) -> u32 {
-        self.patch_count * self.level * self.level * 6
+        match &self.ptex {
+            Some(p) => p.levels.iter().map(|&l| 6 * l * l).sum(),
+            None => self.patch_count * self.level * self.level * 6,
+        }
+    }
+
+    /// Number of vertices of the current level (what [`Self::vertices`] holds; in adaptive mode the
+    /// slots of every patch).
+    pub fn vertex_count(&self) -> u64 {
+        match &self.ptex {
+            Some(p) => p.vertex_count,
+            None => vertex_count(self.patch_count, self.level),
+        }
+    }
+
+    /// Per ptex grid, its level, when the surface has the ptex layout ([`Self::new_ptex`]): the vertices
+    /// are these grids, `(level + 1)²` each, in order (triangles:
+    /// [`crate::passes::adaptive_levels::compact_grid_indices`]).
+    pub fn ptex_levels(&self) -> Option<&[u32]> {
+        self.ptex.as_ref().map(|p| p.levels.as_slice())
     }
 
     /// The control points buffer: a vec4 point per W row (w = 1), then each row's residual (see
@@ -675,6 +858,13 @@ impl GregorySurface {
                 "curvature is computed on uniform grids only (adaptive tessellation is on)".into(),
             ));
         }
+        if self.ptex.is_some() {
+            return Err(Error::Invalid(
+                "curvature is computed on uniform patch grids only (this surface is tessellated per ptex \
+                 face over feature-adaptive patches)"
+                    .into(),
+            ));
+        }
         let n = vertex_count(self.patch_count, self.level);
         if self.evaluator == Evaluator::Host {
             let patches = mapped_patches(&self.points, &self.patch_rows, &self.patch_flag_list)?;
@@ -776,6 +966,19 @@ impl GregorySurface {
         let mut scope = |name: &str, f: &mut dyn FnMut() -> Result<()>| {
             scoped(ctx, cmd, &mut profiler, name, f)
         };
+        if let Some(p) = self.ptex.as_ref() {
+            return scope("gregory_eval", &mut || {
+                p.pass.record(
+                    ctx,
+                    cmd,
+                    self.control_points(),
+                    &self.patch_points,
+                    &p.queries,
+                    out,
+                    p.vertex_count,
+                )
+            });
+        }
         if let Some(a) = self.adaptive.as_ref() {
             if let Some(params) = a.params.as_ref() {
                 debug_assert_eq!(a.indices_level, self.level);
@@ -910,7 +1113,7 @@ impl SurfaceBounds {
         cmd: vk::CommandBuffer,
         surface: &GregorySurface,
     ) -> Result<()> {
-        let count = vertex_count(surface.patch_count(), surface.level()) as u32;
+        let count = surface.vertex_count() as u32;
         let stride = std::mem::size_of::<SurfaceVertex>() as u32;
         self.pass
             .record(ctx, cmd, surface.vertices(), count, stride, &self.result)

@@ -1,11 +1,13 @@
 //! `PatchAtPass`: the Gregory surface at arbitrary (patch, u, v) points on the device (glsl/patch_at.comp):
-//! position and exact first derivatives in f32, for millions of points per dispatch chain.
+//! position and exact first derivatives in f32, for millions of points per dispatch chain; or, built with
+//! [`PatchAtPass::new_vertices`] (glsl/patch_at_vertex.comp), surface vertices (position and unit normal):
+//! the device surface's ptex layout (`engine::gregory`).
 //!
 //! Invariants: the pass owns only its pipeline. The control points are the caller's (the f32 rows and their
 //! residuals of [`crate::passes::gregory_eval::ControlPoints`], 20 point indices per patch); the queries are
 //! already located (patch, local (u, v) and the Jacobian of the ptex-to-patch map, see
 //! [`crate::surface::PtexMap::locate_all`]), every patch index in range (checked here on the host).
-//! One query in, one [`PatchSample`] out, in order. Batches bind ranges of the query and sample buffers, so
+//! One query in, one [`PatchSample`] (or [`SurfaceVertex`]) out, in order. Batches bind ranges of the query and sample buffers, so
 //! neither is limited by `maxStorageBufferRange`. On exit the writes are visible to transfers and shaders.
 //!
 //! Cost: one invocation per query, 20 gathered points each (the gathers dominate: the same memory-bound
@@ -13,9 +15,9 @@
 //! together share cache lines).
 use crate::error::{Error, Result};
 use crate::gpu::pipeline::{Binding, ComputePipeline, DescriptorSetLayoutBuilder};
-use crate::gpu::resources::compute_writes_to_readers;
+use crate::gpu::resources::{compute_writes_to_readers, BufferRange};
 use crate::gpu::{shaders, Buffer, Context};
-use crate::passes::gregory_eval::ControlPoints;
+use crate::passes::gregory_eval::{ControlPoints, SurfaceVertex};
 use ash::vk;
 
 /// One located query (`Query` in glsl/patch_at.comp).
@@ -55,47 +57,74 @@ pub const QUERIES_PER_BATCH: u64 = 1 << 20;
 /// The evaluation-at-points compute pass.
 pub struct PatchAtPass {
     pipeline: ComputePipeline,
+    /// Bytes of one result: a [`PatchSample`] or a [`SurfaceVertex`].
+    stride: u64,
 }
 
 impl PatchAtPass {
-    /// Builds the pipeline.
+    /// Builds the pipeline writing [`PatchSample`]s.
     pub fn new(ctx: &Context) -> Result<Self> {
+        Self::build(ctx, false)
+    }
+
+    /// Builds the pipeline writing [`SurfaceVertex`]es (position, unit normal of the patch-local partials).
+    pub fn new_vertices(ctx: &Context) -> Result<Self> {
+        Self::build(ctx, true)
+    }
+
+    fn build(ctx: &Context, vertices: bool) -> Result<Self> {
         let mut b = DescriptorSetLayoutBuilder::new();
         for i in 0..4 {
             b = b.storage_buffer(i, vk::ShaderStageFlags::COMPUTE);
         }
         let layout = b.build(ctx, "patch at set")?;
+        let (name, code, stride) = if vertices {
+            (
+                "patch at (vertices)",
+                shaders::PATCH_AT_VERTEX_COMP,
+                std::mem::size_of::<SurfaceVertex>(),
+            )
+        } else {
+            (
+                "patch at",
+                shaders::PATCH_AT_COMP,
+                std::mem::size_of::<PatchSample>(),
+            )
+        };
         Ok(PatchAtPass {
             pipeline: ComputePipeline::new(
                 ctx,
-                "patch at",
-                shaders::PATCH_AT_COMP,
+                name,
+                code,
                 vec![layout],
                 std::mem::size_of::<Push>() as u32,
                 64,
             )?,
+            stride: stride as u64,
         })
     }
 
-    /// Records the evaluation of `count` queries of `queries` into `samples` (at least `count` of each).
+    /// Records the evaluation of `count` queries of `queries` into `samples` (at least `count` of each;
+    /// samples or vertices, as the pass was built).
     #[allow(clippy::too_many_arguments)]
-    pub fn record(
+    pub fn record<'o>(
         &self,
         ctx: &Context,
         cmd: vk::CommandBuffer,
         points: ControlPoints<'_>,
         patch_points: &Buffer,
         queries: &Buffer,
-        samples: &Buffer,
+        samples: impl Into<BufferRange<'o>>,
         count: u64,
     ) -> Result<()> {
+        let samples: BufferRange = samples.into();
         let qs = std::mem::size_of::<PatchQuery>() as u64;
-        let ss = std::mem::size_of::<PatchSample>() as u64;
-        if count * qs > queries.size() || count * ss > samples.size() {
+        let ss = self.stride;
+        if count * qs > queries.size() || count * ss > samples.size {
             return Err(Error::Invalid(format!(
                 "{count} queries do not fit buffers '{}' and '{}'",
                 queries.name(),
-                samples.name()
+                samples.name
             )));
         }
         let mut first = 0u64;
@@ -120,8 +149,8 @@ impl PatchAtPass {
                 (
                     3,
                     Binding::StorageRange {
-                        buffer: samples.raw(),
-                        offset: first * ss,
+                        buffer: samples.buffer,
+                        offset: samples.offset + first * ss,
                         range: n * ss,
                     },
                 ),

@@ -15,7 +15,7 @@
 //!   occurrence. UVs are evaluated at every grid point (a seam has one value per side).
 //! - Cost: one evaluation per distinct grid point (O(log depth) each, in parallel), a hash map of the
 //!   boundary points: O(ptex faces · n²).
-use super::evaluate::LimitEvaluator;
+use super::evaluate::{LimitEvaluator, PtexMap};
 use crate::error::{Error, Result};
 use crate::mesh::Cage;
 use glam::DVec3;
@@ -63,20 +63,44 @@ fn on_edge(p: u32, q: u32, k: u32, m: u32) -> Key {
     }
 }
 
-/// The grids of every ptex face of `cage` (`e` its evaluator) at `level` segments per cage edge (≥ 1).
-///
-/// ```
-/// use gregvox::mesh::parse_obj_cage;
-/// use gregvox::surface::{ptex_grid::ptex_grids, LimitEvaluator, Tangents};
-/// let cube = "v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nv 0 0 1\nv 1 0 1\nv 1 1 1\nv 0 1 1\n\
-///             f 1 4 3 2\nf 5 6 7 8\nf 1 2 6 5\nf 2 3 7 6\nf 3 4 8 7\nf 4 1 5 8\n";
-/// let cage = parse_obj_cage(cube, "cube.obj").unwrap();
-/// let g = ptex_grids(&cage, &LimitEvaluator::new(&cage, Tangents::OpenSubdiv).unwrap(), 4).unwrap();
-/// assert_eq!((g.levels, g.positions.len()), (vec![4; 6], 6 * 25));
-/// // Grid 0's corner (0, 0) is cage vertex 0 in grids 0, 2 and 5: the same bits.
-/// assert_eq!(g.positions[0], g.positions[2 * 25]);
-/// ```
-pub fn ptex_grids(cage: &Cage, e: &LimitEvaluator, level: u32) -> Result<PtexGrids> {
+/// Where every grid point of every ptex face lies, before any evaluation: what [`ptex_grids`] evaluates on the
+/// host and the device surface's ptex layout (`engine::gregory`) on the device.
+#[derive(Clone, Debug, Default)]
+pub struct GridPlan {
+    /// (ptex face, u, v) of every grid point, grid after grid (`(level + 1)²` each, rows of u inner).
+    pub at: Vec<(u32, f64, f64)>,
+    /// Per grid point, its shared point in `unique` (points on cage vertices, edges, spokes and centres
+    /// are one shared point for every grid that holds them).
+    pub slot: Vec<u32>,
+    /// The shared points, each at the (face, u, v) of its first occurrence.
+    pub unique: Vec<(u32, f64, f64)>,
+    /// Per grid: its level (segments per side).
+    pub levels: Vec<u32>,
+    /// Per grid: its ptex face.
+    pub faces: Vec<u32>,
+}
+
+/// How many grid points [`grid_plan`] makes at `level` (holes counted: an upper bound), without making
+/// them: callers refuse a level whose grids would not fit before any allocation.
+pub fn grid_point_count(cage: &Cage, level: u32) -> u64 {
+    let mesh = &cage.mesh;
+    let nonquad = (0..mesh.n_faces()).any(|f| mesh.face(f).len() != 4);
+    let m = if nonquad {
+        level.div_ceil(2) as u64 * 2
+    } else {
+        level as u64
+    };
+    (0..mesh.n_faces())
+        .map(|f| match mesh.face(f).len() {
+            4 => (m + 1).pow(2),
+            n => n as u64 * (m / 2 + 1).pow(2),
+        })
+        .sum()
+}
+
+/// The grid points of every ptex face of `cage` (`map` its ptex map) at `level` segments per cage edge
+/// (≥ 1; rounded up to even when the cage has non-quad faces, whose sub-faces take half).
+pub fn grid_plan(cage: &Cage, map: &PtexMap, level: u32) -> Result<GridPlan> {
     if level == 0 {
         return Err(Error::Invalid(
             "the tessellation level must be at least 1".into(),
@@ -89,10 +113,8 @@ pub fn ptex_grids(cage: &Cage, e: &LimitEvaluator, level: u32) -> Result<PtexGri
     } else {
         level
     };
-    // Every grid point: its key and (ptex face, u, v); the grids in ptex order.
-    let mut out = PtexGrids::default();
+    let mut out = GridPlan::default();
     let mut keys: Vec<Key> = Vec::new();
-    let mut at: Vec<(u32, f64, f64)> = Vec::new();
     let mut ptex = 0u32;
     for f in 0..mesh.n_faces() {
         let c = mesh.face(f);
@@ -101,7 +123,7 @@ pub fn ptex_grids(cage: &Cage, e: &LimitEvaluator, level: u32) -> Result<PtexGri
         for s in 0..subs {
             let id = ptex;
             ptex += 1;
-            if e.ptex_map().is_hole(id) {
+            if map.is_hole(id) {
                 continue;
             }
             let g = if n == 4 { m } else { m / 2 };
@@ -129,17 +151,17 @@ pub fn ptex_grids(cage: &Cage, e: &LimitEvaluator, level: u32) -> Result<PtexGri
                         }
                     };
                     keys.push(key);
-                    at.push((id, i as f64 / g as f64, j as f64 / g as f64));
+                    out.at.push((id, i as f64 / g as f64, j as f64 / g as f64));
                 }
             }
         }
     }
     // Each shared point once, at its first occurrence.
     let mut first: HashMap<Key, u32> = HashMap::with_capacity(keys.len() / 2);
-    let mut unique: Vec<(u32, f64, f64)> = Vec::new();
-    let slot: Vec<u32> = keys
+    let unique = &mut out.unique;
+    out.slot = keys
         .iter()
-        .zip(&at)
+        .zip(&out.at)
         .map(|(&k, &p)| {
             *first.entry(k).or_insert_with(|| {
                 unique.push(p);
@@ -147,6 +169,36 @@ pub fn ptex_grids(cage: &Cage, e: &LimitEvaluator, level: u32) -> Result<PtexGri
             })
         })
         .collect();
+    Ok(out)
+}
+
+/// The grids of every ptex face of `cage` (`e` its evaluator) at `level` segments per cage edge (≥ 1).
+///
+/// ```
+/// use gregvox::mesh::parse_obj_cage;
+/// use gregvox::surface::{ptex_grid::ptex_grids, LimitEvaluator, Tangents};
+/// let cube = "v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nv 0 0 1\nv 1 0 1\nv 1 1 1\nv 0 1 1\n\
+///             f 1 4 3 2\nf 5 6 7 8\nf 1 2 6 5\nf 2 3 7 6\nf 3 4 8 7\nf 4 1 5 8\n";
+/// let cage = parse_obj_cage(cube, "cube.obj").unwrap();
+/// let g = ptex_grids(&cage, &LimitEvaluator::new(&cage, Tangents::OpenSubdiv).unwrap(), 4).unwrap();
+/// assert_eq!((g.levels, g.positions.len()), (vec![4; 6], 6 * 25));
+/// // Grid 0's corner (0, 0) is cage vertex 0 in grids 0, 2 and 5: the same bits.
+/// assert_eq!(g.positions[0], g.positions[2 * 25]);
+/// ```
+pub fn ptex_grids(cage: &Cage, e: &LimitEvaluator, level: u32) -> Result<PtexGrids> {
+    let plan = grid_plan(cage, e.ptex_map(), level)?;
+    let GridPlan {
+        at,
+        slot,
+        unique,
+        levels,
+        faces,
+    } = plan;
+    let mut out = PtexGrids {
+        levels,
+        faces,
+        ..PtexGrids::default()
+    };
     let samples = e.evaluate_first_order(&unique)?;
     let mut normals: Vec<DVec3> = samples.iter().map(|s| s.du.cross(s.dv)).collect();
     // A degenerate normal (collinear tangents at a corner): the normal a step inside the face.
