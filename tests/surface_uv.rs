@@ -181,6 +181,67 @@ fn every_face_varying_rule_matches_opensubdiv() {
     assert!(bad.is_empty(), "{bad:#?}");
 }
 
+#[test]
+fn a_semi_sharp_crease_ending_at_a_seam_sharpens_the_other_span_under_corners_plus() {
+    // OpenSubdiv's dependent sharpness: at a seam vertex with two UV values where only one span holds a
+    // semi-sharp crease, CornersPlus1 (2) and CornersPlus2 (3) keep the other value a corner until the crease
+    // decays, then blend it with the crease's own fractional weight. Rule 1 (corners only) has no such
+    // dependency. Uniform creasing at sharpness 1.5 and 2.5 is exact; Chaikin creasing there is not modelled
+    // and says so (a note naming the tag).
+    let mut bad = Vec::new();
+    for base in ["seam_crease", "seam_crease_s25"] {
+        for rule in [1, 2, 3] {
+            let name = format!("{base}_r{rule}");
+            let path = format!(
+                "{}/tests/fixtures/surface/cages/fvar/{name}.obj",
+                env!("CARGO_MANIFEST_DIR")
+            );
+            let (e, truncated) = uv_error(&name, &path);
+            if e > 1e-12 || truncated > 1e-12 {
+                bad.push(format!(
+                    "{name}: uv {e:.1e} (truncated patches {truncated:.1e})"
+                ));
+            }
+        }
+    }
+    assert!(bad.is_empty(), "{bad:#?}");
+    // Chaikin creasing. Along the crease alone (2.5 then 1.5; only the 1.5 edge at the seam vertex) the decay
+    // there is uniform's: exact, no note. With a crease along the seam too (1.0 on both seam edges at the
+    // vertex), OpenSubdiv averages the decay across the seam, which the UV cage does not see: approximated,
+    // and the surface's note says so (the dependent sharpness too, under rules 2 and 3).
+    for (base, exact) in [
+        ("seam_crease_chaikin", true),
+        ("seam_crease_chaikin2", false),
+    ] {
+        for rule in [1, 2, 3] {
+            let name = format!("{base}_r{rule}");
+            let path = format!(
+                "{}/tests/fixtures/surface/cages/fvar/{name}.obj",
+                env!("CARGO_MANIFEST_DIR")
+            );
+            let (e, _) = uv_error(&name, &path);
+            let cage = load_obj_cage(&path).unwrap();
+            let note = GregoryStencils::from_cage(&cage, Tangents::OpenSubdiv)
+                .unwrap()
+                .note
+                .unwrap_or_default();
+            eprintln!("{name}: uv {e:.1e}·uv diag; note: {note}");
+            if exact {
+                assert!(e <= 1e-12, "{name}: {e:e}");
+                assert!(!note.contains("approximate"), "{name}: {note}");
+            } else {
+                assert!(note.contains("t creasemethod chaikin"), "{name}: {note}");
+                assert_eq!(
+                    note.contains("dependent sharpness"),
+                    rule > 1,
+                    "{name}: {note}"
+                );
+                assert!(e <= 5e-2, "{name}: {e:e}");
+            }
+        }
+    }
+}
+
 #[path = "common/mod.rs"]
 mod gpu;
 

@@ -21,9 +21,15 @@
 //!   has an interior infinitely sharp edge (or, `CornersPlus2`, a single face); darts (`CornersPlus2`,
 //!   `Boundaries`); every span at a seam or boundary (`Boundaries`). `All` makes every edge and vertex
 //!   infinitely sharp, which is bilinear subdivision, and its patches bilinear.
-//! - Not modelled: the semi-sharp *dependent* sharpness of `CornersPlus1/2` (one of two spans semi-sharp
-//!   makes the other follow it as it decays) and Chaikin averaging across a seam (the UV cage sees only its
-//!   span's edges at a seam vertex); both need a semi-sharp crease ending at a seam.
+//! - Dependent sharpness (`CornersPlus1/2`, Vtr's `_depSharp`): at a vertex with two values of which only
+//!   one span has semi-sharp interior edges, OpenSubdiv keeps the other value a corner until those decay,
+//!   then blends it with their fractional weight. The other span gets a vertex sharpness equal to theirs:
+//!   a vertex decays by one a level as a uniform crease does, so both are corners for the same levels and
+//!   blend by the same weight. Exact when the span's semi-sharp edges at the vertex share one sharpness and
+//!   creasing is uniform (tests/surface_uv.rs, against OpenSubdiv); otherwise (different sharpnesses,
+//!   Chaikin) the UV cage approximates it, and so does Chaikin averaging across a seam (the UV cage sees only
+//!   its span's edges at a seam vertex, OpenSubdiv every edge of the vertex): both are reported as a note on
+//!   the UV cage's tags ([`SubdivTags::notes`], printed with the surface's notes).
 //! - Cost: O(corners) over the cage's [`MeshMatrix`] (twins, one union–find); the stencils cost what the positions' do
 //!   (the UV cage has at most one vertex per corner and the same faces). Its attacking input is a UV soup,
 //!   every face its own island (unwelded exports): a seam at every edge, four UV-cage vertices per face,
@@ -147,6 +153,37 @@ pub fn uv_cage(cage: &Cage, levels: u32) -> Result<Option<Cage>> {
     for s in 0..n_spans {
         vertex_spans[span_vertex[s] as usize].push(s as u32);
     }
+    // Semi-sharp edges (0 < s < ∞) per vertex, each edge once (Chaikin averages over all of them), and per
+    // span its interior ones: count, least and most sharpness (dependent sharpness, below).
+    let semi_sharp = |s: f32| s > 0.0 && s < SHARPNESS_INFINITE;
+    let add = |e: &mut (u32, f32, f32), s: f32| *e = (e.0 + 1, e.1.min(s), e.2.max(s));
+    let mut semi_at = vec![(0u32, f32::INFINITY, 0.0f32); mesh.positions.len()];
+    for c in 0..n_corners as u32 {
+        let k = entry[c as usize] as usize;
+        if twin[k] != NONE && entry_corner[twin[k] as usize] < c {
+            continue;
+        }
+        let s = edge_s[he_edge[k] as usize];
+        if semi_sharp(s) {
+            add(&mut semi_at[vtx(c) as usize], s);
+            add(&mut semi_at[vtx(m.next(c)) as usize], s);
+        }
+    }
+    let mut semi = vec![(0u32, f32::INFINITY, 0.0f32); n_spans];
+    for &(c, cn, s) in &continuous {
+        if semi_sharp(s) {
+            add(&mut semi[span_of[c as usize] as usize], s);
+            add(&mut semi[span_of[cn as usize] as usize], s);
+        }
+    }
+    // Chaikin's decay of an edge at v averages the semi-sharp edges of v: the same as uniform where they
+    // share one sharpness, and what a span sees of them where it sees them all.
+    let chaikin_differs = |v: usize, seen: u32| {
+        cage.tags.chaikin && semi_at[v].1 != semi_at[v].2 && seen < semi_at[v].0
+    };
+    // Per span, the sharpness it takes from the other value of its vertex (CornersPlus1/2).
+    let mut dependent_sharpness = vec![0.0f32; n_spans];
+    let (mut approximate_dependent, mut approximate_chaikin) = (0usize, 0usize);
     let mut inf_edge = vec![false; n_spans];
     for &(c, cn, s) in &continuous {
         if s >= SHARPNESS_INFINITE {
@@ -198,6 +235,25 @@ pub fn uv_cage(cage: &Cage, levels: u32) -> Result<Option<Cage>> {
                 all |= spans.iter().any(|&s| span_faces[s as usize] == 1);
             }
         }
+        if !all && dependent && spans.len() == 2 && !semi_sharp(vert_s[v]) {
+            // Only one span semi-sharp: the other follows it (OpenSubdiv's `hasDependentValuesToSharpen`).
+            let (a, b) = (spans[0] as usize, spans[1] as usize);
+            if (semi[a].0 > 0) != (semi[b].0 > 0) {
+                let (follower, leader) = if semi[a].0 > 0 { (b, a) } else { (a, b) };
+                let (seen, least, most) = semi[leader];
+                dependent_sharpness[follower] = most;
+                // Exact when the leader's edges decay as one: one sharpness among them, and (Chaikin) none
+                // other at the vertex averaging theirs.
+                approximate_dependent +=
+                    (least != most || (cage.tags.chaikin && semi_at[v].0 != seen)) as usize;
+            }
+        }
+        if spans
+            .iter()
+            .any(|&s| semi[s as usize].0 > 0 && chaikin_differs(v, semi[s as usize].0))
+        {
+            approximate_chaikin += 1;
+        }
         for &s in spans {
             sharp_span[s as usize] = all
                 || disjoint(s)
@@ -242,7 +298,7 @@ pub fn uv_cage(cage: &Cage, levels: u32) -> Result<Option<Cage>> {
         let sharpness = if all_linear || sharp_span[s] {
             SHARPNESS_INFINITE
         } else {
-            inherited
+            inherited.max(dependent_sharpness[s])
         };
         if sharpness > 0.0 {
             tags.corners.push(CornerTag {
@@ -250,6 +306,22 @@ pub fn uv_cage(cage: &Cage, levels: u32) -> Result<Option<Cage>> {
                 sharpness,
             });
         }
+    }
+    if approximate_dependent > 0 {
+        tags.ignored.push(format!(
+            "t facevaryinginterpolateboundary {}: at {approximate_dependent} UV seam vertex(es) a semi-sharp \
+             crease on one side sharpens the other (OpenSubdiv's dependent sharpness), which gregvox models \
+             exactly only for uniform creasing and one sharpness per side: the UVs there approximate \
+             OpenSubdiv's",
+            rule.tag()
+        ));
+    }
+    if approximate_chaikin > 0 {
+        tags.ignored.push(format!(
+            "t creasemethod chaikin: at {approximate_chaikin} UV seam vertex(es) semi-sharp creases lie on \
+             both sides or across the seam; OpenSubdiv's Chaikin averaging there spans the seam and gregvox's \
+             UVs approximate it (positions are exact)"
+        ));
     }
     Ok(Some(Cage {
         mesh: uv_mesh,

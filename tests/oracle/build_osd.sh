@@ -75,3 +75,10 @@ for c in catmark_cube catmark_fvar_bound0 catmark_fvar_bound1 catmark_fvar_bound
         "$bin" "$out/cages/fvar/${c}_r$r.obj" /dev/null --fvar 200 "$out/${c}_r$r.fvar"
     done
 done
+# Semi-sharp creases ending at a UV seam (cages from tests/oracle/gen_seam_cages.py): OpenSubdiv's dependent
+# sharpness under rules 2 and 3, and Chaikin averaging across the seam.
+for c in seam_crease seam_crease_s25 seam_crease_chaikin seam_crease_chaikin2; do
+    for r in 1 2 3; do
+        "$bin" "$out/cages/fvar/${c}_r$r.obj" /dev/null --fvar 300 "$out/${c}_r$r.fvar"
+    done
+done
