@@ -699,5 +699,16 @@ fn a_cage_past_the_uniform_refinement_limit_renders_in_the_cage_and_voxels_scene
             assert!(v > 50.0, "{scene}: blank frame (variance {v})");
             assert!(changed > 0, "{scene}: the deformed car did not move");
         }
+        // The car's own UVs (`vt`), evaluated on the host at the ptex grid points, drive the checker.
+        let base = [
+            "--scene", "cage", "--model", car, "--size", "192x108", "--level", "2",
+        ];
+        let (_, _, phong) = render(ctx, &base, 2);
+        let mut checker = base.to_vec();
+        checker.extend_from_slice(&["--shading", "checker"]);
+        let (_, _, checked) = render(ctx, &checker, 2);
+        let differ = changed_pixels(&phong[1], &checked[1]);
+        eprintln!("car with the checker of its UVs: {differ} pixels differ from Phong");
+        assert!(differ > 200, "{differ}");
     });
 }

@@ -365,6 +365,20 @@ fn a_cage_past_the_uniform_limit_tessellates_per_ptex_face_crack_free() {
             );
         }
     }
+    // Deformed on the device (the ptex layout): the welded mesh still has the cage's topology.
+    let twisted = dir.join("twisted.obj");
+    let (ok, err) = tess(&twisted, &["--deform", "twist:0.5"]);
+    assert!(ok, "{err}");
+    let t =
+        gregvox::mesh::MeshMatrix::from_mesh(&gregvox::mesh::load_obj(&twisted).unwrap()).report();
+    assert_eq!(
+        (
+            t.boundary_edges,
+            t.euler_characteristic,
+            t.non_manifold_edges
+        ),
+        (after.boundary_edges, after.euler_characteristic, 0)
+    );
     // What needs the uniform layout says so.
     let (ok, err) = tess(&dir.join("a.obj"), &["--adaptive", "8"]);
     assert!(!ok && err.contains("uniform patch layout"), "{err}");

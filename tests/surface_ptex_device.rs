@@ -172,3 +172,48 @@ fn voxelize_gregory_level_takes_a_cage_past_the_uniform_limit() {
     drop(v);
     gpu.finish().unwrap();
 }
+
+#[test]
+fn tessellate_deforms_a_cage_past_the_uniform_limit_on_the_device() {
+    // `tessellate --deform` on the car: the ptex layout on the device (deform → W·cage → the grid points);
+    // at amplitude 0 it is the host's ptex grids to f32, with the same grids and UVs; a twist moves it.
+    use gregvox::api::tessellate::{Patches, TessellateOptions};
+    use gregvox::api::Deformation;
+    let gpu = gpu::validated_gpu();
+    let cage = load_obj_cage(model("opensubdiv/catmark_car.obj")).unwrap();
+    let d = diag(&cage.mesh.positions);
+    let patches = Patches::from_tagged_cage(&cage, Tangents::OpenSubdiv).unwrap();
+    let run = |deform: Option<(Deformation, f32)>| {
+        let opts = TessellateOptions {
+            level: 2,
+            deform,
+            ..TessellateOptions::default()
+        };
+        let mut profiler = gpu.profiler().unwrap();
+        gpu.tessellate(&patches, &opts, &mut profiler).unwrap()
+    };
+    let host = run(None);
+    let still = run(Some((Deformation::Twist, 0.0)));
+    let twisted = run(Some((Deformation::Twist, 0.5)));
+    assert_eq!(still.vertices.len(), host.vertices.len());
+    assert_eq!((still.level, &still.levels), (host.level, &host.levels));
+    assert_eq!(still.uvs, host.uvs);
+    let far = |a: &[SurfaceVertex], b: &[SurfaceVertex]| {
+        a.iter()
+            .zip(b)
+            .map(|(p, q)| {
+                (0..3)
+                    .map(|k| (p.position[k] as f64 - q.position[k] as f64).powi(2))
+                    .sum::<f64>()
+                    .sqrt()
+            })
+            .fold(0.0f64, f64::max)
+    };
+    let still_gap = far(&still.vertices, &host.vertices);
+    let twist_gap = far(&twisted.vertices, &host.vertices);
+    println!("car tessellated on the device: {still_gap:.1e} from the host at amplitude 0, twist moves {twist_gap:.3}");
+    assert!(still_gap <= 1e-6 * d, "{still_gap}");
+    assert!(twist_gap >= 0.01 * d, "{twist_gap}");
+    drop((host, still, twisted, patches));
+    gpu.finish().unwrap();
+}

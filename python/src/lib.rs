@@ -894,25 +894,38 @@ impl GregorySurface {
             .patches
             .lock()
             .map_err(|_| PyRuntimeError::new_err("the surface is in use"))?;
-        let Patches::Cage { rest, .. } = &mut *patches else {
-            return Err(bad(
-                "set_cage: this surface is not a uniform Gregory cage (a Beziex model, or a cage past the \
-                 uniform refinement's limit, tessellated per ptex face on the host): build a new \
-                 GregorySurface from the moved V",
-            ));
+        let n = match &*patches {
+            Patches::Cage { rest, .. } => rest.len(),
+            Patches::Ptex { cage, .. } => cage.mesh.positions.len(),
+            Patches::Beziex(_) => return Err(bad(
+                "set_cage: this surface is a Beziex model, not a cage: build a new GregorySurface",
+            )),
         };
-        if shape[1] != 3 || shape[0] != rest.len() {
+        if shape[1] != 3 || shape[0] != n {
             return Err(bad(format!(
-                "the cage has {} vertices: V must have shape ({}, 3), not {shape:?}",
-                rest.len(),
-                rest.len()
+                "the cage has {n} vertices: V must have shape ({n}, 3), not {shape:?}"
             )));
         }
         if v.iter().any(|x| !x.is_finite()) {
             return Err(bad("V holds a NaN or infinite coordinate"));
         }
-        for (r, p) in rest.iter_mut().zip(v.chunks_exact(3)) {
-            *r = DVec3::new(p[0], p[1], p[2]);
+        let moved: Vec<DVec3> = v
+            .chunks_exact(3)
+            .map(|p| DVec3::new(p[0], p[1], p[2]))
+            .collect();
+        match &mut *patches {
+            Patches::Cage { rest, .. } => *rest = moved,
+            // Past the uniform limit: the feature-adaptive patches of the moved cage (the same stencils).
+            Patches::Ptex {
+                cage,
+                evaluator,
+                adaptive,
+                ..
+            } => {
+                evaluator.set_positions(adaptive, &moved).map_err(to_py)?;
+                cage.mesh.positions = moved;
+            }
+            Patches::Beziex(_) => {}
         }
         Ok(())
     }

@@ -86,7 +86,7 @@ def test_evaluate_at_is_the_cli_evaluation(cli, models, tmp_path):
 def test_evaluate_at_refines_feature_adaptively_past_the_surfaces_limit(cli, models, tmp_path):
     # OpenSubdiv's catmark_car: 314 creases of sharpness 6, whose uniform refinement would make 6.4 M
     # patches. evaluate_at refines only around the creases and equals `gregvox evaluate`; a GregorySurface
-    # grids every ptex face over those patches, as `gregvox tessellate` does.
+    # grids every ptex face over those patches, as `gregvox tessellate` does, and moves with its cage.
     cage = models / "opensubdiv" / "catmark_car.obj"
     V, F, tags = gregvox.load_cage(cage)
     s = gregvox.GregorySurface(V, F, **tags)
@@ -95,8 +95,15 @@ def test_evaluate_at_refines_feature_adaptively_past_the_surfaces_limit(cli, mod
     cli.run("tessellate", cage, "--level", 2, "--no-weld", "--out", tmp_path / "car.obj")
     v, _, _ = read_obj(tmp_path / "car.obj")
     np.testing.assert_array_equal(P.reshape(-1, 3), v.astype(np.float32))
-    with pytest.raises(ValueError, match="per ptex face"):
-        s.set_cage(V)
+    # Moving the cage keeps its feature-adaptive patches: the same grids as a surface built on the moved cage.
+    moved = V * 1.1 + np.array([0.3, -0.2, 0.1])
+    s.set_cage(moved)
+    P2, _ = s.evaluate(2)
+    P3, _ = gregvox.GregorySurface(moved, F, **tags).evaluate(2)
+    np.testing.assert_array_equal(P2, P3)
+    assert not np.array_equal(P2, P)
+    with pytest.raises(ValueError, match="must have shape"):
+        s.set_cage(V[:-1])
     rng = np.random.default_rng(3)
     fuv = np.column_stack([rng.integers(0, len(F), 200), rng.random(200), rng.random(200)]).astype(float)
     ours = gregvox.evaluate_at(V, F, fuv, **tags)

@@ -30,7 +30,6 @@ use crate::passes::cage_deform::{DeformParams, Deformation};
 use crate::passes::gregory_eval::{grid_indices, vertex_count, SurfaceVertex, MAX_LEVEL};
 use crate::passes::patch_at::{PatchAtPass, PatchQuery, PatchSample};
 use crate::passes::surface_curvature::{SurfaceCurvaturePass, CURVATURE_STRIDE};
-use crate::surface::ptex_grid::grid_plan;
 use crate::surface::{gregory_host, LimitEvaluator, PtexMap, Tangents};
 use ash::vk;
 use glam::DVec3;
@@ -72,21 +71,18 @@ impl Gpu {
             rest,
             note,
             ptex,
-            mut layout,
+            layout,
             uv,
             ..
         } = t;
-        let uv = match (uv, &mut layout) {
+        let uv = match (uv, layout) {
             (Some(uv), _) => Some(Uv::Patches(Box::new(GregorySurface::new(
                 &self.ctx,
                 &uv.topology,
                 &uv.values,
                 level,
             )?))),
-            (None, Layout::Ptex { uv, cage }) => match uv.take() {
-                Some(e) => Some(Uv::ptex(&self.ctx, cage, &ptex, e, level)?),
-                None => None,
-            },
+            (None, Layout::Ptex { uv: Some(e), .. }) => Some(Uv::ptex(&self.ctx, &inner, e)?),
             _ => None,
         };
         let mut surface = Surface {
@@ -97,7 +93,6 @@ impl Gpu {
             curvature: None,
             uv,
             ptex,
-            layout,
             at_pass: std::cell::OnceCell::new(),
         };
         surface.evaluate(None)?;
@@ -199,8 +194,6 @@ pub struct Surface<'g> {
     uv: Option<Uv>,
     /// Where each (ptex face, u, v) is among the patches ([`Surface::evaluate_at`]).
     ptex: PtexMap,
-    /// The vertex layout: one grid per patch, or per ptex face over feature-adaptive patches.
-    layout: Layout,
     /// The evaluation-at-points pass, built on the first [`Surface::evaluate_at`].
     at_pass: std::cell::OnceCell<PatchAtPass>,
 }
@@ -249,29 +242,15 @@ enum Uv {
 }
 
 impl Uv {
-    /// The ptex layout's UVs at the grid points of `level` (`map`: the positions' ptex map, which makes
-    /// the grids).
+    /// The ptex layout's UVs at the grid points of `surface` (its current level).
     fn ptex(
         ctx: &crate::gpu::Context,
-        cage: &Cage,
-        map: &PtexMap,
+        surface: &GregorySurface,
         evaluator: Box<LimitEvaluator>,
-        level: u32,
     ) -> Result<Uv> {
-        let plan = grid_plan(cage, map, level)?;
-        let values = ptex_uvs(&evaluator, &plan.at)?;
-        let vertices: Vec<SurfaceVertex> = values
-            .iter()
-            .map(|t| SurfaceVertex {
-                position: [t[0], t[1], 0.0, 1.0],
-                normal: [0.0, 0.0, 1.0, 0.0],
-            })
-            .collect();
-        let buffer = ctx.upload_buffer(
-            "surface uvs (ptex grids)",
-            bytemuck::cast_slice(&vertices),
-            vk::BufferUsageFlags::STORAGE_BUFFER | vk::BufferUsageFlags::VERTEX_BUFFER,
-        )?;
+        let (values, buffer) = surface.ptex_uvs(ctx, &evaluator)?.ok_or_else(|| {
+            Error::Invalid("UVs of the ptex layout asked of a surface without it".into())
+        })?;
         Ok(Uv::Ptex {
             evaluator,
             values,
@@ -478,10 +457,7 @@ impl Surface<'_> {
                 self.uv = Some(Uv::Patches(uv));
             }
             Some(Uv::Ptex { evaluator, .. }) => {
-                let Layout::Ptex { cage, .. } = &self.layout else {
-                    unreachable!("ptex UVs belong to the ptex layout");
-                };
-                self.uv = Some(Uv::ptex(&self.gpu.ctx, cage, &self.ptex, evaluator, level)?);
+                self.uv = Some(Uv::ptex(&self.gpu.ctx, &self.inner, evaluator)?);
             }
             None => {}
         }

@@ -44,6 +44,8 @@ pub enum Patches {
     Ptex {
         cage: Box<Cage>,
         evaluator: Box<crate::surface::LimitEvaluator>,
+        /// The patches (for the device when the cage deforms, and to move the cage).
+        adaptive: Box<crate::surface::adaptive::AdaptiveStencils>,
         note: Option<String>,
     },
 }
@@ -79,6 +81,7 @@ impl Patches {
             return Ok(Patches::Ptex {
                 cage: Box::new(cage.clone()),
                 evaluator: Box::new(evaluator),
+                adaptive: Box::new(a),
                 note: Some(note),
             });
         }
@@ -600,10 +603,10 @@ fn check(patches: &Patches, opts: &TessellateOptions) -> Result<()> {
         }
     }
     if let Patches::Ptex { .. } = patches {
-        if opts.deform.is_some() || opts.adaptive.is_some() || opts.path == EvalPath::Vertex {
+        if opts.adaptive.is_some() || opts.path == EvalPath::Vertex {
             return Err(Error::Mesh(
-                "--deform, --adaptive and --path vertex work on the uniform patch layout; this cage is past \
-                 its limit and is tessellated per ptex face"
+                "--adaptive and --path vertex work on the uniform patch layout; this cage is past its limit \
+                 and is tessellated per ptex face"
                     .into(),
             ));
         }
@@ -646,6 +649,53 @@ impl Gpu {
         };
         let shift = |p: DVec3| p - DVec3::from(origin);
         match patches {
+            Patches::Ptex {
+                cage,
+                evaluator,
+                adaptive,
+                ..
+            } if opts.deform.is_some() => {
+                // The cage deforms on the device: the same grids, evaluated by the ptex layout's pass after
+                // the deformation and W·cage (in the local frame); the UVs, which do not move, on the host.
+                let mut local = (**cage).clone();
+                for p in &mut local.mesh.positions {
+                    *p = shift(*p);
+                }
+                let map = crate::surface::PtexMap::from_tree(&local, &adaptive.tree);
+                let topology = crate::engine::cage::adaptive_topology(adaptive);
+                let mut surface = GregorySurface::new_ptex(ctx, &topology, &local, map, level)?;
+                let params = opts.deform.map(|(mode, amplitude)| DeformParams {
+                    mode,
+                    t: 1.0,
+                    amplitude,
+                    box_min: surface.box_min(),
+                    box_size: surface.box_size(),
+                });
+                for _ in 0..opts.repeat {
+                    surface.evaluate(ctx, params.as_ref(), Some(&mut *profiler))?;
+                }
+                let levels = surface.ptex_levels().unwrap_or_default().to_vec();
+                let top = levels.iter().copied().max().unwrap_or(level);
+                let uniform = levels.iter().all(|&l| l == top);
+                let uvs = match (evaluator.has_uv(), surface.ptex_grid_points()?) {
+                    (true, Some(at)) => Some(
+                        evaluator
+                            .evaluate_uv(&at)?
+                            .iter()
+                            .map(|t| [t[0] as f32, t[1] as f32])
+                            .collect(),
+                    ),
+                    _ => None,
+                };
+                Ok(Tessellation {
+                    vertices: surface.read_vertices(ctx)?,
+                    patches: levels.len() as u32,
+                    level: top,
+                    levels: (!uniform).then_some(levels),
+                    origin,
+                    uvs,
+                })
+            }
             Patches::Ptex {
                 cage, evaluator, ..
             } => {

@@ -2,7 +2,7 @@
 //! the cage itself kept for drawing and dragging its vertices.
 use super::scene::{CageScene, Scene};
 use super::DemoArgs;
-use crate::engine::cage::{builtin_cage, load_cage, tagged_cage_topologies};
+use crate::engine::cage::{builtin_cage, load_cage, tagged_cage_topologies, Layout};
 use crate::gpu::Context;
 use crate::mesh::Cage;
 use crate::passes::draw::ColorTarget;
@@ -34,11 +34,12 @@ pub fn build(
         eprintln!("gregvox demo: {n}");
     }
     let surface = t.gregory_surface(ctx, args.level.unwrap_or(8))?;
-    let uv = t.uv;
     let mut scene = CageScene::new(ctx, format, surface, mesh, args.deform, name)?;
-    if let Some(uv) = uv {
-        // The checker shading reads the cage's own UVs (OpenSubdiv's face-varying surface) when it has them.
-        scene.set_uvs(ctx, uv)?;
+    // The checker shading reads the cage's own UVs (OpenSubdiv's face-varying surface) when it has them.
+    match (t.uv, t.layout) {
+        (Some(uv), _) => scene.set_uvs(ctx, uv)?,
+        (None, Layout::Ptex { uv: Some(e), .. }) => scene.set_ptex_uvs(ctx, e)?,
+        _ => {}
     }
     scene.adaptive = args.adaptive;
     if scene.adaptive.is_some() && scene.is_ptex() {

@@ -830,6 +830,9 @@ pub struct CageScene {
     /// The cage's UV surface (same patches and grids), evaluated once per level: UVs do not move with the
     /// cage.
     uv: Option<GregorySurface>,
+    /// The ptex layout's UVs instead: the host's UV evaluator and its values at the grid points as a vertex
+    /// stream, made once per level.
+    ptex_uv: Option<(Box<crate::surface::LimitEvaluator>, crate::gpu::Buffer)>,
     look: SurfaceLook,
     pub deformation: Deformation,
     name: String,
@@ -933,6 +936,7 @@ impl CageScene {
         Ok(CageScene {
             surface,
             uv: None,
+            ptex_uv: None,
             look,
             deformation,
             name,
@@ -943,6 +947,20 @@ impl CageScene {
             held: None,
             lines: SceneLines::new(ctx, format)?,
         })
+    }
+
+    /// Gives a surface in the ptex layout the cage's UVs: `uv` (the host's UV evaluator of the cage)
+    /// evaluated at the grid points, once per level.
+    pub fn set_ptex_uvs(
+        &mut self,
+        ctx: &Context,
+        uv: Box<crate::surface::LimitEvaluator>,
+    ) -> anyhow::Result<()> {
+        let (_, buffer) = self.surface.ptex_uvs(ctx, &uv)?.ok_or_else(|| {
+            anyhow::anyhow!("ptex UVs given to a surface with one grid per patch")
+        })?;
+        self.ptex_uv = Some((uv, buffer));
+        Ok(())
     }
 
     /// Gives the scene the cage's UV layout (patch `k` of it is the surface's patch `k`): the checker shading
@@ -1053,12 +1071,13 @@ impl Scene for CageScene {
                 patch_count: self.surface.patch_count(),
             }),
             color: [0.3, 0.55, 0.85],
-            // UVs are evaluated on the uniform grids only.
+            // UVs are evaluated on the uniform grids (or the ptex grids) only.
             uvs: self
                 .uv
                 .as_ref()
-                .filter(|_| self.adaptive.is_none())
-                .map(|u| u.vertices()),
+                .map(|u| u.vertices())
+                .or(self.ptex_uv.as_ref().map(|(_, b)| b))
+                .filter(|_| self.adaptive.is_none()),
             indirect,
         };
         self.look
@@ -1155,6 +1174,9 @@ impl Scene for CageScene {
         if let Some(uv) = self.uv.as_mut() {
             uv.set_level(ctx, level)?;
             uv.evaluate(ctx, None, None)?;
+        }
+        if let Some((e, _)) = self.ptex_uv.take() {
+            self.set_ptex_uvs(ctx, e)?;
         }
         self.look
             .resize(ctx, curvature_patches(&self.surface), self.surface.level())?;

@@ -154,6 +154,17 @@ impl CageTopologies {
     }
 }
 
+/// The device layout of feature-adaptive patches (for [`GregorySurface::new_ptex`]): their W and point rows.
+pub fn adaptive_topology(a: &AdaptiveStencils) -> GregoryTopology {
+    GregoryTopology {
+        w: a.stencils.w.clone(),
+        patch_points: a.stencils.patch_points.clone(),
+        // The ptex layout evaluates its grid points by query: no patch edge is evaluated canonically.
+        patch_flags: vec![0; a.stencils.patch_points.len()],
+        singular: Vec::new(),
+    }
+}
+
 /// [`tagged_cage_topologies`] for a device surface: past the uniform refinement's limit
 /// ([`crate::surface::acc2::MAX_REFINED_PATCHES`]: semi-sharp features on a large cage), the
 /// feature-adaptive patches of [`AdaptiveStencils::from_cage`] in the [`Layout::Ptex`] layout, with a note
@@ -185,13 +196,7 @@ pub fn surface_topologies(
     );
     Ok(CageTopologies {
         ptex: PtexMap::from_tree(cage, &a.tree),
-        topology: GregoryTopology {
-            w: a.stencils.w,
-            patch_points: a.stencils.patch_points,
-            // The ptex layout evaluates its grid points by query: no patch edge is evaluated canonically.
-            patch_flags: vec![0; n],
-            singular: Vec::new(),
-        },
+        topology: adaptive_topology(&a),
         rest: cage.mesh.positions.clone(),
         note: Some(note),
         uv: None,

@@ -745,6 +745,47 @@ impl GregorySurface {
         }
     }
 
+    /// The UVs of the ptex layout's vertices at the current level, from the host's f64 UV evaluator
+    /// (`uv`, built for the same cage): the values, and a vertex stream for renderers (u, v, 0, 1 as
+    /// [`SurfaceVertex`] positions, the layout of a UV surface's vertices). UVs do not deform, so this is
+    /// made once per level. `None` without the ptex layout.
+    pub fn ptex_uvs(
+        &self,
+        ctx: &Context,
+        uv: &crate::surface::LimitEvaluator,
+    ) -> Result<Option<(Vec<[f32; 2]>, Buffer)>> {
+        let Some(at) = self.ptex_grid_points()? else {
+            return Ok(None);
+        };
+        let values: Vec<[f32; 2]> = uv
+            .evaluate_uv(&at)?
+            .iter()
+            .map(|t| [t[0] as f32, t[1] as f32])
+            .collect();
+        let vertices: Vec<SurfaceVertex> = values
+            .iter()
+            .map(|t| SurfaceVertex {
+                position: [t[0], t[1], 0.0, 1.0],
+                normal: [0.0, 0.0, 1.0, 0.0],
+            })
+            .collect();
+        let buffer = ctx.upload_buffer(
+            "surface uvs (ptex grids)",
+            bytemuck::cast_slice(&vertices),
+            vk::BufferUsageFlags::STORAGE_BUFFER | vk::BufferUsageFlags::VERTEX_BUFFER,
+        )?;
+        Ok(Some((values, buffer)))
+    }
+
+    /// The (ptex face, u, v) of every vertex of the current level, in order, when the surface has the ptex
+    /// layout ([`Self::new_ptex`]; `None` otherwise): what a caller evaluates beside the vertices (UVs).
+    pub fn ptex_grid_points(&self) -> Result<Option<Vec<(u32, f64, f64)>>> {
+        match &self.ptex {
+            Some(p) => Ok(Some(grid_plan(&p.cage, &p.map, self.level)?.at)),
+            None => Ok(None),
+        }
+    }
+
     /// Per ptex grid, its level, when the surface has the ptex layout ([`Self::new_ptex`]): the vertices
     /// are these grids, `(level + 1)²` each, in order (triangles:
     /// [`crate::passes::adaptive_levels::compact_grid_indices`]).

@@ -99,6 +99,13 @@ impl LimitEvaluator {
         })
     }
 
+    /// Moves the cage this evaluator was built for (with [`Self::from_adaptive`] and stencils `a`) to
+    /// `positions`: the patches are recomputed, the ptex map and the UVs (which do not move) kept.
+    pub fn set_positions(&mut self, a: &AdaptiveStencils, positions: &[DVec3]) -> Result<()> {
+        self.patches = a.stencils.patches_f64(positions)?;
+        Ok(())
+    }
+
     /// From stencils already built for `cage` (and, when the cage has UVs, the UV cage's stencils at the
     /// same level, with OpenSubdiv's tangent masks).
     pub fn from_stencils(cage: &Cage, cs: &CageStencils) -> Result<Self> {
