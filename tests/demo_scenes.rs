@@ -710,5 +710,29 @@ fn a_cage_past_the_uniform_refinement_limit_renders_in_the_cage_and_voxels_scene
         let differ = changed_pixels(&phong[1], &checked[1]);
         eprintln!("car with the checker of its UVs: {differ} pixels differ from Phong");
         assert!(differ > 200, "{differ}");
+        // Screen-space adaptive tessellation carries the UVs too (the UV surface on each frame's grids).
+        let bound = concat!(
+            env!("CARGO_MANIFEST_DIR"),
+            "/assets/models/opensubdiv/catmark_fvar_bound1.obj"
+        );
+        let base = [
+            "--scene",
+            "cage",
+            "--model",
+            bound,
+            "--size",
+            "192x108",
+            "--adaptive",
+            "8",
+        ];
+        let (_, _, phong) = render(ctx, &base, 2);
+        let mut checker = base.to_vec();
+        checker.extend_from_slice(&["--shading", "checker"]);
+        let (_, _, checked) = render(ctx, &checker, 2);
+        let differ = changed_pixels(&phong[1], &checked[1]);
+        eprintln!(
+            "adaptive grids with the checker of the cage's UVs: {differ} pixels differ from Phong"
+        );
+        assert!(differ > 200, "{differ}");
     });
 }

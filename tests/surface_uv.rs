@@ -246,6 +246,62 @@ fn a_semi_sharp_crease_ending_at_a_seam_sharpens_the_other_span_under_corners_pl
 mod gpu;
 
 #[test]
+fn recorded_adaptive_updates_carry_the_uvs_on_their_own_grids() {
+    // Surface::record in screen-space adaptive mode evaluates the UV surface on the levels that update
+    // computed, in the vertices' slots: compacted by those levels, the UV stream is what
+    // `tessellate --adaptive` writes for the same view (whose UVs are checked against the CPU elsewhere).
+    use gregvox::api::tessellate::{adaptive_params, AdaptiveView, Patches, TessellateOptions};
+    use gregvox::api::SurfaceUpdate;
+    let gpu = gpu::validated_gpu();
+    let cage = load_obj_cage(model("opensubdiv/catmark_fvar_bound1.obj")).unwrap();
+    let level = 8;
+    // A grazing view from near one corner of the box: near patches fine, far ones coarse.
+    let (lo, hi) = cage.mesh.positions.iter().fold(
+        (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY)),
+        |(a, b), p| (a.min(*p), b.max(*p)),
+    );
+    let eye = hi + (hi - lo) * DVec3::new(0.1, 0.1, 0.3);
+    let view = AdaptiveView {
+        pixels_per_segment: 12.0,
+        eye: Some(eye.as_vec3().to_array()),
+        viewport: [640.0, 480.0],
+    };
+    let mut s = gpu
+        .tagged_gregory_surface(&cage, level, Tangents::OpenSubdiv)
+        .unwrap();
+    let e = s.engine();
+    s.set_adaptive(Some(adaptive_params(&view, e.box_min(), e.box_size())))
+        .unwrap();
+    let recording = gpu.begin_recording().unwrap();
+    gpu.context()
+        .one_shot(|cmd| s.record(cmd, &SurfaceUpdate::default()))
+        .unwrap();
+    drop(recording);
+    let levels = s.engine().read_levels(gpu.context()).unwrap();
+    let raw = s.read_uvs().unwrap().unwrap();
+    let slot = ((level + 1) * (level + 1)) as usize;
+    let mut uvs = Vec::new();
+    for (p, &l) in levels.iter().enumerate() {
+        uvs.extend_from_slice(&raw[p * slot..p * slot + ((l + 1) * (l + 1)) as usize]);
+    }
+    let patches = Patches::from_tagged_cage(&cage, Tangents::OpenSubdiv).unwrap();
+    let opts = TessellateOptions {
+        level,
+        adaptive: Some(view),
+        ..TessellateOptions::default()
+    };
+    let mut profiler = gpu.profiler().unwrap();
+    let t = gpu.tessellate(&patches, &opts, &mut profiler).unwrap();
+    let distinct: std::collections::BTreeSet<u32> = levels.iter().copied().collect();
+    eprintln!("adaptive levels {distinct:?}, {} UVs", uvs.len());
+    assert!(distinct.len() > 1, "{distinct:?}");
+    assert_eq!(t.levels.as_ref(), Some(&levels));
+    assert_eq!(Some(uvs), t.uvs);
+    drop((s, profiler));
+    gpu.finish().unwrap();
+}
+
+#[test]
 fn tessellation_carries_the_uv_surface_on_every_grid_vertex() {
     // The UV surface is evaluated on the device on the positions' grids: every vertex's UV is the CPU
     // evaluator's at the same (ptex face, i/L, j/L), to f32; the welded OBJ keeps seams apart.

@@ -154,8 +154,9 @@ pub struct SurfaceBuffers {
     /// [`Surface::enable_curvature`] was called; uniform mode only.
     pub curvature: Option<vk::Buffer>,
     /// UVs (a cage with UVs): a second vertex stream with the vertices' layout (stride
-    /// [`SurfaceBuffers::VERTEX_STRIDE`], u and v the first two f32 of each vertex), on the uniform grids
-    /// of the current level (adaptive mode does not carry UVs).
+    /// [`SurfaceBuffers::VERTEX_STRIDE`], u and v the first two f32 of each vertex), vertex for vertex:
+    /// the uniform grids of the current level, in adaptive mode the grids each `record` computes (the same
+    /// slots, so the indirect draws read both streams), and the ptex layout's grids.
     pub uvs: Option<vk::Buffer>,
     /// Adaptive mode: the index buffer of every level's grid and one `VkDrawIndexedIndirectCommand` per
     /// patch (usage `INDIRECT_BUFFER`), `patches` of them, [`SurfaceBuffers::INDIRECT_STRIDE`] apart.
@@ -328,6 +329,10 @@ impl Surface<'_> {
         );
         self.inner
             .record_into(ctx, cmd, deform.as_ref(), None, target)?;
+        if let (Some(Uv::Patches(uv)), Some(_)) = (&self.uv, self.inner.adaptive()) {
+            // The UVs on this update's adaptive grids, in the same slots as the vertices.
+            self.inner.record_adaptive_of(ctx, cmd, uv)?;
+        }
         if let Some(c) = &self.curvature {
             if self.inner.adaptive().is_none() {
                 let e = &self.inner;

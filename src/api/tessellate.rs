@@ -514,7 +514,10 @@ pub struct WeldedUvs {
 }
 
 /// The adaptive parameters for a cage with bounding box `box_min + [0, box_size]`.
-fn adaptive_params(a: &AdaptiveView, box_min: [f32; 3], box_size: [f32; 3]) -> AdaptiveParams {
+/// The adaptive parameters `tessellate` derives from `a` for a cage whose box is (`box_min`, `box_size`):
+/// a renderer that records a [`crate::api::Surface`] with them draws the grids `tessellate --adaptive`
+/// writes.
+pub fn adaptive_params(a: &AdaptiveView, box_min: [f32; 3], box_size: [f32; 3]) -> AdaptiveParams {
     let size = glam::Vec3::from(box_size);
     let centre = glam::Vec3::from(box_min) + 0.5 * size;
     let d = size.length().max(f32::MIN_POSITIVE);

@@ -42,6 +42,15 @@ pub fn build(
         _ => {}
     }
     scene.adaptive = args.adaptive;
+    if scene.adaptive.is_some()
+        && args.shading == crate::passes::surface_draw::ShadingMode::Checker
+        && !scene.has_uvs()
+    {
+        eprintln!(
+            "gregvox demo: --shading checker on --adaptive grids reads the cage's UVs, and this cage has \
+             none: Phong until A turns --adaptive off"
+        );
+    }
     if scene.adaptive.is_some() && scene.is_ptex() {
         eprintln!(
             "gregvox demo: --adaptive needs one grid per patch; this cage is tessellated per ptex face, \

@@ -209,13 +209,15 @@ impl DemoArgs {
                         .into(),
                 )?;
             }
-            if self.shading.needs_uniform_grid() {
+            // The checker reads the cage's UVs where it has them (known once it is loaded: the scene says
+            // so when it has none); the other modes need the uniform grid whatever the cage.
+            if self.shading.needs_uniform_grid(true) {
                 let name = clap::ValueEnum::to_possible_value(&self.shading)
                     .map(|v| v.get_name().to_string())
                     .unwrap_or_default();
                 view(format!(
                     "--shading {name} needs a uniform grid, and --adaptive draws per-patch levels \
-                     (phong, normals and zebra work with it)"
+                     (phong, normals, zebra and, with the cage's UVs, checker work with it)"
                 ))?;
             }
         }

@@ -325,7 +325,7 @@ pub struct SurfaceFrame<'a> {
     /// commands. The curvature modes and the vertex-pull path work on uniform grids only (Phong and the
     /// compute path instead).
     pub indirect: Option<IndirectDraw<'a>>,
-    /// UVs on the same (uniform) grids for the checker shading: a UV surface's vertices.
+    /// UVs vertex for vertex (uniform, adaptive or ptex grids) for the checker shading.
     pub uvs: Option<&'a Buffer>,
 }
 
@@ -473,7 +473,9 @@ impl SurfaceLook {
             }
             // Without control points (or on adaptive grids) there is no curvature to show: Phong instead.
             _ if shading.needs_curvature() => shading = ShadingMode::Phong,
-            _ if shading.needs_uniform_grid() && surface.indirect.is_some() => {
+            _ if shading.needs_uniform_grid(surface.uvs.is_some())
+                && surface.indirect.is_some() =>
+            {
                 shading = ShadingMode::Phong
             }
             _ => {}
@@ -880,6 +882,11 @@ fn cross_marks(
 }
 
 impl CageScene {
+    /// Whether the scene has the cage's UVs (a UV surface, or the ptex layout's UVs).
+    pub fn has_uvs(&self) -> bool {
+        self.uv.is_some() || self.ptex_uv.is_some()
+    }
+
     /// Whether the surface is tessellated per ptex face (feature-adaptive patches).
     pub fn is_ptex(&self) -> bool {
         self.surface.ptex_levels().is_some()
@@ -1049,6 +1056,10 @@ impl Scene for CageScene {
         }
         self.surface
             .record(ctx, cmd, Some(&deform), Some((profiler, targets.slot)))?;
+        if let (Some(uv), Some(_)) = (&self.uv, self.surface.adaptive()) {
+            // The UVs on this frame's adaptive grids (the levels the update just computed).
+            self.surface.record_adaptive_of(ctx, cmd, uv)?;
+        }
         let (indices, indirect) = match self.surface.adaptive_draw() {
             Some((indices, commands)) => (
                 indices,
@@ -1071,13 +1082,12 @@ impl Scene for CageScene {
                 patch_count: self.surface.patch_count(),
             }),
             color: [0.3, 0.55, 0.85],
-            // UVs are evaluated on the uniform grids (or the ptex grids) only.
+            // The UV surface's vertices share the slots of the positions' (uniform, adaptive or ptex grids).
             uvs: self
                 .uv
                 .as_ref()
                 .map(|u| u.vertices())
-                .or(self.ptex_uv.as_ref().map(|(_, b)| b))
-                .filter(|_| self.adaptive.is_none()),
+                .or(self.ptex_uv.as_ref().map(|(_, b)| b)),
             indirect,
         };
         self.look

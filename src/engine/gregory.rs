@@ -632,6 +632,41 @@ impl GregorySurface {
         Ok((out, levels))
     }
 
+    /// Records the evaluation of `other` — a surface of the same patch layout and level, such as a cage's UV
+    /// surface, from its rest cage — on this surface's adaptive grids into `other`'s vertex buffer (the same
+    /// slots, so one indirect draw reads both streams). Record it after this surface's `record` in the same
+    /// command buffer or a later one on the queue: it reads the levels that update computed.
+    pub fn record_adaptive_of(
+        &self,
+        ctx: &Context,
+        cmd: vk::CommandBuffer,
+        other: &GregorySurface,
+    ) -> Result<()> {
+        let a = self.adaptive_state()?;
+        if other.patch_count != self.patch_count || other.level != self.level {
+            return Err(Error::Invalid(format!(
+                "a surface of {} patches at level {} cannot be evaluated on the grids of {} patches at level {}",
+                other.patch_count, other.level, self.patch_count, self.level
+            )));
+        }
+        other.record_points(ctx, cmd, None, &mut None)?;
+        a.eval.record_adaptive(
+            ctx,
+            cmd,
+            other.control_points(),
+            &other.patch_points,
+            &other.patch_flags,
+            other.patch_count,
+            self.level,
+            &AdaptiveInputs {
+                levels: &a.levels,
+                edge_ids: &a.edge_ids,
+                edge_levels: &a.edge_levels,
+            },
+            &other.vertices,
+        )
+    }
+
     /// Evaluates `other` — a surface of the same patch layout and level, such as a cage's UV surface — on
     /// this surface's adaptive grids (the per-patch and per-edge levels its last update computed; the
     /// caller waited for it) into `other`'s vertex buffer, and reads them back compacted as
@@ -641,31 +676,8 @@ impl GregorySurface {
         ctx: &Context,
         other: &GregorySurface,
     ) -> Result<Vec<SurfaceVertex>> {
-        let a = self.adaptive_state()?;
-        if other.patch_count != self.patch_count || other.level != self.level {
-            return Err(Error::Invalid(format!(
-                "a surface of {} patches at level {} cannot be evaluated on the grids of {} patches at level {}",
-                other.patch_count, other.level, self.patch_count, self.level
-            )));
-        }
-        ctx.one_shot(|cmd| {
-            other.record_points(ctx, cmd, None, &mut None)?;
-            a.eval.record_adaptive(
-                ctx,
-                cmd,
-                other.control_points(),
-                &other.patch_points,
-                &other.patch_flags,
-                other.patch_count,
-                self.level,
-                &AdaptiveInputs {
-                    levels: &a.levels,
-                    edge_ids: &a.edge_ids,
-                    edge_levels: &a.edge_levels,
-                },
-                &other.vertices,
-            )
-        })?;
+        self.adaptive_state()?;
+        ctx.one_shot(|cmd| self.record_adaptive_of(ctx, cmd, other))?;
         let levels = self.read_levels(ctx)?;
         Ok(compact_grids(
             &other.read_vertices(ctx)?,

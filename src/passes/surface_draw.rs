@@ -67,9 +67,12 @@ impl ShadingMode {
     }
 
     /// Whether the mode needs every patch's grid at the uniform level (the curvature stream is written per
-    /// uniform grid vertex; the wireframe finds patch boundaries from the vertex index and the level).
-    pub fn needs_uniform_grid(self) -> bool {
-        self.needs_curvature() || matches!(self, ShadingMode::Wireframe | ShadingMode::Checker)
+    /// uniform grid vertex; the wireframe, and the checker without the cage's UVs, find the patch
+    /// parameters from the vertex index and the level). `uvs`: the draw has the cage's UV stream.
+    pub fn needs_uniform_grid(self, uvs: bool) -> bool {
+        self.needs_curvature()
+            || self == ShadingMode::Wireframe
+            || (self == ShadingMode::Checker && !uvs)
     }
 }
 
