@@ -413,7 +413,7 @@ fn gregvox_evaluate_writes_uv_when_the_cage_has_uvs() {
             s.at
         );
     }
-    // --device: the same points in f32 from the device pass (position, du, dv, uv; no second derivatives).
+    // --device: the same points in f32 from the device pass (the same arrays, second derivatives included).
     let r = std::process::Command::new(env!("CARGO_BIN_EXE_gregvox"))
         .args([
             "evaluate",
@@ -430,7 +430,7 @@ fn gregvox_evaluate_writes_uv_when_the_cage_has_uvs() {
     let z = std::fs::read(&out).unwrap();
     let p = npz_f64(&z, "position").unwrap();
     let uv = npz_f64(&z, "uv").unwrap();
-    assert!(npz_f64(&z, "duu").is_none());
+    assert_eq!(npz_f64(&z, "duu").map(|d| d.len()), Some(3 * samples.len()));
     for (k, s) in samples.iter().enumerate() {
         assert!(
             (DVec3::from_slice(&p[3 * k..3 * k + 3]) - s.p).length() < 1e-5,
@@ -556,7 +556,7 @@ fn the_device_evaluates_the_surface_at_arbitrary_ptex_points_as_the_cpu_does() {
             })
             .filter(|&q| e.evaluate_first_order(&[q]).is_ok()) // not on a hole
             .collect();
-        let cpu = e.evaluate_first_order(&at).unwrap();
+        let cpu = e.evaluate(&at).unwrap();
         // Both evaluators where the surface holds both (a CPU device in an optimised build: the host one
         // is what evaluate_at picks there), else the device pass alone.
         use gregvox::engine::gregory::Evaluator;
@@ -569,7 +569,7 @@ fn the_device_evaluates_the_surface_at_arbitrary_ptex_points_as_the_cpu_does() {
         for &ev in evaluators {
             let dev = s.evaluate_at_with(&at, ev).unwrap();
             let d = diag(&cage.mesh.positions);
-            let (mut ep, mut ed) = (0.0f64, 0.0f64);
+            let (mut ep, mut ed, mut e2) = (0.0f64, 0.0f64, 0.0f64);
             let v3 = |a: [f32; 3]| DVec3::new(a[0] as f64, a[1] as f64, a[2] as f64);
             for (k, c) in cpu.iter().enumerate() {
                 ep = ep.max((v3(dev.position[k]) - c.position).length() / d);
@@ -577,13 +577,25 @@ fn the_device_evaluates_the_surface_at_arbitrary_ptex_points_as_the_cpu_does() {
                 ed = ed.max(
                     ((v3(dev.du[k]) - c.du).length()).max((v3(dev.dv[k]) - c.dv).length()) / scale,
                 );
+                // Second derivatives relative to their own size (or the first ones', where they vanish).
+                let second = [
+                    (dev.duu[k], c.duu),
+                    (dev.duv[k], c.duv),
+                    (dev.dvv[k], c.dvv),
+                ];
+                let scale2 = second.iter().map(|(_, c)| c.length()).fold(scale, f64::max);
+                for (g, c) in second {
+                    e2 = e2.max((v3(g) - c).length() / scale2);
+                }
             }
             eprintln!(
-            "{rel} ({ev:?}): {} points, vs CPU f64 position {ep:.1e}·diag, derivatives {ed:.1e}",
-            at.len()
-        );
+                "{rel} ({ev:?}): {} points, vs CPU f64 position {ep:.1e}·diag, derivatives {ed:.1e}, \
+                 second derivatives {e2:.1e}",
+                at.len()
+            );
             assert!(ep < 1e-6, "{rel}: position {ep:e}");
             assert!(ed < 1e-4, "{rel}: derivatives {ed:e}");
+            assert!(e2 < 1e-3, "{rel}: second derivatives {e2:e}");
             let uv = dev.uv.expect("these cages have UVs");
             let cuv = e.evaluate_uv(&at).unwrap();
             let du = uv_diag(&cage.uv.as_ref().unwrap().values);

@@ -15,18 +15,23 @@ struct Query {
     vec4 jac;   // J00, J01, J10, J11
 };
 
-// Position (world), patch-local first partials and the Bézier net of query x.
-void patch_query_eval(Query x, out vec3 position, out vec3 su, out vec3 sv, out vec3 net[16]) {
+// The 20 control points of query x's patch relative to its first point (f32 rows first, then the
+// residuals: exact differences for nearby points), and that first point as f32 row + residual.
+void patch_query_points(Query x, out vec3 local[20], out vec3 hi0, out vec3 lo0) {
     uint base = 20u * x.patch_index;
-    vec3 hi0 = points[patch_points[base]].xyz;
-    vec3 lo0 = pc.residual_rows > 0u ? points[pc.residual_rows + patch_points[base]].xyz : vec3(0.0);
-    vec3 local[20];
+    hi0 = points[patch_points[base]].xyz;
+    lo0 = pc.residual_rows > 0u ? points[pc.residual_rows + patch_points[base]].xyz : vec3(0.0);
     for (int k = 0; k < 20; ++k) {
         uint r = patch_points[base + uint(k)];
         vec3 lo = pc.residual_rows > 0u ? points[pc.residual_rows + r].xyz : vec3(0.0);
-        // Differences of the f32 rows first (exact for nearby points), then of the residuals.
         local[k] = (points[r].xyz - hi0) + (lo - lo0);
     }
+}
+
+// Position (world), patch-local first partials and the Bézier net of query x.
+void patch_query_eval(Query x, out vec3 position, out vec3 su, out vec3 sv, out vec3 net[16]) {
+    vec3 local[20], hi0, lo0;
+    patch_query_points(x, local, hi0, lo0);
     vec3 p;
     gregory_eval_local(local, vec3(0.0), x.u, x.v, p, su, sv, net);
     position = (p + lo0) + hi0;

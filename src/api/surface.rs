@@ -207,11 +207,15 @@ pub struct SurfaceSamples {
     /// Exact first derivatives with respect to the ptex face's u and v.
     pub du: Vec<[f32; 3]>,
     pub dv: Vec<[f32; 3]>,
+    /// Exact second derivatives (S_uu, S_uv, S_vv) with respect to the ptex face's u and v.
+    pub duu: Vec<[f32; 3]>,
+    pub duv: Vec<[f32; 3]>,
+    pub dvv: Vec<[f32; 3]>,
     /// The UVs there, when the surface has UVs.
     pub uv: Option<Vec<[f32; 2]>>,
 }
 
-/// Queries uploaded at once by [`Surface::evaluate_at`] (80 bytes each on the device).
+/// Queries uploaded at once by [`Surface::evaluate_at`] (128 bytes each on the device).
 const QUERIES_PER_UPLOAD: usize = 1 << 22;
 
 /// The curvature pass and its (H, K) buffer at the surface's current level.
@@ -502,7 +506,7 @@ impl Surface<'_> {
     ) -> Result<SurfaceSamples> {
         let located = self.ptex.locate_all(at)?;
         if evaluator == Evaluator::Host {
-            let eval = |s: &GregorySurface| -> Result<Vec<[[f32; 3]; 3]>> {
+            let eval = |s: &GregorySurface| -> Result<Vec<[[f32; 3]; 6]>> {
                 Ok(gregory_host::evaluate_at(&s.host_patches()?, &located))
             };
             let pos = eval(&self.inner)?;
@@ -515,6 +519,9 @@ impl Surface<'_> {
                 position: pos.iter().map(|s| s[0]).collect(),
                 du: pos.iter().map(|s| s[1]).collect(),
                 dv: pos.iter().map(|s| s[2]).collect(),
+                duu: pos.iter().map(|s| s[3]).collect(),
+                duv: pos.iter().map(|s| s[4]).collect(),
+                dvv: pos.iter().map(|s| s[5]).collect(),
                 uv,
             });
         }
@@ -572,6 +579,9 @@ impl Surface<'_> {
                     .push([s.position[0], s.position[1], s.position[2]]);
                 out.du.push([s.du[0], s.du[1], s.du[2]]);
                 out.dv.push([s.dv[0], s.dv[1], s.dv[2]]);
+                out.duu.push([s.duu[0], s.duu[1], s.duu[2]]);
+                out.duv.push([s.duv[0], s.duv[1], s.duv[2]]);
+                out.dvv.push([s.dvv[0], s.dvv[1], s.dvv[2]]);
             }
             if let (Some(Uv::Patches(uv)), Some(list)) = (&self.uv, out.uv.as_mut()) {
                 list.extend(run(uv)?.iter().map(|s| [s.position[0], s.position[1]]));

@@ -25,8 +25,8 @@ pub struct EvaluateArgs {
     /// semi-sharp sharpness⌉, 1 with non-quad faces, else 0).
     #[arg(long, value_name = "L")]
     pub isolation: Option<u32>,
-    /// Evaluate on the device (f32; `Surface::evaluate_at`): `position`, `du`, `dv` (and `uv`), no second
-    /// derivatives. Default: the CPU in f64 with second derivatives.
+    /// Evaluate on the device (f32; `Surface::evaluate_at`): the same arrays (`position`, `du`, `dv`,
+    /// `duu`, `duv`, `dvv`, and `uv`). Default: the CPU in f64.
     #[arg(long)]
     pub device: bool,
 }
@@ -113,6 +113,9 @@ fn run_device(
         ("position", wide(&s.position)),
         ("du", wide(&s.du)),
         ("dv", wide(&s.dv)),
+        ("duu", wide(&s.duu)),
+        ("duv", wide(&s.duv)),
+        ("dvv", wide(&s.dvv)),
     ];
     if let Some(uv) = &s.uv {
         arrays.push((

@@ -1,5 +1,5 @@
 //! `PatchAtPass`: the Gregory surface at arbitrary (patch, u, v) points on the device (glsl/patch_at.comp):
-//! position and exact first derivatives in f32, for millions of points per dispatch chain; or, built with
+//! position and exact first and second derivatives in f32, for millions of points per dispatch chain; or, built with
 //! [`PatchAtPass::new_vertices`] (glsl/patch_at_vertex.comp), surface vertices (position and unit normal):
 //! the device surface's ptex layout (`engine::gregory`).
 //!
@@ -32,14 +32,17 @@ pub struct PatchQuery {
     pub jac: [f32; 4],
 }
 
-/// One result (`Sample` in glsl/patch_at.comp): position (w = 1) and the derivatives with respect to the
-/// ptex face's (u, v) (w = 0).
+/// One result (`Sample` in glsl/patch_at.comp): position (w = 1) and the exact first and second
+/// derivatives with respect to the ptex face's (u, v) (w = 0).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, bytemuck::Pod, bytemuck::Zeroable)]
 pub struct PatchSample {
     pub position: [f32; 4],
     pub du: [f32; 4],
     pub dv: [f32; 4],
+    pub duu: [f32; 4],
+    pub duv: [f32; 4],
+    pub dvv: [f32; 4],
 }
 
 /// Push constants (`Push` in glsl/patch_at.comp).
@@ -51,7 +54,7 @@ struct Push {
     pad: [u32; 2],
 }
 
-/// Queries per dispatch: 32 MiB of queries and 48 MiB of samples, under lavapipe's 128 MiB binding limit.
+/// Queries per dispatch: 32 MiB of queries and 96 MiB of samples, under lavapipe's 128 MiB binding limit.
 pub const QUERIES_PER_BATCH: u64 = 1 << 20;
 
 /// The evaluation-at-points compute pass.

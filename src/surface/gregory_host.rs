@@ -68,11 +68,11 @@ pub enum HostSimd {
 }
 
 /// The surface at located (patch, u, v) points ([`crate::surface::PtexMap::locate_all`]) from the points
-/// `p` holds: each point's f32 row plus its residual in f64, evaluated with exact first derivatives
-/// ([`crate::geom::gregory::eval_generic`]), the derivatives mapped back to the ptex face's (u, v) by the
-/// located Jacobian; `[position, du, dv]` per point, in f32, every core. The host counterpart of
+/// `p` holds: each point's f32 row plus its residual in f64, evaluated with exact first and second
+/// derivatives ([`crate::geom::gregory::eval_generic`]), the derivatives mapped back to the ptex face's
+/// (u, v) by the located Jacobian; `[position, du, dv, duu, duv, dvv]` per point, in f32, every core. The host counterpart of
 /// glsl/patch_at.comp (`Surface::evaluate_at` on CPU devices). Cost: 20 gathered points per query.
-pub fn evaluate_at(p: &HostPatches, located: &[crate::surface::Located]) -> Vec<[[f32; 3]; 3]> {
+pub fn evaluate_at(p: &HostPatches, located: &[crate::surface::Located]) -> Vec<[[f32; 3]; 6]> {
     use glam::DVec3;
     let point = |r: usize| {
         let hi = p.points[r];
@@ -88,10 +88,16 @@ pub fn evaluate_at(p: &HostPatches, located: &[crate::surface::Located]) -> Vec<
         .map(|&(k, u, v, j)| {
             let rows = &p.patch_points[k as usize];
             let cv: [DVec3; 20] = std::array::from_fn(|i| point(rows[i] as usize));
-            let e = crate::geom::gregory::eval_generic(&cv, u, v, true, false);
+            let e = crate::geom::gregory::eval_generic(&cv, u, v, true, true);
             let du = e.su * j[0][0] + e.sv * j[1][0];
             let dv = e.su * j[0][1] + e.sv * j[1][1];
-            [e.p, du, dv].map(|x| x.as_vec3().to_array())
+            // The map is affine: second derivatives are Jᵀ·H·J.
+            let [huu, huv, hvv] = e.second;
+            let (a, b, c, d) = (j[0][0], j[0][1], j[1][0], j[1][1]);
+            let duu = huu * (a * a) + huv * (2.0 * a * c) + hvv * (c * c);
+            let duv = huu * (a * b) + huv * (a * d + c * b) + hvv * (c * d);
+            let dvv = huu * (b * b) + huv * (2.0 * b * d) + hvv * (d * d);
+            [e.p, du, dv, duu, duv, dvv].map(|x| x.as_vec3().to_array())
         })
         .collect()
 }
