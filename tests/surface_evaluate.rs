@@ -77,6 +77,45 @@ fn evaluation_at_ptex_parameters_matches_opensubdivs_patch_map() {
 }
 
 #[test]
+fn normals_are_the_exact_normals_of_opensubdivs_surface() {
+    // The oracle's exact derivatives of OpenSubdiv's own positions (differences of EvaluateBasis on each
+    // sample's patch, `--fd`; its Gregory derivatives freeze the rational points and are off by up to a few
+    // degrees): our normals within 0.05° of theirs, everywhere the tangent plane is defined (S_u × S_v not
+    // vanishing: valence-2 points and degenerate corners have none). The car: its 136 k adaptive patches.
+    let mut shapes: Vec<(&str, &str)> = SHAPES.to_vec();
+    shapes.push(("catmark_car", "opensubdiv/catmark_car.obj"));
+    for (name, rel) in shapes {
+        let cage = load_obj_cage(model(rel)).unwrap();
+        let e = LimitEvaluator::new(&cage, Tangents::OpenSubdiv).unwrap();
+        let samples = read_ptex(name);
+        let fd = read_records(name, "fd", 6);
+        assert_eq!(fd.len(), samples.len(), "{name}");
+        let at: Vec<_> = samples.iter().map(|s| s.at).collect();
+        let ours = e.evaluate(&at).unwrap();
+        let (mut worst, mut der, mut skipped) = (0.0f64, 0.0f64, 0);
+        for (o, f) in ours.iter().zip(&fd) {
+            let (du, dv) = (DVec3::new(f[0], f[1], f[2]), DVec3::new(f[3], f[4], f[5]));
+            let n = du.cross(dv);
+            if n.length() <= 1e-6 * du.length() * dv.length() {
+                skipped += 1;
+                continue;
+            }
+            worst = worst.max(angle(o.du.cross(o.dv), n).to_degrees());
+            let scale = du.length().max(dv.length());
+            der = der.max(((o.du - du).length()).max((o.dv - dv).length()) / scale);
+        }
+        eprintln!(
+            "{name:22} {} samples: normals vs the exact ones {worst:.1e}°, derivatives {der:.1e} (relative); \
+             {skipped} without a tangent plane",
+            samples.len()
+        );
+        assert!(worst <= 0.05, "{name}: {worst}°");
+        assert!(der <= 1e-6, "{name}: derivatives {der:e}");
+        assert!(skipped * 20 < samples.len(), "{name}: {skipped} skipped");
+    }
+}
+
+#[test]
 fn derivatives_are_the_exact_derivatives_of_the_evaluated_positions() {
     // OpenSubdiv's Gregory derivatives freeze the rational points; ours differentiate them too. Central
     // differences of our own positions (step 1e-5) check first and second derivatives, also across the

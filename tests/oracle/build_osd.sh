@@ -36,9 +36,11 @@ done
 "$bin" "$models/spot_quadrangulated.obj" "$out/spot_quadrangulated.osd" --f32 --limit "$out/spot_quadrangulated.limit"
 # Random (ptex face, u, v) samples through Far::PatchMap (tests/surface_evaluate.rs); raise N for a longer run
 # (write the files to a folder DIR of their own and run the tests with GREGVOX_SURFACE_FIXTURES=DIR).
+# With --fd, the exact derivatives of OpenSubdiv's positions there (differences of EvaluateBasis on the
+# sample's patch), which the normals are checked against.
 for c in catmark_cube catmark_torus catmark_gregory_test6 catmark_inf_crease0 catmark_edgenone catmark_hole_test1 \
          catmark_nonquads catmark_hole_test3; do
-    "$bin" "$osd/$c.obj" /dev/null --ptex 1000 "$out/$c.ptex"
+    "$bin" "$osd/$c.obj" /dev/null --ptex 1000 "$out/$c.ptex" --fd "$out/$c.fd"
 done
 # Semi-sharp creases and corners (uniform and Chaikin): OpenSubdiv's RefineAdaptive(⌈s⌉) patches at random
 # (ptex face, u, v); 300 samples each keeps the fixtures small.
@@ -55,7 +57,7 @@ done
 # Feature-adaptive refinement past the uniform refinement's limit (tests/surface_adaptive.rs): the car (314
 # creases of sharpness 6: RefineAdaptive(6)) and a 64² grid with a crease polyline of 9.5 and a corner of 7.25
 # (RefineAdaptive(10)), sampled everywhere and on the faces along the crease.
-"$bin" "$osd/catmark_car.obj" /dev/null --ptex 1000 "$out/catmark_car.ptex"
+"$bin" "$osd/catmark_car.obj" /dev/null --ptex 1000 "$out/catmark_car.ptex" --fd "$out/catmark_car.fd"
 "$bin" "$out/cages/grid64_crease9.obj" /dev/null --ptex 300 "$out/grid64_crease9.ptex"
 "$bin" "$out/cages/grid64_crease9.obj" /dev/null --ptex 600 "$out/grid64_crease9_near.ptex" --faces 1984 2112
 # Face-varying UVs (`vt`, `t facevaryinginterpolateboundary`, CORNERS_ONLY without the tag) through Far's

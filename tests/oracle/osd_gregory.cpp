@@ -159,6 +159,10 @@ struct Rng {
 
 // --faces A B: draw --ptex samples on ptex faces A..B-1 only (where a large cage's features are).
 static int g_face_lo = 0, g_face_hi = 1 << 30;
+// --fd FILE (with --ptex): the exact derivatives of OpenSubdiv's own positions at each sample, by
+// differences of EvaluateBasis positions on the sample's patch (OpenSubdiv's Gregory derivatives freeze
+// the rational points, so they are not these): u32 n; per sample f64[6]: dP/du, dP/dv (ptex u, v).
+static const char *g_fd_path = 0;
 
 // --ptex N FILE [--isolation L]: N random (ptex face, u, v) on the cage as given, through Far::PatchMap and
 // EvaluateBasis, with RefineAdaptive(L), L at least the largest semi-sharp sharpness rounded up, at least 1
@@ -192,7 +196,7 @@ static int write_ptex_samples(const Cage &cage, int n, const char *path, int iso
     std::vector<int> ptex_face;
     for (int f : ptex_faces(cage, *r)) if (f >= g_face_lo && f < g_face_hi) ptex_face.push_back(f);
     if (ptex_face.empty()) { fprintf(stderr, "--faces: no ptex face in range\n"); return 1; }
-    std::vector<double> out;
+    std::vector<double> out, fd;
     std::vector<double> w(20), wu(20), wv(20);
     Rng rng;
     auto next = [&]() { return rng.next(); };
@@ -202,6 +206,44 @@ static int write_ptex_samples(const Cage &cage, int n, const char *path, int iso
         if (s % 10 == 0) u = 0.5; // the seams between refined quadrants
         Far::PatchTable::PatchHandle const *h = pm.FindPatch(face, u, v);
         if (!h) { fprintf(stderr, "FindPatch failed: ptex %d (%g, %g)\n", face, u, v); return 1; }
+        if (g_fd_path) {
+            // Differences in the patch's own parameters (s, t), mapped back to the ptex face's: central
+            // where the stencil stays inside the patch, second-order one-sided at its edges.
+            Far::PatchParam param = pt->GetPatchParam(*h);
+            double ps = u, pq = v;
+            param.Normalize(ps, pq);
+            const double d = 1e-5;
+            auto at = [&](double a, double b, double P[3], double uv[2]) {
+                double uu = a, vv = b;
+                param.Unnormalize(uu, vv);
+                std::vector<double> ww(20);
+                pt->EvaluateBasis(*h, uu, vv, ww.data());
+                Far::ConstIndexArray cv = pt->GetPatchVertices(*h);
+                for (int c = 0; c < 3; ++c) P[c] = 0;
+                for (int k = 0; k < cv.size(); ++k) for (int c = 0; c < 3; ++c) P[c] += ww[k] * pts[cv[k]].p[c];
+                uv[0] = uu; uv[1] = vv;
+            };
+            for (int axis = 0; axis < 2; ++axis) {
+                double x = axis == 0 ? ps : pq;
+                double k[3], c[3];
+                if (x - d >= 0 && x + d <= 1) { k[0] = -d; k[1] = d; k[2] = 0; c[0] = -0.5; c[1] = 0.5; c[2] = 0; }
+                else if (x - d < 0) { k[0] = 0; k[1] = d; k[2] = 2 * d; c[0] = -1.5; c[1] = 2.0; c[2] = -0.5; }
+                else { k[0] = 0; k[1] = -d; k[2] = -2 * d; c[0] = 1.5; c[1] = -2.0; c[2] = 0.5; }
+                double D[3] = {0, 0, 0}, scale = 0;
+                for (int m = 0; m < 3; ++m) {
+                    if (c[m] == 0) continue;
+                    double P[3], uv[2];
+                    at(axis == 0 ? ps + k[m] : ps, axis == 0 ? pq : pq + k[m], P, uv);
+                    for (int q = 0; q < 3; ++q) D[q] += c[m] * P[q];
+                }
+                // d(s)/d(u): the patch's parameters against the ptex face's (a power of two).
+                double P0[3], uv0[2], P1[3], uv1[2];
+                at(0.25, 0.25, P0, uv0);
+                at(0.75, 0.75, P1, uv1);
+                scale = (axis == 0 ? uv1[0] - uv0[0] : uv1[1] - uv0[1]) / 0.5;
+                for (int q = 0; q < 3; ++q) fd.push_back(D[q] / (d * scale));
+            }
+        }
         pt->EvaluateBasis(*h, u, v, w.data(), wu.data(), wv.data());
         Far::ConstIndexArray cv = pt->GetPatchVertices(*h);
         double P[3] = {0, 0, 0}, Du[3] = {0, 0, 0}, Dv[3] = {0, 0, 0};
@@ -222,6 +264,13 @@ static int write_ptex_samples(const Cage &cage, int n, const char *path, int iso
     fwrite(out.data(), 8, out.size(), fo);
     fclose(fo);
     fprintf(stderr, "%s: %d ptex samples over %zu ptex faces (max level %d)\n", path, n, ptex_face.size(), r->GetMaxLevel());
+    if (g_fd_path) {
+        FILE *ff = fopen(g_fd_path, "wb");
+        if (!ff) { fprintf(stderr, "cannot write %s\n", g_fd_path); return 1; }
+        fwrite(&nn, 4, 1, ff);
+        fwrite(fd.data(), 8, fd.size(), ff);
+        fclose(ff);
+    }
     delete pt; delete r;
     return 0;
 }
@@ -341,6 +390,7 @@ int main(int argc, char **argv) {
         if (!strcmp(argv[i], "--fvar") && i + 2 < argc) { fvar_n = atoi(argv[++i]); fvar_path = argv[++i]; continue; }
         if (!strcmp(argv[i], "--isolation") && i + 1 < argc) { isolation = atoi(argv[++i]); continue; }
         if (!strcmp(argv[i], "--faces") && i + 2 < argc) { g_face_lo = atoi(argv[++i]); g_face_hi = atoi(argv[++i]); continue; }
+        if (!strcmp(argv[i], "--fd") && i + 1 < argc) { g_fd_path = argv[++i]; continue; }
         if (!strcmp(argv[i], "--refine")) refine = true;
         else if (!strcmp(argv[i], "--f32")) f32 = true;
         else if (!strcmp(argv[i], "--samples")) samples = true;
