@@ -4,8 +4,7 @@
 // Translation-invariant: the control points may be given relative to any origin.
 #ifndef GREGVOX_GREGORY_SECOND_GLSL
 #define GREGVOX_GREGORY_SECOND_GLSL
-
-const float GREGORY_SECOND_CORNER_EPS = 1e-6;
+#include "gregory.glsl"
 
 // Cubic Bernstein values, first and second derivatives at t.
 void gregory_bern3_second(float t, out vec4 b, out vec4 d, out vec4 dd) {
@@ -15,18 +14,17 @@ void gregory_bern3_second(float t, out vec4 b, out vec4 d, out vec4 dd) {
     dd = vec4(6.0 * s, 18.0 * t - 12.0, 6.0 - 18.0 * t, 6.0 * t);
 }
 
-// Q = P_b + f·(P_a − P_b), f = a/(a + b), a depends on u only (∂a/∂u = au), b on v only (∂b/∂v = bv).
-// Outputs Q and its partials q[0..4] = Q_u, Q_v, Q_uu, Q_uv, Q_vv.
+// Q = P_b + f·(P_a − P_b), f = a/(a + b), a depends on u only (∂a/∂u = au), b on v only (∂b/∂v = bv):
+// gregory_rational's Q, Q_u, Q_v, and the second partials. Outputs q[0..4] = Q_u, Q_v, Q_uu, Q_uv, Q_vv.
 void gregory_rational_second(vec3 pa, vec3 pb, float a, float b, float au, float bv, out vec3 q,
                              out vec3 dq[5]) {
+    gregory_rational(pa, pb, a, b, au, bv, q, dq[0], dq[1]);
     float d = a + b;
-    if (d < GREGORY_SECOND_CORNER_EPS) {
-        q = pa;
-        for (int k = 0; k < 5; ++k) dq[k] = vec3(0.0);
+    if (d < GREGORY_CORNER_EPS) {
+        dq[2] = vec3(0.0); dq[3] = vec3(0.0); dq[4] = vec3(0.0);
         return;
     }
     float inv = 1.0 / d;
-    q = (pa * a + pb * b) * inv;
     vec3 diff = pa - pb;
     float inv2 = inv * inv;
     float fu = au * b * inv2;
@@ -34,7 +32,7 @@ void gregory_rational_second(vec3 pa, vec3 pb, float a, float b, float au, float
     float fuu = -(2.0 * fu * au) * inv;
     float fvv = -(2.0 * fv * bv) * inv;
     float fuv = au * bv * inv2 - 2.0 * fu * bv * inv;
-    dq[0] = diff * fu; dq[1] = diff * fv; dq[2] = diff * fuu; dq[3] = diff * fuv; dq[4] = diff * fvv;
+    dq[2] = diff * fuu; dq[3] = diff * fuv; dq[4] = diff * fvv;
 }
 
 // Bézier grid [row = v][col = u] in control point indices (geom::gregory::BEZIER_GRID, first index).

@@ -538,16 +538,7 @@ impl Surface<'_> {
             ..Default::default()
         };
         for chunk in located.chunks(QUERIES_PER_UPLOAD) {
-            let queries: Vec<PatchQuery> = chunk
-                .iter()
-                .map(|&(patch, u, v, j)| PatchQuery {
-                    patch,
-                    u: u as f32,
-                    v: v as f32,
-                    pad: 0,
-                    jac: [j[0][0], j[0][1], j[1][0], j[1][1]].map(|x| x as f32),
-                })
-                .collect();
+            let queries: Vec<PatchQuery> = chunk.iter().map(PatchQuery::from_located).collect();
             let n = queries.len() as u64;
             let qbuf = ctx.upload_buffer(
                 "patch queries",

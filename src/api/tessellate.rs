@@ -514,6 +514,17 @@ pub struct WeldedUvs {
 }
 
 /// The adaptive parameters for a cage with bounding box `box_min + [0, box_size]`.
+/// The deformation `opts` asks for (one frame at t = 1 s) over `surface`'s box.
+fn deform_params(opts: &TessellateOptions, surface: &GregorySurface) -> Option<DeformParams> {
+    opts.deform.map(|(mode, amplitude)| DeformParams {
+        mode,
+        t: 1.0,
+        amplitude,
+        box_min: surface.box_min(),
+        box_size: surface.box_size(),
+    })
+}
+
 /// The adaptive parameters `tessellate` derives from `a` for a cage whose box is (`box_min`, `box_size`):
 /// a renderer that records a [`crate::api::Surface`] with them draws the grids `tessellate --adaptive`
 /// writes.
@@ -667,13 +678,7 @@ impl Gpu {
                 let map = crate::surface::PtexMap::from_tree(&local, &adaptive.tree);
                 let topology = crate::engine::cage::adaptive_topology(adaptive);
                 let mut surface = GregorySurface::new_ptex(ctx, &topology, &local, map, level)?;
-                let params = opts.deform.map(|(mode, amplitude)| DeformParams {
-                    mode,
-                    t: 1.0,
-                    amplitude,
-                    box_min: surface.box_min(),
-                    box_size: surface.box_size(),
-                });
+                let params = deform_params(opts, &surface);
                 for _ in 0..opts.repeat {
                     surface.evaluate(ctx, params.as_ref(), Some(&mut *profiler))?;
                 }
@@ -765,13 +770,7 @@ impl Gpu {
                     let p = adaptive_params(&a, surface.box_min(), surface.box_size());
                     surface.set_adaptive(ctx, Some(p))?;
                 }
-                let params = opts.deform.map(|(mode, amplitude)| DeformParams {
-                    mode,
-                    t: 1.0,
-                    amplitude,
-                    box_min: surface.box_min(),
-                    box_size: surface.box_size(),
-                });
+                let params = deform_params(opts, &surface);
                 if opts.path == EvalPath::Vertex {
                     // Points from the same deform + W·cage chain; the vertex shader evaluates the patches.
                     let ids: Vec<u32> = topology.patch_points.iter().flatten().copied().collect();

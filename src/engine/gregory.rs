@@ -197,16 +197,7 @@ impl PtexLayout {
         let queries: Vec<PatchQuery> = plan
             .slot
             .iter()
-            .map(|&k| {
-                let (patch, u, v, j) = located[k as usize];
-                PatchQuery {
-                    patch,
-                    u: u as f32,
-                    v: v as f32,
-                    pad: 0,
-                    jac: [j[0][0], j[0][1], j[1][0], j[1][1]].map(|x| x as f32),
-                }
-            })
+            .map(|&k| PatchQuery::from_located(&located[k as usize]))
             .collect();
         let queries = ctx.upload_buffer(
             "ptex grid queries",

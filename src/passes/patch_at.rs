@@ -32,6 +32,19 @@ pub struct PatchQuery {
     pub jac: [f32; 4],
 }
 
+impl PatchQuery {
+    /// The query of a located point ([`crate::surface::PtexMap::locate_all`]), in f32.
+    pub fn from_located(&(patch, u, v, j): &crate::surface::Located) -> PatchQuery {
+        PatchQuery {
+            patch,
+            u: u as f32,
+            v: v as f32,
+            pad: 0,
+            jac: [j[0][0], j[0][1], j[1][0], j[1][1]].map(|x| x as f32),
+        }
+    }
+}
+
 /// One result (`Sample` in glsl/patch_at.comp): position (w = 1) and the exact first and second
 /// derivatives with respect to the ptex face's (u, v) (w = 0).
 #[repr(C)]
