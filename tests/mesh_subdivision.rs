@@ -310,3 +310,40 @@ fn regular_periodic_quad_grid_equals_bicubic_b_spline_refinement() {
     }
     assert_same_points(&out[2 * n..], &expect_edge, 1e-12, "torus edge points");
 }
+
+#[test]
+fn hidden_edges_join_chaikins_average_and_decay_with_the_level() {
+    // A 2×1 strip: its middle edge (vertices 1–4) semi-sharp 2.5. At vertex 1 two hidden edges of 1.0 (what a
+    // seam vertex's UV-cage span does not have) join Chaikin's average: the middle edge's half at vertex 1
+    // decays to 0.75·2.5 + 0.25·1.0 − 1 = 1.125 (uniform: 1.5, Chaikin alone: 1.5), the hidden ones to
+    // 0.75·1 + 0.25·1.75 − 1 = 0.1875 and ride on to the vertex point; without Chaikin they change nothing.
+    use gregvox::mesh::{catmull_clark_matrix_creased, catmull_clark_matrix_creased_hidden};
+    let strip = "v 0 0 0\nv 1 0 0\nv 2 0 0\nv 0 1 0\nv 1 1 0\nv 2 1 0\nf 1 2 5 4\nf 2 3 6 5\n";
+    let mesh = parse_obj(strip, "strip.obj").unwrap();
+    let m = MeshMatrix::from_mesh(&mesh);
+    let mid = m.edge_id(1, 4).unwrap();
+    let mut es = vec![0.0f32; m.n_edges()];
+    es[mid] = 2.5;
+    let vs = vec![0.0f32; m.n_verts()];
+    let mut hidden = vec![Vec::new(); m.n_verts()];
+    hidden[1] = vec![1.0, 1.0];
+    let c = catmull_clark_matrix_creased_hidden(&m, &es, &vs, true, &hidden);
+    let nv = m.n_verts() as u32;
+    let edge_point = nv + m.n_faces() as u32 + mid as u32;
+    let half_at = |c: &gregvox::mesh::CreasedSubdivision, v: u32| {
+        c.edge_sharpness[c.sub.topology.edge_id(v, edge_point).unwrap()]
+    };
+    assert_eq!(half_at(&c, 1), 1.125);
+    assert_eq!(half_at(&c, 4), 1.5);
+    assert_eq!(c.hidden[1], vec![0.1875, 0.1875]);
+    assert!(c
+        .hidden
+        .iter()
+        .enumerate()
+        .all(|(v, h)| v == 1 || h.is_empty()));
+    let plain = catmull_clark_matrix_creased(&m, &es, &vs, true);
+    assert_eq!(half_at(&plain, 1), 1.5);
+    let uniform = catmull_clark_matrix_creased_hidden(&m, &es, &vs, false, &hidden);
+    assert_eq!(half_at(&uniform, 1), 1.5);
+    assert!(uniform.hidden.is_empty());
+}

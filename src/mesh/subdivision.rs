@@ -344,6 +344,9 @@ pub struct CreasedSubdivision {
     pub sub: Subdivision,
     pub edge_sharpness: Vec<f32>,
     pub vertex_sharpness: Vec<f32>,
+    /// Per refined vertex, the hidden semi-sharp edges' child sharpness (see
+    /// [`catmull_clark_matrix_creased_hidden`]; empty where none).
+    pub hidden: Vec<Vec<f32>>,
 }
 
 /// One Catmull–Clark level with OpenSubdiv's crease rules (Sdc `Scheme<CATMARK>` with `Crease`): edge and
@@ -370,6 +373,23 @@ pub fn catmull_clark_matrix_creased(
     edge_sharpness: &[f32],
     vertex_sharpness: &[f32],
     chaikin: bool,
+) -> CreasedSubdivision {
+    catmull_clark_matrix_creased_hidden(m, edge_sharpness, vertex_sharpness, chaikin, &[])
+}
+
+/// [`catmull_clark_matrix_creased`] where some vertices stand for a vertex of another mesh that has more
+/// edges than they do: `hidden[v]` (empty, or one list per vertex) holds the sharpness of those other edges,
+/// which Chaikin's averaging at v counts as the other mesh does (a UV cage's vertex at a seam is one span
+/// of its cage vertex: the seam's and the other spans' semi-sharp edges are hidden from it). They change
+/// only the child sharpness of v's own edges; their own children come back in
+/// [`CreasedSubdivision::hidden`] for the next level (at the vertex points, which keep v's index). Without
+/// Chaikin, or with no hidden edge, nothing changes.
+pub fn catmull_clark_matrix_creased_hidden(
+    m: &MeshMatrix,
+    edge_sharpness: &[f32],
+    vertex_sharpness: &[f32],
+    chaikin: bool,
+    hidden: &[Vec<f32>],
 ) -> CreasedSubdivision {
     use sharpness::{children_at_vertex, decrement, fractional_weight, is_sharp, INFINITE};
     let (nv, nf, ne) = (m.n_verts(), m.n_faces(), m.n_edges());
@@ -419,10 +439,29 @@ pub fn catmull_clark_matrix_creased(
         }
     };
     let mut nbrs = Vec::new();
+    let mut hidden_out: Vec<Vec<f32>> = Vec::new();
     for v in 0..nv {
         let vu = v as u32;
         let pe: Vec<f32> = vedges[v].iter().map(|&e| es[e as usize]).collect();
-        let ce = children_at_vertex(&pe, chaikin);
+        let ce = match hidden.get(v) {
+            Some(h) if chaikin && !h.is_empty() => {
+                let all: Vec<f32> = pe.iter().chain(h).copied().collect();
+                let mut c = children_at_vertex(&all, true);
+                let kept: Vec<f32> = c
+                    .split_off(pe.len())
+                    .into_iter()
+                    .filter(|&x| x > 0.0)
+                    .collect();
+                if !kept.is_empty() {
+                    if hidden_out.is_empty() {
+                        hidden_out = vec![Vec::new(); nv];
+                    }
+                    hidden_out[v] = kept;
+                }
+                c
+            }
+            _ => children_at_vertex(&pe, chaikin),
+        };
         for (k, &e) in vedges[v].iter().enumerate() {
             let [a, _] = m.edge_vertices(e as usize);
             half[e as usize][(a != vu) as usize] = ce[k];
@@ -521,10 +560,14 @@ pub fn catmull_clark_matrix_creased(
     }
     let mut vertex_out = vec![0.0f32; topology.n_verts()];
     vertex_out[..nv].copy_from_slice(&child_v);
+    if !hidden_out.is_empty() {
+        hidden_out.resize(topology.n_verts(), Vec::new());
+    }
     CreasedSubdivision {
         sub: Subdivision { s, topology },
         edge_sharpness: edge_out,
         vertex_sharpness: vertex_out,
+        hidden: hidden_out,
     }
 }
 

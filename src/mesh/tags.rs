@@ -80,6 +80,11 @@ pub struct SubdivTags {
     /// as OpenSubdiv's `RefineAdaptive(L)` isolates every irregular feature to level L. `None`: the least
     /// exact level, ⌈largest semi-sharp sharpness⌉ (at least 1 with non-quad faces, else 0).
     pub isolation: Option<u32>,
+    /// (UV cages, Chaikin creasing) per vertex, the semi-sharp edges of the cage vertex it stands for that
+    /// it does not have itself (a seam's, other spans'): Chaikin's averaging counts them, as OpenSubdiv's
+    /// face-varying channel refines with its cage's edge sharpness
+    /// ([`crate::mesh::catmull_clark_matrix_creased_hidden`]). Empty: none anywhere.
+    pub hidden_semi_sharp: Vec<Vec<f32>>,
 }
 
 /// A subdivision cage: the polygon mesh, its tags and its UVs.

@@ -31,7 +31,8 @@ use super::features::{Features, VertexTags};
 use crate::error::{Error, Result};
 use crate::geom::gregory::PatchF64;
 use crate::mesh::{
-    catmull_clark_matrix, catmull_clark_matrix_creased, Cage, Mesh, MeshMatrix, SparseMatrix, NONE,
+    catmull_clark_matrix, catmull_clark_matrix_creased_hidden, Cage, Mesh, MeshMatrix,
+    SparseMatrix, NONE,
 };
 use glam::DVec3;
 use std::f64::consts::PI;
@@ -893,8 +894,11 @@ impl GregoryStencils {
         let mut hole = features.hole.clone();
         let mut level_m = m;
         let mut total: Option<SparseMatrix<f64>> = None;
+        let mut hidden = cage.tags.hidden_semi_sharp.clone();
         for _ in 0..levels {
-            let c = catmull_clark_matrix_creased(&level_m, &es, &vs, cage.tags.chaikin);
+            let c =
+                catmull_clark_matrix_creased_hidden(&level_m, &es, &vs, cage.tags.chaikin, &hidden);
+            hidden = c.hidden;
             // Refined face k is the quad at corner k of the level above; a hole if its face is.
             hole = level_m
                 .corner_face()

@@ -41,7 +41,7 @@ use super::acc2::{
 use super::features::Features;
 use crate::error::{Error, Result};
 use crate::mesh::{
-    catmull_clark_matrix_creased, Cage, MeshMatrix, SparseMatrix, SHARPNESS_INFINITE,
+    catmull_clark_matrix_creased_hidden, Cage, MeshMatrix, SparseMatrix, SHARPNESS_INFINITE,
 };
 
 /// The most patches (and split faces) feature-adaptive refinement may make.
@@ -87,6 +87,8 @@ struct Level {
     edge_sharpness: Vec<f32>,
     vertex_sharpness: Vec<f32>,
     hole: Vec<bool>,
+    /// Per vertex, hidden semi-sharp edges (UV cages under Chaikin: `SubdivTags::hidden_semi_sharp`).
+    hidden: Vec<Vec<f32>>,
 }
 
 impl Level {
@@ -133,7 +135,16 @@ impl Level {
             .iter()
             .map(|&v| self.vertex_sharpness[v as usize])
             .collect();
-        let c = catmull_clark_matrix_creased(&sub, &sub_edges, &sub_verts, chaikin);
+        let sub_hidden: Vec<Vec<f32>> = if self.hidden.is_empty() {
+            Vec::new()
+        } else {
+            verts
+                .iter()
+                .map(|&v| self.hidden[v as usize].clone())
+                .collect()
+        };
+        let c =
+            catmull_clark_matrix_creased_hidden(&sub, &sub_edges, &sub_verts, chaikin, &sub_hidden);
         // Refined face k is the quad at corner k of `sub`, a hole if its face is.
         let hole: Vec<bool> = sub
             .corner_face()
@@ -157,6 +168,7 @@ impl Level {
             edge_sharpness: c.edge_sharpness,
             vertex_sharpness: c.vertex_sharpness,
             hole,
+            hidden: c.hidden,
         };
         Ok((next, children))
     }
@@ -419,6 +431,7 @@ impl AdaptiveStencils {
             vertex_sharpness,
             hole: features.hole.clone(),
             m,
+            hidden: cage.tags.hidden_semi_sharp.clone(),
         };
         let chaikin = cage.tags.chaikin;
 

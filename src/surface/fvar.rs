@@ -27,9 +27,12 @@
 //!   a vertex decays by one a level as a uniform crease does, so both are corners for the same levels and
 //!   blend by the same weight. Exact when the span's semi-sharp edges at the vertex share one sharpness and
 //!   creasing is uniform (tests/surface_uv.rs, against OpenSubdiv); otherwise (different sharpnesses,
-//!   Chaikin) the UV cage approximates it, and so does Chaikin averaging across a seam (the UV cage sees only
-//!   its span's edges at a seam vertex, OpenSubdiv every edge of the vertex): both are reported as a note on
-//!   the UV cage's tags ([`SubdivTags::notes`], printed with the surface's notes).
+//!   Chaikin) it may differ, and a note on the UV cage's tags says so ([`SubdivTags::notes`], printed with
+//!   the surface's notes).
+//! - Chaikin creasing averages a crease's decay over every semi-sharp edge of its *cage* vertex, while a
+//!   span's UV-cage vertex has only its own edges: the others (the seam's, the other spans') ride along as
+//!   its hidden edges ([`SubdivTags::hidden_semi_sharp`], refined by
+//!   [`crate::mesh::catmull_clark_matrix_creased_hidden`]), so the UV cage's creases decay as the cage's do.
 //! - Cost: O(corners) over the cage's [`MeshMatrix`] (twins, one union–find); the stencils cost what the positions' do
 //!   (the UV cage has at most one vertex per corner and the same faces). Its attacking input is a UV soup,
 //!   every face its own island (unwelded exports): a seam at every edge, four UV-cage vertices per face,
@@ -158,6 +161,7 @@ pub fn uv_cage(cage: &Cage, levels: u32) -> Result<Option<Cage>> {
     let semi_sharp = |s: f32| s > 0.0 && s < SHARPNESS_INFINITE;
     let add = |e: &mut (u32, f32, f32), s: f32| *e = (e.0 + 1, e.1.min(s), e.2.max(s));
     let mut semi_at = vec![(0u32, f32::INFINITY, 0.0f32); mesh.positions.len()];
+    let mut semi_list: Vec<Vec<f32>> = vec![Vec::new(); mesh.positions.len()];
     for c in 0..n_corners as u32 {
         let k = entry[c as usize] as usize;
         if twin[k] != NONE && entry_corner[twin[k] as usize] < c {
@@ -165,25 +169,47 @@ pub fn uv_cage(cage: &Cage, levels: u32) -> Result<Option<Cage>> {
         }
         let s = edge_s[he_edge[k] as usize];
         if semi_sharp(s) {
-            add(&mut semi_at[vtx(c) as usize], s);
-            add(&mut semi_at[vtx(m.next(c)) as usize], s);
+            for v in [vtx(c), vtx(m.next(c))] {
+                add(&mut semi_at[v as usize], s);
+                semi_list[v as usize].push(s);
+            }
         }
     }
     let mut semi = vec![(0u32, f32::INFINITY, 0.0f32); n_spans];
+    let mut span_semi: Vec<Vec<f32>> = vec![Vec::new(); n_spans];
     for &(c, cn, s) in &continuous {
         if semi_sharp(s) {
-            add(&mut semi[span_of[c as usize] as usize], s);
-            add(&mut semi[span_of[cn as usize] as usize], s);
+            for sp in [span_of[c as usize], span_of[cn as usize]] {
+                add(&mut semi[sp as usize], s);
+                span_semi[sp as usize].push(s);
+            }
         }
     }
-    // Chaikin's decay of an edge at v averages the semi-sharp edges of v: the same as uniform where they
-    // share one sharpness, and what a span sees of them where it sees them all.
-    let chaikin_differs = |v: usize, seen: u32| {
-        cage.tags.chaikin && semi_at[v].1 != semi_at[v].2 && seen < semi_at[v].0
+    // Chaikin averages an edge's decay over every semi-sharp edge of its cage vertex, and a span sees only
+    // its own: the rest (the seam's, the other spans') ride along as hidden edges of the span's UV-cage
+    // vertex (`SubdivTags::hidden_semi_sharp`), so the UV cage decays its creases as the cage does.
+    let hidden: Vec<Vec<f32>> = if cage.tags.chaikin {
+        (0..n_spans)
+            .map(|sp| {
+                let mut rest = semi_list[span_vertex[sp] as usize].clone();
+                for s in &span_semi[sp] {
+                    if let Some(i) = rest.iter().position(|x| x == s) {
+                        rest.swap_remove(i);
+                    }
+                }
+                if span_semi[sp].is_empty() {
+                    // No crease of its own to decay: nothing the hidden edges could change.
+                    rest.clear();
+                }
+                rest
+            })
+            .collect()
+    } else {
+        Vec::new()
     };
     // Per span, the sharpness it takes from the other value of its vertex (CornersPlus1/2).
     let mut dependent_sharpness = vec![0.0f32; n_spans];
-    let (mut approximate_dependent, mut approximate_chaikin) = (0usize, 0usize);
+    let mut approximate_dependent = 0usize;
     let mut inf_edge = vec![false; n_spans];
     for &(c, cn, s) in &continuous {
         if s >= SHARPNESS_INFINITE {
@@ -244,16 +270,13 @@ pub fn uv_cage(cage: &Cage, levels: u32) -> Result<Option<Cage>> {
                 dependent_sharpness[follower] = most;
                 // Exact when the leader's edges decay as one: one sharpness among them, and (Chaikin) none
                 // other at the vertex averaging theirs.
-                approximate_dependent +=
-                    (least != most || (cage.tags.chaikin && semi_at[v].0 != seen)) as usize;
+                approximate_dependent += (least != most
+                    || (cage.tags.chaikin
+                        && (semi_at[v].0 != seen || semi_at[v].1 != semi_at[v].2)))
+                    as usize;
             }
         }
-        if spans
-            .iter()
-            .any(|&s| semi[s as usize].0 > 0 && chaikin_differs(v, semi[s as usize].0))
-        {
-            approximate_chaikin += 1;
-        }
+
         for &s in spans {
             sharp_span[s as usize] = all
                 || disjoint(s)
@@ -311,17 +334,13 @@ pub fn uv_cage(cage: &Cage, levels: u32) -> Result<Option<Cage>> {
         tags.ignored.push(format!(
             "t facevaryinginterpolateboundary {}: at {approximate_dependent} UV seam vertex(es) a semi-sharp \
              crease on one side sharpens the other (OpenSubdiv's dependent sharpness), which gregvox models \
-             exactly only for uniform creasing and one sharpness per side: the UVs there approximate \
+             exactly only for uniform creasing and one sharpness per side: the UVs there may differ from \
              OpenSubdiv's",
             rule.tag()
         ));
     }
-    if approximate_chaikin > 0 {
-        tags.ignored.push(format!(
-            "t creasemethod chaikin: at {approximate_chaikin} UV seam vertex(es) semi-sharp creases lie on \
-             both sides or across the seam; OpenSubdiv's Chaikin averaging there spans the seam and gregvox's \
-             UVs approximate it (positions are exact)"
-        ));
+    if hidden.iter().any(|h| !h.is_empty()) {
+        tags.hidden_semi_sharp = hidden;
     }
     Ok(Some(Cage {
         mesh: uv_mesh,
