@@ -47,8 +47,8 @@ pub use obj::{load_obj, parse_obj, weld, write_obj, Mesh};
 pub use sparse::SparseMatrix;
 pub use subdivision::{
     catmull_clark, catmull_clark_matrix, catmull_clark_matrix_creased,
-    catmull_clark_matrix_creased_hidden, loop_matrix, loop_subdivide, rows_sum_to_one,
-    CreasedSubdivision, LoopBeta, Subdivision, SubdivisionStack,
+    catmull_clark_matrix_creased_hidden, dependent_vertex_sharpness, loop_matrix, loop_subdivide,
+    rows_sum_to_one, CreasedSubdivision, LoopBeta, Subdivision, SubdivisionStack,
 };
 pub use tags::{
     load_obj_cage, parse_obj_cage, BoundaryInterpolation, Cage, CornerTag, Crease, SubdivTags,

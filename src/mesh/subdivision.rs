@@ -316,6 +316,46 @@ mod sharpness {
     }
 }
 
+/// The vertex sharpness that makes a vertex a corner exactly as long as the edges flagged `leader` among
+/// `edges` (every semi-sharp edge of a cage vertex, decaying together as Sdc decays them) keep any
+/// sharpness, and blend at their last transition by their fractional weight: OpenSubdiv's *dependent*
+/// sharpness of a face-varying value (`CornersPlus1/2`), for a UV cage whose vertices decay by one a level.
+/// 0 when the leaders never are sharp.
+///
+/// ```
+/// use gregvox::mesh::dependent_vertex_sharpness;
+/// // Uniform decay of one 2.5 edge: a corner for two levels, then blended by 0.5.
+/// assert_eq!(dependent_vertex_sharpness(&[2.5], &[true], false), 2.5);
+/// // Chaikin with two 1.0 edges beside it: 2.5 → 1.125 → 0, the last step blended by 1 (clamped).
+/// assert_eq!(dependent_vertex_sharpness(&[2.5, 1.0, 1.0], &[true, false, false], true), 2.0);
+/// ```
+pub fn dependent_vertex_sharpness(edges: &[f32], leader: &[bool], chaikin: bool) -> f32 {
+    let led = |s: &[f32]| -> Vec<f32> {
+        s.iter()
+            .zip(leader)
+            .filter(|(_, &l)| l)
+            .map(|(&x, _)| x)
+            .collect()
+    };
+    let mut cur = edges.to_vec();
+    // Semi-sharp edges lose at least a fraction a level and are below 10: the loop ends well within 64.
+    for level in 1..=64 {
+        let next = sharpness::children_at_vertex(&cur, chaikin);
+        let (p, c) = (led(&cur), led(&next));
+        let was = p.iter().any(|&x| sharpness::is_sharp(x));
+        let now = c.iter().any(|&x| sharpness::is_sharp(x));
+        if was && !now {
+            let w = sharpness::fractional_weight(0.0, 0.0, &p, &c, chaikin);
+            return (level - 1) as f32 + w;
+        }
+        if !was {
+            return 0.0;
+        }
+        cur = next;
+    }
+    0.0
+}
+
 /// Sdc's vertex rule.
 #[derive(Clone, Copy, PartialEq, Eq, Debug)]
 enum VertexRule {

@@ -23,12 +23,9 @@
 //!   infinitely sharp, which is bilinear subdivision, and its patches bilinear.
 //! - Dependent sharpness (`CornersPlus1/2`, Vtr's `_depSharp`): at a vertex with two values of which only
 //!   one span has semi-sharp interior edges, OpenSubdiv keeps the other value a corner until those decay,
-//!   then blends it with their fractional weight. The other span gets a vertex sharpness equal to theirs:
-//!   a vertex decays by one a level as a uniform crease does, so both are corners for the same levels and
-//!   blend by the same weight. Exact when the span's semi-sharp edges at the vertex share one sharpness and
-//!   creasing is uniform (tests/surface_uv.rs, against OpenSubdiv); otherwise (different sharpnesses,
-//!   Chaikin) it may differ, and a note on the UV cage's tags says so ([`SubdivTags::notes`], printed with
-//!   the surface's notes).
+//!   then blends it with their fractional weight. The other span gets the vertex sharpness that does the
+//!   same ([`crate::mesh::dependent_vertex_sharpness`]: the leader's edges decayed as the cage decays them,
+//!   uniform or Chaikin; a vertex decays by one a level): exact against OpenSubdiv (tests/surface_uv.rs).
 //! - Chaikin creasing averages a crease's decay over every semi-sharp edge of its *cage* vertex, while a
 //!   span's UV-cage vertex has only its own edges: the others (the seam's, the other spans') ride along as
 //!   its hidden edges ([`SubdivTags::hidden_semi_sharp`], refined by
@@ -42,8 +39,8 @@ use super::acc2::{CageStencils, GregoryStencils, Tangents};
 use super::features::Features;
 use crate::error::{Error, Result};
 use crate::mesh::{
-    BoundaryInterpolation, Cage, CornerTag, Crease, FVarLinear, Mesh, MeshMatrix, SubdivTags, NONE,
-    SHARPNESS_INFINITE,
+    dependent_vertex_sharpness, BoundaryInterpolation, Cage, CornerTag, Crease, FVarLinear, Mesh,
+    MeshMatrix, SubdivTags, NONE, SHARPNESS_INFINITE,
 };
 use glam::DVec3;
 
@@ -209,7 +206,6 @@ pub fn uv_cage(cage: &Cage, levels: u32) -> Result<Option<Cage>> {
     };
     // Per span, the sharpness it takes from the other value of its vertex (CornersPlus1/2).
     let mut dependent_sharpness = vec![0.0f32; n_spans];
-    let mut approximate_dependent = 0usize;
     let mut inf_edge = vec![false; n_spans];
     for &(c, cn, s) in &continuous {
         if s >= SHARPNESS_INFINITE {
@@ -266,14 +262,22 @@ pub fn uv_cage(cage: &Cage, levels: u32) -> Result<Option<Cage>> {
             let (a, b) = (spans[0] as usize, spans[1] as usize);
             if (semi[a].0 > 0) != (semi[b].0 > 0) {
                 let (follower, leader) = if semi[a].0 > 0 { (b, a) } else { (a, b) };
-                let (seen, least, most) = semi[leader];
-                dependent_sharpness[follower] = most;
-                // Exact when the leader's edges decay as one: one sharpness among them, and (Chaikin) none
-                // other at the vertex averaging theirs.
-                approximate_dependent += (least != most
-                    || (cage.tags.chaikin
-                        && (semi_at[v].0 != seen || semi_at[v].1 != semi_at[v].2)))
-                    as usize;
+                // The leader's edges among every semi-sharp edge of the vertex, decayed as the cage decays
+                // them: the follower is a corner while any is sharp, blended at their last transition.
+                let mut mine = span_semi[leader].clone();
+                let edges = &semi_list[v];
+                let flags: Vec<bool> = edges
+                    .iter()
+                    .map(|s| match mine.iter().position(|x| x == s) {
+                        Some(i) => {
+                            mine.swap_remove(i);
+                            true
+                        }
+                        None => false,
+                    })
+                    .collect();
+                dependent_sharpness[follower] =
+                    dependent_vertex_sharpness(edges, &flags, cage.tags.chaikin);
             }
         }
 
@@ -329,15 +333,6 @@ pub fn uv_cage(cage: &Cage, levels: u32) -> Result<Option<Cage>> {
                 sharpness,
             });
         }
-    }
-    if approximate_dependent > 0 {
-        tags.ignored.push(format!(
-            "t facevaryinginterpolateboundary {}: at {approximate_dependent} UV seam vertex(es) a semi-sharp \
-             crease on one side sharpens the other (OpenSubdiv's dependent sharpness), which gregvox models \
-             exactly only for uniform creasing and one sharpness per side: the UVs there may differ from \
-             OpenSubdiv's",
-            rule.tag()
-        ));
     }
     if hidden.iter().any(|h| !h.is_empty()) {
         tags.hidden_semi_sharp = hidden;
