@@ -685,10 +685,10 @@ impl Gpu {
                 let levels = surface.ptex_levels().unwrap_or_default().to_vec();
                 let top = levels.iter().copied().max().unwrap_or(level);
                 let uniform = levels.iter().all(|&l| l == top);
-                let uvs = match (evaluator.has_uv(), surface.ptex_grid_points()?) {
+                let uvs = match (evaluator.has_uv(), surface.ptex_grid_points()) {
                     (true, Some(at)) => Some(
                         evaluator
-                            .evaluate_uv(&at)?
+                            .evaluate_uv(at)?
                             .iter()
                             .map(|t| [t[0] as f32, t[1] as f32])
                             .collect(),

@@ -42,6 +42,13 @@ pub fn build(
         _ => {}
     }
     scene.adaptive = args.adaptive;
+    if scene.adaptive.is_some() && scene.is_ptex() {
+        eprintln!(
+            "gregvox demo: --adaptive needs one grid per patch; this cage is tessellated per ptex face, \
+             uniformly"
+        );
+        scene.adaptive = None;
+    }
     if scene.adaptive.is_some()
         && args.shading == crate::passes::surface_draw::ShadingMode::Checker
         && !scene.has_uvs()
@@ -50,13 +57,6 @@ pub fn build(
             "gregvox demo: --shading checker on --adaptive grids reads the cage's UVs, and this cage has \
              none: Phong until A turns --adaptive off"
         );
-    }
-    if scene.adaptive.is_some() && scene.is_ptex() {
-        eprintln!(
-            "gregvox demo: --adaptive needs one grid per patch; this cage is tessellated per ptex face, \
-             uniformly"
-        );
-        scene.adaptive = None;
     }
     Ok(Box::new(scene))
 }

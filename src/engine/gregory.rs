@@ -28,7 +28,12 @@
 //!   (patch, local (u, v)); every grid point two faces share carries the first face's query, so both
 //!   vertices have the same bits and the mesh closes. W·cage and deformation are the patch layout's.
 //!   It is always evaluated on the device; adaptive mode, curvature and the host kernels, which read patch
-//!   grids, refuse it by name.
+//!   grids, refuse it by name. Cost: building a level locates every distinct grid point on the host
+//!   (O(points · depth), a hash map of the shared ones) and holds its (face, u, v); a level whose vertex
+//!   buffer would pass one allocation or u32 indices is refused from the face count before any point is
+//!   listed. An update costs W·cage plus 20 gathered control points per vertex (no shared-memory staging:
+//!   the grids follow faces, not patches). The attacking input is a deep layout: `catmark_car` at L = 6
+//!   (136,419 patches under 1,575 faces, tests/surface_ptex_device.rs).
 use crate::error::{Error, Result};
 use crate::gpu::profiler::scoped;
 use crate::gpu::resources::{compute_writes_to_host, memory_barrier, record_update, BufferRange};
@@ -160,7 +165,17 @@ struct PtexLayout {
     queries: Buffer,
     /// Per grid: its level.
     levels: Vec<u32>,
-    vertex_count: u64,
+    /// (ptex face, u, v) of every vertex (what the UVs are evaluated at).
+    at: Vec<(u32, f64, f64)>,
+}
+
+/// What [`PtexLayout::buffers`] makes for one level.
+struct PtexLevel {
+    queries: Buffer,
+    vertices: Buffer,
+    indices: Buffer,
+    levels: Vec<u32>,
+    at: Vec<(u32, f64, f64)>,
 }
 
 impl PtexLayout {
@@ -171,7 +186,7 @@ impl PtexLayout {
         map: &PtexMap,
         level: u32,
         location: MemoryLocation,
-    ) -> Result<(Buffer, Buffer, Buffer, Vec<u32>)> {
+    ) -> Result<PtexLevel> {
         // Refused before the host lists a single point: the grid points' count is known from the faces.
         let points = grid_point_count(cage, level);
         let bytes = points.saturating_mul(std::mem::size_of::<SurfaceVertex>() as u64);
@@ -219,7 +234,17 @@ impl PtexLayout {
             )),
             vk::BufferUsageFlags::INDEX_BUFFER | vk::BufferUsageFlags::STORAGE_BUFFER,
         )?;
-        Ok((queries, vertices, indices, plan.levels))
+        Ok(PtexLevel {
+            queries,
+            vertices,
+            indices,
+            levels: plan.levels,
+            at: plan.at,
+        })
+    }
+
+    fn vertex_count(&self) -> u64 {
+        self.at.len() as u64
     }
 }
 
@@ -421,17 +446,16 @@ impl GregorySurface {
                 (v, i, None)
             }
             Some((tagged, map)) => {
-                let (queries, v, i, levels) =
-                    PtexLayout::buffers(ctx, &tagged, &map, level, evaluator.write_location())?;
+                let l = PtexLayout::buffers(ctx, &tagged, &map, level, evaluator.write_location())?;
                 let layout = PtexLayout {
                     pass: PatchAtPass::new_vertices(ctx)?,
                     cage: tagged,
                     map,
-                    queries,
-                    vertex_count: levels.iter().map(|&l| (l as u64 + 1).pow(2)).sum(),
-                    levels,
+                    queries: l.queries,
+                    levels: l.levels,
+                    at: l.at,
                 };
-                (v, i, Some(layout))
+                (l.vertices, l.indices, Some(layout))
             }
         };
         Ok(GregorySurface {
@@ -549,14 +573,12 @@ impl GregorySurface {
             return Ok(());
         }
         if let Some(p) = self.ptex.as_mut() {
-            let (queries, vertices, indices, levels) =
+            let l =
                 PtexLayout::buffers(ctx, &p.cage, &p.map, level, self.evaluator.write_location())?;
-            p.queries = queries;
-            p.vertex_count = levels.iter().map(|&l| (l as u64 + 1).pow(2)).sum();
-            p.levels = levels;
+            (p.queries, p.levels, p.at) = (l.queries, l.levels, l.at);
             self.level = level;
-            self.vertices = vertices;
-            self.indices = indices;
+            self.vertices = l.vertices;
+            self.indices = l.indices;
             return Ok(());
         }
         let (vertices, indices) =
@@ -743,7 +765,7 @@ impl GregorySurface {
     /// slots of every patch).
     pub fn vertex_count(&self) -> u64 {
         match &self.ptex {
-            Some(p) => p.vertex_count,
+            Some(p) => p.vertex_count(),
             None => vertex_count(self.patch_count, self.level),
         }
     }
@@ -757,11 +779,11 @@ impl GregorySurface {
         ctx: &Context,
         uv: &crate::surface::LimitEvaluator,
     ) -> Result<Option<(Vec<[f32; 2]>, Buffer)>> {
-        let Some(at) = self.ptex_grid_points()? else {
+        let Some(at) = self.ptex_grid_points() else {
             return Ok(None);
         };
         let values: Vec<[f32; 2]> = uv
-            .evaluate_uv(&at)?
+            .evaluate_uv(at)?
             .iter()
             .map(|t| [t[0] as f32, t[1] as f32])
             .collect();
@@ -782,11 +804,8 @@ impl GregorySurface {
 
     /// The (ptex face, u, v) of every vertex of the current level, in order, when the surface has the ptex
     /// layout ([`Self::new_ptex`]; `None` otherwise): what a caller evaluates beside the vertices (UVs).
-    pub fn ptex_grid_points(&self) -> Result<Option<Vec<(u32, f64, f64)>>> {
-        match &self.ptex {
-            Some(p) => Ok(Some(grid_plan(&p.cage, &p.map, self.level)?.at)),
-            None => Ok(None),
-        }
+    pub fn ptex_grid_points(&self) -> Option<&[(u32, f64, f64)]> {
+        self.ptex.as_ref().map(|p| p.at.as_slice())
     }
 
     /// Per ptex grid, its level, when the surface has the ptex layout ([`Self::new_ptex`]): the vertices
@@ -1019,7 +1038,7 @@ impl GregorySurface {
                     &self.patch_points,
                     &p.queries,
                     out,
-                    p.vertex_count,
+                    p.vertex_count(),
                 )
             });
         }

@@ -829,11 +829,7 @@ impl GregoryStencils {
     pub fn from_cage(cage: &Cage, tangents: Tangents) -> Result<CageStencils> {
         let mesh = &cage.mesh;
         let (m, features) = cage_features(cage)?;
-        let mut notes = cage.tags.notes();
-        // What the UVs approximate (their own errors surface where the UVs are built).
-        if let Ok(Some(uv)) = super::fvar::uv_cage(cage, 0) {
-            notes.extend(uv.tags.notes());
-        }
+        let notes = cage.tags.notes();
         let with_notes = |mut cs: CageStencils| {
             if !notes.is_empty() {
                 let mut all: Vec<String> = cs.note.take().into_iter().collect();

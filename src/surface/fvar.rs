@@ -153,11 +153,9 @@ pub fn uv_cage(cage: &Cage, levels: u32) -> Result<Option<Cage>> {
     for s in 0..n_spans {
         vertex_spans[span_vertex[s] as usize].push(s as u32);
     }
-    // Semi-sharp edges (0 < s < ∞) per vertex, each edge once (Chaikin averages over all of them), and per
-    // span its interior ones: count, least and most sharpness (dependent sharpness, below).
+    // Semi-sharp edges (0 < s < ∞): per vertex every one (each edge once: Chaikin averages over all of
+    // them), per span its interior ones (dependent sharpness, below).
     let semi_sharp = |s: f32| s > 0.0 && s < SHARPNESS_INFINITE;
-    let add = |e: &mut (u32, f32, f32), s: f32| *e = (e.0 + 1, e.1.min(s), e.2.max(s));
-    let mut semi_at = vec![(0u32, f32::INFINITY, 0.0f32); mesh.positions.len()];
     let mut semi_list: Vec<Vec<f32>> = vec![Vec::new(); mesh.positions.len()];
     for c in 0..n_corners as u32 {
         let k = entry[c as usize] as usize;
@@ -166,20 +164,15 @@ pub fn uv_cage(cage: &Cage, levels: u32) -> Result<Option<Cage>> {
         }
         let s = edge_s[he_edge[k] as usize];
         if semi_sharp(s) {
-            for v in [vtx(c), vtx(m.next(c))] {
-                add(&mut semi_at[v as usize], s);
-                semi_list[v as usize].push(s);
-            }
+            semi_list[vtx(c) as usize].push(s);
+            semi_list[vtx(m.next(c)) as usize].push(s);
         }
     }
-    let mut semi = vec![(0u32, f32::INFINITY, 0.0f32); n_spans];
     let mut span_semi: Vec<Vec<f32>> = vec![Vec::new(); n_spans];
     for &(c, cn, s) in &continuous {
         if semi_sharp(s) {
-            for sp in [span_of[c as usize], span_of[cn as usize]] {
-                add(&mut semi[sp as usize], s);
-                span_semi[sp as usize].push(s);
-            }
+            span_semi[span_of[c as usize] as usize].push(s);
+            span_semi[span_of[cn as usize] as usize].push(s);
         }
     }
     // Chaikin averages an edge's decay over every semi-sharp edge of its cage vertex, and a span sees only
@@ -260,8 +253,9 @@ pub fn uv_cage(cage: &Cage, levels: u32) -> Result<Option<Cage>> {
         if !all && dependent && spans.len() == 2 && !semi_sharp(vert_s[v]) {
             // Only one span semi-sharp: the other follows it (OpenSubdiv's `hasDependentValuesToSharpen`).
             let (a, b) = (spans[0] as usize, spans[1] as usize);
-            if (semi[a].0 > 0) != (semi[b].0 > 0) {
-                let (follower, leader) = if semi[a].0 > 0 { (b, a) } else { (a, b) };
+            let (sa, sb) = (!span_semi[a].is_empty(), !span_semi[b].is_empty());
+            if sa != sb {
+                let (follower, leader) = if sa { (b, a) } else { (a, b) };
                 // The leader's edges among every semi-sharp edge of the vertex, decayed as the cage decays
                 // them: the follower is a corner while any is sharp, blended at their last transition.
                 let mut mine = span_semi[leader].clone();
