@@ -4,7 +4,7 @@
 mod mesh_common;
 use glam::DVec3;
 use gregvox::api::{simplify, simplify_lod, topology, Placement, SimplifyOptions};
-use gregvox::mesh::distance::DistanceTree;
+use gregvox::mesh::distance::{DistanceTree, Stack};
 use gregvox::mesh::{load_obj, Mesh, MeshMatrix};
 use mesh_common::model;
 
@@ -54,7 +54,7 @@ fn samples(m: &Mesh) -> Vec<[f64; 3]> {
 fn distances(a: &Mesh, b: &Mesh) -> (f64, f64) {
     let one_way = |from: &Mesh, to: &Mesh| {
         let tree = DistanceTree::new(&tris(to));
-        let mut stack = Vec::new();
+        let mut stack = Stack::default();
         let d: Vec<f64> = samples(from)
             .iter()
             .map(|&p| tree.closest(p, &mut stack).unwrap().distance2.sqrt())
@@ -85,7 +85,7 @@ fn flipped(input: &Mesh, output: &Mesh) -> usize {
     let centroid = |t: &[[f64; 3]; 3]| {
         (DVec3::from_array(t[0]) + DVec3::from_array(t[1]) + DVec3::from_array(t[2])) / 3.0
     };
-    let mut stack = Vec::new();
+    let mut stack = Stack::default();
     tris(output)
         .iter()
         .filter(|t| {

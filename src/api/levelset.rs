@@ -12,7 +12,7 @@
 //! 100,000 slivers: each voxel there visits them all), measured in `gregvox bench --suite writers`.
 use super::{fan_local, local_origin, Mesh};
 use crate::error::{Error, Result};
-use crate::mesh::distance::DistanceTree;
+use crate::mesh::distance::{DistanceTree, Stack};
 use crate::voxel::grid::{GridFrame, VoxelGrid};
 use crate::voxel::levelset::{build, dilate, LevelSet};
 use rayon::prelude::*;
@@ -64,7 +64,7 @@ pub fn level_set(mesh: &Mesh, solid: &VoxelGrid, half_width: u32) -> Result<Leve
         Ok(points
             .par_iter()
             .map_init(
-                || (Vec::new(), None),
+                || (Stack::default(), None),
                 |(stack, hint), p| {
                     // Points come leaf by leaf: the last answer bounds the next one at once.
                     let local = std::array::from_fn(|a| p[a] - shift[a]);

@@ -41,7 +41,7 @@
 //! sphere visits them all). Points run in parallel on every core.
 use super::{fan_local, local_origin, Mesh};
 use crate::error::{Error, Result};
-use crate::mesh::distance::{Closest, DistanceTree};
+use crate::mesh::distance::DistanceTree;
 use crate::voxel::gwn::classify::Scratches;
 use crate::voxel::gwn::crossing::Crossings;
 use crate::voxel::gwn::tree::Accept;
@@ -445,14 +445,13 @@ impl MeshQuery {
         let tree = self
             .distance
             .get_or_init(|| DistanceTree::new(&self.triangles));
-        let rows: Vec<(f32, [f64; 3], u32, [f64; 3])> = points
+        let local: Vec<[f64; 3]> = points.iter().map(|&p| self.local(p)).collect();
+        let found = tree.closest_all(&local, f64::INFINITY);
+        let rows: Vec<(f32, [f64; 3], u32, [f64; 3])> = found
             .par_iter()
             .enumerate()
-            .map_init(Vec::new, |stack, (i, &p)| {
-                let q = self.local(p);
-                let c: Closest = tree
-                    .closest(q, stack)
-                    .expect("a prepared mesh has triangles");
+            .map(|(i, c)| {
+                let c = c.expect("a prepared mesh has triangles");
                 let mut d = c.distance2.sqrt() as f32;
                 // Occupancy signs the distance (a point on the surface keeps 0).
                 if signed && d > 0.0 && inside[i] == (self.opts.sdf_sign == SdfSign::InsideNegative)

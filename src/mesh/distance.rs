@@ -6,12 +6,20 @@
 //! too (a zero-area triangle is a segment or a point, and its closest point is found as such); the answer
 //! is the nearest triangle, ties going to the lowest index, whatever the tree's shape.
 //!
-//! Cost model: building sorts the triangle centroids along the longest axis at every level, O(T log² T)
-//! (leaves of at most [`LEAF`] triangles); a query descends nearest child first and prunes every node whose
-//! box lies farther than the best distance so far: O(log T) nodes for a point near a well-spread surface.
-//! The worst case is a point equidistant from many triangles (the centre of a finely tessellated sphere):
-//! no box can be pruned and the query visits all T triangles. Far points cost little: the first leaf's
-//! distance prunes almost everything, since every box is then about as far.
+//! Cost model: building splits at the median centroid along the longest axis (a linear selection per
+//! level), O(T log T), the halves of more than 4,096 triangles on other threads into node ranges fixed in
+//! advance (the same tree whatever the threads; leaves of at most [`LEAF`] triangles). A query descends
+//! nearest child first, never pushes a child farther than the best distance so far, and skips a leaf's
+//! triangle whose plane or bounding sphere is farther (two cheap lower bounds before the closest-point
+//! routine): O(log T) nodes for a point near a well-spread surface. Many points
+//! ([`DistanceTree::closest_all`]) run in Morton order, each starting from its predecessor's triangle, whose
+//! distance bounds the descent at once (whole `gregvox query stanford-bunny.obj --what udf` processes on 2
+//! cores, 100,000 points: uniform in the padded box 0.55 → 0.41 s, near the surface 0.21 → 0.17 s; the
+//! build 36 → 16 ms). The worst case is a point equidistant from many triangles
+//! (the centre of a finely tessellated sphere): no box can be pruned and the query visits all T
+//! triangles; points deep inside a round part come near it (the bunny's uniform points visit about 100
+//! nodes and test about 65 triangles each). Far points cost little: the first leaf's distance prunes
+//! almost everything, since every box is then about as far.
 
 /// Triangles per leaf.
 pub const LEAF: usize = 8;
@@ -44,7 +52,65 @@ pub struct DistanceTree {
     nodes: Vec<Node>,
     /// Triangles in leaf order, with their original indices.
     triangles: Vec<[[f64; 3]; 3]>,
+    /// Each triangle's unit normal (zero for a degenerate one), parallel to `triangles`: the distance to
+    /// its plane is a lower bound that skips most triangles of a visited leaf without the closest-point
+    /// routine.
+    normals: Vec<[f64; 3]>,
+    /// Each triangle's bounding sphere (centre of its box, radius), parallel to `triangles`: the other
+    /// lower bound, for triangles beside the nearest one whose planes pass close to the point.
+    spheres: Vec<([f64; 3], f64)>,
     index: Vec<u32>,
+}
+
+/// A query's traversal stack (nodes with the lower bound of their distance), reused between queries.
+#[derive(Clone, Debug, Default)]
+pub struct Stack(Vec<(f64, u32)>);
+
+/// Points per chunk of [`DistanceTree::closest_all`]: each chunk runs in Morton order, every point starting
+/// from its predecessor's answer.
+pub const CHUNK: usize = 64;
+
+/// The unit normal of `t` (zero when degenerate).
+fn unit_normal(t: &[[f64; 3]; 3]) -> [f64; 3] {
+    let (u, v) = (sub(t[1], t[0]), sub(t[2], t[0]));
+    let n = [
+        u[1] * v[2] - u[2] * v[1],
+        u[2] * v[0] - u[0] * v[2],
+        u[0] * v[1] - u[1] * v[0],
+    ];
+    let l = dot(n, n).sqrt();
+    if l > 0.0 && l.is_finite() {
+        n.map(|x| x / l)
+    } else {
+        [0.0; 3]
+    }
+}
+
+/// A sphere holding `t`: its box's centre and the farthest corner from it (a little enlarged for rounding).
+fn bounding_sphere(t: &[[f64; 3]; 3]) -> ([f64; 3], f64) {
+    let c: [f64; 3] = std::array::from_fn(|k| {
+        0.5 * (t[0][k].min(t[1][k]).min(t[2][k]) + t[0][k].max(t[1][k]).max(t[2][k]))
+    });
+    let r = t
+        .iter()
+        .map(|v| dot(sub(*v, c), sub(*v, c)))
+        .fold(0.0f64, f64::max)
+        .sqrt();
+    (c, r * (1.0 + 1e-12))
+}
+
+/// The 30-bit Morton code of `p` in the box [lo, lo + 1/scale·1024).
+fn morton(p: [f64; 3], lo: [f64; 3], scale: [f64; 3]) -> u32 {
+    let spread = |x: u32| -> u32 {
+        let mut x = x & 0x3ff;
+        x = (x | x << 16) & 0x0300_00ff;
+        x = (x | x << 8) & 0x0300_f00f;
+        x = (x | x << 4) & 0x030c_30c3;
+        (x | x << 2) & 0x0924_9249
+    };
+    let q: [u32; 3] =
+        std::array::from_fn(|a| ((p[a] - lo[a]) * scale[a]).clamp(0.0, 1023.0) as u32);
+    spread(q[0]) | spread(q[1]) << 1 | spread(q[2]) << 2
 }
 
 fn sub(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
@@ -116,65 +182,105 @@ fn box_distance2(p: [f64; 3], lo: [f64; 3], hi: [f64; 3]) -> f64 {
         .sum()
 }
 
+/// Halves with more triangles than this are built on another thread.
+const PARALLEL_BUILD: usize = 4096;
+
+/// Nodes of the tree over `n` triangles (median splits, leaves of at most [`LEAF`]).
+fn node_count(n: usize) -> usize {
+    if n <= LEAF {
+        1
+    } else {
+        1 + node_count(n / 2) + node_count(n - n / 2)
+    }
+}
+
+/// Builds the subtree over `order` (slots `start..` of the final triangle order) into `me`, its
+/// descendants into `below` (node indices from `base`): children adjacent, the left subtree's descendants
+/// before the right's, so the layout — and every query's answer — is the same whatever the threads.
+fn build_into(
+    triangles: &[[[f64; 3]; 3]],
+    order: &mut [u32],
+    start: usize,
+    me: &mut Node,
+    below: &mut [Node],
+    base: usize,
+) {
+    let (mut lo, mut hi) = ([f64::INFINITY; 3], [f64::NEG_INFINITY; 3]);
+    for &i in order.iter() {
+        for v in &triangles[i as usize] {
+            for k in 0..3 {
+                lo[k] = lo[k].min(v[k]);
+                hi[k] = hi[k].max(v[k]);
+            }
+        }
+    }
+    me.lo = lo;
+    me.hi = hi;
+    if order.len() <= LEAF {
+        me.first = start as u32;
+        me.count = order.len() as u32;
+        return;
+    }
+    let axis = (0..3)
+        .max_by(|&a, &b| (hi[a] - lo[a]).total_cmp(&(hi[b] - lo[b])))
+        .unwrap_or(0);
+    let centroid = |i: u32| -> f64 {
+        let t = &triangles[i as usize];
+        (t[0][axis] + t[1][axis] + t[2][axis]) / 3.0
+    };
+    let mid = order.len() / 2;
+    order.select_nth_unstable_by(mid, |&a, &b| {
+        centroid(a).total_cmp(&centroid(b)).then(a.cmp(&b))
+    });
+    me.first = base as u32;
+    me.count = 0;
+    let (kids, rest) = below.split_at_mut(2);
+    let (left, right) = kids.split_at_mut(1);
+    let left_below = node_count(mid) - 1;
+    let (lb, rb) = rest.split_at_mut(left_below);
+    let (lo_order, hi_order) = order.split_at_mut(mid);
+    let n = lo_order.len() + hi_order.len();
+    let mut build_left = move || build_into(triangles, lo_order, start, &mut left[0], lb, base + 2);
+    let mut build_right = move || {
+        build_into(
+            triangles,
+            hi_order,
+            start + mid,
+            &mut right[0],
+            rb,
+            base + 2 + left_below,
+        )
+    };
+    if n > PARALLEL_BUILD {
+        rayon::join(build_left, build_right);
+    } else {
+        build_left();
+        build_right();
+    }
+}
+
 impl DistanceTree {
     /// The tree over `triangles` (any, degenerate ones included).
     pub fn new(triangles: &[[[f64; 3]; 3]]) -> DistanceTree {
         let mut order: Vec<u32> = (0..triangles.len() as u32).collect();
-        let centroid = |i: u32| -> [f64; 3] {
-            let t = &triangles[i as usize];
-            std::array::from_fn(|k| (t[0][k] + t[1][k] + t[2][k]) / 3.0)
-        };
-        let mut nodes = vec![Node {
-            lo: [0.0; 3],
-            hi: [0.0; 3],
-            first: 0,
-            count: 0,
-        }];
-        // (node, range of `order`)
-        let mut stack = vec![(0usize, 0usize, order.len())];
-        while let Some((n, s, e)) = stack.pop() {
-            let (mut lo, mut hi) = ([f64::INFINITY; 3], [f64::NEG_INFINITY; 3]);
-            for &i in &order[s..e] {
-                for v in &triangles[i as usize] {
-                    for k in 0..3 {
-                        lo[k] = lo[k].min(v[k]);
-                        hi[k] = hi[k].max(v[k]);
-                    }
-                }
-            }
-            nodes[n].lo = lo;
-            nodes[n].hi = hi;
-            if e - s <= LEAF {
-                nodes[n].first = s as u32;
-                nodes[n].count = (e - s) as u32;
-                continue;
-            }
-            let axis = (0..3)
-                .max_by(|&a, &b| (hi[a] - lo[a]).total_cmp(&(hi[b] - lo[b])))
-                .unwrap_or(0);
-            let mid = (s + e) / 2;
-            order[s..e].select_nth_unstable_by(mid - s, |&a, &b| {
-                centroid(a)[axis]
-                    .total_cmp(&centroid(b)[axis])
-                    .then(a.cmp(&b))
-            });
-            let first = nodes.len();
-            nodes[n].first = first as u32;
-            nodes[n].count = 0;
-            for _ in 0..2 {
-                nodes.push(Node {
-                    lo: [0.0; 3],
-                    hi: [0.0; 3],
-                    first: 0,
-                    count: 0,
-                });
-            }
-            stack.push((first, s, mid));
-            stack.push((first + 1, mid, e));
+        let mut nodes = vec![
+            Node {
+                lo: [0.0; 3],
+                hi: [0.0; 3],
+                first: 0,
+                count: 0,
+            };
+            node_count(triangles.len())
+        ];
+        if let Some((root, below)) = nodes.split_first_mut() {
+            build_into(triangles, &mut order, 0, root, below, 1);
         }
+        let triangles: Vec<[[f64; 3]; 3]> = order.iter().map(|&i| triangles[i as usize]).collect();
         DistanceTree {
             nodes,
-            triangles: order.iter().map(|&i| triangles[i as usize]).collect(),
+            normals: triangles.iter().map(unit_normal).collect(),
+            spheres: triangles.iter().map(bounding_sphere).collect(),
+            triangles,
             index: order,
         }
     }
@@ -295,23 +401,19 @@ impl DistanceTree {
 
     /// Bytes held.
     pub fn bytes(&self) -> u64 {
-        (self.nodes.len() * std::mem::size_of::<Node>() + self.triangles.len() * (72 + 4)) as u64
+        (self.nodes.len() * std::mem::size_of::<Node>() + self.triangles.len() * (72 + 24 + 32 + 4))
+            as u64
     }
 
     /// The nearest triangle to `p`; `None` for an empty tree.
-    pub fn closest(&self, p: [f64; 3], stack: &mut Vec<u32>) -> Option<Closest> {
+    pub fn closest(&self, p: [f64; 3], stack: &mut Stack) -> Option<Closest> {
         self.closest_within(p, f64::INFINITY, stack)
     }
 
     /// The nearest triangle to `p` if one lies within squared distance `limit2` (inclusive), else `None`:
     /// every box farther than the limit is pruned from the start, so a point far from the surface costs
     /// a few box tests (the narrow-band level sets ask only within their half-width).
-    pub fn closest_within(
-        &self,
-        p: [f64; 3],
-        limit2: f64,
-        stack: &mut Vec<u32>,
-    ) -> Option<Closest> {
+    pub fn closest_within(&self, p: [f64; 3], limit2: f64, stack: &mut Stack) -> Option<Closest> {
         self.closest_within_from(p, limit2, &mut None, stack)
     }
 
@@ -323,7 +425,7 @@ impl DistanceTree {
         p: [f64; 3],
         limit2: f64,
         hint: &mut Option<usize>,
-        stack: &mut Vec<u32>,
+        stack: &mut Stack,
     ) -> Option<Closest> {
         if self.triangles.is_empty() {
             return None;
@@ -351,17 +453,35 @@ impl DistanceTree {
                 best_slot = Some(slot);
             }
         }
+        let stack = &mut stack.0;
         stack.clear();
-        stack.push(0);
-        while let Some(n) = stack.pop() {
-            let node = &self.nodes[n as usize];
-            if box_distance2(p, node.lo, node.hi) > best.distance2 {
+        let root = &self.nodes[0];
+        stack.push((box_distance2(p, root.lo, root.hi), 0));
+        while let Some((near, n)) = stack.pop() {
+            if near > best.distance2 {
                 continue;
             }
+            let node = &self.nodes[n as usize];
             if node.count > 0 {
                 let range = node.first as usize..(node.first + node.count) as usize;
                 for slot in range {
                     let t = &self.triangles[slot];
+                    // The plane's distance is a lower bound (less a generous rounding margin): a triangle
+                    // whose plane is farther than the best so far cannot be nearer, nor tie.
+                    let ap = sub(p, t[0]);
+                    let plane = dot(self.normals[slot], ap).abs()
+                        - 1e-12 * (ap[0].abs() + ap[1].abs() + ap[2].abs());
+                    if plane > 0.0 && plane * plane > best.distance2 {
+                        continue;
+                    }
+                    // Its bounding sphere's distance, the same way.
+                    let (c, r) = self.spheres[slot];
+                    let pc = sub(p, c);
+                    let far =
+                        dot(pc, pc).sqrt() - r - 1e-12 * (pc[0].abs() + pc[1].abs() + pc[2].abs());
+                    if far > 0.0 && far * far > best.distance2 {
+                        continue;
+                    }
                     let w = closest_on_triangle(p, t[0], t[1], t[2]);
                     let q = at(t, w);
                     let d = sub(p, q);
@@ -379,20 +499,71 @@ impl DistanceTree {
                 }
                 continue;
             }
-            // Nearer child popped first.
+            // Nearer child popped first; children beyond the best so far never pushed.
             let (a, b) = (node.first, node.first + 1);
             let da = box_distance2(p, self.nodes[a as usize].lo, self.nodes[a as usize].hi);
             let db = box_distance2(p, self.nodes[b as usize].lo, self.nodes[b as usize].hi);
-            if da <= db {
-                stack.push(b);
-                stack.push(a);
+            let (first, second) = if da <= db {
+                ((da, a), (db, b))
             } else {
-                stack.push(a);
-                stack.push(b);
+                ((db, b), (da, a))
+            };
+            if second.0 <= best.distance2 {
+                stack.push(second);
+            }
+            if first.0 <= best.distance2 {
+                stack.push(first);
             }
         }
         *hint = best_slot.or(*hint);
         (best.triangle != u32::MAX).then_some(best)
+    }
+
+    /// The nearest triangle within squared distance `limit2` of each of `points`, in their order. The
+    /// points run in Morton order, in parallel chunks of [`CHUNK`], each point starting from its
+    /// predecessor's answer ([`Self::closest_within_from`]): a neighbour's triangle bounds the descent at
+    /// once, where a point taken alone starts from an unbounded search. The answers are those of
+    /// [`Self::closest_within`] point by point.
+    pub fn closest_all(&self, points: &[[f64; 3]], limit2: f64) -> Vec<Option<Closest>> {
+        use rayon::prelude::*;
+        let (mut lo, mut hi) = ([f64::INFINITY; 3], [f64::NEG_INFINITY; 3]);
+        for p in points {
+            for a in 0..3 {
+                lo[a] = lo[a].min(p[a]);
+                hi[a] = hi[a].max(p[a]);
+            }
+        }
+        let scale: [f64; 3] = std::array::from_fn(|a| {
+            let e = hi[a] - lo[a];
+            if e > 0.0 && e.is_finite() {
+                1023.0 / e
+            } else {
+                0.0
+            }
+        });
+        let mut order: Vec<(u32, u32)> = points
+            .par_iter()
+            .enumerate()
+            .map(|(i, &p)| (morton(p, lo, scale), i as u32))
+            .collect();
+        order.par_sort_unstable();
+        let found: Vec<Option<Closest>> = order
+            .par_chunks(CHUNK)
+            .flat_map_iter(|chunk| {
+                let (mut stack, mut hint) = (Stack::default(), None);
+                chunk
+                    .iter()
+                    .map(|&(_, i)| {
+                        self.closest_within_from(points[i as usize], limit2, &mut hint, &mut stack)
+                    })
+                    .collect::<Vec<_>>()
+            })
+            .collect();
+        let mut out = vec![None; points.len()];
+        for (&(_, i), c) in order.iter().zip(found) {
+            out[i as usize] = c;
+        }
+        out
     }
 }
 
@@ -432,7 +603,7 @@ mod tests {
         tris.push([[0.0; 3], [0.5, 0.0, 0.0], [0.25, 0.0, 0.0]]);
         tris.push([[0.3, 0.3, 0.3]; 3]);
         let tree = DistanceTree::new(&tris);
-        let mut stack = Vec::new();
+        let mut stack = Stack::default();
         for _ in 0..2000 {
             let p = [1.5 * r(), 1.5 * r(), 1.5 * r()];
             let c = tree.closest(p, &mut stack).unwrap();
@@ -442,6 +613,42 @@ mod tests {
             let w = c.barycentric;
             assert!((w[0] + w[1] + w[2] - 1.0).abs() < 1e-12 && w.iter().all(|&x| x >= 0.0));
         }
+    }
+
+    #[test]
+    fn many_points_in_morton_order_get_the_answers_of_one_point_at_a_time() {
+        let mut s = 0x2545_F491u64;
+        let mut r = || {
+            s ^= s << 13;
+            s ^= s >> 7;
+            s ^= s << 17;
+            (s >> 11) as f64 / (1u64 << 53) as f64 * 2.0 - 1.0
+        };
+        // A closed-ish cloud of small triangles, duplicates (ties) and a degenerate one.
+        let mut tris: Vec<[[f64; 3]; 3]> = (0..3000)
+            .map(|_| {
+                let c = [r(), r(), r()];
+                std::array::from_fn(|_| std::array::from_fn(|k| c[k] + 0.05 * r()))
+            })
+            .collect();
+        tris.extend_from_within(0..50);
+        tris.push([[0.1; 3]; 3]);
+        let tree = DistanceTree::new(&tris);
+        let points: Vec<[f64; 3]> = (0..5000)
+            .map(|_| [2.0 * r(), 2.0 * r(), 2.0 * r()])
+            .collect();
+        for limit2 in [f64::INFINITY, 0.01] {
+            let all = tree.closest_all(&points, limit2);
+            let mut stack = Stack::default();
+            for (p, c) in points.iter().zip(&all) {
+                assert_eq!(*c, tree.closest_within(*p, limit2, &mut stack), "{p:?}");
+            }
+            assert!(
+                all.iter().any(|c| c.is_some())
+                    && (limit2.is_infinite() || all.iter().any(|c| c.is_none()))
+            );
+        }
+        assert!(tree.closest_all(&[], 1.0).is_empty());
     }
 
     #[test]
@@ -471,7 +678,7 @@ mod tests {
         for (max_edge, max_pieces) in [(0.05, 1 << 20), (0.2, 1 << 20), (0.05, 5_000)] {
             let split = DistanceTree::new_split(&tris, max_edge, max_pieces);
             assert!(split.triangles.len() <= 2 * max_pieces.max(tris.len()) + 8 * tris.len());
-            let mut stack = Vec::new();
+            let mut stack = Stack::default();
             for _ in 0..1500 {
                 let p = [1.5 * r(), 1.5 * r(), 1.5 * r()];
                 let (i, d2) = brute(&tris, p);
