@@ -30,7 +30,8 @@
 //!
 //! # The bound
 //! Every interval is rigorous (`tree` module docs): a node of X contributes its order-2 expansion with the
-//! Legendre-tail truncation bound A/D²·[4.5t³/(1−t) + t⁴/(1−t)²] (t = ρ/D) plus r·2A/g³ over a ball of radius
+//! Taylor-tail truncation bound 4·I₃/D⁵ + (I₄/ρ⁴)/D²·[4t⁴/(1−t) + t⁴/(1−t)²] (t = ρ/D, Iₖ = ∫|x − x̄|ᵏ dA over
+//! the node, at most A·ρᵏ: the caps' trees keep their own) plus r·2A/g³ over a ball of radius
 //! r, or ± min(A/d², 4W/d) (W = Σ of the altitudes on the longest edges: thin ribbons stay cheap), and exact
 //! leaf triangles carry their rounding bound. A decision is taken from an interval only when it lies
 //! strictly on one side of ½ (of a half-integer for the labels), so every voxel gets exactly the answer of
