@@ -1590,7 +1590,8 @@ mod tests {
         // lies within the error of the expansion at the point and of the local share over a ball.
         let mut flat = Vec::new();
         for k in 0..12 {
-            let (a0, a1) = (k as f64 * 0.5236, (k + 1) as f64 * 0.5236);
+            let step = std::f64::consts::FRAC_PI_6;
+            let (a0, a1) = (k as f64 * step, (k + 1) as f64 * step);
             flat.push([
                 [0.5, 0.5, 0.5],
                 [0.5 + 0.1 * a0.cos(), 0.5 + 0.1 * a0.sin(), 0.5],
