@@ -168,6 +168,14 @@ pub fn closest_on_triangle(p: [f64; 3], a: [f64; 3], b: [f64; 3], c: [f64; 3]) -
     [1.0 - v - w, v, w]
 }
 
+/// The closest point of triangle `t` to `p`: (the point, its barycentric weights, the squared distance).
+pub fn closest_point(p: [f64; 3], t: &[[f64; 3]; 3]) -> ([f64; 3], [f64; 3], f64) {
+    let w = closest_on_triangle(p, t[0], t[1], t[2]);
+    let q = at(t, w);
+    let d = sub(p, q);
+    (q, w, dot(d, d))
+}
+
 fn at(t: &[[f64; 3]; 3], w: [f64; 3]) -> [f64; 3] {
     std::array::from_fn(|k| w[0] * t[0][k] + w[1] * t[1][k] + w[2] * t[2][k])
 }
@@ -571,6 +579,16 @@ impl DistanceTree {
 mod tests {
     use super::*;
 
+    /// Seeded numbers in [−1, 1) (xorshift64).
+    fn signed_uniform(mut s: u64) -> impl FnMut() -> f64 {
+        move || {
+            s ^= s << 13;
+            s ^= s >> 7;
+            s ^= s << 17;
+            (s >> 11) as f64 / (1u64 << 53) as f64 * 2.0 - 1.0
+        }
+    }
+
     fn brute(tris: &[[[f64; 3]; 3]], p: [f64; 3]) -> (u32, f64) {
         let mut best = (u32::MAX, f64::INFINITY);
         for (i, t) in tris.iter().enumerate() {
@@ -586,13 +604,7 @@ mod tests {
 
     #[test]
     fn the_tree_finds_the_brute_force_nearest_triangle_degenerate_ones_included() {
-        let mut s = 0x1234_5678u64;
-        let mut r = || {
-            s ^= s << 13;
-            s ^= s >> 7;
-            s ^= s << 17;
-            (s >> 11) as f64 / (1u64 << 53) as f64 * 2.0 - 1.0
-        };
+        let mut r = signed_uniform(0x1234_5678u64);
         let mut tris: Vec<[[f64; 3]; 3]> = (0..500)
             .map(|_| {
                 let c = [r(), r(), r()];
@@ -617,13 +629,7 @@ mod tests {
 
     #[test]
     fn many_points_in_morton_order_get_the_answers_of_one_point_at_a_time() {
-        let mut s = 0x2545_F491u64;
-        let mut r = || {
-            s ^= s << 13;
-            s ^= s >> 7;
-            s ^= s << 17;
-            (s >> 11) as f64 / (1u64 << 53) as f64 * 2.0 - 1.0
-        };
+        let mut r = signed_uniform(0x2545_F491u64);
         // A closed-ish cloud of small triangles, duplicates (ties) and a degenerate one.
         let mut tris: Vec<[[f64; 3]; 3]> = (0..3000)
             .map(|_| {
@@ -653,13 +659,7 @@ mod tests {
 
     #[test]
     fn cut_into_pieces_the_tree_gives_the_same_distances_within_any_limit_slivers_included() {
-        let mut s = 0x9E37_79B9u64;
-        let mut r = || {
-            s ^= s << 13;
-            s ^= s >> 7;
-            s ^= s << 17;
-            (s >> 11) as f64 / (1u64 << 53) as f64 * 2.0 - 1.0
-        };
+        let mut r = signed_uniform(0x9E37_79B9u64);
         let mut tris: Vec<[[f64; 3]; 3]> = (0..200)
             .map(|_| std::array::from_fn(|_| std::array::from_fn(|_| r())))
             .collect();
