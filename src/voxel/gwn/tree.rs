@@ -1506,7 +1506,7 @@ mod tests {
         // Centroid rule over the n² congruent sub-triangles (error O(1/n²)).
         let n = 200;
         let mut integral = [[0.0f64; 3]; 3];
-        let mut add = |u: f64, v: f64| {
+        centroid_rule(n, |u: f64, v: f64| {
             let x: [f64; 3] =
                 std::array::from_fn(|k| t.a[k] + u * (t.b[k] - t.a[k]) + v * (t.c[k] - t.a[k]));
             for b in 0..3 {
@@ -1514,9 +1514,7 @@ mod tests {
                     integral[b][c] += x[b] * x[c];
                 }
             }
-        };
-        let nf = n as f64;
-        centroid_rule(n, add);
+        });
         let cells = (n * n) as f64;
         let nz = cross(sub(t.b, t.a), sub(t.c, t.a)).map(|x| 0.5 * x)[2];
         for b in 0..3 {
