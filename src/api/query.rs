@@ -24,15 +24,16 @@
 //! # Cost model
 //! Preparing: the hygiene and the weld O(T log T); caps, ribbons and their trees O(X log X) (X = cap and
 //! ribbon triangles: nothing on a closed mesh); the crossing index O(T + X); the distance tree
-//! O(P log P) over P ≤ max(9T/8, 2^18) pieces (triangles cut to a 128th of the extent, so a huge polygon's
-//! slivers do not overlap every query near it). Per point: a bucket of the crossing index (the exact integer winding number of the closed
-//! chain M ∪ X), then, on an open mesh, one traversal of X's trees refined until the interval is narrower
-//! than the tolerance (near a cap, down to its exact triangles); distances: O(log T) nodes near a spread
-//! surface. Occupancy (and the sign of sdf) shares bounds between points as voxelize shares them between
-//! voxels: an octree over the points, where a cell whose ball gets an interval of w_X strictly inside
-//! (k − ½, k + ½) decides all its points from their crossing counts against k; only the points of cells
-//! no bound settles (at most 32 points a leaf, or near X) are traversed one by one, from a looser first
-//! traversal than a value's (`DECIDE_FIRST`: most points are far from ½ and need few nodes).
+//! O(P log P) over P ≤ max(9T/8, 2^18) pieces (triangles cut to a 128th of the extent, so a huge
+//! polygon's slivers do not overlap every query near it). Per point: a bucket of the crossing index (the
+//! exact integer winding number of the closed chain M ∪ X), then, on an open mesh, one traversal of X's
+//! trees refined until the interval is narrower than the tolerance (near a cap, down to its exact
+//! triangles); distances: O(log P) nodes near a spread surface. Occupancy (and the sign of sdf) shares
+//! bounds between points as voxelize shares them between voxels: an octree over the points, where a cell
+//! whose ball gets an interval of w_X strictly inside (k − ½, k + ½) decides all its points from their
+//! crossing counts against k; only the points of cells no bound settles (at most 32 points a leaf, or near
+//! X) are traversed one by one, from a looser first traversal than a value's (`DECIDE_FIRST`: most points
+//! are far from ½ and need few nodes).
 //!
 //! The worst cases: winding values (tight tolerances) among thousands of small caps, where the bounds
 //! converge slowly: the refinement stops after about T/4 share evaluations and the plain sum over
@@ -445,9 +446,9 @@ impl MeshQuery {
             Vec::new()
         };
         // Over the triangles cut into pieces of at most a 128th of the mesh's extent (at most
-        // `distance_pieces`, which the budget counted): the slivers of one huge polygon's fan get tight boxes, where
-        // whole they overlap every query near the polygon (a prism of two 4,000-gons: every point tested
-        // thousands of slivers). The nearest piece names its triangle; the closest point and the distance
+        // `distance_pieces`, which the budget counted): the slivers of one huge polygon's fan get tight
+        // boxes, where whole they overlap every query near the polygon (a prism of two 4,000-gons: every
+        // point tested thousands of slivers). The nearest piece names its triangle; the closest point and the distance
         // are then the triangle's own.
         let tree = self.distance.get_or_init(|| {
             let (lo, hi) = bounds(self.triangles.iter().flatten().copied());
