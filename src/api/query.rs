@@ -462,23 +462,17 @@ impl MeshQuery {
             .par_iter()
             .enumerate()
             .map(|(i, c)| {
-                let c = c.expect("a prepared mesh has triangles");
+                let face = c.expect("a prepared mesh has triangles").triangle;
                 let (point, barycentric, distance2) =
-                    closest_point(local[i], &self.triangles[c.triangle as usize]);
-                let c = crate::mesh::distance::Closest {
-                    point,
-                    barycentric,
-                    distance2,
-                    ..c
-                };
-                let mut d = c.distance2.sqrt() as f32;
+                    closest_point(local[i], &self.triangles[face as usize]);
+                let mut d = distance2.sqrt() as f32;
                 // Occupancy signs the distance (a point on the surface keeps 0).
                 if signed && d > 0.0 && inside[i] == (self.opts.sdf_sign == SdfSign::InsideNegative)
                 {
                     d = -d;
                 }
-                let world = std::array::from_fn(|a| c.point[a] + self.shift[a]);
-                (d, world, c.triangle, c.barycentric)
+                let world = std::array::from_fn(|a| point[a] + self.shift[a]);
+                (d, world, face, barycentric)
             })
             .collect();
         let mut out = Distances::default();

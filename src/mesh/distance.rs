@@ -446,11 +446,7 @@ impl DistanceTree {
         };
         let mut best_slot = None;
         if let Some(slot) = hint.filter(|&s| s < self.triangles.len()) {
-            let t = &self.triangles[slot];
-            let w = closest_on_triangle(p, t[0], t[1], t[2]);
-            let q = at(t, w);
-            let d = sub(p, q);
-            let d2 = dot(d, d);
+            let (q, w, d2) = closest_point(p, &self.triangles[slot]);
             if d2 <= best.distance2 {
                 best = Closest {
                     triangle: self.index[slot],
@@ -490,10 +486,7 @@ impl DistanceTree {
                     if far > 0.0 && far * far > best.distance2 {
                         continue;
                     }
-                    let w = closest_on_triangle(p, t[0], t[1], t[2]);
-                    let q = at(t, w);
-                    let d = sub(p, q);
-                    let d2 = dot(d, d);
+                    let (q, w, d2) = closest_point(p, t);
                     let id = self.index[slot];
                     if d2 < best.distance2 || (d2 == best.distance2 && id < best.triangle) {
                         best = Closest {
