@@ -42,9 +42,20 @@
 //! without the limit); and for distances a point equidistant from every triangle (the centre of a fine
 //! sphere visits them all). Points run in parallel on every core; distances in Morton order, each point
 //! starting from its predecessor's triangle (`DistanceTree::closest_all`).
+//!
+//! # On the device
+//! [`MeshQuery::unsigned_distance_on`] and [`MeshQuery::signed_distance_on`] search the nearest pieces on
+//! a Vulkan device (`passes::closest_point`): in f64, the CPU's search operation for operation, every
+//! intermediate unfused, and each quotient corrected to the one IEEE division gives (Vulkan rounds f64
+//! add, subtract and multiply correctly, not division), so the device finds the CPU's pieces and the rows
+//! are the CPU's bit for bit. [`MeshQuery::distances_on`] with `verify` also checks every answer on the
+//! host (`gregvox query --device-check`): the device's piece starts the CPU's own search, which returns the
+//! CPU's answer whatever the device computed, and [`DeviceCheck`] counts the differences. That check costs
+//! about a whole CPU search (proving that nothing is nearer is most of a search's work), so it is a test,
+//! not the default.
 use super::{fan_local, local_origin, Mesh};
 use crate::error::{Error, Result};
-use crate::mesh::distance::{closest_point, DistanceTree};
+use crate::mesh::distance::{closest_point, DistanceTree, Stack};
 use crate::voxel::gwn::classify::Scratches;
 use crate::voxel::gwn::crossing::Crossings;
 use crate::voxel::gwn::tree::Accept;
@@ -97,6 +108,21 @@ pub struct Distances {
     pub face: Vec<u32>,
     /// Barycentric coordinates of the closest point in that triangle.
     pub barycentric: Vec<[f64; 3]>,
+}
+
+/// What the host did after a device's distance search ([`MeshQuery::distances_on`]).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize)]
+pub struct DeviceCheck {
+    /// Points whose device search stopped at its node limit (lavapipe ends a shader's loops after 65,535
+    /// iterations): the host finished them from the device's best piece.
+    pub incomplete: usize,
+    /// Points the host searched again from the device's answer (all of them when verifying, else the
+    /// incomplete ones).
+    pub checked: usize,
+    /// Checked points whose complete device search named another triangle than the host's: 0 on a device
+    /// whose f64 add, subtract and multiply round as Vulkan requires (the search mirrors the CPU's and
+    /// rounds its own quotients).
+    pub corrected: usize,
 }
 
 /// A mesh prepared for point queries: the fractional term's trees, the crossing index and the distance
@@ -438,35 +464,58 @@ impl MeshQuery {
         });
     }
 
-    fn distances(&self, points: &[[f64; 3]], signed: bool) -> Result<Distances> {
-        let inside = if signed {
-            self.occupancy(points)?
-        } else {
-            Self::check(points)?;
-            Vec::new()
-        };
-        // Over the triangles cut into pieces of at most a 128th of the mesh's extent (at most
-        // `distance_pieces`, which the budget counted): the slivers of one huge polygon's fan get tight
-        // boxes, where whole they overlap every query near the polygon (a prism of two 4,000-gons: every
-        // point tested thousands of slivers). The nearest piece names its triangle; the closest point and the distance
-        // are then the triangle's own.
-        let tree = self.distance.get_or_init(|| {
+    /// The distance tree, built on the first distance query: over the triangles cut into pieces of at most a
+    /// 128th of the mesh's extent (at most `distance_pieces`, which the budget counted): the slivers of one
+    /// huge polygon's fan get tight boxes, where whole they overlap every query near the polygon (a prism of
+    /// two 4,000-gons: every point tested thousands of slivers). The nearest piece names its triangle; the
+    /// closest point and the distance are then the triangle's own.
+    fn distance_tree(&self) -> &DistanceTree {
+        self.distance.get_or_init(|| {
             let (lo, hi) = bounds(self.triangles.iter().flatten().copied());
             let extent = (0..3).map(|a| hi[a] - lo[a]).fold(0.0f64, f64::max);
             let pieces = distance_pieces(self.triangles.len());
             DistanceTree::new_split(&self.triangles, extent / 128.0, pieces)
-        });
+        })
+    }
+
+    /// Occupancy for signing (`signed`), or only the points' check.
+    fn signs(&self, points: &[[f64; 3]], signed: bool) -> Result<Vec<bool>> {
+        if signed {
+            self.occupancy(points)
+        } else {
+            Self::check(points)?;
+            Ok(Vec::new())
+        }
+    }
+
+    fn distances(&self, points: &[[f64; 3]], signed: bool) -> Result<Distances> {
+        let inside = self.signs(points, signed)?;
+        let tree = self.distance_tree();
         let local: Vec<[f64; 3]> = points.iter().map(|&p| self.local(p)).collect();
-        let found = tree.closest_all(&local, f64::INFINITY);
-        let rows: Vec<(f32, [f64; 3], u32, [f64; 3])> = found
+        let faces: Vec<u32> = tree
+            .closest_all(&local, f64::INFINITY)
+            .into_iter()
+            .map(|c| c.expect("a prepared mesh has triangles").triangle)
+            .collect();
+        Ok(self.finish(&local, &faces, &inside, signed))
+    }
+
+    /// The rows of `local`'s points from their nearest triangles `faces`: the triangle's own closest point
+    /// and distance, signed by `inside` when `signed` (a point on the surface keeps 0).
+    fn finish(
+        &self,
+        local: &[[f64; 3]],
+        faces: &[u32],
+        inside: &[bool],
+        signed: bool,
+    ) -> Distances {
+        let rows: Vec<(f32, [f64; 3], u32, [f64; 3])> = faces
             .par_iter()
             .enumerate()
-            .map(|(i, c)| {
-                let face = c.expect("a prepared mesh has triangles").triangle;
+            .map(|(i, &face)| {
                 let (point, barycentric, distance2) =
                     closest_point(local[i], &self.triangles[face as usize]);
                 let mut d = distance2.sqrt() as f32;
-                // Occupancy signs the distance (a point on the surface keeps 0).
                 if signed && d > 0.0 && inside[i] == (self.opts.sdf_sign == SdfSign::InsideNegative)
                 {
                     d = -d;
@@ -482,7 +531,77 @@ impl MeshQuery {
             out.face.push(f);
             out.barycentric.push(b);
         }
-        Ok(out)
+        out
+    }
+
+    /// [`Self::distances`] with the nearest pieces searched on `gpu`'s device (`passes::closest_point`, in
+    /// f64, the CPU's search operation for operation with its quotients rounded as the CPU's: the same
+    /// pieces). A search the device stopped short is finished on the host from its best piece. With
+    /// `verify`, every answer is checked on the host: the device's piece starts the CPU's own search as
+    /// its hint ([`DistanceTree::closest_within_from`]), which returns the CPU's answer whatever the device
+    /// computed, and [`DeviceCheck::corrected`] counts the points where they differed. Without
+    /// `shaderFloat64` the CPU searches alone.
+    pub fn distances_on(
+        &self,
+        gpu: &super::Gpu,
+        points: &[[f64; 3]],
+        signed: bool,
+        verify: bool,
+    ) -> Result<(Distances, DeviceCheck)> {
+        use crate::passes::closest_point::{nearest_slots, Search, INCOMPLETE};
+        let ctx = gpu.context();
+        if !ctx.info.features.shader_float64 || points.is_empty() {
+            return Ok((self.distances(points, signed)?, DeviceCheck::default()));
+        }
+        let inside = self.signs(points, signed)?;
+        let tree = self.distance_tree();
+        let local: Vec<[f64; 3]> = points.iter().map(|&p| self.local(p)).collect();
+        let slots = nearest_slots(ctx, &tree.device_layout(), &local, Search::default())?;
+        // (face, stopped short, checked, corrected)
+        let rows: Vec<(u32, bool, bool, bool)> = local
+            .par_iter()
+            .zip(&slots)
+            .map_init(Stack::default, |stack, (&q, &slot)| {
+                let (found, done) = ((slot & !INCOMPLETE) as usize, slot & INCOMPLETE == 0);
+                let device = tree.triangle_of(found);
+                if let (Some(face), true, false) = (device, done, verify) {
+                    return (face, false, false, false);
+                }
+                let mut hint = device.map(|_| found);
+                let c = tree
+                    .closest_within_from(q, f64::INFINITY, &mut hint, stack)
+                    .expect("a prepared mesh has triangles");
+                (c.triangle, !done, true, done && device != Some(c.triangle))
+            })
+            .collect();
+        let count = |f: fn(&(u32, bool, bool, bool)) -> bool| rows.iter().filter(|r| f(r)).count();
+        let check = DeviceCheck {
+            incomplete: count(|r| r.1),
+            checked: count(|r| r.2),
+            corrected: count(|r| r.3),
+        };
+        let faces: Vec<u32> = rows.into_iter().map(|r| r.0).collect();
+        Ok((self.finish(&local, &faces, &inside, signed), check))
+    }
+
+    /// [`Self::unsigned_distance`] with the nearest triangles searched on `gpu`'s device: the same rows
+    /// ([`Self::distances_on`] without the host's check).
+    pub fn unsigned_distance_on(
+        &self,
+        gpu: &super::Gpu,
+        points: &[[f64; 3]],
+    ) -> Result<(Distances, DeviceCheck)> {
+        self.distances_on(gpu, points, false, false)
+    }
+
+    /// [`Self::signed_distance`] with the nearest triangles searched on `gpu`'s device (the sign is the
+    /// CPU's exact occupancy): the same rows ([`Self::distances_on`] without the host's check).
+    pub fn signed_distance_on(
+        &self,
+        gpu: &super::Gpu,
+        points: &[[f64; 3]],
+    ) -> Result<(Distances, DeviceCheck)> {
+        self.distances_on(gpu, points, true, false)
     }
 
     /// Distances to the surface, with the nearest triangles.
@@ -765,6 +884,9 @@ pub struct QueryOutput {
     pub prepare_seconds: f64,
     /// The seed the points were drawn with (`None` for given points).
     pub seed: Option<u64>,
+    /// With a device: what the host's check of its distance searches found (summed over sdf and udf);
+    /// `None` when no distance was searched on a device.
+    pub device_check: Option<DeviceCheck>,
 }
 
 /// A 64-bit FNV-1a hash (the per-model seed of [`QueryJob::for_model`]).
@@ -819,6 +941,18 @@ impl QueryJob {
 
     /// Runs the job on `mesh`. `deadline` is checked after the preparation and between the queries.
     pub fn run(&self, mesh: &Mesh, deadline: &Option<super::Deadline>) -> Result<QueryOutput> {
+        self.run_on(mesh, deadline, None, false)
+    }
+
+    /// [`QueryJob::run`] with the distances' nearest triangles searched on `gpu`'s device (the same arrays;
+    /// with `verify` every answer checked on the host: [`MeshQuery::distances_on`]).
+    pub fn run_on(
+        &self,
+        mesh: &Mesh,
+        deadline: &Option<super::Deadline>,
+        gpu: Option<&super::Gpu>,
+        verify: bool,
+    ) -> Result<QueryOutput> {
         use crate::engine::voxelize::checkpoint;
         use crate::npy::Array;
         self.check()?;
@@ -900,14 +1034,21 @@ impl QueryJob {
             checkpoint(deadline, "after the winding numbers")?;
         }
         let mut closest: Option<Distances> = None;
+        let mut device_check: Option<DeviceCheck> = None;
         for (what, signed) in [(QueryWhat::Sdf, true), (QueryWhat::Udf, false)] {
             if !want(what) {
                 continue;
             }
-            let d = if signed {
-                q.signed_distance(points)?
-            } else {
-                q.unsigned_distance(points)?
+            let d = match gpu {
+                Some(g) => {
+                    let (d, check) = q.distances_on(g, points, signed, verify)?;
+                    let sum = device_check.get_or_insert_with(DeviceCheck::default);
+                    sum.incomplete += check.incomplete;
+                    sum.checked += check.checked;
+                    sum.corrected += check.corrected;
+                    d
+                }
+                None => q.distances(points, signed)?,
             };
             arrays.push((what.name(), Array::f32s(&d.distance)));
             closest.get_or_insert(d);
@@ -926,6 +1067,7 @@ impl QueryJob {
             inside,
             prepare_seconds,
             seed: self.seed(),
+            device_check,
         })
     }
 }

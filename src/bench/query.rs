@@ -56,6 +56,17 @@ pub fn run(cfg: &BenchConfig, report: &mut Report) -> anyhow::Result<()> {
     ];
     let dir = std::env::temp_dir().join(format!("gregvox-bench-query-{}", std::process::id()));
     std::fs::create_dir_all(&dir)?;
+    // The device path beside the CPU's (lavapipe on a machine without a GPU); the suite runs without one.
+    let gpu = match crate::api::Gpu::new() {
+        Ok(g) => Some(g),
+        Err(e) => {
+            eprintln!("gregvox bench: query: no Vulkan device for the device column ({e})");
+            None
+        }
+    };
+    let device_name = gpu
+        .as_ref()
+        .map_or("none".to_string(), |g| g.context().info.name.clone());
     let mut t = Table::new(
         "query",
         "Point queries vs libigl at the same points (whole calls, preparation included)",
@@ -70,7 +81,10 @@ pub fn run(cfg: &BenchConfig, report: &mut Report) -> anyhow::Result<()> {
              point_mesh_squared_distance, its own threading (bench/peers/query_peers.py). speed-up = \
              libigl / gregvox. occupancy vs fwn = points where |w| ≥ ½ differs from libigl's w ≥ ½ \
              (the rules differ only on inward parts; the fast winding number's error near ½ does the \
-             rest).",
+             rest). udf device = the udf call with the nearest pieces searched on the Vulkan device \
+             ({device_name}; MeshQuery::unsigned_distance_on: the pipeline, the tree's upload, the search \
+             in f64 and the host's check of every answer, which makes the rows the CPU's); device check \
+             = searches the host corrected / finished (0 / 0: the device's answers were the CPU's).",
             rayon::current_num_threads()
         ),
         &[
@@ -89,6 +103,8 @@ pub fn run(cfg: &BenchConfig, report: &mut Report) -> anyhow::Result<()> {
             "udf ms",
             "libigl udf ms",
             "udf speed-up",
+            "udf device ms",
+            "device check",
             "occupancy vs fwn",
         ],
     );
@@ -143,6 +159,17 @@ pub fn run(cfg: &BenchConfig, report: &mut Report) -> anyhow::Result<()> {
                     .and_then(|q| q.unsigned_distance(&points))
                     .map(|v| v.distance.len())
             });
+            let mut check = None;
+            let device_ms = gpu.as_ref().map(|g| {
+                time(repeats, || {
+                    MeshQuery::distances_only(&mesh, &opts)
+                        .and_then(|q| q.unsigned_distance_on(g, &points))
+                        .map(|(v, c)| {
+                            check = Some(c);
+                            v.distance.len()
+                        })
+                })
+            });
             let occ = prepared.occupancy(&points)?;
             let inside = occ.iter().filter(|&&o| o).count() as i64;
             let peer = peers::python(
@@ -187,6 +214,10 @@ pub fn run(cfg: &BenchConfig, report: &mut Report) -> anyhow::Result<()> {
                 num(udf_ms),
                 cell(udf),
                 speedup(udf, udf_ms),
+                device_ms.map_or(Value::from("no device"), num),
+                check.map_or(Value::from("–"), |c| {
+                    Value::from(format!("{} / {}", c.corrected, c.incomplete))
+                }),
                 match get("fwn_inside") {
                     Some(k) => Value::from((k as i64 - inside).abs()),
                     None => Value::from("–"),
@@ -194,8 +225,8 @@ pub fn run(cfg: &BenchConfig, report: &mut Report) -> anyhow::Result<()> {
             ]);
             eprintln!(
                 "gregvox bench: query {name} {kind}: prepare {prep_ms:.1} ms, occupancy {occ_ms:.1} ms, \
-                 winding {wind_us:.1} µs/point, sdf {sdf_ms:.1} ms, udf {udf_ms:.1} ms; libigl fwn {fwn:?} \
-                 sdf {sdf:?} udf {udf:?}"
+                 winding {wind_us:.1} µs/point, sdf {sdf_ms:.1} ms, udf {udf_ms:.1} ms, udf device \
+                 {device_ms:?} ms ({check:?}); libigl fwn {fwn:?} sdf {sdf:?} udf {udf:?}"
             );
         }
     }

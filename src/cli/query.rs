@@ -62,6 +62,14 @@ pub struct QueryArgs {
     /// `points` as float16.
     #[arg(long)]
     pub compact: bool,
+    /// Search the nearest triangles of sdf and udf on the Vulkan device (in f64, the CPU's search operation
+    /// for operation: the same arrays; needs shaderFloat64, else the CPU searches).
+    #[arg(long)]
+    pub device: bool,
+    /// With --device: also check every device answer on the host (about the CPU search's time again); the
+    /// JSON summary's `device_check` counts the answers checked and corrected
+    #[arg(long)]
+    pub device_check: bool,
     /// Print a JSON summary on stdout.
     #[arg(long)]
     pub json: bool,
@@ -96,9 +104,21 @@ pub fn run(args: &QueryArgs) -> anyhow::Result<()> {
     }
     crate::io::check_output(&args.out)?;
     let mesh = load_mesh(&args.input)?;
+    let gpu = if args.device || args.device_check {
+        if !job
+            .what
+            .iter()
+            .any(|w| matches!(w, QueryWhat::Sdf | QueryWhat::Udf))
+        {
+            anyhow::bail!("--device searches the distances' nearest triangles: ask for sdf or udf");
+        }
+        Some(crate::api::Gpu::new()?)
+    } else {
+        None
+    };
     let start = Instant::now();
     let out = job
-        .run(&mesh, &None)
+        .run_on(&mesh, &None, gpu.as_ref(), args.device_check)
         .map_err(|e| e.for_input(&args.input))?;
     let seconds = start.elapsed().as_secs_f64();
     write_npz(&args.out, &out.arrays)?;
@@ -110,6 +130,7 @@ pub fn run(args: &QueryArgs) -> anyhow::Result<()> {
             "arrays": names,
             "prepare_seconds": out.prepare_seconds,
             "seconds": seconds,
+            "device_check": out.device_check,
             "out": args.out.display().to_string(),
         });
         crate::cli::print_out(&format!("{j}\n"))?;

@@ -568,6 +568,65 @@ impl DistanceTree {
     }
 }
 
+/// A node as the device reads it (glsl/closest_point.comp): the box's low corner with the first slot or
+/// child, then the high corner with the count (0 for an inner node), the integers as doubles (exact below
+/// 2⁵³).
+pub type DeviceNode = [[f64; 4]; 2];
+
+/// The tree as the device's search reads it ([`DistanceTree::device_layout`]): the same nodes, pieces and
+/// order as the CPU's.
+pub struct DeviceLayout {
+    pub nodes: Vec<DeviceNode>,
+    /// Three rows (x, y, z, 0) per piece, in slot order.
+    pub triangles: Vec<[f64; 4]>,
+    /// Each slot's triangle index (ties go to the lowest, as on the CPU).
+    pub index: Vec<u32>,
+    /// The most nodes on a path from the root (the device's stack must hold one more).
+    pub depth: u32,
+}
+
+impl DistanceTree {
+    /// The tree for the device's search (`passes::closest_point`).
+    pub fn device_layout(&self) -> DeviceLayout {
+        let nodes = self
+            .nodes
+            .iter()
+            .map(|n| {
+                [
+                    [n.lo[0], n.lo[1], n.lo[2], n.first as f64],
+                    [n.hi[0], n.hi[1], n.hi[2], n.count as f64],
+                ]
+            })
+            .collect();
+        let triangles = self
+            .triangles
+            .iter()
+            .flat_map(|t| t.map(|v| [v[0], v[1], v[2], 0.0]))
+            .collect();
+        // Children come after their parents (the build lays nodes out in pre-order).
+        let mut depth = vec![1u32; self.nodes.len()];
+        for n in 0..self.nodes.len() {
+            let node = &self.nodes[n];
+            if node.count == 0 {
+                for c in [node.first, node.first + 1] {
+                    depth[c as usize] = depth[n] + 1;
+                }
+            }
+        }
+        DeviceLayout {
+            nodes,
+            triangles,
+            index: self.index.clone(),
+            depth: depth.into_iter().max().unwrap_or(1),
+        }
+    }
+
+    /// The triangle index of `slot` (a piece's own triangle), `None` out of range.
+    pub fn triangle_of(&self, slot: usize) -> Option<u32> {
+        self.index.get(slot).copied()
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -6,6 +6,7 @@ pub mod adaptive_levels;
 pub mod beziex_eval;
 pub mod bounds;
 pub mod cage_deform;
+pub mod closest_point;
 pub mod draw;
 pub mod gregory_eval;
 pub mod iota;
