@@ -282,6 +282,7 @@ def query(
     rule: str = "gwn",
     sdf_sign: str = "inside-negative",
     tolerance: float = 1e-6,
+    device: Optional[Device] = None,
 ) -> Dict[str, np.ndarray]:
     """Exact winding numbers, occupancy and distances of a mesh at ``points`` ((n, 3), float32 or float64),
     as ``gregvox query`` computes them: a dict with one array per name of ``what`` in the order of the
@@ -289,15 +290,18 @@ def query(
     gwn-positive = w >= 1/2, decided by bounds), ``sdf`` and ``udf`` float32 (``sdf_sign``:
     inside-negative as libigl/Open3D/Warp, or inside-positive as trimesh/pysdf); ``closest`` adds ``face``
     (uint32, the nearest triangle of the fan triangulation), ``closest`` and ``barycentric`` (float64
-    (n, 3)). The signs come from the exact winding number: right on open meshes and soups. The GIL is
-    released while it runs."""
+    (n, 3)). The signs come from the exact winding number: right on open meshes and soups. With ``device``
+    (a ``Device``), the distances' nearest triangles are searched on it, in float64 (the same arrays as the
+    CPU's; ``gregvox query --device``). The GIL is released while it runs."""
     V, ptr, idx = _mesh(V, F)
     P = np.ascontiguousarray(points, dtype=np.float64)
     if P.ndim != 2 or P.shape[1] != 3:
         raise ValueError(f"points must have shape (n, 3), not {P.shape}")
     if isinstance(what, str):
         what = [w.strip() for w in what.split(",")]
-    out = _gregvox.query(V, ptr, idx, P, [str(w) for w in what], str(rule), str(sdf_sign), float(tolerance))
+    dev = None if device is None else _device(device)._device
+    out = _gregvox.query(V, ptr, idx, P, [str(w) for w in what], str(rule), str(sdf_sign), float(tolerance),
+                         dev)
     if "occupancy" in out:
         out["occupancy"] = out["occupancy"].view(np.bool_)
     return out

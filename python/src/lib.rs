@@ -948,10 +948,11 @@ fn grid_indices<'py>(
 
 /// Point queries (`gregvox::api::query`): for each name of `what` (winding, occupancy, sdf, udf, closest)
 /// an array in the order of the points: winding float64 (n,), occupancy bool as uint8 (n,), sdf/udf float32
-/// (n,), closest = (face uint32 (n,), point float64 (n, 3), barycentric float64 (n, 3)). The GIL is released
-/// while the mesh is prepared and the points are answered.
+/// (n,), closest = (face uint32 (n,), point float64 (n, 3), barycentric float64 (n, 3)). With `device`, the
+/// distances' nearest triangles are searched on it (the same arrays). The GIL is released while the mesh is
+/// prepared and the points are answered.
 #[pyfunction]
-#[pyo3(signature = (v, face_ptr, indices, points, what, rule="gwn", sdf_sign="inside-negative", tolerance=1e-6))]
+#[pyo3(signature = (v, face_ptr, indices, points, what, rule="gwn", sdf_sign="inside-negative", tolerance=1e-6, device=None))]
 #[allow(clippy::too_many_arguments)]
 fn query<'py>(
     py: Python<'py>,
@@ -963,6 +964,7 @@ fn query<'py>(
     rule: &str,
     sdf_sign: &str,
     tolerance: f64,
+    device: Option<&Device>,
 ) -> PyResult<Bound<'py, pyo3::types::PyDict>> {
     use gregvox::api::query::{MeshQuery, QueryOptions, SdfSign};
     use gregvox::voxel::gwn::Inside;
@@ -1005,6 +1007,7 @@ fn query<'py>(
         }
     }
     let want = |n: &str| what.iter().any(|w| w == n);
+    let gpu = device.map(|d| d.gpu()).transpose()?;
     type Answers = (
         Option<Vec<f64>>,
         Option<Vec<bool>>,
@@ -1026,9 +1029,14 @@ fn query<'py>(
             } else {
                 (None, None)
             };
-            let sdf = want("sdf").then(|| q.signed_distance(&pts)).transpose()?;
+            let distances = |signed: bool| match &gpu {
+                Some(g) => q.distances_on(g, &pts, signed, false).map(|(d, _)| d),
+                None if signed => q.signed_distance(&pts),
+                None => q.unsigned_distance(&pts),
+            };
+            let sdf = want("sdf").then(|| distances(true)).transpose()?;
             let udf = (want("udf") || (want("closest") && sdf.is_none()))
-                .then(|| q.unsigned_distance(&pts))
+                .then(|| distances(false))
                 .transpose()?;
             Ok((w, o, sdf, udf))
         })

@@ -56,6 +56,19 @@ def test_distances_are_signed_by_occupancy_and_float32_points_give_the_same_answ
     assert np.array_equal(positive["sdf"], -same["sdf"])
 
 
+def test_distances_searched_on_the_device_are_the_cpus():
+    V, F = open_box()
+    P = points(2000, seed=4)
+    what = "sdf,udf,closest"
+    cpu = gregvox.query(V, F, P, what=what)
+    dev = gregvox.query(V, F, P, what=what, device=gregvox.default_device())
+    assert sorted(cpu) == sorted(dev)
+    for k in cpu:
+        assert np.array_equal(cpu[k], dev[k]), k
+    with pytest.raises(TypeError):
+        gregvox.query(V, F, P, what="udf", device="gpu")
+
+
 def test_the_cli_gives_the_same_arrays(cli, tmp_path):
     V, F = open_box()
     P = points(300, seed=2)
