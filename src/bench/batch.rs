@@ -261,7 +261,7 @@ pub fn run(cfg: &BenchConfig, report: &mut Report) -> anyhow::Result<()> {
 
 /// Writes `count` closed UV spheres (32 to 128 segments) as OBJ into `dir`; with `broken`, every fifth is
 /// broken (alternately a quarter of its triangles removed and an unwelded soup). Returns the broken count.
-fn sphere_folder(dir: &Path, count: usize, broken: bool) -> anyhow::Result<usize> {
+pub fn sphere_folder(dir: &Path, count: usize, broken: bool) -> anyhow::Result<usize> {
     let _ = std::fs::remove_dir_all(dir);
     std::fs::create_dir_all(dir)?;
     let mut broken_count = 0;
