@@ -29,7 +29,7 @@ double dot3(dvec3 a, dvec3 b) {
     return r;
 }
 
-// (lo − p).max(0).max(p − hi) squared and summed per axis, as `box_distance2` (written out: see VISITS).
+// (lo − p).max(0).max(p − hi) squared and summed per axis, as `box_distance2` (no loop: see main).
 double box_distance2(dvec3 p, dvec3 lo, dvec3 hi) {
     precise dvec3 l = lo - p;
     precise dvec3 h = p - hi;
@@ -191,8 +191,8 @@ double piece_distance2(dvec3 p, uint s) {
 // over a leaf's pieces inside the traversal cut the fan of a 100,000-gon's searches short, farther than
 // the CPU's answers), so the search has one loop, a leaf's pieces (at most 8, the CPU's
 // `distance::LEAF`) are written out, and a search that reaches pc.visits nodes stops and says so: its best
-// piece so far is still a good hint for the host's search, which finishes every point.
-// The slot's high bit: the search stopped at VISITS.
+// piece so far is still a good hint for the host's search, which finishes those points.
+// The slot's high bit: the search stopped at pc.visits nodes.
 #define INCOMPLETE 0x80000000u
 
 void main() {

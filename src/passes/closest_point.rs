@@ -4,15 +4,17 @@
 //! Invariants: the pass owns its pipeline; the tree ([`DeviceLayout`], uploaded once by
 //! [`nearest_slots`]), the points (four f64 per point) and the slots (one u32 per point) are the caller's
 //! buffers. A slot is the piece with the least (squared distance, triangle index), as the CPU's search
-//! computes them, or with [`INCOMPLETE`] set the best piece of a search that stopped at the shader's
-//! `VISITS` nodes (lavapipe ends an invocation's loops after 65,535 iterations in all; the fan of a
-//! 100,000-gon needs more). Slots are below 2³¹ (checked).
+//! computes them, or with [`INCOMPLETE`] set the best piece of a search that stopped at
+//! [`Search::visits`] nodes (lavapipe ends an invocation's loops after 65,535 iterations in all). Slots are
+//! below 2³¹ (checked).
 //! The shader computes in f64: the device must have `shaderFloat64` ([`ClosestPointPass::new`] refuses
 //! otherwise). The traversal stack holds [`STACK`] nodes: [`ClosestPointPass::record`] refuses a deeper
 //! tree (a median-split tree of 2³² pieces is 30 deep). On exit the slots are visible to transfers.
 //!
-//! Cost: one invocation per point, O(log P) nodes near a spread surface as on the CPU; the host then
-//! checks each answer in a descent its hint prunes at once.
+//! Cost: one invocation per point, O(log P) nodes near a spread surface as on the CPU (no Morton-order
+//! hint: each point searches alone); the host finishes the incomplete searches (and, verifying, checks
+//! every answer) in a descent the device's piece prunes at once. The correcting shader's division costs
+//! about 3× the search on lavapipe (which runs both sides of every branch), hence the IEEE variant there.
 use crate::error::{Error, Result};
 use crate::gpu::pipeline::{Binding, ComputePipeline, DescriptorSetLayoutBuilder};
 use crate::gpu::resources::compute_writes_to_readers;
@@ -63,7 +65,7 @@ impl Default for Search {
 /// The slot's high bit: the search stopped before it was done (`INCOMPLETE` in glsl/closest_point.comp).
 pub const INCOMPLETE: u32 = 1 << 31;
 
-// The shader writes a leaf's pieces out one by one, for at most 8 of them (`LEAF_PIECES`).
+// The shader writes a leaf's pieces out one by one (`PIECE(k)`), for at most 8 of them.
 const _: () = assert!(crate::mesh::distance::LEAF <= 8);
 
 /// Points per submission of [`nearest_slots`] (8 MiB of points): a submission stays short on a slow
