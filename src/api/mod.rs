@@ -753,6 +753,10 @@ pub struct Gpu {
     /// models builds them once (on lavapipe each build compiles shaders). Declared before `ctx` so they
     /// are released before the device.
     voxelizers: std::sync::Mutex<VoxelizerCache>,
+    /// The distance queries' nearest-piece search (`passes::closest_point`), made on first use and kept:
+    /// a caller querying batch after batch compiles it once.
+    closest_point:
+        std::sync::Mutex<Option<std::sync::Arc<crate::passes::closest_point::ClosestPointPass>>>,
     ctx: Context,
 }
 
@@ -775,6 +779,7 @@ impl Gpu {
     pub fn with_desc(desc: &ContextDesc) -> Result<Gpu> {
         Ok(Gpu {
             voxelizers: Default::default(),
+            closest_point: Default::default(),
             ctx: Context::with_desc(desc)?,
         })
     }
@@ -791,6 +796,7 @@ impl Gpu {
     pub unsafe fn from_external(device: &ExternalDevice) -> Result<Gpu> {
         Ok(Gpu {
             voxelizers: Default::default(),
+            closest_point: Default::default(),
             // SAFETY: the caller's promise, passed on.
             ctx: unsafe { Context::from_external(device)? },
         })
@@ -823,12 +829,31 @@ impl Gpu {
         &self.ctx
     }
 
+    /// The nearest-piece search of the distance queries, with the shader this device needs (made on the
+    /// first call, then kept).
+    pub(crate) fn closest_point_pass(
+        &self,
+    ) -> Result<std::sync::Arc<crate::passes::closest_point::ClosestPointPass>> {
+        use crate::passes::closest_point::{ieee_division, ClosestPointPass};
+        let mut cache = self.closest_point.lock().unwrap_or_else(|e| e.into_inner());
+        if cache.is_none() {
+            let pass = ClosestPointPass::new(&self.ctx, !ieee_division(&self.ctx))?;
+            *cache = Some(std::sync::Arc::new(pass));
+        }
+        Ok(cache.clone().expect("made above"))
+    }
+
     /// Waits for the device and reports what should not be left: GPU allocations still alive (call it after
     /// dropping what the work made) and validation messages (when the layer is on). Examples and tools end
     /// with it; dropping a `Gpu` without it is fine.
     pub fn finish(self) -> Result<()> {
-        let Gpu { voxelizers, ctx } = self;
+        let Gpu {
+            voxelizers,
+            closest_point,
+            ctx,
+        } = self;
         drop(voxelizers);
+        drop(closest_point);
         ctx.wait_idle()?;
         let live = ctx.live_allocations();
         if !live.is_empty() {

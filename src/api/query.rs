@@ -548,7 +548,7 @@ impl MeshQuery {
         signed: bool,
         verify: bool,
     ) -> Result<(Distances, DeviceCheck)> {
-        use crate::passes::closest_point::{nearest_slots, Search, INCOMPLETE};
+        use crate::passes::closest_point::{nearest_slots_with, Search, INCOMPLETE};
         let ctx = gpu.context();
         if !ctx.info.features.shader_float64 || points.is_empty() {
             return Ok((self.distances(points, signed)?, DeviceCheck::default()));
@@ -556,7 +556,9 @@ impl MeshQuery {
         let inside = self.signs(points, signed)?;
         let tree = self.distance_tree();
         let local: Vec<[f64; 3]> = points.iter().map(|&p| self.local(p)).collect();
-        let slots = nearest_slots(ctx, &tree.device_layout(), &local, Search::default())?;
+        let pass = gpu.closest_point_pass()?;
+        let layout = tree.device_layout();
+        let slots = nearest_slots_with(ctx, &pass, &layout, &local, Search::default())?;
         // (face, stopped short, checked, corrected)
         let rows: Vec<(u32, bool, bool, bool)> = local
             .par_iter()

@@ -191,7 +191,7 @@ impl ClosestPointPass {
 
 /// The slot of the nearest piece of `layout`'s tree to each of `points` (in the tree's local frame), in
 /// their order, as `search` says: the tree uploaded once, the points in submissions of
-/// [`POINTS_PER_SUBMIT`].
+/// [`POINTS_PER_SUBMIT`]. A new pipeline each call; [`nearest_slots_with`] takes one made before.
 pub fn nearest_slots(
     ctx: &Context,
     layout: &DeviceLayout,
@@ -199,7 +199,23 @@ pub fn nearest_slots(
     search: Search,
 ) -> Result<Vec<u32>> {
     let correct = search.force_correction || search.perturb != 0 || !ieee_division(ctx);
-    let pass = ClosestPointPass::new(ctx, correct)?;
+    nearest_slots_with(
+        ctx,
+        &ClosestPointPass::new(ctx, correct)?,
+        layout,
+        points,
+        search,
+    )
+}
+
+/// [`nearest_slots`] with `pass`.
+pub fn nearest_slots_with(
+    ctx: &Context,
+    pass: &ClosestPointPass,
+    layout: &DeviceLayout,
+    points: &[[f64; 3]],
+    search: Search,
+) -> Result<Vec<u32>> {
     if layout.index.len() >= INCOMPLETE as usize {
         return Err(Error::Invalid(format!(
             "a distance tree of {} pieces (the device's search numbers fewer than 2³¹)",
