@@ -3,48 +3,21 @@
 //! holed, unwelded and sliver meshes; on lavapipe (IEEE f64) the device's own answers need no correction.
 mod common;
 
-use common::model;
+use common::{dataset_points, model};
 use gregvox::api::query::{DeviceCheck, Distances, MeshQuery, QueryOptions};
 use gregvox::api::Mesh;
 use gregvox::mesh::load_mesh_file;
 use gregvox::voxel::mesh::TriMesh;
-use gregvox::voxel::stress::{obj_text, polygon_prism, soup, with_holes, SplitMix64};
+use gregvox::voxel::stress::{obj_text, polygon_prism, soup, with_holes};
 
 fn mesh_of(t: &TriMesh) -> Mesh {
     gregvox::mesh::parse_obj(&obj_text(t), "case.obj").unwrap()
 }
 
-/// `n` points uniform in the box padded by 10 %, then `n` near the surface (on a random triangle, moved by
-/// up to 1 % of the box), then the corners of the first triangles exactly (ties between neighbours).
+/// `n` points uniform in the padded box and `n` near the surface (`common::dataset_points`), then the
+/// corners of the first triangles exactly (ties between neighbours).
 fn points(t: &TriMesh, n: usize, seed: u64) -> Vec<[f64; 3]> {
-    let (mut lo, mut hi) = ([f64::INFINITY; 3], [f64::NEG_INFINITY; 3]);
-    for &v in t.triangles.iter().flatten() {
-        for a in 0..3 {
-            lo[a] = lo[a].min(t.positions[v as usize][a] as f64);
-            hi[a] = hi[a].max(t.positions[v as usize][a] as f64);
-        }
-    }
-    let size: [f64; 3] = std::array::from_fn(|a| hi[a] - lo[a]);
-    let mut rng = SplitMix64(seed);
-    let mut out: Vec<[f64; 3]> = (0..n)
-        .map(|_| std::array::from_fn(|a| lo[a] - 0.1 * size[a] + 1.2 * size[a] * rng.unit()))
-        .collect();
-    for _ in 0..n {
-        let tri = t.triangles[rng.below(t.triangles.len())];
-        let (u, v) = (rng.unit(), rng.unit());
-        let (u, v) = if u + v > 1.0 {
-            (1.0 - u, 1.0 - v)
-        } else {
-            (u, v)
-        };
-        let c = |k: usize, a: usize| t.positions[tri[k] as usize][a] as f64;
-        out.push(std::array::from_fn(|a| {
-            c(0, a)
-                + u * (c(1, a) - c(0, a))
-                + v * (c(2, a) - c(0, a))
-                + (rng.unit() - 0.5) * 0.02 * size[a]
-        }));
-    }
+    let mut out = dataset_points(t, n, seed);
     for tri in t.triangles.iter().take(n / 10) {
         out.push(t.positions[tri[0] as usize].map(f64::from));
     }

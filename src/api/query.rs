@@ -534,9 +534,9 @@ impl MeshQuery {
         out
     }
 
-    /// [`Self::distances`] with the nearest pieces searched on `gpu`'s device (`passes::closest_point`, in
-    /// f64, the CPU's search operation for operation with its quotients rounded as the CPU's: the same
-    /// pieces). A search the device stopped short is finished on the host from its best piece. With
+    /// The distances ([`Self::unsigned_distance`], or with `signed` [`Self::signed_distance`]) with the
+    /// nearest pieces searched on `gpu`'s device (`passes::closest_point`, in f64, the CPU's search
+    /// operation for operation with its quotients rounded as the CPU's: the same pieces). A search the device stopped short is finished on the host from its best piece. With
     /// `verify`, every answer is checked on the host: the device's piece starts the CPU's own search as
     /// its hint ([`DistanceTree::closest_within_from`]), which returns the CPU's answer whatever the device
     /// computed, and [`DeviceCheck::corrected`] counts the points where they differed. Without

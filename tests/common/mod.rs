@@ -500,3 +500,45 @@ pub fn read_png(path: &std::path::Path) -> (u32, u32, Vec<u8>) {
     buf.truncate(info.buffer_size());
     (info.width, info.height, buf)
 }
+
+/// `n` points uniform in the box of the vertices the faces use, padded by 10 % per side, then `n` near the
+/// surface: a random triangle, a uniform point of it, moved per axis by (u₁ + u₂ + u₃ − 1.5)·1 % of the box.
+/// The same float64 operations in the same order as `tests/oracle/gen_query.py`, so the same bits
+/// (`tests/query_points.rs`).
+pub fn dataset_points(t: &gregvox::voxel::mesh::TriMesh, n: usize, seed: u64) -> Vec<[f64; 3]> {
+    let mut lo = [f64::INFINITY; 3];
+    let mut hi = [f64::NEG_INFINITY; 3];
+    for &v in t.triangles.iter().flatten() {
+        let p = t.positions[v as usize];
+        for a in 0..3 {
+            lo[a] = lo[a].min(p[a] as f64);
+            hi[a] = hi[a].max(p[a] as f64);
+        }
+    }
+    let size: [f64; 3] = std::array::from_fn(|a| hi[a] - lo[a]);
+    let mut rng = gregvox::voxel::stress::SplitMix64(seed);
+    let mut out = Vec::with_capacity(2 * n);
+    for _ in 0..n {
+        let u = [rng.unit(), rng.unit(), rng.unit()];
+        out.push(std::array::from_fn(|a| {
+            (lo[a] - 0.1 * size[a]) + (1.2 * size[a]) * u[a]
+        }));
+    }
+    for _ in 0..n {
+        let tri = t.triangles[rng.below(t.triangles.len())];
+        let (u, v) = (rng.unit(), rng.unit());
+        let (u, v) = if u + v > 1.0 {
+            (1.0 - u, 1.0 - v)
+        } else {
+            (u, v)
+        };
+        let c = |k: usize, a: usize| t.positions[tri[k] as usize][a] as f64;
+        let mut p = [0.0; 3];
+        for (a, pa) in p.iter_mut().enumerate() {
+            let s = (rng.unit() + rng.unit() + rng.unit() - 1.5) * 0.01 * size[a];
+            *pa = c(0, a) + u * (c(1, a) - c(0, a)) + v * (c(2, a) - c(0, a)) + s;
+        }
+        out.push(p);
+    }
+    out
+}
