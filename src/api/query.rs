@@ -490,14 +490,60 @@ impl MeshQuery {
 
     fn distances(&self, points: &[[f64; 3]], signed: bool) -> Result<Distances> {
         let inside = self.signs(points, signed)?;
+        let (local, faces, _) = self.nearest(points, None)?;
+        Ok(self.finish(&local, &faces, &inside, signed))
+    }
+
+    /// The points in the local frame and their nearest triangles, searched on the CPU or (with `device`)
+    /// on the device, verified there when its flag says so ([`Self::distances_on`]); the points are checked
+    /// first.
+    #[allow(clippy::type_complexity)]
+    fn nearest(
+        &self,
+        points: &[[f64; 3]],
+        device: Option<(&super::Gpu, bool)>,
+    ) -> Result<(Vec<[f64; 3]>, Vec<u32>, DeviceCheck)> {
+        use crate::passes::closest_point::{nearest_slots_with, Search, INCOMPLETE};
+        Self::check(points)?;
         let tree = self.distance_tree();
         let local: Vec<[f64; 3]> = points.iter().map(|&p| self.local(p)).collect();
-        let faces: Vec<u32> = tree
-            .closest_all(&local, f64::INFINITY)
-            .into_iter()
-            .map(|c| c.expect("a prepared mesh has triangles").triangle)
+        let device = device.filter(|(g, _)| g.context().info.features.shader_float64);
+        let Some((gpu, verify)) = device.filter(|_| !points.is_empty()) else {
+            let faces = tree
+                .closest_all(&local, f64::INFINITY)
+                .into_iter()
+                .map(|c| c.expect("a prepared mesh has triangles").triangle)
+                .collect();
+            return Ok((local, faces, DeviceCheck::default()));
+        };
+        let pass = gpu.closest_point_pass()?;
+        let layout = tree.device_layout();
+        let slots = nearest_slots_with(gpu.context(), &pass, &layout, &local, Search::default())?;
+        // (face, stopped short, checked, corrected)
+        let rows: Vec<(u32, bool, bool, bool)> = local
+            .par_iter()
+            .zip(&slots)
+            .map_init(Stack::default, |stack, (&q, &slot)| {
+                let (found, done) = ((slot & !INCOMPLETE) as usize, slot & INCOMPLETE == 0);
+                let device = tree.triangle_of(found);
+                if let (Some(face), true, false) = (device, done, verify) {
+                    return (face, false, false, false);
+                }
+                let mut hint = device.map(|_| found);
+                let c = tree
+                    .closest_within_from(q, f64::INFINITY, &mut hint, stack)
+                    .expect("a prepared mesh has triangles");
+                (c.triangle, !done, true, done && device != Some(c.triangle))
+            })
             .collect();
-        Ok(self.finish(&local, &faces, &inside, signed))
+        let count = |f: fn(&(u32, bool, bool, bool)) -> bool| rows.iter().filter(|r| f(r)).count();
+        let check = DeviceCheck {
+            incomplete: count(|r| r.1),
+            checked: count(|r| r.2),
+            corrected: count(|r| r.3),
+        };
+        let faces = rows.into_iter().map(|r| r.0).collect();
+        Ok((local, faces, check))
     }
 
     /// The rows of `local`'s points from their nearest triangles `faces`: the triangle's own closest point
@@ -548,41 +594,8 @@ impl MeshQuery {
         signed: bool,
         verify: bool,
     ) -> Result<(Distances, DeviceCheck)> {
-        use crate::passes::closest_point::{nearest_slots_with, Search, INCOMPLETE};
-        let ctx = gpu.context();
-        if !ctx.info.features.shader_float64 || points.is_empty() {
-            return Ok((self.distances(points, signed)?, DeviceCheck::default()));
-        }
         let inside = self.signs(points, signed)?;
-        let tree = self.distance_tree();
-        let local: Vec<[f64; 3]> = points.iter().map(|&p| self.local(p)).collect();
-        let pass = gpu.closest_point_pass()?;
-        let layout = tree.device_layout();
-        let slots = nearest_slots_with(ctx, &pass, &layout, &local, Search::default())?;
-        // (face, stopped short, checked, corrected)
-        let rows: Vec<(u32, bool, bool, bool)> = local
-            .par_iter()
-            .zip(&slots)
-            .map_init(Stack::default, |stack, (&q, &slot)| {
-                let (found, done) = ((slot & !INCOMPLETE) as usize, slot & INCOMPLETE == 0);
-                let device = tree.triangle_of(found);
-                if let (Some(face), true, false) = (device, done, verify) {
-                    return (face, false, false, false);
-                }
-                let mut hint = device.map(|_| found);
-                let c = tree
-                    .closest_within_from(q, f64::INFINITY, &mut hint, stack)
-                    .expect("a prepared mesh has triangles");
-                (c.triangle, !done, true, done && device != Some(c.triangle))
-            })
-            .collect();
-        let count = |f: fn(&(u32, bool, bool, bool)) -> bool| rows.iter().filter(|r| f(r)).count();
-        let check = DeviceCheck {
-            incomplete: count(|r| r.1),
-            checked: count(|r| r.2),
-            corrected: count(|r| r.3),
-        };
-        let faces: Vec<u32> = rows.into_iter().map(|r| r.0).collect();
+        let (local, faces, check) = self.nearest(points, Some((gpu, verify)))?;
         Ok((self.finish(&local, &faces, &inside, signed), check))
     }
 
@@ -886,7 +899,7 @@ pub struct QueryOutput {
     pub prepare_seconds: f64,
     /// The seed the points were drawn with (`None` for given points).
     pub seed: Option<u64>,
-    /// With a device: what the host's check of its distance searches found (summed over sdf and udf);
+    /// With a device: what the host did after its distance search (one search for sdf and udf alike);
     /// `None` when no distance was searched on a device.
     pub device_check: Option<DeviceCheck>,
 }
@@ -1013,6 +1026,8 @@ impl QueryJob {
             }
         };
         let mut inside = None;
+        // Occupancy once, for its array and for the sdf's sign.
+        let mut occupancy: Option<Vec<bool>> = None;
         if want(QueryWhat::Winding) || want(QueryWhat::Occupancy) {
             let (w, occ) = if want(QueryWhat::Winding) {
                 q.winding_and_occupancy(points)?
@@ -1033,27 +1048,28 @@ impl QueryJob {
                     },
                 ));
             }
+            occupancy = Some(occ);
             checkpoint(deadline, "after the winding numbers")?;
         }
         let mut closest: Option<Distances> = None;
         let mut device_check: Option<DeviceCheck> = None;
-        for (what, signed) in [(QueryWhat::Sdf, true), (QueryWhat::Udf, false)] {
-            if !want(what) {
-                continue;
+        if want(QueryWhat::Sdf) || want(QueryWhat::Udf) {
+            if want(QueryWhat::Sdf) && occupancy.is_none() {
+                occupancy = Some(q.occupancy(points)?);
             }
-            let d = match gpu {
-                Some(g) => {
-                    let (d, check) = q.distances_on(g, points, signed, verify)?;
-                    let sum = device_check.get_or_insert_with(DeviceCheck::default);
-                    sum.incomplete += check.incomplete;
-                    sum.checked += check.checked;
-                    sum.corrected += check.corrected;
-                    d
+            // The nearest triangles once, for sdf and udf alike.
+            let (local, faces, check) = q.nearest(points, gpu.map(|g| (g, verify)))?;
+            if gpu.is_some() {
+                device_check = Some(check);
+            }
+            for (what, signed) in [(QueryWhat::Sdf, true), (QueryWhat::Udf, false)] {
+                if want(what) {
+                    let inside = occupancy.as_deref().unwrap_or(&[]);
+                    let d = q.finish(&local, &faces, inside, signed);
+                    arrays.push((what.name(), Array::f32s(&d.distance)));
+                    closest.get_or_insert(d);
                 }
-                None => q.distances(points, signed)?,
-            };
-            arrays.push((what.name(), Array::f32s(&d.distance)));
-            closest.get_or_insert(d);
+            }
             checkpoint(deadline, "after the distances")?;
         }
         if self.closest {
