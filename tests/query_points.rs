@@ -125,6 +125,34 @@ fn the_open_bunny_matches_the_plain_sum_and_brute_force_distances() {
     check_case("bunny", &bunny(), 300);
 }
 
+/// One search (`nearest_triangles`) gives the rows of the separate calls: unsigned, and signed by the
+/// points' occupancy.
+#[test]
+fn one_nearest_triangle_search_gives_the_signed_and_unsigned_rows() {
+    let t = with_holes(&bunny(), 0.05, 9);
+    let q = MeshQuery::new(&mesh_of(&t), &QueryOptions::default()).unwrap();
+    let pts = dataset_points(&t, 2000, 5);
+    let nearest = q.nearest_triangles(&pts, None).unwrap();
+    let occupancy = q.occupancy(&pts).unwrap();
+    for (rows, call) in [
+        (
+            q.distance_rows(&nearest, None),
+            q.unsigned_distance(&pts).unwrap(),
+        ),
+        (
+            q.distance_rows(&nearest, Some(&occupancy)),
+            q.signed_distance(&pts).unwrap(),
+        ),
+    ] {
+        assert_eq!(rows.face, call.face);
+        assert_eq!(rows.closest, call.closest);
+        assert_eq!(rows.barycentric, call.barycentric);
+        let bits = |d: &[f32]| d.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+        assert_eq!(bits(&rows.distance), bits(&call.distance));
+    }
+    assert!(nearest.faces.len() == pts.len() && nearest.check.checked == 0);
+}
+
 #[test]
 fn thousands_of_holes_and_an_unwelded_soup_match_the_plain_sum() {
     let b = bunny();

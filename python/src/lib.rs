@@ -1021,23 +1021,24 @@ fn query<'py>(
             } else {
                 MeshQuery::distances_only(&mesh, &opts)?
             };
+            // Occupancy once (its array and the sdf's sign), the nearest triangles once (sdf and udf).
             let (w, o) = if want("winding") {
                 let (w, o) = q.winding_and_occupancy(&pts)?;
-                (Some(w), want("occupancy").then_some(o))
-            } else if want("occupancy") {
+                (Some(w), Some(o))
+            } else if want("occupancy") || want("sdf") {
                 (None, Some(q.occupancy(&pts)?))
             } else {
                 (None, None)
             };
-            let distances = |signed: bool| match &gpu {
-                Some(g) => q.distances_on(g, &pts, signed, false).map(|(d, _)| d),
-                None if signed => q.signed_distance(&pts),
-                None => q.unsigned_distance(&pts),
+            let (sdf, udf) = if want("sdf") || want("udf") || want("closest") {
+                let nearest = q.nearest_triangles(&pts, gpu.as_deref().map(|g| (g, false)))?;
+                let sdf = want("sdf").then(|| q.distance_rows(&nearest, o.as_deref()));
+                let udf = (want("udf") || sdf.is_none()).then(|| q.distance_rows(&nearest, None));
+                (sdf, udf)
+            } else {
+                (None, None)
             };
-            let sdf = want("sdf").then(|| distances(true)).transpose()?;
-            let udf = (want("udf") || (want("closest") && sdf.is_none()))
-                .then(|| distances(false))
-                .transpose()?;
+            let o = o.filter(|_| want("occupancy"));
             Ok((w, o, sdf, udf))
         })
         .map_err(to_py)?;

@@ -125,6 +125,17 @@ pub struct DeviceCheck {
     pub corrected: usize,
 }
 
+/// The nearest triangles of some points ([`MeshQuery::nearest_triangles`]).
+#[derive(Clone, Debug)]
+pub struct Nearest {
+    /// The points in the prepared mesh's local frame.
+    local: Vec<[f64; 3]>,
+    /// The nearest triangle of each point (index in the fan triangulation).
+    pub faces: Vec<u32>,
+    /// What the host did after a device's search (zeros for the CPU's).
+    pub check: DeviceCheck,
+}
+
 /// A mesh prepared for point queries: the fractional term's trees, the crossing index and the distance
 /// tree, built once. Thread-safe; each call runs its points in parallel.
 pub struct MeshQuery {
@@ -494,9 +505,35 @@ impl MeshQuery {
         Ok(self.finish(&local, &faces, &inside, signed))
     }
 
-    /// The points in the local frame and their nearest triangles, searched on the CPU or (with `device`)
-    /// on the device, verified there when its flag says so ([`Self::distances_on`]); the points are checked
-    /// first.
+    /// The nearest triangle of each point, searched once on the CPU or (with `device`) on the device,
+    /// verified on the host when its flag says so ([`Self::distances_on`]): what [`Self::distance_rows`]
+    /// makes unsigned and signed distances of without searching again.
+    pub fn nearest_triangles(
+        &self,
+        points: &[[f64; 3]],
+        device: Option<(&super::Gpu, bool)>,
+    ) -> Result<Nearest> {
+        let (local, faces, check) = self.nearest(points, device)?;
+        Ok(Nearest {
+            local,
+            faces,
+            check,
+        })
+    }
+
+    /// The distance rows of `nearest`'s points: unsigned, or with `occupancy` (the points' own, from
+    /// [`Self::occupancy`]) signed as [`Self::signed_distance`] signs.
+    pub fn distance_rows(&self, nearest: &Nearest, occupancy: Option<&[bool]>) -> Distances {
+        let inside = occupancy.unwrap_or(&[]);
+        assert!(
+            occupancy.is_none() || inside.len() == nearest.faces.len(),
+            "one occupancy per point"
+        );
+        self.finish(&nearest.local, &nearest.faces, inside, occupancy.is_some())
+    }
+
+    /// The points in the local frame and their nearest triangles (see [`Self::nearest_triangles`]); the
+    /// points are checked first.
     #[allow(clippy::type_complexity)]
     fn nearest(
         &self,
@@ -1058,14 +1095,13 @@ impl QueryJob {
                 occupancy = Some(q.occupancy(points)?);
             }
             // The nearest triangles once, for sdf and udf alike.
-            let (local, faces, check) = q.nearest(points, gpu.map(|g| (g, verify)))?;
+            let nearest = q.nearest_triangles(points, gpu.map(|g| (g, verify)))?;
             if gpu.is_some() {
-                device_check = Some(check);
+                device_check = Some(nearest.check);
             }
             for (what, signed) in [(QueryWhat::Sdf, true), (QueryWhat::Udf, false)] {
                 if want(what) {
-                    let inside = occupancy.as_deref().unwrap_or(&[]);
-                    let d = q.finish(&local, &faces, inside, signed);
+                    let d = q.distance_rows(&nearest, occupancy.as_deref().filter(|_| signed));
                     arrays.push((what.name(), Array::f32s(&d.distance)));
                     closest.get_or_insert(d);
                 }
