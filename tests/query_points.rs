@@ -136,11 +136,11 @@ fn one_nearest_triangle_search_gives_the_signed_and_unsigned_rows() {
     let occupancy = q.occupancy(&pts).unwrap();
     for (rows, call) in [
         (
-            q.distance_rows(&nearest, None),
+            q.distance_rows(&nearest, None).unwrap(),
             q.unsigned_distance(&pts).unwrap(),
         ),
         (
-            q.distance_rows(&nearest, Some(&occupancy)),
+            q.distance_rows(&nearest, Some(&occupancy)).unwrap(),
             q.signed_distance(&pts).unwrap(),
         ),
     ] {
@@ -151,6 +151,8 @@ fn one_nearest_triangle_search_gives_the_signed_and_unsigned_rows() {
         assert_eq!(bits(&rows.distance), bits(&call.distance));
     }
     assert!(nearest.faces.len() == pts.len() && nearest.check.checked == 0);
+    // An occupancy of another length is refused, not a panic.
+    assert!(q.distance_rows(&nearest, Some(&occupancy[1..])).is_err());
 }
 
 #[test]

@@ -1032,8 +1032,12 @@ fn query<'py>(
             };
             let (sdf, udf) = if want("sdf") || want("udf") || want("closest") {
                 let nearest = q.nearest_triangles(&pts, gpu.as_deref().map(|g| (g, false)))?;
-                let sdf = want("sdf").then(|| q.distance_rows(&nearest, o.as_deref()));
-                let udf = (want("udf") || sdf.is_none()).then(|| q.distance_rows(&nearest, None));
+                let sdf = want("sdf")
+                    .then(|| q.distance_rows(&nearest, o.as_deref()))
+                    .transpose()?;
+                let udf = (want("udf") || sdf.is_none())
+                    .then(|| q.distance_rows(&nearest, None))
+                    .transpose()?;
                 (sdf, udf)
             } else {
                 (None, None)

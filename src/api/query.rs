@@ -475,11 +475,11 @@ impl MeshQuery {
         });
     }
 
-    /// The distance tree, built on the first distance query: over the triangles cut into pieces of at most a
-    /// 128th of the mesh's extent (at most `distance_pieces`, which the budget counted): the slivers of one
-    /// huge polygon's fan get tight boxes, where whole they overlap every query near the polygon (a prism of
-    /// two 4,000-gons: every point tested thousands of slivers). The nearest piece names its triangle; the
-    /// closest point and the distance are then the triangle's own.
+    /// The distance tree, built on the first distance query: over the triangles with their slivers cut into
+    /// pieces of at most a 128th of the mesh's extent (at most `distance_pieces`, which the budget counted):
+    /// the slivers of one huge polygon's fan get tight boxes, where whole they overlap every query near the
+    /// polygon (a prism of two 4,000-gons: every point tested thousands of slivers). The nearest piece names
+    /// its triangle; the closest point and the distance are then the triangle's own.
     fn distance_tree(&self) -> &DistanceTree {
         self.distance.get_or_init(|| {
             let (lo, hi) = bounds(self.triangles.iter().flatten().copied());
@@ -522,14 +522,22 @@ impl MeshQuery {
     }
 
     /// The distance rows of `nearest`'s points: unsigned, or with `occupancy` (the points' own, from
-    /// [`Self::occupancy`]) signed as [`Self::signed_distance`] signs.
-    pub fn distance_rows(&self, nearest: &Nearest, occupancy: Option<&[bool]>) -> Distances {
+    /// [`Self::occupancy`]) signed as [`Self::signed_distance`] signs; an error when `occupancy` does not
+    /// have one entry per point.
+    pub fn distance_rows(
+        &self,
+        nearest: &Nearest,
+        occupancy: Option<&[bool]>,
+    ) -> Result<Distances> {
         let inside = occupancy.unwrap_or(&[]);
-        assert!(
-            occupancy.is_none() || inside.len() == nearest.faces.len(),
-            "one occupancy per point"
-        );
-        self.finish(&nearest.local, &nearest.faces, inside, occupancy.is_some())
+        if occupancy.is_some() && inside.len() != nearest.faces.len() {
+            return Err(Error::Invalid(format!(
+                "{} occupancies for {} points",
+                inside.len(),
+                nearest.faces.len()
+            )));
+        }
+        Ok(self.finish(&nearest.local, &nearest.faces, inside, occupancy.is_some()))
     }
 
     /// The points in the local frame and their nearest triangles (see [`Self::nearest_triangles`]); the
@@ -619,9 +627,10 @@ impl MeshQuery {
 
     /// The distances ([`Self::unsigned_distance`], or with `signed` [`Self::signed_distance`]) with the
     /// nearest pieces searched on `gpu`'s device (`passes::closest_point`, in f64, the CPU's search
-    /// operation for operation with its quotients rounded as the CPU's: the same pieces). A search the device stopped short is finished on the host from its best piece. With
-    /// `verify`, every answer is checked on the host: the device's piece starts the CPU's own search as
-    /// its hint ([`DistanceTree::closest_within_from`]), which returns the CPU's answer whatever the device
+    /// operation for operation with its quotients rounded as the CPU's: the same pieces). A search the
+    /// device stopped short is finished on the host from its best piece. With `verify`, every answer is
+    /// checked on the host: the device's piece starts the CPU's own search as its hint
+    /// ([`DistanceTree::closest_within_from`]), which returns the CPU's answer whatever the device
     /// computed, and [`DeviceCheck::corrected`] counts the points where they differed. Without
     /// `shaderFloat64` the CPU searches alone.
     pub fn distances_on(
@@ -1101,7 +1110,7 @@ impl QueryJob {
             }
             for (what, signed) in [(QueryWhat::Sdf, true), (QueryWhat::Udf, false)] {
                 if want(what) {
-                    let d = q.distance_rows(&nearest, occupancy.as_deref().filter(|_| signed));
+                    let d = q.distance_rows(&nearest, occupancy.as_deref().filter(|_| signed))?;
                     arrays.push((what.name(), Array::f32s(&d.distance)));
                     closest.get_or_insert(d);
                 }
