@@ -24,8 +24,10 @@
 //! # Cost model
 //! Preparing: the hygiene and the weld O(T log T); caps, ribbons and their trees O(X log X) (X = cap and
 //! ribbon triangles: nothing on a closed mesh); the crossing index O(T + X); the distance tree
-//! O(P log P) over P ≤ max(9T/8, 2^18) pieces (triangles cut to a 128th of the extent, so a huge
-//! polygon's slivers do not overlap every query near it). Per point: a bucket of the crossing index (the
+//! O(P log P) over P ≤ max(9T/8, 2^18) pieces (slivers cut to a 128th of the extent, so a huge
+//! polygon's fan does not overlap every query near it; fat triangles stay whole). A job computes
+//! occupancy once and searches the nearest triangles once, whatever it asks of winding, occupancy, sdf
+//! and udf. Per point: a bucket of the crossing index (the
 //! exact integer winding number of the closed chain M ∪ X), then, on an open mesh, one traversal of X's
 //! trees refined until the interval is narrower than the tolerance (near a cap, down to its exact
 //! triangles); distances: O(log P) nodes near a spread surface. Occupancy (and the sign of sdf) shares
@@ -149,6 +151,8 @@ pub struct MeshQuery {
     field: Option<FractionalField>,
     /// Built on the first distance query (occupancy and winding numbers never need it).
     distance: std::sync::OnceLock<DistanceTree>,
+    /// The distance tree as the device reads it, made on the first device query and kept.
+    device_layout: std::sync::OnceLock<crate::mesh::distance::DeviceLayout>,
     /// Every fanned triangle, local (what distances and the samplers see).
     triangles: Vec<[[f64; 3]; 3]>,
 }
@@ -222,6 +226,7 @@ impl MeshQuery {
                 crossings: None,
                 field: None,
                 distance: std::sync::OnceLock::new(),
+                device_layout: std::sync::OnceLock::new(),
                 triangles: all,
             });
         }
@@ -251,6 +256,7 @@ impl MeshQuery {
             crossings: Some(Crossings::with_flat_triangles(chain)),
             field,
             distance: std::sync::OnceLock::new(),
+            device_layout: std::sync::OnceLock::new(),
             triangles: all,
         })
     }
@@ -489,20 +495,21 @@ impl MeshQuery {
         })
     }
 
-    /// Occupancy for signing (`signed`), or only the points' check.
-    fn signs(&self, points: &[[f64; 3]], signed: bool) -> Result<Vec<bool>> {
-        if signed {
-            self.occupancy(points)
+    /// Distances signed by occupancy when `signed`, the nearest triangles searched on the CPU or (with
+    /// `device`) on the device: what every distance call runs.
+    fn distances_via(
+        &self,
+        points: &[[f64; 3]],
+        signed: bool,
+        device: Option<(&super::Gpu, bool)>,
+    ) -> Result<(Distances, DeviceCheck)> {
+        let inside = if signed {
+            self.occupancy(points)?
         } else {
-            Self::check(points)?;
-            Ok(Vec::new())
-        }
-    }
-
-    fn distances(&self, points: &[[f64; 3]], signed: bool) -> Result<Distances> {
-        let inside = self.signs(points, signed)?;
-        let (local, faces, _) = self.nearest(points, None)?;
-        Ok(self.finish(&local, &faces, &inside, signed))
+            Vec::new()
+        };
+        let (local, faces, check) = self.nearest(points, device)?;
+        Ok((self.finish(&local, &faces, &inside, signed), check))
     }
 
     /// The nearest triangle of each point, searched once on the CPU or (with `device`) on the device,
@@ -562,8 +569,8 @@ impl MeshQuery {
             return Ok((local, faces, DeviceCheck::default()));
         };
         let pass = gpu.closest_point_pass()?;
-        let layout = tree.device_layout();
-        let slots = nearest_slots_with(gpu.context(), &pass, &layout, &local, Search::default())?;
+        let layout = self.device_layout.get_or_init(|| tree.device_layout());
+        let slots = nearest_slots_with(gpu.context(), &pass, layout, &local, Search::default())?;
         // (face, stopped short, checked, corrected)
         let rows: Vec<(u32, bool, bool, bool)> = local
             .par_iter()
@@ -640,9 +647,7 @@ impl MeshQuery {
         signed: bool,
         verify: bool,
     ) -> Result<(Distances, DeviceCheck)> {
-        let inside = self.signs(points, signed)?;
-        let (local, faces, check) = self.nearest(points, Some((gpu, verify)))?;
-        Ok((self.finish(&local, &faces, &inside, signed), check))
+        self.distances_via(points, signed, Some((gpu, verify)))
     }
 
     /// [`Self::unsigned_distance`] with the nearest triangles searched on `gpu`'s device: the same rows
@@ -667,12 +672,12 @@ impl MeshQuery {
 
     /// Distances to the surface, with the nearest triangles.
     pub fn unsigned_distance(&self, points: &[[f64; 3]]) -> Result<Distances> {
-        self.distances(points, false)
+        self.distances_via(points, false, None).map(|d| d.0)
     }
 
     /// Distances signed by the exact winding number (see the module docs).
     pub fn signed_distance(&self, points: &[[f64; 3]]) -> Result<Distances> {
-        self.distances(points, true)
+        self.distances_via(points, true, None).map(|d| d.0)
     }
 
     /// The options it was prepared with.

@@ -19,7 +19,13 @@
 //! (the centre of a finely tessellated sphere): no box can be pruned and the query visits all T
 //! triangles; points deep inside a round part come near it (the bunny's uniform points visit about 100
 //! nodes and test about 65 triangles each). Far points cost little: the first leaf's distance prunes
-//! almost everything, since every box is then about as far.
+//! almost everything, since every box is then about as far. Slivers attack the boxes: the fan of one huge
+//! polygon puts thousands of long boxes over every point near it, so the queries' tree
+//! ([`DistanceTree::new_split`]) cuts slivers (longest edge ≥ [`SLIVER`] × height) into pieces of a bounded
+//! length, about length / limit pieces each (tested on a 100,000-gon's fan and a prism of two 4,000-gons,
+//! benched on the prism: `gregvox bench --suite query`). The device's search
+//! ([`DistanceTree::device_layout`], `passes::closest_point`) walks the same tree with the same cost per
+//! point.
 
 /// Triangles per leaf.
 pub const LEAF: usize = 8;
