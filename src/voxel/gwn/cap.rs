@@ -362,10 +362,21 @@ fn weld(mesh: &TriMesh, tolerance: f64) -> (Vec<u32>, usize, f64) {
         .map(|(i, e)| (midpoint(e).map(|x| x.floor() as i64), i as u32))
         .collect();
     keyed.par_sort_unstable();
-    let find_cell = |key: [i64; 3]| -> &[([i64; 3], u32)] {
-        let lo = keyed.partition_point(|k| k.0 < key);
-        let hi = lo + keyed[lo..].partition_point(|k| k.0 == key);
-        &keyed[lo..hi]
+    // The cells' runs in `keyed`: an edge's own cell is its run, a neighbour cell a binary search of the runs.
+    let mut runs: Vec<(usize, usize)> = Vec::new();
+    for (at, k) in keyed.iter().enumerate() {
+        if at == 0 || k.0 != keyed[at - 1].0 {
+            runs.push((at, at + 1));
+        } else if let Some(run) = runs.last_mut() {
+            run.1 = at + 1;
+        }
+    }
+    let run_at = |key: [i64; 3]| -> &[([i64; 3], u32)] {
+        let r = runs.partition_point(|&(start, _)| keyed[start].0 < key);
+        match runs.get(r) {
+            Some(&(start, end)) if keyed[start].0 == key => &keyed[start..end],
+            _ => &[],
+        }
     };
     let mut parent: Vec<u32> = (0..n as u32).collect();
     fn find(parent: &mut [u32], mut v: u32) -> u32 {
@@ -383,50 +394,48 @@ fn weld(mesh: &TriMesh, tolerance: f64) -> (Vec<u32>, usize, f64) {
             parent[hi as usize] = lo;
         }
     };
-    // The twins, found in parallel in the cells' order (neighbouring searches share cache lines), then joined.
-    let twins: Vec<(u32, u32)> = keyed
-        .par_iter()
-        .enumerate()
-        .flat_map_iter(|(at, &(c, i))| {
-            let e = boundary[i as usize];
-            let m = midpoint(&e);
-            // Per axis: this cell, and the neighbour across a face within τ.
-            let reach = |k: usize| -> [i64; 2] {
-                let f = m[k] - c[k] as f64;
-                if f < 1.0 / 16.0 {
-                    [0, -1]
-                } else if f > 15.0 / 16.0 {
-                    [0, 1]
-                } else {
-                    [0, 0]
-                }
-            };
-            let (rx, ry, rz) = (reach(0), reach(1), reach(2));
-            let mut seen: [[i64; 3]; 8] = [[i64::MIN; 3]; 8];
-            let mut count = 0;
+    // The twins, found in parallel in the cells' order (neighbouring searches share cache lines; a list per
+    // chunk of runs rather than per edge), then joined.
+    let twins: Vec<Vec<(u32, u32)>> = runs
+        .par_chunks(1024)
+        .map(|chunk| {
             let mut found = Vec::new();
-            for dz in rz {
-                for dy in ry {
-                    for dx in rx {
-                        let key = [c[0] + dx, c[1] + dy, c[2] + dz];
-                        if seen[..count].contains(&key) {
-                            continue;
-                        }
-                        seen[count] = key;
-                        count += 1;
-                        // The edge's own cell is the run it sits in; the others are searched for.
-                        let run = if key == c {
-                            let lo = keyed[..at].iter().rev().take_while(|k| k.0 == c).count();
-                            let hi = keyed[at..].iter().take_while(|k| k.0 == c).count();
-                            &keyed[at - lo..at + hi]
+            for &(start, end) in chunk {
+                let own = &keyed[start..end];
+                for &(c, i) in own {
+                    let e = boundary[i as usize];
+                    let m = midpoint(&e);
+                    // Per axis: this cell, and the neighbour across a face within τ.
+                    let reach = |k: usize| -> [i64; 2] {
+                        let f = m[k] - c[k] as f64;
+                        if f < 1.0 / 16.0 {
+                            [0, -1]
+                        } else if f > 15.0 / 16.0 {
+                            [0, 1]
                         } else {
-                            find_cell(key)
-                        };
-                        for &(_, j) in run {
-                            let f = boundary[j as usize];
-                            if j != i && near(e.0, f.1) && near(e.1, f.0) {
-                                found.push((e.0, f.1));
-                                found.push((e.1, f.0));
+                            [0, 0]
+                        }
+                    };
+                    let (rx, ry, rz) = (reach(0), reach(1), reach(2));
+                    let mut seen: [[i64; 3]; 8] = [[i64::MIN; 3]; 8];
+                    let mut count = 0;
+                    for dz in rz {
+                        for dy in ry {
+                            for dx in rx {
+                                let key = [c[0] + dx, c[1] + dy, c[2] + dz];
+                                if seen[..count].contains(&key) {
+                                    continue;
+                                }
+                                seen[count] = key;
+                                count += 1;
+                                let run = if key == c { own } else { run_at(key) };
+                                for &(_, j) in run {
+                                    let f = boundary[j as usize];
+                                    if j != i && near(e.0, f.1) && near(e.1, f.0) {
+                                        found.push((e.0, f.1));
+                                        found.push((e.1, f.0));
+                                    }
+                                }
                             }
                         }
                     }
@@ -435,7 +444,7 @@ fn weld(mesh: &TriMesh, tolerance: f64) -> (Vec<u32>, usize, f64) {
             found
         })
         .collect();
-    for (a, b) in twins {
+    for (a, b) in twins.into_iter().flatten() {
         union(&mut parent, a, b);
     }
     let (mut moved, mut max_shift) = (0usize, 0.0f64);

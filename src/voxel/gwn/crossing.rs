@@ -200,16 +200,7 @@ impl Crossings {
         triangles.par_iter_mut().for_each(|t| *t = t.map(permute));
         // Orientations by the exact predicate, on every thread (its slow path is common on a soup's thin
         // ribbons), then the box of the indexed triangles.
-        let sigma: Vec<i8> = triangles
-            .par_iter()
-            .map(|t| {
-                let c = |k: usize| Coord {
-                    x: t[k][0],
-                    y: t[k][1],
-                };
-                sign(orient2d(c(0), c(1), c(2)))
-            })
-            .collect();
+        let sigma: Vec<i8> = triangles.par_iter().map(orientation).collect();
         let (mut lo, mut hi) = ([f64::INFINITY; 2], [f64::NEG_INFINITY; 2]);
         for (t, &s) in triangles.iter().zip(&sigma) {
             if s != 0 || flats {
@@ -344,41 +335,70 @@ impl Crossings {
     /// σ when the +z ray from q crosses triangle `i`, 0 when it does not, `None` when q lies on it.
     #[inline]
     fn crosses(&self, i: usize, q: [f64; 3]) -> Option<i8> {
-        let [a, b, c] = self.tris[i];
-        let s = self.sigma[i];
-        // Box test first (inclusive: points on the box's edge go on to the exact tests).
-        for k in 0..2 {
-            let lo = a[k].min(b[k]).min(c[k]);
-            let hi = a[k].max(b[k]).max(c[k]);
-            if q[k] < lo || q[k] > hi {
-                return Some(0);
-            }
+        crossing(&self.tris[i], self.sigma[i], q)
+    }
+
+    /// The winding number at `q` (local) of the small closed chain `tris` (local corners, not indexed),
+    /// counted as [`Crossings::winding`] counts the index: `None` when q lies on one of its triangles, flat
+    /// ones included. For a closed chain the count is its winding number wherever it is defined, whatever
+    /// the ray's axis.
+    pub fn chain_winding(&self, tris: &[[[f64; 3]; 3]], q: [f64; 3]) -> Option<i32> {
+        let q = self.permute(q);
+        let mut n = 0i32;
+        for t in tris {
+            let t = t.map(|p| self.permute(p));
+            n += crossing(&t, orientation(&t), q)? as i32;
         }
-        if q[2] > a[2].max(b[2]).max(c[2]) {
+        Some(n)
+    }
+}
+
+/// The sign of the projection's orientation of `t` (permuted coordinates): σ, 0 for a flat projection.
+fn orientation(t: &[[f64; 3]; 3]) -> i8 {
+    let c = |k: usize| Coord {
+        x: t[k][0],
+        y: t[k][1],
+    };
+    sign(orient2d(c(0), c(1), c(2)))
+}
+
+/// σ when the +z ray from q crosses triangle `t` of orientation `s` (permuted coordinates), 0 when it does
+/// not, `None` when q lies on it.
+#[inline]
+fn crossing(t: &[[f64; 3]; 3], s: i8, q: [f64; 3]) -> Option<i8> {
+    let [a, b, c] = *t;
+    // Box test first (inclusive: points on the box's edge go on to the exact tests).
+    for k in 0..2 {
+        let lo = a[k].min(b[k]).min(c[k]);
+        let hi = a[k].max(b[k]).max(c[k]);
+        if q[k] < lo || q[k] > hi {
             return Some(0);
         }
-        let point = |p: [f64; 3]| Coord3D {
-            x: p[0],
-            y: p[1],
-            z: p[2],
-        };
-        let o = orient3d(point(a), point(b), point(c), point(q));
-        if o == 0.0 && on_triangle(a, b, c, q) {
-            return None;
-        }
-        if s == 0 {
-            // A flat triangle (indexed only for the test above): the ray never crosses it.
-            return Some(0);
-        }
-        if side(a, b, q) != s || side(b, c, q) != s || side(c, a, q) != s {
-            return Some(0);
-        }
-        // orient3d > 0: q lies on the side its normal points away from; the normal points up when σ > 0.
-        if sign(o) * s > 0 {
-            Some(s)
-        } else {
-            Some(0)
-        }
+    }
+    if q[2] > a[2].max(b[2]).max(c[2]) {
+        return Some(0);
+    }
+    let point = |p: [f64; 3]| Coord3D {
+        x: p[0],
+        y: p[1],
+        z: p[2],
+    };
+    let o = orient3d(point(a), point(b), point(c), point(q));
+    if o == 0.0 && on_triangle(a, b, c, q) {
+        return None;
+    }
+    if s == 0 {
+        // A flat triangle (indexed only for the test above): the ray never crosses it.
+        return Some(0);
+    }
+    if side(a, b, q) != s || side(b, c, q) != s || side(c, a, q) != s {
+        return Some(0);
+    }
+    // orient3d > 0: q lies on the side its normal points away from; the normal points up when σ > 0.
+    if sign(o) * s > 0 {
+        Some(s)
+    } else {
+        Some(0)
     }
 }
 

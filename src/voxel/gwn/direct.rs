@@ -32,7 +32,6 @@
 //! needs θ ≈ 0.01); what would cut the decisions is a cheaper far field per voxel (shared local expansions
 //! of higher order, as a fast multipole method's), not a costlier one per node.
 use super::classify::{Fractional, Limits, Scratches, SLACK};
-use super::crossing::Crossings;
 use super::kernel::FOUR_PI;
 use super::tree::Accept;
 use super::zone::{centre, unlinear};
@@ -97,15 +96,16 @@ pub struct DirectCounts {
     pub plain_sums: u64,
 }
 
-/// Decides each voxel of `voxels` (linear indices): `Ok(answers)` in their order. The crossing index's first
-/// `mesh_triangles` triangles are M's.
+/// Decides each voxel of `voxels` (linear indices): `Ok(answers)` in their order. `count(i, q)` is the
+/// exact winding number of M ∪ X at the centre q of `voxels[i]` (`None` when q lies on the chain),
+/// `plain_sum(q)` M's own winding number by the plain sum in triangle order.
 #[allow(clippy::too_many_arguments)]
 pub fn decide(
     frame: &GridFrame,
     voxels: &[u64],
     x: &Fractional,
-    crossings: &Crossings,
-    mesh_triangles: usize,
+    count: &(dyn Fn(usize, [f64; 3]) -> Option<i32> + Sync),
+    plain_sum: &(dyn Fn([f64; 3]) -> f64 + Sync),
     on_surface: &[u64],
     inside: Inside,
     limits: &Limits,
@@ -113,13 +113,14 @@ pub fn decide(
     let (refined, plain) = (AtomicU64::new(0), AtomicU64::new(0));
     let answers: Vec<bool> = voxels
         .par_iter()
-        .map_init(Scratches::default, |scratch, &id| {
+        .enumerate()
+        .map_init(Scratches::default, |scratch, (slot, &id)| {
             if limits.expired() {
                 return false;
             }
             let q = centre(frame, unlinear(frame, id));
             let on = on_surface.binary_search(&id).is_ok();
-            if let Some(n) = crossings.winding(q).filter(|_| !on) {
+            if let Some(n) = (!on).then(|| count(slot, q)).flatten() {
                 let mut rounds = 0u32;
                 let decided = x.adaptive(
                     q,
@@ -139,7 +140,7 @@ pub fn decide(
                 }
             }
             plain.fetch_add(1, Ordering::Relaxed);
-            let w = crossings.plain_sum(q, mesh_triangles);
+            let w = plain_sum(q);
             inside.of_value(w)
         })
         .collect();

@@ -71,7 +71,14 @@ pub fn near_voxels(
     (zone, on)
 }
 
-fn near_triangle(t: &[[f64; 3]; 3], frame: &GridFrame, near: f64, found: &mut Vec<(u64, bool)>) {
+/// The voxels within `near` of triangle `t` (as [`near_voxels`]), appended to `found` with their
+/// on-surface flag (unsorted; a sliver's voxel once per edge it is near).
+pub(super) fn near_triangle(
+    t: &[[f64; 3]; 3],
+    frame: &GridFrame,
+    near: f64,
+    found: &mut Vec<(u64, bool)>,
+) {
     let [a, b, c] = *t;
     let n = cross(sub(b, a), sub(c, a));
     let nn = dot(n, n).sqrt();

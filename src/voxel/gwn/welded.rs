@@ -1,0 +1,245 @@
+//! The integer part of the direct voxels from the welded, capped mesh M' ∪ C' instead of M ∪ X, so that a
+//! soup's hundreds of thousands of ribbons are never indexed.
+//!
+//! The chains: X = C' − Q (`super::cap`), and for each triangle T of M with its welded T' the prism
+//! P_T = T' − T + Q_ab + Q_bc + Q_ca is closed. Summed over T, M + X = M' + C' − Σ P_T, so at any point q off
+//! every one of these triangles the winding numbers obey n_{M∪X}(q) = n_{M'∪C'}(q) − Σ_T n_{P_T}(q). A
+//! prism's winding number vanishes outside the hull of T ∪ T', which lies within δ_T (T's largest vertex
+//! move) of T; a prism whose corners did not move is T' − T with T' = T as positions, whose count is zero
+//! wherever it is defined. So only the direct voxels within δ_T of a moved T carry a correction, found
+//! triangle by triangle as the near zone finds its voxels (`super::zone`, columns under the triangle:
+//! never the volume of its box), each the exact crossing count of the prism's at most eight triangles
+//! ([`Crossings::chain_winding`]).
+//!
+//! The filters are those of the chains themselves: T' is part of M' when its three representatives are
+//! distinct (`Proxy::closed`), a quad's triangle part of X when its three positions are
+//! (`Proxy::new`), and T always part of M. A voxel lying on a triangle of M' ∪ C' (the index is built with
+//! its flat triangles, so it says so) or of a prism answers `None` here: the caller counts it on M ∪ X
+//! itself, whose index it builds only then (as it does for the plain sum of last resort).
+//!
+//! Cost: the index holds |M'| + |C'| triangles instead of |M| + |C'| + |Q| (a soup: about 6 ribbons a
+//! triangle); the corrections cost the columns under the moved triangles (each δ_T ≤ the weld's largest
+//! move thick: a few centres, if any) and a binary search in the direct list per centre found.
+//!
+//! Memory: the budget counts M ∪ X's index, which this one replaces. Where M ∪ X is indexed after all (a
+//! voxel on a surface, or the plain sum), both are alive: past the budget by at most this index. Counting
+//! both up front refused the million-vertex face of `tests/hardening_inputs.rs` at the default budget, so the
+//! fallback should rather decide those voxels by the plain sum over M, which needs no index (not done).
+use super::cap::Proxy;
+use super::crossing::Crossings;
+use super::zone::{centre, near_triangle, unlinear};
+use crate::voxel::grid::GridFrame;
+use crate::voxel::mesh::TriMesh;
+use rayon::prelude::*;
+
+/// The counts of a list of direct voxels: M' ∪ C' and, per voxel, the prisms' correction.
+pub struct WeldedCounts {
+    index: Crossings,
+    /// Σ n_{P_T} at each voxel of the list.
+    corrections: Vec<i32>,
+    /// Voxels lying on a prism's triangle: counted on M ∪ X.
+    on_prism: Vec<bool>,
+}
+
+impl WeldedCounts {
+    /// The counts at `voxels` (sorted linear indices of `frame`) for `mesh` welded and capped by `proxy`, in
+    /// coordinates local to `frame.origin` (as `super::local_triangles`).
+    pub fn new(mesh: &TriMesh, proxy: &Proxy, frame: &GridFrame, voxels: &[u64]) -> WeldedCounts {
+        let origin = frame.origin;
+        let local = |p: [f32; 3]| -> [f64; 3] { std::array::from_fn(|a| p[a] as f64 - origin[a]) };
+        let closed = proxy.closed(mesh);
+        let index = Crossings::with_flat_triangles(super::local_triangles(&closed, origin));
+        drop(closed);
+        let bits = |v: u32| mesh.positions[v as usize].map(|x| (x + 0.0).to_bits());
+        let extent: f64 = (0..3)
+            .map(|a| frame.dims[a] as f64 * frame.voxel_size[a])
+            .sum();
+        // Per chunk of triangles one list of hits and one scratch list of near voxels; a prism is made only
+        // for a moved triangle with a direct voxel near it (most have none).
+        let found: Vec<Vec<(u32, Option<i32>)>> = mesh
+            .triangles
+            .par_chunks(1024)
+            .map(|chunk| {
+                let (mut out, mut near) = (Vec::new(), Vec::new());
+                for &t in chunk {
+                    let rep = t.map(|v| proxy.rep[v as usize]);
+                    if (0..3).all(|k| bits(t[k]) == bits(rep[k])) {
+                        continue;
+                    }
+                    let corners = t.map(|v| local(mesh.positions[v as usize]));
+                    let moved = (0..3)
+                        .map(|k| {
+                            let (p, q) = (corners[k], local(mesh.positions[rep[k] as usize]));
+                            super::kernel::norm(std::array::from_fn(|a| q[a] - p[a]))
+                        })
+                        .fold(0.0f64, f64::max);
+                    let scale = extent
+                        + corners
+                            .iter()
+                            .flat_map(|p| p.iter())
+                            .fold(0.0f64, |m, x| m.max(x.abs()));
+                    // The hull lies within the largest move of T; the slack covers the rounding of the
+                    // distances the zone's walk computes (a few ulps of the coordinates).
+                    let reach = moved * (1.0 + 1e-6) + 1e-12 * scale;
+                    near.clear();
+                    near_triangle(&corners, frame, reach, &mut near);
+                    // A sliver is walked edge by edge: a voxel counts once.
+                    near.sort_unstable();
+                    near.dedup_by_key(|f| f.0);
+                    let mut p = None;
+                    for &(id, _) in &near {
+                        if let Ok(slot) = voxels.binary_search(&id) {
+                            let p = p.get_or_insert_with(|| prism(mesh, t, rep, &local));
+                            let q = centre(frame, unlinear(frame, id));
+                            out.push((slot as u32, index.chain_winding(p, q)));
+                        }
+                    }
+                }
+                out
+            })
+            .collect();
+        let mut corrections = vec![0i32; voxels.len()];
+        let mut on_prism = vec![false; voxels.len()];
+        for (slot, n) in found.into_iter().flatten() {
+            match n {
+                Some(n) => corrections[slot as usize] += n,
+                None => on_prism[slot as usize] = true,
+            }
+        }
+        WeldedCounts {
+            index,
+            corrections,
+            on_prism,
+        }
+    }
+
+    /// n_{M∪X} at `q`, the centre of the list's voxel `slot`; `None` when q lies on M' ∪ C' or on a prism.
+    pub fn winding(&self, slot: usize, q: [f64; 3]) -> Option<i32> {
+        if self.on_prism[slot] {
+            return None;
+        }
+        self.index.winding(q).map(|n| n - self.corrections[slot])
+    }
+
+    /// Voxels that carried a correction (the tests' evidence that the prisms were counted).
+    pub fn corrected(&self) -> usize {
+        self.corrections.iter().filter(|&&n| n != 0).count()
+    }
+}
+
+/// P_T = T' − T + Q_ab + Q_bc + Q_ca for T = `t` and its representatives `rep`, as the chains hold them.
+fn prism(
+    mesh: &TriMesh,
+    t: [u32; 3],
+    rep: [u32; 3],
+    local: &impl Fn([f32; 3]) -> [f64; 3],
+) -> Vec<[[f64; 3]; 3]> {
+    let pos = |v: u32| mesh.positions[v as usize];
+    let distinct = |tri: [u32; 3]| {
+        let [a, b, c] = tri.map(|v| pos(v).map(|x| (x + 0.0).to_bits()));
+        a != b && b != c && c != a
+    };
+    let corners = |tri: [u32; 3]| tri.map(|v| local(pos(v)));
+    let mut out = Vec::with_capacity(8);
+    if rep[0] != rep[1] && rep[1] != rep[2] && rep[2] != rep[0] {
+        out.push(corners(rep));
+    }
+    out.push(corners([t[0], t[2], t[1]]));
+    for k in 0..3 {
+        let (u, v) = (t[k], t[(k + 1) % 3]);
+        let (u2, v2) = (rep[k], rep[(k + 1) % 3]);
+        // X holds −Q as (u, v', v) and (u, u', v'), when their positions are distinct: Q is their reverse.
+        for (x, kept) in [([u, v, v2], [u, v2, v]), ([u, v2, u2], [u, u2, v2])] {
+            if distinct(kept) {
+                out.push(corners(x));
+            }
+        }
+    }
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::voxel::gwn::zone::near_voxels;
+    use crate::voxel::stress;
+
+    /// A noisy soup of a sphere with holes, welded with moves of a tenth of a voxel: many centres lie inside
+    /// the prisms between a moved triangle and its welded self, where M' ∪ C' alone counts wrong.
+    fn broken_soup() -> (TriMesh, Proxy, GridFrame) {
+        let sphere = TriMesh::sphere([0.0; 3], 1.0, 24, 32, false);
+        let holed = stress::with_holes(&sphere, 0.1, 7);
+        let soup = stress::soup(&holed, 2e-3, 11);
+        let proxy = Proxy::new(&soup, 1e-2).unwrap();
+        assert!(proxy.moved > 0 && !proxy.ribbons.is_empty() && !proxy.cap.loops.is_empty());
+        let frame = GridFrame {
+            dims: [110; 3],
+            origin: [-1.1; 3],
+            voxel_size: [0.02; 3],
+        };
+        (soup, proxy, frame)
+    }
+
+    #[test]
+    fn the_welded_counts_are_the_whole_chains_at_every_voxel_near_the_surface_inside_the_prisms_too(
+    ) {
+        let (soup, proxy, frame) = broken_soup();
+        let m = crate::voxel::gwn::local_triangles(&soup, frame.origin);
+        let x = proxy.fractional(&soup, frame.origin);
+        let mut chain = m.clone();
+        chain.extend_from_slice(&x);
+        let whole = Crossings::new(chain);
+        // Every centre within a quarter voxel of the mesh: the prisms (moves up to ~3.5e-3) lie far inside.
+        let (voxels, _) = near_voxels(&[&m, &x], &frame, 0.005);
+        let welded = WeldedCounts::new(&soup, &proxy, &frame, &voxels);
+        let (mut agreed, mut on) = (0, 0);
+        for (slot, &id) in voxels.iter().enumerate() {
+            let q = centre(&frame, unlinear(&frame, id));
+            match (welded.winding(slot, q), whole.winding(q)) {
+                (Some(a), Some(b)) => {
+                    assert_eq!(a, b, "voxel {id}");
+                    agreed += 1;
+                }
+                // Off M ∪ X the whole chain always answers; on it the welded counts must not.
+                (Some(a), None) => {
+                    panic!("voxel {id} lies on M ∪ X, yet the welded counts say {a}")
+                }
+                (None, _) => on += 1,
+            }
+        }
+        assert!(agreed > 1000, "{agreed} voxels compared");
+        // The prisms mattered: without their corrections these voxels would have been counted wrong.
+        assert!(welded.corrected() > 20, "{} corrected", welded.corrected());
+        assert!(on < agreed / 100, "{on} voxels left to the whole chain");
+    }
+
+    #[test]
+    fn a_prism_is_closed_and_counts_one_inside_its_hull() {
+        // One triangle whose corners all moved up by 0.01 onto a welded copy: the prism between them.
+        let mesh = TriMesh {
+            positions: vec![
+                [0.0, 0.0, 0.0],
+                [1.0, 0.0, 0.0],
+                [0.0, 1.0, 0.0],
+                [0.0, 0.0, 0.01],
+                [1.0, 0.0, 0.01],
+                [0.0, 1.0, 0.01],
+            ],
+            triangles: vec![[0, 1, 2], [3, 4, 5]],
+        };
+        let local = |p: [f32; 3]| p.map(|x| x as f64);
+        let p = prism(&mesh, [0, 1, 2], [3, 4, 5], &local);
+        assert_eq!(p.len(), 8);
+        let index = Crossings::new(vec![[[0.0; 3], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]]]);
+        for (q, want) in [
+            ([0.2, 0.2, 0.005], Some(1)),
+            ([0.2, 0.2, 0.02], Some(0)),
+            ([0.2, 0.2, -0.005], Some(0)),
+            ([0.8, 0.8, 0.005], Some(0)),
+            ([0.2, 0.2, 0.0], None),
+            ([0.0, 0.5, 0.005], None),
+        ] {
+            assert_eq!(index.chain_winding(&p, q), want, "{q:?}");
+        }
+    }
+}
