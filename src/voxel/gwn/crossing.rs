@@ -163,6 +163,32 @@ fn on_triangle(a: [f64; 3], b: [f64; 3], c: [f64; 3], q: [f64; 3]) -> bool {
         .all(|&e| e == 0 || e == s)
 }
 
+/// The ray axis of the chain made of `parts` (in order), as [`Crossings::new`] picks it: the axis whose
+/// projections give the triangles' boxes the least total area.
+pub fn ray_axis(parts: &[&[[[f64; 3]; 3]]]) -> usize {
+    let area = |axis: usize| -> f64 {
+        let (u, v) = ((axis + 1) % 3, (axis + 2) % 3);
+        parts
+            .iter()
+            .map(|part| {
+                part.par_iter()
+                    .map(|t| {
+                        let e = |k: usize| {
+                            t.iter().map(|p| p[k]).fold(f64::NEG_INFINITY, f64::max)
+                                - t.iter().map(|p| p[k]).fold(f64::INFINITY, f64::min)
+                        };
+                        e(u) * e(v)
+                    })
+                    .sum::<f64>()
+            })
+            .sum()
+    };
+    (0..3)
+        .rev()
+        .min_by(|&a, &b| area(a).total_cmp(&area(b)))
+        .expect("three axes")
+}
+
 impl Crossings {
     /// The bucketed chain of `triangles` (local f64 corners).
     pub fn new(given: Vec<[[f64; 3]; 3]>) -> Crossings {
@@ -177,24 +203,7 @@ impl Crossings {
     }
 
     fn build(given: Vec<[[f64; 3]; 3]>, flats: bool) -> Crossings {
-        // The axis whose projections have the least total box area.
-        let area = |axis: usize| -> f64 {
-            let (u, v) = ((axis + 1) % 3, (axis + 2) % 3);
-            given
-                .par_iter()
-                .map(|t| {
-                    let e = |k: usize| {
-                        t.iter().map(|p| p[k]).fold(f64::NEG_INFINITY, f64::max)
-                            - t.iter().map(|p| p[k]).fold(f64::INFINITY, f64::min)
-                    };
-                    e(u) * e(v)
-                })
-                .sum()
-        };
-        let axis = (0..3)
-            .rev()
-            .min_by(|&a, &b| area(a).total_cmp(&area(b)))
-            .expect("three axes");
+        let axis = ray_axis(&[&given]);
         let permute = |p: [f64; 3]| [p[(axis + 1) % 3], p[(axis + 2) % 3], p[axis]];
         let mut triangles = given;
         triangles.par_iter_mut().for_each(|t| *t = t.map(permute));

@@ -58,6 +58,14 @@
 //! labels then separate interior from exterior box by box (k = ±1 inside), and every cell the surface
 //! crosses is evaluated voxel by voxel: O(surface voxels · near triangles), never O(V · T).
 //!
+//! Not yet near-linear (measured, `gregvox bench --suite gwn`, table `gwn_worst`): a soup of long slivers
+//! near a wide cap. Each ribbon is as long as its sliver, so no ribbon node's expansion converges (ρ ≈ D)
+//! and their bounds, which add up in absolute value where the noise's signed values cancel, swamp the
+//! margin of the voxels near the cap, where |w| is close to ½: those voxels open ribbons down to exact
+//! leaves. An open tube of 20,000 segments as a noisy soup at 128³: 263 s against 0.64 s welded (2,000
+//! segments: 2.0 s against 0.38 s), the same grids. Cutting long ribbons into pieces a few voxels long
+//! (as the caps are cut) would let their expansions cancel the noise.
+//!
 //! # Memory and time
 //! The tree, the index, the near zone and every listed voxel count against the budget
 //! ([`GwnParams::budget`], `VoxelizeOptions::gwn_budget`; [`Error::Budget`] beyond it); the deadline is
@@ -374,7 +382,7 @@ pub fn resolve(
     lap("trees");
     // The near zone: within `near` of M or of the cap. The ribbons lie within the weld's moves of M, so the
     // labels' distance `nu` below allows for them, and a voxel lying on one is found by its crossing count
-    // (`welded`: on a prism, then on M ∪ X itself), which sends it to the plain sum as the on-surface list
+    // (`welded`: on a prism or on M' ∪ C'), which sends it to the plain sum as the on-surface list
     // does (walking a soup's ribbons here cost 19 of its 23 ms at 256³).
     let caps = proxy.cap.triangles.len();
     let (zone, on_surface) = zone::near_voxels(&[&m, &x[..caps]], &frame, params.near);
@@ -425,38 +433,42 @@ pub fn resolve(
     )?;
     // The crossing index takes M ∪ X whole; M's triangles, first, are also the plain sum's. A weld that
     // moved vertices put its ribbons into X (a soup: about six a triangle): the direct voxels then read the
-    // welded, capped mesh and the prisms of the moved triangles (`welded`), and M ∪ X is indexed only if a
-    // voxel lies on one of those or needs the plain sum.
-    let exact = std::sync::OnceLock::new();
-    let welded = if proxy.ribbons.is_empty() {
+    // welded, capped mesh and the prisms of the moved triangles (`welded`), M ∪ X is never indexed, and a
+    // voxel lying on one of those surfaces goes to the plain sum over M, summed in the frame M ∪ X's index
+    // would have held it in (the same rounding).
+    let counting = if proxy.ribbons.is_empty() {
         let mut chain = std::mem::take(&mut m);
         chain.extend_from_slice(&x);
-        let _ = exact.set(Crossings::new(chain));
-        None
+        Counting::Whole(Crossings::new(chain))
     } else {
-        // The budget counted M ∪ X's index (in `fixed`); the welded one is smaller and takes its place. Only
-        // where a voxel lies on a surface or needs the plain sum is M ∪ X indexed as well, which can exceed
-        // the budget by the welded index (|M'| + |C'| triangles): a known gap, see `welded`.
-        Some(welded::WeldedCounts::new(mesh, proxy, &frame, &direct))
+        // The budget counted M ∪ X's index (in `fixed`); the welded one (|M'| + |C'| triangles) takes its
+        // place, and the plain sum reads M's triangles from the mesh.
+        let axis = crossing::ray_axis(&[&m, &x]);
+        drop((m, x));
+        Counting::Welded(
+            welded::WeldedCounts::new(mesh, proxy, &frame, &direct),
+            welded::MeshSum {
+                mesh,
+                origin: frame.origin,
+                axis,
+            },
+        )
     };
     lap("crossing index");
-    // (Reached only with ribbons: without, M ∪ X was indexed above, taking M's triangles.)
-    let whole = || {
-        let mut chain = m.clone();
-        chain.extend_from_slice(&x);
-        Crossings::new(chain)
+    let count = |slot: usize, q: [f64; 3]| match &counting {
+        Counting::Whole(e) => e.winding(q),
+        Counting::Welded(w, _) => w.winding(slot, q),
     };
-    let exact = || exact.get_or_init(whole);
-    let count = |slot: usize, q: [f64; 3]| match &welded {
-        Some(w) => w.winding(slot, q).or_else(|| exact().winding(q)),
-        None => exact().winding(q),
+    let plain_sum = |q: [f64; 3]| match &counting {
+        Counting::Whole(e) => e.plain_sum(q, t),
+        Counting::Welded(_, p) => p.sum(q),
     };
     let (answers, counts) = direct::decide(
         &frame,
         &direct,
         &fractional,
         &count,
-        &|q| exact().plain_sum(q, t),
+        &plain_sum,
         &on_surface,
         params.inside,
         &limits(direct.len() as u64),
@@ -472,6 +484,14 @@ pub fn resolve(
         }
     }
     Ok(stats)
+}
+
+/// How the direct voxels get their integer part and their plain sums.
+enum Counting<'a> {
+    /// M ∪ X indexed whole (M's triangles first: the plain sum's).
+    Whole(Crossings),
+    /// A welded soup: M' ∪ C' and the prisms, and M alone for the plain sum.
+    Welded(welded::WeldedCounts, welded::MeshSum<'a>),
 }
 
 #[cfg(test)]

@@ -14,17 +14,16 @@
 //! The filters are those of the chains themselves: T' is part of M' when its three representatives are
 //! distinct (`Proxy::closed`), a quad's triangle part of X when its three positions are
 //! (`Proxy::new`), and T always part of M. A voxel lying on a triangle of M' ∪ C' (the index is built with
-//! its flat triangles, so it says so) or of a prism answers `None` here: the caller counts it on M ∪ X
-//! itself, whose index it builds only then (as it does for the plain sum of last resort).
+//! its flat triangles, so it says so) or of a prism answers `None` here, and the caller decides it by the
+//! plain sum over M, as it does the voxels on M itself: such a centre lies within the weld's moves of M, and
+//! M ∪ X is never indexed.
 //!
 //! Cost: the index holds |M'| + |C'| triangles instead of |M| + |C'| + |Q| (a soup: about 6 ribbons a
 //! triangle); the corrections cost the columns under the moved triangles (each δ_T ≤ the weld's largest
 //! move thick: a few centres, if any) and a binary search in the direct list per centre found.
 //!
-//! Memory: the budget counts M ∪ X's index, which this one replaces. Where M ∪ X is indexed after all (a
-//! voxel on a surface, or the plain sum), both are alive: past the budget by at most this index. Counting
-//! both up front refused the million-vertex face of `tests/hardening_inputs.rs` at the default budget, so the
-//! fallback should rather decide those voxels by the plain sum over M, which needs no index (not done).
+//! Memory: the budget counts M ∪ X's index; this one (|M'| + |C'| ≤ |M| + |C'| triangles) takes its place,
+//! and the plain sum reads M's own triangles ([`MeshSum`]).
 use super::cap::Proxy;
 use super::crossing::Crossings;
 use super::zone::{centre, near_triangle, unlinear};
@@ -127,6 +126,33 @@ impl WeldedCounts {
     }
 }
 
+/// The plain sum over a mesh's own triangles without a copy of them: each triangle in the local f64 frame
+/// (as `super::local_triangles`) and permuted as a [`Crossings`] with ray axis `axis` holds it, so the sum
+/// is that index's [`Crossings::plain_sum`], rounding included.
+pub struct MeshSum<'a> {
+    pub mesh: &'a TriMesh,
+    pub origin: [f64; 3],
+    pub axis: usize,
+}
+
+impl MeshSum<'_> {
+    /// The winding number at `q` (local) by the plain sum in triangle order.
+    pub fn sum(&self, q: [f64; 3]) -> f64 {
+        let (a, origin) = (self.axis, self.origin);
+        let permute = |p: [f64; 3]| [p[(a + 1) % 3], p[(a + 2) % 3], p[a]];
+        let corner = |v: u32| -> [f64; 3] {
+            let p = self.mesh.positions[v as usize];
+            permute(std::array::from_fn(|k| p[k] as f64 - origin[k]))
+        };
+        let q = permute(q);
+        let mut sum = 0.0;
+        for t in &self.mesh.triangles {
+            sum += super::kernel::solid_angle(q, corner(t[0]), corner(t[1]), corner(t[2]));
+        }
+        sum / super::kernel::FOUR_PI
+    }
+}
+
 /// P_T = T' − T + Q_ab + Q_bc + Q_ca for T = `t` and its representatives `rep`, as the chains hold them.
 fn prism(
     mesh: &TriMesh,
@@ -211,6 +237,30 @@ mod tests {
         // The prisms mattered: without their corrections these voxels would have been counted wrong.
         assert!(welded.corrected() > 20, "{} corrected", welded.corrected());
         assert!(on < agreed / 100, "{on} voxels left to the whole chain");
+    }
+
+    #[test]
+    fn the_plain_sum_over_the_mesh_is_the_whole_indexs_bit_for_bit() {
+        // The direct voxels on a welded surface or a prism go to the plain sum over M without M ∪ X's index:
+        // it must be that index's sum to the last bit (the same frame, the same order), or a centre whose
+        // |w| rounds to ½ would change side.
+        let (soup, proxy, frame) = broken_soup();
+        let m = crate::voxel::gwn::local_triangles(&soup, frame.origin);
+        let x = proxy.fractional(&soup, frame.origin);
+        let axis = super::super::crossing::ray_axis(&[&m, &x]);
+        let mut chain = m.clone();
+        chain.extend_from_slice(&x);
+        let whole = Crossings::new(chain);
+        let sum = MeshSum {
+            mesh: &soup,
+            origin: frame.origin,
+            axis,
+        };
+        for id in (0..110u64.pow(3)).step_by(9973) {
+            let q = centre(&frame, unlinear(&frame, id));
+            let (a, b) = (sum.sum(q), whole.plain_sum(q, m.len()));
+            assert_eq!(a.to_bits(), b.to_bits(), "voxel {id}: {a} against {b}");
+        }
     }
 
     #[test]
