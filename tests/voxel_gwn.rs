@@ -298,6 +298,55 @@ fn a_tube_open_on_two_loops_of_a_hundred_thousand_edges_is_the_exact_winding_num
 }
 
 #[test]
+fn an_open_tube_of_long_slivers_as_a_noisy_soup_is_the_exact_winding_number_near_its_end_discs() {
+    // A CAD export's soup: every sliver its own three vertices, moved by ±1e-7. The weld joins them and
+    // every ribbon is as long as the tube, so near the end discs (w = ½) the ribbons' bounds add up to
+    // more than the voxels' margins and the voxels are decided by opening them (the worst case the
+    // `voxel::gwn` cost model names). Checked against the plain f64 sum of the soup itself.
+    let tube = gregvox::voxel::stress::open_tube(1000);
+    let soup = gregvox::voxel::stress::soup(&tube, 1e-7, 5);
+    let m = Mesh::from_polygons(
+        soup.positions
+            .iter()
+            .map(|p| p.map(f64::from).into())
+            .collect(),
+        &soup
+            .triangles
+            .iter()
+            .map(|t| t.to_vec())
+            .collect::<Vec<_>>(),
+    )
+    .unwrap();
+    let v = voxelize_on_cpu(&m, &VoxelizeOptions::default().res(32).rule(FillRule::Gwn)).unwrap();
+    let s = v.report.gwn.unwrap();
+    assert!(
+        s.welded_vertices > 1000 && s.ribbon_triangles > 1000 && s.loops_capped == 2,
+        "{s:?}"
+    );
+    let f = v.grid.frame;
+    let d = f.dims;
+    let (mut checked, mut solid) = (0, 0);
+    for k in 0..d[2] {
+        for j in 0..d[1] {
+            for i in 0..d[0] {
+                let near_end = k < 3 || k + 3 >= d[2];
+                if !(near_end || (i % 4 == 0 && j % 4 == 0 && k % 4 == 0)) {
+                    continue;
+                }
+                let w = gregvox::voxel::gwn::winding_number(&soup, f.centre(i, j, k));
+                assert_eq!(v.grid.get(i, j, k), w.abs() >= 0.5, "({i},{j},{k}) w = {w}");
+                checked += 1;
+                solid += usize::from(w.abs() >= 0.5);
+            }
+        }
+    }
+    assert!(
+        checked > 6 * d[0] * d[1] && solid > 500,
+        "{checked} checked, {solid} solid"
+    );
+}
+
+#[test]
 fn caps_past_the_memory_budget_are_refused_with_a_clear_error() {
     let c = case("tube", 64);
     let small = gwn(64).gwn_budget(4096);

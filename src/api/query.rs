@@ -23,12 +23,16 @@
 //!
 //! # Cost model
 //! Preparing: the hygiene and the weld O(T log T); caps, ribbons and their trees O(X log X) (X = cap and
-//! ribbon triangles: nothing on a closed mesh); the crossing index O(T + X); the distance tree
+//! ribbon triangles: nothing on a closed mesh); the crossing index O(T + X), or, where the weld moved
+//! vertices (a soup: about six ribbons a triangle), O(T) for the welded mesh and the moved triangles' prisms
+//! (`voxel::gwn::welded::WeldedChain`: the unwelded bunny's 100,000 uniform occupancies, the same answers in
+//! about 10 % less CPU time and 5 % less memory than with M ∪ X indexed); the distance tree
 //! O(P log P) over P ≤ max(9T/8, 2^18) pieces (slivers cut to a 128th of the extent, so a huge
 //! polygon's fan does not overlap every query near it; fat triangles stay whole). A job computes
 //! occupancy once and searches the nearest triangles once, whatever it asks of winding, occupancy, sdf
 //! and udf. Per point: a bucket of the crossing index (the
-//! exact integer winding number of the closed chain M ∪ X), then, on an open mesh, one traversal of X's
+//! exact integer winding number of the closed chain M ∪ X; near a moved triangle, its prism's few exact
+//! tests too), then, on an open mesh, one traversal of X's
 //! trees refined until the interval is narrower than the tolerance (near a cap, down to its exact
 //! triangles); distances: O(log P) nodes near a spread surface. Occupancy (and the sign of sdf) shares
 //! bounds between points as voxelize shares them between voxels: an octree over the points, where a cell
@@ -61,6 +65,7 @@ use crate::mesh::distance::{closest_point, DistanceTree, Stack};
 use crate::voxel::gwn::classify::Scratches;
 use crate::voxel::gwn::crossing::Crossings;
 use crate::voxel::gwn::tree::Accept;
+use crate::voxel::gwn::welded::WeldedChain;
 use crate::voxel::gwn::{direct::FIRST, FractionalField, Inside, Proxy, FOUR_PI};
 use crate::voxel::mesh::TriMesh;
 use rayon::prelude::*;
@@ -147,7 +152,7 @@ pub struct MeshQuery {
     /// The cleaned triangles' count (the first ones of the crossing chain).
     mesh_triangles: usize,
     /// `None` when prepared for distances only.
-    crossings: Option<Crossings>,
+    crossings: Option<Counts>,
     field: Option<FractionalField>,
     /// Built on the first distance query (occupancy and winding numbers never need it).
     distance: std::sync::OnceLock<DistanceTree>,
@@ -170,6 +175,24 @@ const DECIDE_FIRST: Accept = Accept {
     theta: 0.5,
     eps: 1e-2,
 };
+
+/// The exact integer winding number of the closed chain M ∪ X at a point (`None` on one of its
+/// triangles), and M's plain sum.
+enum Counts {
+    /// M ∪ X indexed whole, M's triangles first.
+    Whole(Crossings),
+    /// A soup the weld moved: M' ∪ C' and the prisms of the moved triangles (`voxel::gwn::welded`).
+    Welded(Box<WeldedChain>),
+}
+
+impl Counts {
+    fn winding(&self, q: [f64; 3]) -> Option<i32> {
+        match self {
+            Counts::Whole(c) => c.winding(q),
+            Counts::Welded(c) => c.winding(q),
+        }
+    }
+}
 
 /// Points in an octree cell below which they are decided one by one.
 const CELL_POINTS: usize = 32;
@@ -244,16 +267,27 @@ impl MeshQuery {
                 opts.budget,
             )?)
         };
-        let mut chain = crate::voxel::gwn::local_triangles(&tri, [0.0; 3]);
-        let mesh_triangles = chain.len();
-        if let Some(f) = &field {
-            chain.extend_from_slice(&f.x);
-        }
+        let mesh_triangles = tri.triangles.len();
+        // M ∪ X indexed whole; or, where the weld moved vertices (a soup's ribbons, about six a triangle, are
+        // most of X), the welded mesh and the moved triangles' prisms.
+        let counts = match &field {
+            Some(f) if !proxy.ribbons.is_empty() => {
+                let axis = crate::voxel::gwn::crossing::ray_axis(&[&f.mesh, &f.x]);
+                Counts::Welded(Box::new(WeldedChain::new(&tri, &proxy, [0.0; 3], axis)))
+            }
+            _ => {
+                let mut chain = crate::voxel::gwn::local_triangles(&tri, [0.0; 3]);
+                if let Some(f) = &field {
+                    chain.extend_from_slice(&f.x);
+                }
+                Counts::Whole(Crossings::with_flat_triangles(chain))
+            }
+        };
         Ok(MeshQuery {
             opts: *opts,
             shift,
             mesh_triangles,
-            crossings: Some(Crossings::with_flat_triangles(chain)),
+            crossings: Some(counts),
             field,
             distance: std::sync::OnceLock::new(),
             device_layout: std::sync::OnceLock::new(),
@@ -311,7 +345,10 @@ impl MeshQuery {
             }
         }
         // On a triangle, or no bound settles it: the plain sum over M, libigl's formula.
-        let w = crossings.plain_sum(q, self.mesh_triangles);
+        let w = match crossings {
+            Counts::Whole(c) => c.plain_sum(q, self.mesh_triangles),
+            Counts::Welded(c) => c.plain_sum(q),
+        };
         (w, inside.of_value(w))
     }
 
