@@ -176,6 +176,10 @@ const DECIDE_FIRST: Accept = Accept {
     eps: 1e-2,
 };
 
+/// A soup's points are counted on the welded mesh and the prisms ([`WeldedChain`]) unless a query could
+/// have to test more than this many prisms' boxes (then on M ∪ X).
+const WELDED_BUCKET: usize = 256;
+
 /// The exact integer winding number of the closed chain M ∪ X at a point (`None` on one of its
 /// triangles), and M's plain sum.
 enum Counts {
@@ -273,7 +277,14 @@ impl MeshQuery {
         let counts = match &field {
             Some(f) if !proxy.ribbons.is_empty() => {
                 let axis = crate::voxel::gwn::crossing::ray_axis(&[&f.mesh, &f.x]);
-                Counts::Welded(Box::new(WeldedChain::new(&tri, &proxy, [0.0; 3], axis)))
+                match WeldedChain::new(&tri, &proxy, [0.0; 3], axis, WELDED_BUCKET) {
+                    Some(welded) => Counts::Welded(Box::new(welded)),
+                    None => {
+                        let mut chain = f.mesh.clone();
+                        chain.extend_from_slice(&f.x);
+                        Counts::Whole(Crossings::with_flat_triangles(chain))
+                    }
+                }
             }
             _ => {
                 let mut chain = crate::voxel::gwn::local_triangles(&tri, [0.0; 3]);

@@ -158,11 +158,18 @@ const WIDE_CELLS: u64 = 64;
 
 impl WeldedChain {
     /// The chain of `mesh` welded and capped by `proxy`, in coordinates local to `origin` (as
-    /// `super::local_triangles`); `axis` is M ∪ X's ray axis ([`super::crossing::ray_axis`]).
-    pub fn new(mesh: &TriMesh, proxy: &Proxy, origin: [f64; 3], axis: usize) -> WeldedChain {
+    /// `super::local_triangles`); `axis` is M ∪ X's ray axis ([`super::crossing::ray_axis`]). `None`, before
+    /// anything is indexed, when a query could have to test more than `max_bucket` prisms' boxes (many moved
+    /// triangles whose boxes overlap: a noisy fan's slivers round their apex, where every point would test
+    /// them all; M ∪ X's index, whose buckets follow the triangles and not their boxes, suits such a mesh).
+    pub fn new(
+        mesh: &TriMesh,
+        proxy: &Proxy,
+        origin: [f64; 3],
+        axis: usize,
+        max_bucket: usize,
+    ) -> Option<WeldedChain> {
         let local = |p: [f32; 3]| -> [f64; 3] { std::array::from_fn(|a| p[a] as f64 - origin[a]) };
-        let index =
-            Crossings::with_flat_triangles(super::local_triangles(&proxy.closed(mesh), origin));
         let bits = |v: u32| mesh.positions[v as usize].map(|x| (x + 0.0).to_bits());
         let moved: Vec<(u32, [f64; 3], [f64; 3])> = mesh
             .triangles
@@ -204,24 +211,12 @@ impl WeldedChain {
         let cell = (2.0 * median)
             .max(extent / (1u64 << 20) as f64)
             .max(f64::MIN_POSITIVE);
-        let mut chain = WeldedChain {
-            index,
-            mesh: mesh.clone(),
-            rep: proxy.rep.clone(),
-            axis,
-            moved: Vec::new(),
-            cells: Vec::new(),
-            wide: Vec::new(),
-            lo,
-            cell,
-            origin,
-        };
-        let mut cells = Vec::new();
+        let (mut cells, mut wide) = (Vec::new(), Vec::new());
         for (j, (_, l, h)) in moved.iter().enumerate() {
-            let (a, b) = (chain.cell_of(*l), chain.cell_of(*h));
+            let (a, b) = (cell_of(lo, cell, *l), cell_of(lo, cell, *h));
             let count: u64 = (0..3).map(|k| (b[k] - a[k] + 1) as u64).product();
             if count > WIDE_CELLS {
-                chain.wide.push(j as u32);
+                wide.push(j as u32);
                 continue;
             }
             for z in a[2]..=b[2] {
@@ -233,22 +228,38 @@ impl WeldedChain {
             }
         }
         cells.par_sort_unstable();
-        chain.cells = cells;
-        chain.moved = moved;
-        chain
-    }
-
-    fn cell_of(&self, p: [f64; 3]) -> [u32; 3] {
-        std::array::from_fn(|a| {
-            let c = ((p[a] - self.lo[a]) / self.cell).floor();
-            c.clamp(0.0, ((1u32 << 21) - 1) as f64) as u32
+        let (mut worst, mut run) = (0usize, 0usize);
+        for (i, &(c, _)) in cells.iter().enumerate() {
+            run = if i > 0 && cells[i - 1].0 == c {
+                run + 1
+            } else {
+                1
+            };
+            worst = worst.max(run);
+        }
+        if worst + wide.len() > max_bucket {
+            return None;
+        }
+        let index =
+            Crossings::with_flat_triangles(super::local_triangles(&proxy.closed(mesh), origin));
+        Some(WeldedChain {
+            index,
+            mesh: mesh.clone(),
+            rep: proxy.rep.clone(),
+            axis,
+            moved,
+            cells,
+            wide,
+            lo,
+            cell,
+            origin,
         })
     }
 
     /// n_{M∪X} at `q` (local); `None` when q lies on M' ∪ C' or on a prism.
     pub fn winding(&self, q: [f64; 3]) -> Option<i32> {
         let n = self.index.winding(q)?;
-        let k = key(self.cell_of(q));
+        let k = key(cell_of(self.lo, self.cell, q));
         let start = self.cells.partition_point(|&(c, _)| c < k);
         let here = self.cells[start..]
             .iter()
@@ -287,6 +298,14 @@ impl WeldedChain {
             + (self.mesh.triangles.len() * 12 + self.mesh.positions.len() * 16) as u64
             + (self.moved.len() * 56 + self.cells.len() * 16 + self.wide.len() * 4) as u64
     }
+}
+
+/// The cell of `p` in the grid of cells of side `cell` from `lo`.
+fn cell_of(lo: [f64; 3], cell: f64, p: [f64; 3]) -> [u32; 3] {
+    std::array::from_fn(|a| {
+        let c = ((p[a] - lo[a]) / cell).floor();
+        c.clamp(0.0, ((1u32 << 21) - 1) as f64) as u32
+    })
 }
 
 /// A cell's key: 21 bits an axis.
@@ -418,7 +437,7 @@ mod tests {
         let mut all = m.clone();
         all.extend_from_slice(&x);
         let whole = Crossings::with_flat_triangles(all);
-        let chain = WeldedChain::new(&soup, &proxy, frame.origin, axis);
+        let chain = WeldedChain::new(&soup, &proxy, frame.origin, axis, 256).unwrap();
         let (voxels, _) = near_voxels(&[&m, &x], &frame, 0.005);
         let (mut agreed, mut corrected, mut on) = (0, 0, 0);
         for &id in &voxels {
@@ -452,6 +471,20 @@ mod tests {
                 whole.plain_sum(q, m.len()).to_bits()
             );
         }
+    }
+
+    #[test]
+    fn a_noisy_fans_overlapping_boxes_refuse_the_welded_chain_before_indexing() {
+        // Two 2,000-gons fanned from one vertex, every sliver its own vertices moved by 1e-7: round the
+        // apexes every sliver's box holds the points, so each would test thousands of prisms.
+        let soup = stress::soup(&stress::polygon_prism(2000), 1e-7, 3);
+        let proxy = Proxy::new(&soup, 1e-5).unwrap();
+        assert!(proxy.moved > 0);
+        let m = crate::voxel::gwn::local_triangles(&soup, [0.0; 3]);
+        let x = proxy.fractional(&soup, [0.0; 3]);
+        let axis = super::super::crossing::ray_axis(&[&m, &x]);
+        assert!(WeldedChain::new(&soup, &proxy, [0.0; 3], axis, 256).is_none());
+        assert!(WeldedChain::new(&soup, &proxy, [0.0; 3], axis, usize::MAX).is_some());
     }
 
     #[test]
