@@ -196,6 +196,14 @@ impl Counts {
             Counts::Welded(c) => c.winding(q),
         }
     }
+
+    /// M's winding number at `q` by the plain sum in triangle order (M has `mesh_triangles`).
+    fn plain_sum(&self, q: [f64; 3], mesh_triangles: usize) -> f64 {
+        match self {
+            Counts::Whole(c) => c.plain_sum(q, mesh_triangles),
+            Counts::Welded(c) => c.plain_sum(q),
+        }
+    }
 }
 
 /// Points in an octree cell below which they are decided one by one.
@@ -356,10 +364,7 @@ impl MeshQuery {
             }
         }
         // On a triangle, or no bound settles it: the plain sum over M, libigl's formula.
-        let w = match crossings {
-            Counts::Whole(c) => c.plain_sum(q, self.mesh_triangles),
-            Counts::Welded(c) => c.plain_sum(q),
-        };
+        let w = crossings.plain_sum(q, self.mesh_triangles);
         (w, inside.of_value(w))
     }
 
