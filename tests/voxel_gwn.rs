@@ -246,6 +246,17 @@ fn voxel_centres_on_a_cap_plane_are_evaluated_directly() {
     gpu.finish().unwrap();
 }
 
+/// A stress generator's triangles as an API mesh.
+fn mesh_of(t: &gregvox::voxel::mesh::TriMesh) -> Mesh {
+    let positions = t
+        .positions
+        .iter()
+        .map(|p| p.map(f64::from).into())
+        .collect();
+    let faces: Vec<Vec<u32>> = t.triangles.iter().map(|f| f.to_vec()).collect();
+    Mesh::from_polygons(positions, &faces).unwrap()
+}
+
 #[test]
 fn a_tube_open_on_two_loops_of_a_hundred_thousand_edges_is_the_exact_winding_number() {
     // The cost model's attack on the caps: each end is one polygon of 10⁵ sides (capped hierarchically), and
@@ -253,18 +264,7 @@ fn a_tube_open_on_two_loops_of_a_hundred_thousand_edges_is_the_exact_winding_num
     // f64 sum at every voxel of the planes next to the ends and along the axis, and on a grid of others.
     const SEGMENTS: usize = 100_000;
     let tube = gregvox::voxel::stress::open_tube(SEGMENTS);
-    let m = Mesh::from_polygons(
-        tube.positions
-            .iter()
-            .map(|p| p.map(f64::from).into())
-            .collect(),
-        &tube
-            .triangles
-            .iter()
-            .map(|t| t.to_vec())
-            .collect::<Vec<_>>(),
-    )
-    .unwrap();
+    let m = mesh_of(&tube);
     let opts = VoxelizeOptions::default().res(24).rule(FillRule::Gwn);
     let v = voxelize_on_cpu(&m, &opts).unwrap();
     let s = v.report.gwn.unwrap();
@@ -305,18 +305,7 @@ fn an_open_tube_of_long_slivers_as_a_noisy_soup_is_the_exact_winding_number_near
     // `voxel::gwn` cost model names). Checked against the plain f64 sum of the soup itself.
     let tube = gregvox::voxel::stress::open_tube(1000);
     let soup = gregvox::voxel::stress::soup(&tube, 1e-7, 5);
-    let m = Mesh::from_polygons(
-        soup.positions
-            .iter()
-            .map(|p| p.map(f64::from).into())
-            .collect(),
-        &soup
-            .triangles
-            .iter()
-            .map(|t| t.to_vec())
-            .collect::<Vec<_>>(),
-    )
-    .unwrap();
+    let m = mesh_of(&soup);
     let v = voxelize_on_cpu(&m, &VoxelizeOptions::default().res(32).rule(FillRule::Gwn)).unwrap();
     let s = v.report.gwn.unwrap();
     assert!(
