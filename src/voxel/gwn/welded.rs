@@ -32,12 +32,19 @@ use crate::voxel::grid::GridFrame;
 use crate::voxel::mesh::TriMesh;
 use rayon::prelude::*;
 
+/// The representatives of triangle `t` when the weld moved one of its corners (bit for bit), else `None`.
+fn moved_to(mesh: &TriMesh, proxy: &Proxy, t: [u32; 3]) -> Option<[u32; 3]> {
+    let bits = |v: u32| mesh.positions[v as usize].map(|x| (x + 0.0).to_bits());
+    let rep = t.map(|v| proxy.rep[v as usize]);
+    (0..3).any(|k| bits(t[k]) != bits(rep[k])).then_some(rep)
+}
+
 /// The counts of a list of direct voxels: M' ∪ C' and, per voxel, the prisms' correction.
 pub struct WeldedCounts {
     index: Crossings,
     /// Σ n_{P_T} at each voxel of the list.
     corrections: Vec<i32>,
-    /// Voxels lying on a prism's triangle: counted on M ∪ X.
+    /// Voxels lying on a prism's triangle: decided by the caller's plain sum.
     on_prism: Vec<bool>,
 }
 
@@ -50,7 +57,6 @@ impl WeldedCounts {
         let closed = proxy.closed(mesh);
         let index = Crossings::with_flat_triangles(super::local_triangles(&closed, origin));
         drop(closed);
-        let bits = |v: u32| mesh.positions[v as usize].map(|x| (x + 0.0).to_bits());
         let extent: f64 = (0..3)
             .map(|a| frame.dims[a] as f64 * frame.voxel_size[a])
             .sum();
@@ -62,10 +68,9 @@ impl WeldedCounts {
             .map(|chunk| {
                 let (mut out, mut near) = (Vec::new(), Vec::new());
                 for &t in chunk {
-                    let rep = t.map(|v| proxy.rep[v as usize]);
-                    if (0..3).all(|k| bits(t[k]) == bits(rep[k])) {
+                    let Some(rep) = moved_to(mesh, proxy, t) else {
                         continue;
-                    }
+                    };
                     let corners = t.map(|v| local(mesh.positions[v as usize]));
                     let moved = (0..3)
                         .map(|k| {
@@ -136,7 +141,8 @@ impl WeldedCounts {
 /// Cost: the index of |M'| + |C'| triangles instead of |M| + |C'| + |Q| (a soup: about 6 ribbons a
 /// triangle); a query adds one binary search in the boxes' cells and, for each box holding the point (a
 /// point within a moved triangle's box: near the surface), the prism's eight exact crossing tests.
-/// Memory: the index, the mesh (positions and triangles) and about 40 bytes per moved triangle's cell.
+/// Memory: the index, the mesh (positions and triangles), 56 bytes per moved triangle and 16 per cell its
+/// box covers.
 pub struct WeldedChain {
     index: Crossings,
     mesh: TriMesh,
@@ -170,16 +176,12 @@ impl WeldedChain {
         max_bucket: usize,
     ) -> Option<WeldedChain> {
         let local = |p: [f32; 3]| -> [f64; 3] { std::array::from_fn(|a| p[a] as f64 - origin[a]) };
-        let bits = |v: u32| mesh.positions[v as usize].map(|x| (x + 0.0).to_bits());
         let moved: Vec<(u32, [f64; 3], [f64; 3])> = mesh
             .triangles
             .par_iter()
             .enumerate()
             .filter_map(|(i, &t)| {
-                let rep = t.map(|v| proxy.rep[v as usize]);
-                if (0..3).all(|k| bits(t[k]) == bits(rep[k])) {
-                    return None;
-                }
+                let rep = moved_to(mesh, proxy, t)?;
                 let (mut lo, mut hi) = ([f64::INFINITY; 3], [f64::NEG_INFINITY; 3]);
                 for v in t.iter().chain(&rep) {
                     let p = local(mesh.positions[*v as usize]);
@@ -228,16 +230,8 @@ impl WeldedChain {
             }
         }
         cells.par_sort_unstable();
-        let (mut worst, mut run) = (0usize, 0usize);
-        for (i, &(c, _)) in cells.iter().enumerate() {
-            run = if i > 0 && cells[i - 1].0 == c {
-                run + 1
-            } else {
-                1
-            };
-            worst = worst.max(run);
-        }
-        if worst + wide.len() > max_bucket {
+        let worst = cells.chunk_by(|a, b| a.0 == b.0).map(<[_]>::len).max();
+        if worst.unwrap_or(0) + wide.len() > max_bucket {
             return None;
         }
         let index =
@@ -290,13 +284,6 @@ impl WeldedChain {
             axis: self.axis,
         }
         .sum(q)
-    }
-
-    /// Bytes held (the index, the mesh and the boxes' cells).
-    pub fn bytes(&self) -> u64 {
-        self.index.bytes()
-            + (self.mesh.triangles.len() * 12 + self.mesh.positions.len() * 16) as u64
-            + (self.moved.len() * 56 + self.cells.len() * 16 + self.wide.len() * 4) as u64
     }
 }
 
